@@ -1,0 +1,211 @@
+//! Pipeline configuration: the YAML a user writes (`raw`, serde types with unknown keys denied)
+//! and the validated `Pipeline` the stages consume (this file), whose invariants hold by
+//! construction: positive material constants, N > 2H, existing geometry file, and so on.
+
+pub mod raw;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+pub use raw::load_pipeline;
+
+/// A validated pipeline.
+#[derive(Clone, Debug)]
+pub struct Pipeline {
+    pub name: String,
+    /// The YAML file it came from (for messages).
+    pub source: PathBuf,
+    pub geometry: Geometry,
+    pub material: MaterialSpec,
+    pub boundaries: Boundaries,
+    /// Rayleigh damping D = αM + βK; `None` when the scene has none.
+    pub damping: Option<Rayleigh>,
+    pub harmonic_balance: HarmonicBalance,
+    pub contact: Option<ContactSpec>,
+    pub transient: TransientSpec,
+    pub output: OutputSpec,
+}
+
+#[derive(Clone, Debug)]
+pub struct Geometry {
+    /// Absolute or cwd-relative path of the `.geo` (or a ready `.msh`).
+    pub file: PathBuf,
+    /// Passed to gmsh as `-setnumber name value`, in name order.
+    pub parameters: BTreeMap<String, f64>,
+    /// Target mesh size (gmsh `-clmax`); `None` leaves the .geo's own sizes.
+    pub mesh_size: Option<f64>,
+    /// Element order, 1 or 2.
+    pub order: u8,
+    /// Recombine triangles into quadrilaterals.
+    pub quads: bool,
+    /// Explicit gmsh executable; otherwise `.venv/bin/gmsh`, then `PATH`.
+    pub gmsh: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaneModelSpec {
+    PlaneStrain,
+    PlaneStress,
+}
+
+#[derive(Clone, Debug)]
+pub struct MaterialSpec {
+    pub youngs_modulus: f64,
+    pub poisson_ratio: f64,
+    pub density: f64,
+    pub model: PlaneModelSpec,
+    pub thickness: f64,
+}
+
+/// A periodic signal: static part plus Fourier content, per component where it is a vector.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Signal<const C: usize> {
+    pub static_part: [f64; C],
+    /// (harmonic index k ≥ 1, cos amplitude, sin amplitude): value(t) = static + Σ cos·cos(kωt) + sin·sin(kωt).
+    pub harmonics: Vec<(usize, [f64; C], [f64; C])>,
+}
+
+impl<const C: usize> Default for Signal<C> {
+    fn default() -> Self {
+        Signal {
+            static_part: [0.0; C],
+            harmonics: Vec::new(),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoadKind {
+    /// Force per unit area on an edge group (times the thickness).
+    Traction,
+    /// A total force shared equally by the nodes of the group.
+    Force,
+}
+
+#[derive(Clone, Debug)]
+pub struct LoadSpec {
+    pub group: String,
+    pub kind: LoadKind,
+    pub signal: Signal<2>,
+}
+
+#[derive(Clone, Debug)]
+pub struct PrescribedSpec {
+    pub group: String,
+    /// 0 = x, 1 = y.
+    pub component: usize,
+    pub signal: Signal<1>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Boundaries {
+    /// Groups with both displacement components held at zero.
+    pub fixed: Vec<String>,
+    pub prescribed: Vec<PrescribedSpec>,
+    pub loads: Vec<LoadSpec>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rayleigh {
+    pub alpha: f64,
+    pub beta: f64,
+}
+
+#[derive(Clone, Debug)]
+pub struct HarmonicBalance {
+    /// Fundamental frequency in Hz (ω = 2π f).
+    pub frequency: f64,
+    /// Highest harmonic H kept in the contact solve (the linear solve keeps the loads' harmonics).
+    pub harmonics: usize,
+    /// Time samples per period for the contact terms; `None` = the default (16 H, at least 64).
+    pub samples: Option<usize>,
+    pub solver: SolverSpec,
+}
+
+#[derive(Clone, Debug)]
+pub struct SolverSpec {
+    /// Relative tolerance on the complementarity residual.
+    pub tolerance: f64,
+    pub max_iterations: usize,
+    /// The complementarity parameter c as a multiple of the automatic scale 1/mean|G_0,ii|.
+    pub c_scale: f64,
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        SolverSpec {
+            tolerance: 1e-8,
+            max_iterations: 200,
+            c_scale: 1.0,
+        }
+    }
+}
+
+/// A rigid obstacle.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ObstacleSpec {
+    /// A curve of the geometry (a physical group meshed as 1-D elements only).
+    Curve { group: String },
+    /// The half-plane behind the line through `point`; `normal` points out of the obstacle,
+    /// into the free space where the body is.
+    Line { point: [f64; 2], normal: [f64; 2] },
+    /// A circle; `body_inside` = the body lies inside it (a casing), else outside (a cylinder).
+    Circle { center: [f64; 2], radius: f64, body_inside: bool },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ContactMass {
+    /// Contact nodes carry no inertia (Khenous–Laborde–Renard); total mass and centre of mass kept.
+    Redistributed,
+    /// Plain lumped mass (kept to show why redistribution is needed).
+    Lumped,
+}
+
+#[derive(Clone, Debug)]
+pub struct ContactSpec {
+    /// The body boundary whose nodes are contact candidates.
+    pub boundary: String,
+    pub obstacle: ObstacleSpec,
+    /// Candidates farther than this from the obstacle are dropped; `None` keeps all.
+    pub search_distance: Option<f64>,
+    pub mass: ContactMass,
+}
+
+#[derive(Clone, Debug)]
+pub struct TransientSpec {
+    /// Stop when two successive periods differ by less than this (relative).
+    pub periodic_tolerance: f64,
+    pub max_periods: usize,
+    /// Fraction of the stable time step used.
+    pub courant: f64,
+}
+
+impl Default for TransientSpec {
+    fn default() -> Self {
+        TransientSpec {
+            periodic_tolerance: 1e-6,
+            max_periods: 2000,
+            courant: 0.8,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum FieldName {
+    Displacement,
+    Velocity,
+    Acceleration,
+    Stress,
+    VonMises,
+    Contact,
+}
+
+#[derive(Clone, Debug)]
+pub struct OutputSpec {
+    pub directory: PathBuf,
+    /// Snapshots written over one period.
+    pub frames: usize,
+    pub fields: Vec<FieldName>,
+    /// Named node groups whose displacement is reported as probe time histories.
+    pub probes: Vec<String>,
+}

@@ -1,0 +1,1 @@
+//! Rigid obstacles and the contact operator: B and g0 from boundary normals.

@@ -1,0 +1,46 @@
+//! The library's error type: every variant names the file, group, field or value at fault and,
+//! where there is one, the fix.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A pipeline file could not be read or does not describe a valid scene.
+    #[error("{path}: {message}")]
+    Config { path: PathBuf, message: String },
+
+    /// gmsh could not be found or failed.
+    #[error("gmsh: {0}")]
+    Gmsh(String),
+
+    /// A .msh file could not be read or holds something we cannot use.
+    #[error("{path}: {message}")]
+    Mesh { path: PathBuf, message: String },
+
+    /// The model as set up cannot be solved (singular matrix, missing group, bad parameter).
+    #[error("{0}")]
+    Model(String),
+
+    /// The nonlinear solver stopped without converging; the message says what to change.
+    #[error("{0}")]
+    NotConverged(String),
+
+    /// Writing results failed.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! Element matrices of plane linear elasticity.

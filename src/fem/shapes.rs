@@ -1,0 +1,1 @@
+//! Shape functions, their derivatives and Gauss rules per cell kind.

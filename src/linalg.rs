@@ -1,0 +1,317 @@
+//! Sparse linear algebra over faer: matrices built from triplets, restricted to the free dofs,
+//! and LU factorizations whose symbolic analysis is shared by every matrix of the same pattern
+//! (all harmonics, all frequencies of a sweep).
+
+use faer::c64;
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use faer::sparse::{SparseColMat, Triplet};
+use faer::Mat;
+
+use crate::{Error, Result};
+
+/// A square sparse matrix as (row, column, value) triplets; duplicates add up.
+#[derive(Clone, Debug, Default)]
+pub struct Triplets {
+    pub n: usize,
+    pub entries: Vec<(usize, usize, f64)>,
+}
+
+impl Triplets {
+    pub fn new(n: usize) -> Self {
+        Triplets {
+            n,
+            entries: Vec::new(),
+        }
+    }
+
+    pub fn push(&mut self, row: usize, col: usize, value: f64) {
+        self.entries.push((row, col, value));
+    }
+
+    /// y = A x over all dofs.
+    pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.n];
+        for &(i, j, v) in &self.entries {
+            y[i] += v * x[j];
+        }
+        y
+    }
+
+    /// The diagonal (duplicates summed).
+    pub fn diagonal(&self) -> Vec<f64> {
+        let mut d = vec![0.0; self.n];
+        for &(i, j, v) in &self.entries {
+            if i == j {
+                d[i] += v;
+            }
+        }
+        d
+    }
+
+    /// The block A[rows, cols] with rows and columns renumbered by the maps
+    /// (`usize::MAX` = not in the block).
+    pub fn block(&self, row_map: &[usize], col_map: &[usize], nrows: usize, ncols: usize) -> Csc {
+        let mut entries = Vec::new();
+        for &(i, j, v) in &self.entries {
+            let (r, c) = (row_map[i], col_map[j]);
+            if r != usize::MAX && c != usize::MAX {
+                entries.push((r, c, v));
+            }
+        }
+        Csc::from_entries(nrows, ncols, &entries)
+    }
+}
+
+/// A compressed-sparse-column real matrix (duplicates summed, explicit zeros kept so that
+/// matrices combined from the same blocks share one pattern).
+#[derive(Clone, Debug)]
+pub struct Csc {
+    pub nrows: usize,
+    pub ncols: usize,
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
+    pub values: Vec<f64>,
+}
+
+impl Csc {
+    pub fn from_entries(nrows: usize, ncols: usize, entries: &[(usize, usize, f64)]) -> Self {
+        let mut sorted: Vec<(usize, usize, f64)> = entries.to_vec();
+        sorted.sort_unstable_by_key(|&(i, j, _)| (j, i));
+        let mut col_ptr = vec![0usize; ncols + 1];
+        let mut row_idx = Vec::with_capacity(sorted.len());
+        let mut values: Vec<f64> = Vec::with_capacity(sorted.len());
+        let mut last: Option<(usize, usize)> = None;
+        for (i, j, v) in sorted {
+            if last == Some((i, j)) {
+                if let Some(x) = values.last_mut() {
+                    *x += v;
+                }
+            } else {
+                row_idx.push(i);
+                values.push(v);
+                col_ptr[j + 1] += 1;
+                last = Some((i, j));
+            }
+        }
+        for j in 0..ncols {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        Csc {
+            nrows,
+            ncols,
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// y = A x.
+    pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.nrows];
+        for j in 0..self.ncols {
+            let xj = x[j];
+            if xj != 0.0 {
+                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                    y[self.row_idx[p]] += self.values[p] * xj;
+                }
+            }
+        }
+        y
+    }
+
+    /// y = Aᵀ x.
+    pub fn mul_transpose_vec(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.ncols];
+        for (j, yj) in y.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                s += self.values[p] * x[self.row_idx[p]];
+            }
+            *yj = s;
+        }
+        y
+    }
+
+    /// The union pattern of several same-shape matrices, each scattered into it (so a linear
+    /// combination of them is a plain combination of value arrays).
+    pub fn on_common_pattern(mats: &[&Csc]) -> Vec<Csc> {
+        let (nrows, ncols) = (mats[0].nrows, mats[0].ncols);
+        let mut entries = Vec::new();
+        for m in mats {
+            for j in 0..ncols {
+                for p in m.col_ptr[j]..m.col_ptr[j + 1] {
+                    entries.push((m.row_idx[p], j, 0.0));
+                }
+            }
+        }
+        let pattern = Csc::from_entries(nrows, ncols, &entries);
+        mats.iter()
+            .map(|m| {
+                let mut out = pattern.clone();
+                for j in 0..ncols {
+                    let rows = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
+                    for p in m.col_ptr[j]..m.col_ptr[j + 1] {
+                        if let Ok(q) = rows.binary_search(&m.row_idx[p]) {
+                            out.values[pattern.col_ptr[j] + q] += m.values[p];
+                        }
+                    }
+                }
+                out
+            })
+            .collect()
+    }
+
+    fn faer_real(&self) -> Result<SparseColMat<usize, f64>> {
+        let trip: Vec<Triplet<usize, usize, f64>> = self.triplet_iter().map(|(i, j, v)| Triplet::new(i, j, v)).collect();
+        SparseColMat::try_new_from_triplets(self.nrows, self.ncols, &trip)
+            .map_err(|e| Error::Model(format!("building a sparse matrix failed: {e:?}")))
+    }
+
+    fn faer_complex(&self, imag: Option<&[f64]>) -> Result<SparseColMat<usize, c64>> {
+        let trip: Vec<Triplet<usize, usize, c64>> = self
+            .triplet_iter()
+            .enumerate()
+            .map(|(p, (i, j, v))| Triplet::new(i, j, c64::new(v, imag.map_or(0.0, |im| im[p]))))
+            .collect();
+        SparseColMat::try_new_from_triplets(self.nrows, self.ncols, &trip)
+            .map_err(|e| Error::Model(format!("building a sparse matrix failed: {e:?}")))
+    }
+
+    fn triplet_iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        (0..self.ncols).flat_map(move |j| (self.col_ptr[j]..self.col_ptr[j + 1]).map(move |p| (self.row_idx[p], j, self.values[p])))
+    }
+}
+
+/// The symbolic LU analysis of one sparsity pattern, shared by all numeric factorizations.
+#[derive(Clone)]
+pub struct LuPattern {
+    symbolic: SymbolicLu<usize>,
+    n: usize,
+}
+
+impl LuPattern {
+    pub fn analyse(pattern: &Csc) -> Result<Self> {
+        let m = pattern.faer_real()?;
+        let symbolic = SymbolicLu::try_new(m.symbolic())
+            .map_err(|e| Error::Model(format!("sparse LU analysis failed: {e:?}")))?;
+        Ok(LuPattern {
+            symbolic,
+            n: pattern.nrows,
+        })
+    }
+}
+
+/// A numeric sparse LU factorization, real or complex.
+pub enum SparseLu {
+    Real(Lu<usize, f64>),
+    Complex(Lu<usize, c64>),
+}
+
+impl SparseLu {
+    /// Factor a real matrix with the pattern's symbolic analysis.
+    pub fn factor_real(pattern: &LuPattern, a: &Csc) -> Result<Self> {
+        let m = a.faer_real()?;
+        let lu = Lu::try_new_with_symbolic(pattern.symbolic.clone(), m.as_ref())
+            .map_err(|e| Error::Model(format!("sparse LU factorization failed: {e:?}")))?;
+        Ok(SparseLu::Real(lu))
+    }
+
+    /// Factor the complex matrix `re + i·im`, where `im` holds values on `re`'s pattern.
+    pub fn factor_complex(pattern: &LuPattern, re: &Csc, im: &[f64]) -> Result<Self> {
+        let m = re.faer_complex(Some(im))?;
+        let lu = Lu::try_new_with_symbolic(pattern.symbolic.clone(), m.as_ref())
+            .map_err(|e| Error::Model(format!("sparse LU factorization failed: {e:?}")))?;
+        Ok(SparseLu::Complex(lu))
+    }
+
+    pub fn dim(&self) -> usize {
+        match self {
+            SparseLu::Real(lu) => faer::linalg::solvers::ShapeCore::nrows(lu),
+            SparseLu::Complex(lu) => faer::linalg::solvers::ShapeCore::nrows(lu),
+        }
+    }
+
+    /// Solve for several real right-hand sides (columns of `rhs`, each of length n); returns
+    /// the solutions as complex columns (the imaginary part is zero for a real factorization).
+    pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
+        let n = self.dim();
+        let k = rhs.len();
+        if k == 0 {
+            return Vec::new();
+        }
+        match self {
+            SparseLu::Real(lu) => {
+                // Real and imaginary parts as separate real columns.
+                let mut b = Mat::<f64>::zeros(n, 2 * k);
+                for (c, col) in rhs.iter().enumerate() {
+                    for i in 0..n {
+                        b[(i, 2 * c)] = col[i].re;
+                        b[(i, 2 * c + 1)] = col[i].im;
+                    }
+                }
+                let x = lu.solve(&b);
+                (0..k).map(|c| (0..n).map(|i| c64::new(x[(i, 2 * c)], x[(i, 2 * c + 1)])).collect()).collect()
+            }
+            SparseLu::Complex(lu) => {
+                let mut b = Mat::<c64>::zeros(n, k);
+                for (c, col) in rhs.iter().enumerate() {
+                    for i in 0..n {
+                        b[(i, c)] = col[i];
+                    }
+                }
+                let x = lu.solve(&b);
+                (0..k).map(|c| (0..n).map(|i| x[(i, c)]).collect()).collect()
+            }
+        }
+    }
+
+    pub fn solve(&self, rhs: &[c64]) -> Vec<c64> {
+        self.solve_many(&[rhs.to_vec()]).pop().unwrap_or_default()
+    }
+}
+
+/// Solve a real sparse system A x = b once (tests and small static problems).
+pub fn solve_real(a: &Csc, b: &[f64]) -> Result<Vec<f64>> {
+    let pattern = LuPattern::analyse(a)?;
+    let lu = SparseLu::factor_real(&pattern, a)?;
+    let rhs: Vec<c64> = b.iter().map(|&v| c64::new(v, 0.0)).collect();
+    Ok(lu.solve(&rhs).into_iter().map(|z| z.re).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lu_solves_a_small_real_and_complex_system() {
+        // [[4, 1], [1, 3]] x = [1, 2]  →  x = [1/11, 7/11]
+        let a = Csc::from_entries(2, 2, &[(0, 0, 4.0), (0, 1, 1.0), (1, 0, 1.0), (1, 1, 3.0)]);
+        let x = solve_real(&a, &[1.0, 2.0]).unwrap();
+        assert!((x[0] - 1.0 / 11.0).abs() < 1e-14 && (x[1] - 7.0 / 11.0).abs() < 1e-14);
+        // (A + i I) z = [1, 0]: check the residual.
+        let pattern = LuPattern::analyse(&a).unwrap();
+        let im = vec![1.0, 0.0, 0.0, 1.0]; // values in column-major pattern order: (0,0),(1,0),(0,1),(1,1)
+        let lu = SparseLu::factor_complex(&pattern, &a, &im).unwrap();
+        let z = lu.solve(&[c64::new(1.0, 0.0), c64::new(0.0, 0.0)]);
+        let r0 = c64::new(4.0, 1.0) * z[0] + z[1] - c64::new(1.0, 0.0);
+        let r1 = z[0] + c64::new(3.0, 1.0) * z[1];
+        assert!(r0.norm() < 1e-14 && r1.norm() < 1e-14);
+    }
+
+    #[test]
+    fn duplicates_add_and_common_pattern_keeps_values() {
+        let a = Csc::from_entries(2, 2, &[(0, 0, 1.0), (0, 0, 2.0), (1, 1, 5.0)]);
+        assert_eq!(a.nnz(), 2);
+        assert_eq!(a.mul_vec(&[1.0, 1.0]), vec![3.0, 5.0]);
+        let b = Csc::from_entries(2, 2, &[(1, 0, 7.0)]);
+        let common = Csc::on_common_pattern(&[&a, &b]);
+        assert_eq!(common[0].nnz(), 3);
+        assert_eq!(common[0].mul_vec(&[1.0, 1.0]), vec![3.0, 5.0]);
+        assert_eq!(common[1].mul_vec(&[1.0, 0.0]), vec![0.0, 7.0]);
+    }
+}
