@@ -191,7 +191,6 @@ impl Csc {
 #[derive(Clone)]
 pub struct LuPattern {
     symbolic: SymbolicLu<usize>,
-    n: usize,
 }
 
 impl LuPattern {
@@ -199,10 +198,7 @@ impl LuPattern {
         let m = pattern.faer_real()?;
         let symbolic = SymbolicLu::try_new(m.symbolic())
             .map_err(|e| Error::Model(format!("sparse LU analysis failed: {e:?}")))?;
-        Ok(LuPattern {
-            symbolic,
-            n: pattern.nrows,
-        })
+        Ok(LuPattern { symbolic })
     }
 }
 

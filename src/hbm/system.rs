@@ -1,0 +1,205 @@
+//! The discrete linear system per harmonic: Dirichlet elimination, the dynamic stiffness
+//! Z_k = K − k²ω²M + ikωD with D = αM + βK, its factorizations (one symbolic analysis shared by
+//! every harmonic), and the harmonic loads, including those that prescribed motion induces.
+
+use std::collections::BTreeMap;
+
+use faer::c64;
+
+use crate::linalg::{Csc, LuPattern, SparseLu, Triplets};
+use crate::{Error, Result};
+
+/// Free and prescribed dofs among all 2·nodes dofs; dofs of nodes without cells are neither.
+#[derive(Clone, Debug)]
+pub struct DofMap {
+    /// global dof → free index, or `usize::MAX`.
+    pub free_of: Vec<usize>,
+    /// free index → global dof.
+    pub free: Vec<usize>,
+    /// global dof → prescribed index, or `usize::MAX`.
+    pub prescribed_of: Vec<usize>,
+    /// prescribed index → global dof.
+    pub prescribed: Vec<usize>,
+}
+
+impl DofMap {
+    /// `active[d]`: the dof belongs to a cell; `prescribed[d]`: held (zero or a given motion).
+    pub fn new(active: &[bool], held: &[bool]) -> Self {
+        let n = active.len();
+        let (mut free_of, mut prescribed_of) = (vec![usize::MAX; n], vec![usize::MAX; n]);
+        let (mut free, mut prescribed) = (Vec::new(), Vec::new());
+        for d in 0..n {
+            if !active[d] {
+                continue;
+            }
+            if held[d] {
+                prescribed_of[d] = prescribed.len();
+                prescribed.push(d);
+            } else {
+                free_of[d] = free.len();
+                free.push(d);
+            }
+        }
+        DofMap {
+            free_of,
+            free,
+            prescribed_of,
+            prescribed,
+        }
+    }
+
+    pub fn total(&self) -> usize {
+        self.free_of.len()
+    }
+}
+
+/// Complex amplitudes of one harmonic: x(t) = Re(X e^{ikωt}), X = a − i b for a cos + b sin.
+#[derive(Clone, Debug)]
+pub struct HarmonicInput {
+    /// Nodal forces on the free dofs.
+    pub force: Vec<c64>,
+    /// Motion of the prescribed dofs.
+    pub motion: Vec<c64>,
+}
+
+/// K, M (and D) split into free–free and free–prescribed blocks, on one shared pattern.
+pub struct System {
+    pub dofs: DofMap,
+    pub omega: f64,
+    pub rayleigh: Option<(f64, f64)>,
+    pub k_ff: Csc,
+    pub m_ff: Csc,
+    pub k_fp: Csc,
+    pub m_fp: Csc,
+    /// Harmonic index → load and prescribed motion (only the harmonics the scene excites).
+    pub inputs: BTreeMap<usize, HarmonicInput>,
+    pattern: LuPattern,
+}
+
+impl System {
+    pub fn new(
+        dofs: DofMap,
+        stiffness: &Triplets,
+        mass: &Triplets,
+        rayleigh: Option<(f64, f64)>,
+        omega: f64,
+        inputs: BTreeMap<usize, HarmonicInput>,
+    ) -> Result<Self> {
+        let (nf, np) = (dofs.free.len(), dofs.prescribed.len());
+        if nf == 0 {
+            return Err(Error::Model(
+                "every degree of freedom is held: nothing to solve (check boundaries.fixed)".into(),
+            ));
+        }
+        let k = stiffness.block(&dofs.free_of, &dofs.free_of, nf, nf);
+        let m = mass.block(&dofs.free_of, &dofs.free_of, nf, nf);
+        let mut common = Csc::on_common_pattern(&[&k, &m]).into_iter();
+        let (k_ff, m_ff) = match (common.next(), common.next()) {
+            (Some(k), Some(m)) => (k, m),
+            _ => return Err(Error::Model("internal: common pattern".into())),
+        };
+        let k_fp = stiffness.block(&dofs.free_of, &dofs.prescribed_of, nf, np);
+        let m_fp = mass.block(&dofs.free_of, &dofs.prescribed_of, nf, np);
+        let pattern = LuPattern::analyse(&k_ff)?;
+        Ok(System {
+            dofs,
+            omega,
+            rayleigh,
+            k_ff,
+            m_ff,
+            k_fp,
+            m_fp,
+            inputs,
+            pattern,
+        })
+    }
+
+    pub fn free_count(&self) -> usize {
+        self.dofs.free.len()
+    }
+
+    /// Z_k as (real part, imaginary part on the same pattern); `None` imaginary when undamped.
+    fn dynamic_stiffness(&self, k: usize) -> (Csc, Option<Vec<f64>>) {
+        let kw = k as f64 * self.omega;
+        let mut re = self.k_ff.clone();
+        for (v, m) in re.values.iter_mut().zip(&self.m_ff.values) {
+            *v -= kw * kw * m;
+        }
+        let im = self.rayleigh.filter(|_| k > 0).map(|(alpha, beta)| {
+            self.k_ff
+                .values
+                .iter()
+                .zip(&self.m_ff.values)
+                .map(|(kv, mv)| kw * (beta * kv + alpha * mv))
+                .collect()
+        });
+        (re, im)
+    }
+
+    /// Factor Z_k (real LU when the scene has no damping or k = 0).
+    pub fn factor(&self, k: usize) -> Result<SparseLu> {
+        let (re, im) = self.dynamic_stiffness(k);
+        match im {
+            Some(im) => SparseLu::factor_complex(&self.pattern, &re, &im),
+            None => SparseLu::factor_real(&self.pattern, &re),
+        }
+    }
+
+    /// Z_k x for a complex vector (residual checks).
+    pub fn apply(&self, k: usize, x: &[c64]) -> Vec<c64> {
+        let kw = k as f64 * self.omega;
+        let (re, im): (Vec<f64>, Vec<f64>) = x.iter().map(|z| (z.re, z.im)).unzip();
+        let (kr, ki) = (self.k_ff.mul_vec(&re), self.k_ff.mul_vec(&im));
+        let (mr, mi) = (self.m_ff.mul_vec(&re), self.m_ff.mul_vec(&im));
+        let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+        (0..x.len())
+            .map(|i| {
+                let real = c64::new(kr[i] - kw * kw * mr[i], ki[i] - kw * kw * mi[i]);
+                let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
+                real + c64::new(0.0, kw) * damp
+            })
+            .collect()
+    }
+
+    /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k.
+    pub fn load(&self, k: usize) -> Vec<c64> {
+        let nf = self.free_count();
+        let Some(input) = self.inputs.get(&k) else {
+            return vec![c64::new(0.0, 0.0); nf];
+        };
+        let mut rhs = input.force.clone();
+        if input.motion.iter().any(|z| z.norm() > 0.0) {
+            let kw = k as f64 * self.omega;
+            let (re, im): (Vec<f64>, Vec<f64>) = input.motion.iter().map(|z| (z.re, z.im)).unzip();
+            let (kr, ki) = (self.k_fp.mul_vec(&re), self.k_fp.mul_vec(&im));
+            let (mr, mi) = (self.m_fp.mul_vec(&re), self.m_fp.mul_vec(&im));
+            let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+            for i in 0..nf {
+                let real = c64::new(kr[i] - kw * kw * mr[i], ki[i] - kw * kw * mi[i]);
+                let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
+                rhs[i] -= real + c64::new(0.0, kw) * damp;
+            }
+        }
+        rhs
+    }
+
+    /// Prescribed motion amplitudes of harmonic k (zero when not excited).
+    pub fn motion(&self, k: usize) -> Vec<c64> {
+        self.inputs
+            .get(&k)
+            .map(|i| i.motion.clone())
+            .unwrap_or_else(|| vec![c64::new(0.0, 0.0); self.dofs.prescribed.len()])
+    }
+}
+
+/// Relative residual ‖Z x − b‖ / ‖b‖ (‖b‖ = 0 → absolute).
+pub fn relative_residual(system: &System, k: usize, x: &[c64], b: &[c64]) -> f64 {
+    let zx = system.apply(k, x);
+    let num: f64 = zx.iter().zip(b).map(|(a, b)| (a - b).norm_sqr()).sum::<f64>().sqrt();
+    let den: f64 = b.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
+    if den > 0.0 {
+        num / den
+    } else {
+        num
+    }
+}
