@@ -208,6 +208,10 @@ pub fn solve(
     let mut compliance = Vec::new();
     let bt_columns: Vec<Vec<c64>> = contact.map(|op| transpose_rows(&op.b_free)).unwrap_or_default();
 
+    if harmonics.first() == Some(&0) && system.dofs.prescribed.is_empty() {
+        // Nothing holds the body against rigid motion: K is singular by construction.
+        return Err(singular_diagnosis(system, 0));
+    }
     for &k in &harmonics {
         progress(&format!("harmonic {k}: factor"));
         let start = Instant::now();

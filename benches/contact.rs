@@ -1,0 +1,110 @@
+//! Harmonic balance against time marching on the strip-against-wall scene, in one run:
+//! the probe amplitude of each method against a high-H harmonic-balance reference, their wall
+//! times, the ratio at equal accuracy, and each stage's share of the harmonic-balance time.
+//!
+//! `cargo bench --bench contact [-- --mesh-size 0.0025]`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use hbcontact::config::load_pipeline;
+use hbcontact::pipeline::{self, RunOptions};
+use serde_json::Value;
+
+fn summary(dir: &Path) -> Value {
+    std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|s| serde_json::from_str(&s).ok())
+        .unwrap_or(Value::Null)
+}
+
+fn probe_amplitude(s: &Value) -> f64 {
+    s["probes"]["probe"]["half_peak_to_peak_y"].as_f64().unwrap_or(f64::NAN)
+}
+
+fn main() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("pipelines/strip_wall.yaml");
+    let work = root.join("output/bench-contact");
+    let run_hb = |h: usize| -> Option<(f64, Value)> {
+        let p = load_pipeline(&scene, &[format!("harmonic_balance.harmonics={h}")]).ok()?;
+        let options = RunOptions {
+            out: Some(work.join(format!("hb-h{h}"))),
+            quiet: true,
+        };
+        let t = Instant::now();
+        match pipeline::run(&p, &options) {
+            Ok(dir) => Some((t.elapsed().as_secs_f64(), summary(&dir))),
+            Err(e) => {
+                eprintln!("H = {h}: {e}");
+                None
+            }
+        }
+    };
+    // Warm the mesh cache so no row pays for gmsh.
+    let _ = run_hb(1);
+    let Some((t_ref, reference)) = run_hb(60) else {
+        eprintln!("the H = 60 reference did not run");
+        return;
+    };
+    let a_ref = probe_amplitude(&reference);
+    println!("reference: H = 60, probe amplitude {a_ref:.6e} m, {t_ref:.2} s");
+
+    let p = match load_pipeline(&scene, &[]) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("{e}");
+            return;
+        }
+    };
+    let options = RunOptions {
+        out: Some(work.join("transient")),
+        quiet: true,
+    };
+    let t = Instant::now();
+    let transient = match pipeline::run_transient(&p, &options) {
+        Ok(dir) => summary(&dir),
+        Err(e) => {
+            eprintln!("transient: {e}");
+            return;
+        }
+    };
+    let t_transient = t.elapsed().as_secs_f64();
+    let a_tr = transient["probe_dof_amplitudes"]["probe_dof_1"].as_f64().unwrap_or(f64::NAN);
+    let e_tr = (a_tr - a_ref).abs() / a_ref;
+    println!(
+        "transient: {} periods, dt = {:.3e} s, probe amplitude {a_tr:.6e} m, error {e_tr:.2e}, {t_transient:.2} s",
+        transient["transient"]["periods"], transient["transient"]["dt"].as_f64().unwrap_or(f64::NAN)
+    );
+
+    println!("\n{:>4} {:>10} {:>10} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>14}", "H", "amplitude", "error", "wall s", "factor%", "reduce%", "newton%", "recover%", "write%", "iters", "transient/HB");
+    let mut matched = None;
+    for h in [5usize, 10, 20, 40] {
+        let Some((secs, s)) = run_hb(h) else { continue };
+        let a = probe_amplitude(&s);
+        let err = (a - a_ref).abs() / a_ref;
+        let st = &s["stage_seconds"];
+        let total = st["total"].as_f64().unwrap_or(f64::NAN);
+        let share = |k: &str| 100.0 * st[k].as_f64().unwrap_or(0.0) / total;
+        println!(
+            "{h:>4} {a:>10.4e} {err:>10.2e} {secs:>9.3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8} {:>14.1}",
+            share("factor"),
+            share("reduce"),
+            share("newton"),
+            share("recover"),
+            share("write"),
+            s["contact"]["newton_iterations"],
+            t_transient / secs
+        );
+        if matched.is_none() && err <= e_tr {
+            matched = Some((h, secs));
+        }
+    }
+    match matched {
+        Some((h, secs)) => println!(
+            "\nat the transient's accuracy ({e_tr:.2e}): harmonic balance needs H = {h}, {secs:.3} s against {t_transient:.2} s: {:.1}× faster",
+            t_transient / secs
+        ),
+        None => println!("\nno H tried reached the transient's accuracy ({e_tr:.2e})"),
+    }
+}

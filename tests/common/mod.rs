@@ -1,0 +1,72 @@
+//! Shared helpers of the integration tests: the project root, the venv's Python, running the
+//! `hbcontact` binary, solving a scene through the library.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::hbm::{self, HbSettings, Solution};
+use hbcontact::pipeline::{self, Model, Purpose, StageTimes};
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The venv's Python (made by `make venv`); tests fail without it, as CI must have it.
+pub fn venv_python() -> PathBuf {
+    let p = root().join(".venv/bin/python");
+    assert!(p.exists(), "{} is missing: run `make venv` (make test does it)", p.display());
+    p
+}
+
+pub fn hbcontact(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("the hbcontact binary runs")
+}
+
+pub fn scene(name: &str, overrides: &[&str]) -> Pipeline {
+    let path = root().join("pipelines").join(format!("{name}.yaml"));
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    match load_pipeline(&path, &overrides) {
+        Ok(p) => p,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Mesh and build a scene's model (meshes cached under output/.mesh-cache).
+pub fn model(p: &Pipeline, purpose: Purpose) -> Model {
+    let out = root().join("output").join("test-scenes").join(&p.name);
+    let mut times = StageTimes::default();
+    let (mesh, _) = pipeline::mesh_stage(p, &out, &mut times, true).unwrap_or_else(|e| panic!("{e}"));
+    pipeline::build(p, mesh, purpose).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn settings(p: &Pipeline) -> HbSettings {
+    let hb = &p.harmonic_balance;
+    HbSettings {
+        harmonics: hb.harmonics,
+        samples: hb.samples.unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        c_scale: hb.solver.c_scale,
+        tolerance: hb.solver.tolerance,
+        max_iterations: hb.solver.max_iterations,
+    }
+}
+
+pub fn solve(model: &Model, p: &Pipeline) -> hbcontact::Result<Solution> {
+    hbm::solve(&model.system, model.contact.as_ref().map(|c| &c.operator), &settings(p), &|_| {})
+}
+
+pub fn temp_out(tag: &str) -> PathBuf {
+    let dir = root().join("output").join("test-runs").join(tag);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+pub fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}

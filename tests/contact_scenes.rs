@@ -1,0 +1,297 @@
+//! Contact by harmonic balance against what it must equal: Hertz, the linear limits, the
+//! time-domain cross-check, convergence in H.
+
+mod common;
+
+use faer::c64;
+use hbcontact::hbm::{self, fourier};
+use hbcontact::pipeline::{Model, Purpose};
+use hbcontact::transient::{self, ContactRows, TransientProblem, TransientSettings};
+
+/// Mean y displacement of the probe nodes over one period at `samples` instants.
+fn probe_series(model: &Model, solution: &hbm::Solution, samples: usize) -> Vec<f64> {
+    let nodes = &model.probes[0].1;
+    let period = 2.0 * std::f64::consts::PI / solution.omega;
+    (0..samples)
+        .map(|j| {
+            let u = solution.field_at(&model.system.dofs, j as f64 * period / samples as f64, 0);
+            nodes.iter().map(|&n| u[2 * n + 1]).sum::<f64>() / nodes.len() as f64
+        })
+        .collect()
+}
+
+fn half_range(v: &[f64]) -> f64 {
+    let max = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
+    0.5 * (max - min)
+}
+
+/// Mean and first-harmonic magnitude of a periodic sampled signal.
+fn mean_and_first(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let (mut c, mut s) = (0.0, 0.0);
+    for (j, x) in v.iter().enumerate() {
+        let th = 2.0 * std::f64::consts::PI * j as f64 / n;
+        c += x * th.cos();
+        s += x * th.sin();
+    }
+    (mean, 2.0 * (c * c + s * s).sqrt() / n)
+}
+
+/// The total pressing contact force −Σλ over a period at `samples` instants.
+fn total_force_series(solution: &hbm::Solution, samples: usize) -> Vec<f64> {
+    let c = solution.contact.as_ref().expect("contact solution");
+    let m = 2 * c.harmonics + 1;
+    let period = 2.0 * std::f64::consts::PI / solution.omega;
+    (0..samples)
+        .map(|j| {
+            let t = j as f64 * period / samples as f64;
+            -c.multipliers.chunks(m).map(|k| fourier::evaluate(k, solution.omega, t)[0]).sum::<f64>()
+        })
+        .collect()
+}
+
+/// TEST GOAL: 2-D Hertz line contact (Johnson, Contact Mechanics, §4.3): a cylinder of radius
+/// R pressed on a rigid plane by a force P per unit length has a contact half-width
+/// a = sqrt(4PR/(πE*)) and a peak pressure p0 = 2P/(πa), E* = E/(1−ν²) in plane strain.
+///
+/// ```text
+///        top: u_x = 0, u_y = −δ
+///   ┌──────────────────────┐
+///    ╲                    ╱     half-disc, R = 1, refined (h = 2 mm) near the bottom
+///      ╲______________╱
+///   ═══════════════════════     rigid plane y = 0 (analytic line obstacle)
+/// ```
+/// P is measured (the sum of the contact forces), a and p0 follow from it. Pressure is the
+/// nodal force over its tributary length (linear elements, where that is exact for a smooth
+/// pressure to second order).
+#[test]
+fn half_disc_matches_hertz_line_contact() {
+    let p = common::scene(
+        "half_disc",
+        &[
+            "harmonic_balance.harmonics=0",
+            "damping=null",
+            "boundaries.prescribed=[{group: top, component: x, static: 0.0}, {group: top, component: y, static: -1.0e-3}]",
+        ],
+    );
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let contact = solution.contact.as_ref().unwrap();
+    let set = &model.contact.as_ref().unwrap().set;
+    let lambda = &contact.multipliers; // M = 1: one coefficient per node
+    let load: f64 = -lambda.iter().sum::<f64>();
+    let e_star = p.material.youngs_modulus / (1.0 - p.material.poisson_ratio.powi(2));
+    let radius = 1.0;
+    let a = (4.0 * load * radius / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * load / (std::f64::consts::PI * a);
+    let mut peak: f64 = 0.0;
+    let mut half_width: f64 = 0.0;
+    for (i, &n) in set.nodes.iter().enumerate() {
+        let pressure = -lambda[i] / set.tributary[i];
+        peak = peak.max(pressure);
+        if -lambda[i] > 1e-9 * load {
+            half_width = half_width.max(model.mesh.nodes[n][0].abs());
+        }
+    }
+    let h = p.geometry.parameters["lc_contact"];
+    let closed = lambda.iter().filter(|&&l| -l > 1e-9 * load).count();
+    println!(
+        "Hertz: P = {load:.4e} N/m, a = {a:.5e} m (FE {half_width:.5e}, {closed} closed nodes, h = {h}), p0 = {p0:.5e} Pa (FE {peak:.5e}, {:+.3}%)",
+        100.0 * (peak - p0) / p0
+    );
+    assert!(closed >= 15, "the contact zone must be resolved by ~20 elements, got {closed} nodes");
+    assert!((peak - p0).abs() / p0 < 0.01, "peak pressure {peak:e} vs Hertz {p0:e}");
+    // The last closed node lies within one element of the Hertz edge.
+    assert!((half_width - a).abs() <= h, "half-width {half_width:e} vs Hertz {a:e} (h = {h})");
+    assert!(contact.complementarity.violation < 1e-8, "static: exact complementarity");
+}
+
+/// TEST GOAL: when the obstacle is out of reach, the contact solve returns the linear
+/// response exactly (same factorizations, zero multipliers, no Newton step).
+#[test]
+fn unreachable_wall_gives_exactly_the_linear_result() {
+    let p = common::scene(
+        "strip_wall",
+        &["geometry.parameters.gap=0.05", "contact.search_distance=1.0", "harmonic_balance.harmonics=5"],
+    );
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let with = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let without = hbm::solve(&model.system, None, &common::settings(&p), &|_| {}).unwrap();
+    let c = with.contact.as_ref().unwrap();
+    assert_eq!(c.newton.iterations, 0);
+    assert!(c.multipliers.iter().all(|&l| l == 0.0));
+    for (k, z) in &without.free {
+        assert_eq!(&with.free[k], z, "harmonic {k} differs from the linear solve");
+    }
+}
+
+/// TEST GOAL: a flat face resting on a flat obstacle (g0 = 0) and pressed hard enough to stay
+/// closed all period is the linear problem with the face's normal displacement held at zero
+/// (frictionless: the tangential motion stays free).
+#[test]
+fn closed_contact_equals_the_constrained_linear_solve() {
+    let common_overrides = [
+        "geometry.mesh_size=0.01",
+        "geometry.order=1",
+        "harmonic_balance.harmonics=3",
+        "boundaries.loads=[{group: top, type: traction, static: [0.0, -1.0e6], harmonics: [{k: 1, cos: [0.0, 3.0e5], sin: [0.0, 0.0]}]}]",
+    ];
+    let mut with_contact = common_overrides.to_vec();
+    with_contact.push("contact={boundary: bottom, obstacle: {line: {point: [0.0, -0.01], normal: [0.0, 1.0]}}, mass: lumped}");
+    let p = common::scene("cantilever", &with_contact);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    assert!(model.contact.as_ref().unwrap().set.gaps.iter().all(|g| g.abs() < 1e-12), "g0 = 0");
+    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let c = solution.contact.as_ref().unwrap();
+    // Closed all period: every sampled multiplier of a free contact node presses.
+    let m = 2 * c.harmonics + 1;
+    let sampler = fourier::Sampler::new(c.harmonics, c.samples);
+    let mut s = vec![0.0; c.samples];
+    for coeffs in c.multipliers.chunks(m) {
+        if coeffs.iter().all(|&v| v == 0.0) {
+            continue; // the clamped corner: held, carries nothing
+        }
+        sampler.to_samples(coeffs, &mut s);
+        assert!(s.iter().all(|&l| l < 0.0), "contact opened somewhere");
+    }
+
+    let mut constrained = common_overrides.to_vec();
+    constrained.push("boundaries.prescribed=[{group: bottom, component: y, static: 0.0}]");
+    let q = common::scene("cantilever", &constrained);
+    // Purpose::Transient: the same HRZ-lumped mass as the contact scene with `mass: lumped`.
+    let linear_model = common::model(&q, Purpose::Transient);
+    let linear = hbm::solve(&linear_model.system, None, &common::settings(&q), &|_| {}).unwrap();
+    let period = 2.0 * std::f64::consts::PI / solution.omega;
+    for j in 0..5 {
+        let t = j as f64 * period / 5.0;
+        let u = solution.field_at(&model.system.dofs, t, 0);
+        let v = linear.field_at(&linear_model.system.dofs, t, 0);
+        let scale = v.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        let err = u.iter().zip(&v).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(err < 1e-6 * scale, "t = {t}: {err:e} vs {scale:e}");
+    }
+}
+
+/// TEST GOAL: on the strip striking a wall, the probe amplitude converges toward a high-H
+/// reference as H grows, and the complementarity violation of the truncated series stays
+/// below a stated bound and shrinks with H.
+#[test]
+fn strip_converges_in_h_and_complementarity_violation_shrinks() {
+    let run = |h: usize| {
+        let p = common::scene("strip_wall", &[&format!("harmonic_balance.harmonics={h}")]);
+        let model = common::model(&p, Purpose::HarmonicBalance);
+        let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("H = {h}: {e}"));
+        let amp = half_range(&probe_series(&model, &s, 1024));
+        let c = s.contact.as_ref().unwrap();
+        (amp, c.complementarity.violation, c.newton.iterations)
+    };
+    let (reference, _, _) = run(60);
+    let mut errors = Vec::new();
+    let mut violations = Vec::new();
+    for h in [5, 10, 20, 40] {
+        let (amp, violation, iterations) = run(h);
+        let err = (amp - reference).abs() / reference;
+        println!("H = {h:>2}: amplitude {amp:.6e}, error vs H = 60 {err:.3e}, complementarity violation {violation:.3e}, {iterations} Newton iterations");
+        errors.push(err);
+        violations.push(violation);
+    }
+    assert!(errors[3] < errors[0] && errors[2] < errors[0], "error must fall with H: {errors:?}");
+    assert!(errors[3] < 2e-3, "{errors:?}");
+    assert!(violations[3] < violations[0], "violation must shrink with H: {violations:?}");
+    assert!(violations.iter().all(|&v| v < 0.1), "violation bound 0.1: {violations:?}");
+}
+
+/// TEST GOAL: mass redistribution is what makes the impact problem solvable: with the contact
+/// nodes' lumped mass the Newton stalls at high H and says what to change; with the mass
+/// redistributed it converges.
+#[test]
+fn lumped_contact_mass_stalls_where_redistributed_mass_converges() {
+    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "contact.mass=lumped"]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    match common::solve(&model, &p) {
+        Err(hbcontact::Error::NotConverged(msg)) => {
+            assert!(msg.contains("redistributed"), "the diagnosis names the fix: {msg}");
+            println!("lumped, H = 40: {msg}");
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(s) => panic!(
+            "lumped contact mass converged at H = 40 (violation {:.3e}); the test scene no longer shows the effect",
+            s.contact.unwrap().complementarity.violation
+        ),
+    }
+    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40"]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("redistributed, H = 40: {e}"));
+    assert!(s.contact.unwrap().newton.converged);
+}
+
+/// TEST GOAL: harmonic balance and explicit time marching (same mesh, same redistributed
+/// mass, same damping) agree on the strip in probe amplitude and in the mean and first
+/// harmonic of the total contact force, more closely as H grows.
+#[test]
+fn strip_agrees_with_time_marching() {
+    let overrides = ["damping.alpha=150.0"];
+    let p = common::scene("strip_wall", &overrides);
+    let model = common::model(&p, Purpose::Transient);
+    let system = &model.system;
+    let dofs = &system.dofs;
+    let diag = model.mass_diagonal.as_ref().unwrap();
+    let mass: Vec<f64> = dofs.free.iter().map(|&d| diag[d]).collect();
+    let omega = system.omega;
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let loads: Vec<(usize, Vec<c64>)> = system.inputs.keys().map(|&k| (k, system.load(k))).collect();
+    let force = move |t: f64, f: &mut [f64]| {
+        f.iter_mut().for_each(|v| *v = 0.0);
+        for (k, z) in &loads {
+            let rot = c64::from_polar(1.0, *k as f64 * omega * t);
+            for (fi, zi) in f.iter_mut().zip(z) {
+                *fi += (zi * rot).re;
+            }
+        }
+    };
+    let op = &model.contact.as_ref().unwrap().operator;
+    let probe_node = model.probes[0].1[0];
+    let probe_dof = dofs.free_of[2 * probe_node + 1];
+    let problem = TransientProblem {
+        stiffness: &system.k_ff,
+        mass: &mass,
+        rayleigh: system.rayleigh,
+        force: &force,
+        contact: Some(ContactRows { b: &op.b_free, g0: &op.g0 }),
+        period,
+        probes: vec![probe_dof],
+    };
+    let settings = TransientSettings {
+        courant: 0.8,
+        periodic_tolerance: 1e-7,
+        max_periods: 400,
+        samples_per_period: 64,
+    };
+    let tr = transient::run_to_periodic(&problem, &settings, None).unwrap_or_else(|e| panic!("{e}"));
+    assert!(tr.converged, "time marching did not reach a periodic state");
+    let amp_tr = half_range(&tr.probe_history[0]);
+    let totals: Vec<f64> = tr.total_contact_history.iter().map(|v| -v).collect();
+    let (mean_tr, first_tr) = mean_and_first(&totals);
+    println!("transient: {} periods, {} steps/period, amplitude {amp_tr:.6e}, mean force {mean_tr:.5e}, first harmonic {first_tr:.5e}", tr.periods, tr.steps_per_period);
+
+    let mut amp_errors = Vec::new();
+    for h in [5usize, 10, 20] {
+        let q = common::scene("strip_wall", &[overrides[0], &format!("harmonic_balance.harmonics={h}")]);
+        let s = common::solve(&model, &q).unwrap_or_else(|e| panic!("H = {h}: {e}"));
+        let amp = half_range(&probe_series(&model, &s, 2048));
+        let (mean, first) = mean_and_first(&total_force_series(&s, 2048));
+        let e_amp = (amp - amp_tr).abs() / amp_tr;
+        let e_mean = (mean - mean_tr).abs() / mean_tr;
+        let e_first = (first - first_tr).abs() / first_tr;
+        println!("H = {h:>2}: amplitude error {e_amp:.3e}, mean force error {e_mean:.3e}, first-harmonic error {e_first:.3e}");
+        amp_errors.push(e_amp);
+        if h == 20 {
+            assert!(e_amp < 0.02, "amplitude within 2% at H = 20: {e_amp:e}");
+            assert!(e_mean < 0.02, "mean contact force within 2% at H = 20: {e_mean:e}");
+            assert!(e_first < 0.03, "first harmonic of the contact force within 3% at H = 20: {e_first:e}");
+        }
+    }
+    assert!(amp_errors[2] < amp_errors[0], "agreement must tighten with H: {amp_errors:?}");
+}
