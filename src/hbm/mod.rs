@@ -401,6 +401,7 @@ fn solve_contact(
         c,
         tolerance: settings.tolerance,
         max_iterations: settings.max_iterations,
+        dense_limit: reduced::DENSE_LIMIT,
     };
     progress(&format!("contact Newton: H = {h}, N = {}, {nc} nodes", settings.samples));
     let mut outcome = reduced::newton(&problem, &newton_settings(h), &vec![0.0; nc * m]);
