@@ -40,6 +40,17 @@ enum Command {
     Transient(Common),
     /// Validate the pipeline and the geometry's groups without solving.
     Check(Common),
+    /// What accuracy costs: run ladders of settings and tabulate error against wall time.
+    Accuracy {
+        #[command(flatten)]
+        common: Common,
+        /// A ladder `key=v1,v2,...` (cheapest first; the last value is the reference), e.g.
+        /// `harmonic_balance.harmonics=5,10,20,40` or `geometry.mesh_size=0.004,0.002,0.001`
+        /// (repeatable). Default: harmonics H/4, H/2, H, 2H for contact scenes and element
+        /// order 1, 2.
+        #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
+        ladders: Vec<String>,
+    },
 }
 
 fn exit_code(e: &Error) -> u8 {
@@ -57,6 +68,7 @@ fn main() -> ExitCode {
         Command::Run(c) => (c, run(c, Mode::Run)),
         Command::Transient(c) => (c, run(c, Mode::Transient)),
         Command::Check(c) => (c, run(c, Mode::Check)),
+        Command::Accuracy { common, ladders } => (common, accuracy(common, ladders)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -95,6 +107,48 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
                 println!("ok: {} is valid", c.pipeline.display());
             }
         }
+    }
+    Ok(())
+}
+
+fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
+    use hbcontact::pipeline::accuracy::{study, table, Ladder};
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let mut parsed = Vec::new();
+    for l in ladders {
+        let Some((key, values)) = l.split_once('=') else {
+            return Err(Error::Config {
+                path: c.pipeline.clone(),
+                message: format!("--ladder {l}: expected KEY=V1,V2,... (e.g. harmonic_balance.harmonics=5,10,20)"),
+            });
+        };
+        parsed.push(Ladder {
+            key: key.trim().to_string(),
+            values: values.split(',').map(|v| v.trim().to_string()).filter(|v| !v.is_empty()).collect(),
+        });
+    }
+    if parsed.is_empty() {
+        let h = pipeline.harmonic_balance.harmonics.max(1);
+        if pipeline.contact.is_some() {
+            parsed.push(Ladder {
+                key: "harmonic_balance.harmonics".into(),
+                values: [h / 4, h / 2, h, 2 * h].iter().filter(|&&v| v >= 1).map(|v| v.to_string()).collect(),
+            });
+        }
+        parsed.push(Ladder {
+            key: "geometry.order".into(),
+            values: vec!["1".into(), "2".into()],
+        });
+    }
+    let out = c.out.clone().unwrap_or_else(|| {
+        let mut d = pipeline.output.directory.clone().into_os_string();
+        d.push("-accuracy");
+        PathBuf::from(d)
+    });
+    let rungs = study(&c.pipeline, &c.set, &parsed, &out)?;
+    println!("{}", table(&rungs));
+    if !c.quiet {
+        eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
     }
     Ok(())
 }

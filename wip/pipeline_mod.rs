@@ -3,6 +3,7 @@
 //! → output (staged, then committed), with a `summary.json` saying what was simulated, how big
 //! it was, how accurate and what each stage cost.
 
+pub mod accuracy;
 pub mod model;
 pub mod report;
 
@@ -190,6 +191,11 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         eprintln!("[solve]");
     }
     let solution = hbm::solve(&model.system, model.contact.as_ref().map(|c| &c.operator), &settings, &progress)?;
+    for w in &solution.warnings {
+        if !quiet {
+            eprintln!("warning: {w}");
+        }
+    }
     let t = &solution.timings;
     for (name, secs) in [
         ("factor", t.factor),
@@ -278,6 +284,7 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
             "linear_residuals": solution.residuals.iter().map(|(k, r)| (k.to_string(), json!(r))).collect::<serde_json::Map<_, _>>(),
             "contact": contact_json,
             "probes": probe_amplitudes(&model, &hist_u),
+            "warnings": solution.warnings,
             "frames": frames,
         }))
     })?;

@@ -124,6 +124,8 @@ pub struct Solution {
     /// "real" or "complex" factorizations.
     pub complex_arithmetic: bool,
     pub timings: Timings,
+    /// Things the user should know although the solve succeeded (near resonance, …).
+    pub warnings: Vec<String>,
 }
 
 impl Solution {
@@ -203,6 +205,7 @@ pub fn solve(
     let mut free = BTreeMap::new();
     let mut motion = BTreeMap::new();
     let mut residuals = BTreeMap::new();
+    let mut warnings = Vec::new();
     // Z_k⁻¹ Bᵀ per harmonic, kept for the recovery (24).
     let mut compliance_columns: BTreeMap<usize, Vec<Vec<c64>>> = BTreeMap::new();
     let mut compliance = Vec::new();
@@ -223,6 +226,9 @@ pub fn solve(
         let z = if is_zero(&rhs) { rhs.clone() } else { lu.solve(&rhs) };
         let res = system::relative_residual(system, k, &z, &rhs);
         check_solve(system, k, res, &z)?;
+        if let Some(w) = resonance_warning(system, k, &z, &rhs) {
+            warnings.push(w);
+        }
         residuals.insert(k, res);
         timings.linear_solve += start.elapsed().as_secs_f64();
 
@@ -287,6 +293,7 @@ pub fn solve(
         residuals,
         complex_arithmetic,
         timings,
+        warnings,
     })
 }
 
@@ -307,6 +314,29 @@ fn check_solve(system: &System, k: usize, residual: f64, z: &[c64]) -> Result<()
         return Ok(());
     }
     Err(singular_diagnosis(system, k))
+}
+
+/// The dynamic amplification ‖K z‖ / ‖f‖ of harmonic k: far above 1 means the forcing sits
+/// near a natural frequency, where an undamped answer is set by the distance to resonance
+/// alone and a lightly damped one by the damping alone.
+fn resonance_warning(system: &System, k: usize, z: &[c64], f: &[c64]) -> Option<String> {
+    if k == 0 {
+        return None;
+    }
+    let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
+    let (kr, ki) = (system.k_ff.mul_vec(&re), system.k_ff.mul_vec(&im));
+    let num: f64 = kr.iter().zip(&ki).map(|(a, b)| a * a + b * b).sum::<f64>().sqrt();
+    let den: f64 = f.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+    let amplification = if den > 0.0 { num / den } else { 0.0 };
+    let f_hz = k as f64 * system.omega / (2.0 * std::f64::consts::PI);
+    (amplification > 100.0).then(|| {
+        format!(
+            "harmonic {k} ({f_hz:.4} Hz) is amplified {amplification:.0}× over its static response: the \
+             forcing is close to a natural frequency. The amplitude there is set by {}; check that \
+             this is intended",
+            if system.rayleigh.is_some() { "the damping" } else { "the distance to resonance alone (no damping)" }
+        )
+    })
 }
 
 fn singular_diagnosis(system: &System, k: usize) -> Error {
