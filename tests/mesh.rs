@@ -1,0 +1,182 @@
+//! The geometry stage: gmsh runs on every shipped .geo, the .msh files read back with their
+//! physical groups, areas match the exact ones, the cache works, and errors are clear.
+
+mod common {
+    use std::path::PathBuf;
+    pub fn root() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    }
+    pub fn venv_python() -> PathBuf {
+        root().join(".venv/bin/python")
+    }
+}
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use hbcontact::mesh::gmsh::{mesh_geometry, MeshRequest};
+use hbcontact::mesh::msh::read_msh;
+use hbcontact::mesh::{CellKind, Mesh2d};
+
+fn request(geo: &str, order: u8) -> MeshRequest {
+    MeshRequest {
+        geo: common::root().join("geometries").join(geo),
+        parameters: BTreeMap::new(),
+        mesh_size: None,
+        order,
+        quads: false,
+        gmsh: None,
+    }
+}
+
+fn cache() -> PathBuf {
+    common::root().join("output/test-mesh-cache")
+}
+
+/// Area by Gauss quadrature of the isoparametric map is not needed: corners (shoelace) for
+/// straight-sided cells plus, for order 2, the parabolic correction of each curved edge.
+fn area(mesh: &Mesh2d) -> f64 {
+    let mut total = 0.0;
+    for c in &mesh.cells {
+        let k = c.kind.corners();
+        let p = |i: usize| mesh.nodes[c.nodes[i]];
+        let mut a = 0.0;
+        for i in 0..k {
+            let (u, v) = (p(i), p((i + 1) % k));
+            a += u[0] * v[1] - v[0] * u[1];
+        }
+        a *= 0.5;
+        if c.kind.order() == 2 {
+            // The parabolic segment between each chord and its mid node adds (2/3)·base·height
+            // (outward offsets give a negative cross product for counter-clockwise cells).
+            for i in 0..k {
+                let (u, v, m) = (p(i), p((i + 1) % k), p(k + i));
+                let mid = [(u[0] + v[0]) / 2.0, (u[1] + v[1]) / 2.0];
+                let chord = [v[0] - u[0], v[1] - u[1]];
+                let off = [m[0] - mid[0], m[1] - mid[1]];
+                a -= (2.0 / 3.0) * (chord[0] * off[1] - chord[1] * off[0]);
+            }
+        }
+        total += a;
+    }
+    total
+}
+
+#[test]
+fn every_geometry_meshes_with_its_groups_and_exact_area() {
+    let pi = std::f64::consts::PI;
+    let cases: &[(&str, &[&str], f64)] = &[
+        ("cantilever.geo", &["clamp", "tip", "top", "bottom", "tip_point", "body"], 1.0 * 0.02),
+        ("quickstart.geo", &["clamp", "load", "probe", "body", "hole"], 0.2 * 0.05 - pi * 0.01 * 0.01),
+        ("strip_wall.geo", &["clamp", "tip", "top", "bottom", "contact", "probe", "wall", "body"], 0.2 * 0.01),
+        ("blade_casing.geo", &["root", "tip", "left", "right", "probe", "casing", "body"], 0.01 * 0.1),
+        ("half_disc.geo", &["top", "contact", "arc", "body"], pi / 2.0),
+    ];
+    for (geo, groups, exact) in cases {
+        for order in [1u8, 2] {
+            let meshed = mesh_geometry(&request(geo, order), &cache()).unwrap_or_else(|e| panic!("{geo}: {e}"));
+            let mesh = read_msh(&meshed.msh).unwrap_or_else(|e| panic!("{geo}: {e}"));
+            for g in *groups {
+                assert!(mesh.node_groups.contains_key(*g), "{geo}: group {g} missing; have {:?}", mesh.group_names());
+            }
+            let expected_kind = if order == 1 { CellKind::Tri3 } else { CellKind::Tri6 };
+            assert!(mesh.cells.iter().all(|c| c.kind == expected_kind));
+            let a = area(&mesh);
+            // Polygonal boundaries of curved shapes lose O(h²) area at order 1, O(h⁴) at order 2.
+            let tol = if order == 1 { 2e-3 } else { 1e-5 };
+            assert!((a - exact).abs() / exact < tol, "{geo} order {order}: area {a} vs {exact}");
+            // Every cell counter-clockwise.
+            for c in &mesh.cells {
+                let p: Vec<[f64; 2]> = c.nodes.iter().take(3).map(|&n| mesh.nodes[n]).collect();
+                let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+                assert!(cross > 0.0);
+            }
+        }
+    }
+    // Points are single nodes; obstacle curves carry no cells.
+    let mesh = read_msh(&mesh_geometry(&request("strip_wall.geo", 1), &cache()).unwrap().msh).unwrap();
+    assert_eq!(mesh.node_groups["probe"].len(), 1);
+    let body = mesh.body_nodes();
+    assert!(mesh.node_groups["wall"].iter().all(|n| body.binary_search(n).is_err()));
+    assert!(mesh.cell_groups.get("wall").is_none());
+}
+
+#[test]
+fn cache_hits_and_misses() {
+    let dir = common::root().join("output/test-mesh-cache-2");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut r = request("cantilever.geo", 1);
+    let first = mesh_geometry(&r, &dir).unwrap();
+    assert!(!first.cache_hit);
+    assert!(first.gmsh_version.starts_with("4.15"), "{}", first.gmsh_version);
+    let modified = std::fs::metadata(&first.msh).unwrap().modified().unwrap();
+    let second = mesh_geometry(&r, &dir).unwrap();
+    assert!(second.cache_hit);
+    assert_eq!(second.msh, first.msh);
+    assert_eq!(std::fs::metadata(&second.msh).unwrap().modified().unwrap(), modified);
+    r.parameters.insert("H".into(), 0.03);
+    let third = mesh_geometry(&r, &dir).unwrap();
+    assert!(!third.cache_hit);
+    assert_ne!(third.msh, first.msh);
+}
+
+#[test]
+fn binary_msh_reads_like_ascii() {
+    let ascii = mesh_geometry(&request("quickstart.geo", 2), &cache()).unwrap();
+    let a = read_msh(&ascii.msh).unwrap();
+    let bin = common::root().join("output/test-mesh-cache/quickstart-binary.msh");
+    let status = std::process::Command::new(common::venv_python())
+        .arg(common::root().join(".venv/bin/gmsh"))
+        .arg(&ascii.msh)
+        .args(["-0", "-bin", "-format", "msh41", "-save_all", "0", "-o"])
+        .arg(&bin)
+        .output()
+        .unwrap();
+    assert!(status.status.success());
+    let b = read_msh(&bin).unwrap();
+    assert_eq!(a.nodes, b.nodes);
+    assert_eq!(a.cells, b.cells);
+    assert_eq!(a.node_groups, b.node_groups);
+}
+
+#[test]
+fn mesh_errors_are_clear() {
+    // gmsh syntax error: gmsh's own message is shown.
+    let mut r = request("cantilever.geo", 1);
+    r.geo = common::root().join("tests/data/bad_syntax.geo");
+    let e = mesh_geometry(&r, &cache()).unwrap_err().to_string();
+    assert!(e.contains("Error") && e.contains("bad_syntax.geo"), "{e}");
+    // Missing file.
+    r.geo = common::root().join("geometries/nope.geo");
+    let e = mesh_geometry(&r, &cache()).unwrap_err().to_string();
+    assert!(e.contains("nope.geo"), "{e}");
+    // gmsh not found.
+    let mut r = request("cantilever.geo", 1);
+    r.gmsh = Some(PathBuf::from("/nonexistent/gmsh"));
+    let e = mesh_geometry(&r, &cache()).unwrap_err().to_string();
+    assert!(e.contains("/nonexistent/gmsh") && e.contains("make venv"), "{e}");
+    // A 3-D element.
+    let e = read_msh(&common::root().join("tests/data/tetra.msh")).unwrap_err().to_string();
+    assert!(e.contains("3-D elements") && e.contains("tetra.msh"), "{e}");
+    // Not a mesh at all.
+    let e = read_msh(&common::root().join("tests/data/bad_syntax.geo")).unwrap_err().to_string();
+    assert!(e.contains("not a gmsh .msh"), "{e}");
+}
+
+#[test]
+fn clockwise_cells_are_reoriented_and_degenerate_cells_rejected() {
+    let dir = common::root().join("output/test-mesh-cache");
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, elements: &str| {
+        let text = format!(
+            "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n2 1 \"body\"\n$EndPhysicalNames\n$Entities\n0 0 1 0\n1 0 0 0 1 1 0 1 1 0\n$EndEntities\n$Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n1 1 0\n2 2 0\n$EndNodes\n$Elements\n1 1 1 1\n2 1 2 1\n{elements}\n$EndElements\n"
+        );
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let cw = read_msh(&write("cw.msh", "1 1 3 2")).unwrap();
+    assert_eq!(cw.cells[0].nodes, vec![0, 1, 2]);
+    let e = read_msh(&write("degenerate.msh", "1 1 3 4")).unwrap_err().to_string();
+    assert!(e.contains("degenerate"), "{e}");
+}
