@@ -8,11 +8,12 @@
 pub mod assembly;
 pub mod elasticity;
 pub mod loads;
+pub mod modes;
 pub mod shapes;
 pub mod stress;
 
 pub use assembly::{assemble_mass, assemble_stiffness, MassKind};
-pub use loads::{edge_traction_load, point_force_load};
+pub use loads::{body_force_load, edge_traction_load, point_force_load};
 pub use stress::{cell_stresses, CellStress};
 
 /// How the out-of-plane direction is treated.

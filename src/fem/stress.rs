@@ -1,7 +1,8 @@
 //! Stress recovery at cell centroids.
 
-use super::Material;
-use crate::mesh::Mesh2d;
+use super::elasticity::{elasticity_matrix, physical_derivatives};
+use super::{Material, PlaneModel};
+use crate::mesh::{CellKind, Mesh2d};
 
 /// Cauchy stress at a cell's centroid; `zz` is ν(xx+yy) in plane strain and 0 in plane stress.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -21,6 +22,36 @@ impl CellStress {
 
 /// Stress in every cell for the displacement `u` (length 2·nodes).
 pub fn cell_stresses(mesh: &Mesh2d, material: &Material, u: &[f64]) -> Vec<CellStress> {
-    let _ = (mesh, material, u);
-    todo!("fem helper")
+    let c = elasticity_matrix(material);
+    mesh.cells
+        .iter()
+        .enumerate()
+        .map(|(i, cell)| {
+            let (xi, eta) = match cell.kind {
+                CellKind::Tri3 | CellKind::Tri6 => (1.0 / 3.0, 1.0 / 3.0),
+                _ => (0.0, 0.0),
+            };
+            let coords: Vec<[f64; 2]> = cell.nodes.iter().map(|&n| mesh.nodes[n]).collect();
+            let Ok((_, dx, _)) = physical_derivatives(i, cell, &coords, xi, eta) else {
+                return CellStress::default();
+            };
+            let (mut exx, mut eyy, mut gxy) = (0.0, 0.0, 0.0);
+            for (a, &n) in cell.nodes.iter().enumerate() {
+                exx += dx[a][0] * u[2 * n];
+                eyy += dx[a][1] * u[2 * n + 1];
+                gxy += dx[a][1] * u[2 * n] + dx[a][0] * u[2 * n + 1];
+            }
+            let s = c * nalgebra::Vector3::new(exx, eyy, gxy);
+            let zz = match material.model {
+                PlaneModel::PlaneStrain => material.poisson_ratio * (s[0] + s[1]),
+                PlaneModel::PlaneStress => 0.0,
+            };
+            CellStress {
+                xx: s[0],
+                yy: s[1],
+                zz,
+                xy: s[2],
+            }
+        })
+        .collect()
 }
