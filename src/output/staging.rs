@@ -1,23 +1,58 @@
-//! Atomic output directories.
+//! Atomic output directories: a run writes into `<name>.partial-<pid>` and renames it onto
+//! `<name>` only when everything is written, so a failed run never leaves a series that looks
+//! complete (and keeps the previous complete one).
 use std::path::{Path, PathBuf};
 
-use crate::Result;
+use crate::{Error, Result};
 
 /// A directory written under a temporary name and renamed onto its final name by `commit`.
 pub struct StagedDir {
     pub final_dir: PathBuf,
     pub temp_dir: PathBuf,
+    committed: bool,
 }
 
 impl StagedDir {
     pub fn create(final_dir: &Path) -> Result<Self> {
-        let _ = final_dir;
-        todo!("output helper")
+        let name = final_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .ok_or_else(|| Error::Model(format!("output directory {} has no name", final_dir.display())))?;
+        let parent = final_dir.parent().map(Path::to_path_buf).unwrap_or_default();
+        if !parent.as_os_str().is_empty() {
+            std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
+        }
+        let temp_dir = parent.join(format!("{name}.partial-{}", std::process::id()));
+        if temp_dir.exists() {
+            std::fs::remove_dir_all(&temp_dir).map_err(|e| Error::io(&temp_dir, e))?;
+        }
+        std::fs::create_dir(&temp_dir).map_err(|e| Error::io(&temp_dir, e))?;
+        Ok(StagedDir {
+            final_dir: final_dir.to_path_buf(),
+            temp_dir,
+            committed: false,
+        })
     }
+
     pub fn path(&self) -> &Path {
         &self.temp_dir
     }
-    pub fn commit(self) -> Result<PathBuf> {
-        todo!("output helper")
+
+    /// Replace any previous output by the staged one.
+    pub fn commit(mut self) -> Result<PathBuf> {
+        if self.final_dir.exists() {
+            std::fs::remove_dir_all(&self.final_dir).map_err(|e| Error::io(&self.final_dir, e))?;
+        }
+        std::fs::rename(&self.temp_dir, &self.final_dir).map_err(|e| Error::io(&self.final_dir, e))?;
+        self.committed = true;
+        Ok(self.final_dir.clone())
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.temp_dir);
+        }
     }
 }

@@ -1,14 +1,34 @@
-//! CSV tables and JSON summaries.
+//! CSV tables and JSON summaries, each written under a temporary name and renamed.
+use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::Result;
+use crate::{Error, Result};
 
+fn write_atomic(path: &Path, text: &str) -> Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(format!(".tmp-{}", std::process::id()));
+    let tmp = std::path::PathBuf::from(tmp);
+    std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+/// Numbers are written in the shortest form that reads back to the same f64.
 pub fn write_csv(path: &Path, header: &[String], rows: &[Vec<f64>]) -> Result<()> {
-    let _ = (path, header, rows);
-    todo!("output helper")
+    let mut s = header.join(",");
+    s.push('\n');
+    for row in rows {
+        for (i, v) in row.iter().enumerate() {
+            if i > 0 {
+                s.push(',');
+            }
+            let _ = write!(s, "{v:e}");
+        }
+        s.push('\n');
+    }
+    write_atomic(path, &s)
 }
 
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
-    let _ = (path, value);
-    todo!("output helper")
+    let text = serde_json::to_string_pretty(value).map_err(|e| Error::Model(format!("internal: JSON: {e}")))?;
+    write_atomic(path, &(text + "\n"))
 }

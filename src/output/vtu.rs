@@ -1,8 +1,14 @@
-//! VTU (XML unstructured grid) files and PVD collections.
+//! VTU (XML unstructured grid) files and PVD collections for ParaView.
+
 use std::path::Path;
 
-use crate::mesh::Mesh2d;
-use crate::Result;
+use vtkio::model::{
+    Attribute, Attributes, ByteOrder, CellType, Cells, DataSet, UnstructuredGridPiece, Version, VertexNumbers,
+};
+use vtkio::Vtk;
+
+use crate::mesh::{CellKind, Mesh2d};
+use crate::{Error, Result};
 
 /// A named array: `values.len() == count * components`.
 #[derive(Clone, Debug)]
@@ -12,12 +18,75 @@ pub struct Field {
     pub values: Vec<f64>,
 }
 
-pub fn write_vtu(path: &Path, mesh: &Mesh2d, point_fields: &[Field], cell_fields: &[Field]) -> Result<()> {
-    let _ = (path, mesh, point_fields, cell_fields);
-    todo!("output helper")
+fn cell_type(kind: CellKind) -> CellType {
+    // gmsh and VTK agree on the node order of these five kinds (corners, mid-edges, centre).
+    match kind {
+        CellKind::Tri3 => CellType::Triangle,
+        CellKind::Tri6 => CellType::QuadraticTriangle,
+        CellKind::Quad4 => CellType::Quad,
+        CellKind::Quad8 => CellType::QuadraticQuad,
+        CellKind::Quad9 => CellType::BiquadraticQuad,
+    }
 }
 
+fn check(path: &Path, f: &Field, count: usize) -> Result<()> {
+    if f.values.len() != count * f.components {
+        return Err(Error::Model(format!(
+            "internal: field {} has {} values for {count} × {} ({})",
+            f.name,
+            f.values.len(),
+            f.components,
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Write the body cells with point and cell fields. Every mesh node is a point (obstacle nodes
+/// simply belong to no cell), so point fields have one tuple per mesh node.
+pub fn write_vtu(path: &Path, mesh: &Mesh2d, point_fields: &[Field], cell_fields: &[Field]) -> Result<()> {
+    let points: Vec<f64> = mesh.nodes.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
+    let mut connectivity = Vec::new();
+    let mut offsets = Vec::with_capacity(mesh.cells.len());
+    let mut types = Vec::with_capacity(mesh.cells.len());
+    for c in &mesh.cells {
+        connectivity.extend(c.nodes.iter().map(|&n| n as u64));
+        offsets.push(connectivity.len() as u64);
+        types.push(cell_type(c.kind));
+    }
+    let mut data = Attributes::new();
+    for f in point_fields {
+        check(path, f, mesh.nodes.len())?;
+        data.point.push(Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()));
+    }
+    for f in cell_fields {
+        check(path, f, mesh.cells.len())?;
+        data.cell.push(Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()));
+    }
+    let vtk = Vtk {
+        // 1.0 (as fenris does) so that ParaView reads 64-bit offsets without a warning.
+        version: Version { major: 1, minor: 0 },
+        title: String::new(),
+        byte_order: ByteOrder::LittleEndian,
+        file_path: None,
+        data: DataSet::inline(UnstructuredGridPiece {
+            points: points.into(),
+            cells: Cells {
+                cell_verts: VertexNumbers::XML { connectivity, offsets },
+                types,
+            },
+            data,
+        }),
+    };
+    vtk.export(path).map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
+}
+
+/// A ParaView collection of (time, file relative to the .pvd) entries.
 pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<()> {
-    let _ = (path, entries);
-    todo!("output helper")
+    let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+    for (t, file) in entries {
+        s.push_str(&format!("    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"));
+    }
+    s.push_str("  </Collection>\n</VTKFile>\n");
+    std::fs::write(path, s).map_err(|e| Error::io(path, e))
 }

@@ -1,0 +1,38 @@
+"""pvbatch script: open a .pvd, check its time steps and a point array, warp by it, save a PNG.
+
+usage: pvbatch paraview_check.py SERIES.pvd OUT.png ARRAY EXPECTED_STEPS
+"""
+import os
+import sys
+
+from paraview.simple import (GetAnimationScene, GetActiveViewOrCreate, PVDReader, Render,
+                             SaveScreenshot, Show, UpdatePipeline, WarpByVector, ColorBy)
+
+pvd, png, array, steps = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
+reader = PVDReader(FileName=pvd)
+UpdatePipeline()
+times = list(reader.TimestepValues)
+if len(times) != steps:
+    print(f"paraview_check: FAIL: {len(times)} time steps, expected {steps}")
+    sys.exit(1)
+names = reader.PointData.keys()
+if array not in names:
+    print(f"paraview_check: FAIL: point array {array} missing; have {names}")
+    sys.exit(1)
+warp = WarpByVector(Input=reader)
+warp.Vectors = ["POINTS", array]
+warp.ScaleFactor = 100.0
+view = GetActiveViewOrCreate("RenderView")
+view.ViewSize = [800, 600]
+display = Show(warp, view)
+ColorBy(display, ("POINTS", array, "Magnitude"))
+scene = GetAnimationScene()
+scene.UpdateAnimationUsingDataTimeSteps()
+scene.AnimationTime = times[len(times) // 4]
+view.ResetCamera()
+Render(view)
+SaveScreenshot(png, view, ImageResolution=[800, 600])
+if not os.path.exists(png) or os.path.getsize(png) < 10000:
+    print("paraview_check: FAIL: no screenshot")
+    sys.exit(1)
+print(f"paraview_check: OK: {len(times)} steps, arrays {names}, screenshot {png}")
