@@ -1,1 +1,154 @@
-fn main() {}
+//! The `hbcontact` command. `main` is the only place that prints an error and picks the exit
+//! code: 0 success, 2 bad input (pipeline, geometry, mesh, gmsh), 3 a model that cannot be
+//! solved as set up, 4 the nonlinear solver did not converge, 5 writing results failed.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use hbcontact::config::load_pipeline;
+use hbcontact::pipeline::{self, RunOptions};
+use hbcontact::Error;
+
+#[derive(Parser)]
+#[command(name = "hbcontact", version, about = "Periodic steady-state vibration of 2-D elastic bodies with unilateral contact, by harmonic-balance finite elements")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Args)]
+struct Common {
+    /// The pipeline YAML.
+    pipeline: PathBuf,
+    /// Override a pipeline value, e.g. `--set harmonic_balance.harmonics=20` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Write results here instead of `output.directory`.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compute the periodic steady state by harmonic balance and write the results.
+    Run(Common),
+    /// March in time from rest to the periodic state (the cross-check) and write the results.
+    Transient(Common),
+    /// Validate the pipeline and the geometry's groups without solving.
+    Check(Common),
+    /// What accuracy costs: run ladders of settings and tabulate error against wall time.
+    Accuracy {
+        #[command(flatten)]
+        common: Common,
+        /// A ladder `key=v1,v2,...` (cheapest first; the last value is the reference), e.g.
+        /// `harmonic_balance.harmonics=5,10,20,40` or `geometry.mesh_size=0.004,0.002,0.001`
+        /// (repeatable). Default: harmonics H/4, H/2, H, 2H for contact scenes and element
+        /// order 1, 2.
+        #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
+        ladders: Vec<String>,
+    },
+}
+
+fn exit_code(e: &Error) -> u8 {
+    match e {
+        Error::Config { .. } | Error::Gmsh(_) | Error::Mesh { .. } => 2,
+        Error::Model(_) => 3,
+        Error::NotConverged(_) => 4,
+        Error::Io { .. } => 5,
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let (common, result) = match &cli.command {
+        Command::Run(c) => (c, run(c, Mode::Run)),
+        Command::Transient(c) => (c, run(c, Mode::Transient)),
+        Command::Check(c) => (c, run(c, Mode::Check)),
+        Command::Accuracy { common, ladders } => (common, accuracy(common, ladders)),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let _ = common;
+            eprintln!("error: {e}");
+            ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Mode {
+    Run,
+    Transient,
+    Check,
+}
+
+fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let options = RunOptions {
+        out: c.out.clone(),
+        quiet: c.quiet,
+    };
+    match mode {
+        Mode::Run => {
+            pipeline::run(&pipeline, &options)?;
+        }
+        Mode::Transient => {
+            pipeline::run_transient(&pipeline, &options)?;
+        }
+        Mode::Check => {
+            let report = pipeline::check(&pipeline, &options)?;
+            if !c.quiet {
+                println!("{}", serde_json::to_string_pretty(&report).unwrap_or_default());
+                println!("ok: {} is valid", c.pipeline.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
+    use hbcontact::pipeline::accuracy::{study, table, Ladder};
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let mut parsed = Vec::new();
+    for l in ladders {
+        let Some((key, values)) = l.split_once('=') else {
+            return Err(Error::Config {
+                path: c.pipeline.clone(),
+                message: format!("--ladder {l}: expected KEY=V1,V2,... (e.g. harmonic_balance.harmonics=5,10,20)"),
+            });
+        };
+        parsed.push(Ladder {
+            key: key.trim().to_string(),
+            values: values.split(',').map(|v| v.trim().to_string()).filter(|v| !v.is_empty()).collect(),
+        });
+    }
+    if parsed.is_empty() {
+        let h = pipeline.harmonic_balance.harmonics.max(1);
+        if pipeline.contact.is_some() {
+            parsed.push(Ladder {
+                key: "harmonic_balance.harmonics".into(),
+                values: [h / 4, h / 2, h, 2 * h].iter().filter(|&&v| v >= 1).map(|v| v.to_string()).collect(),
+            });
+        }
+        parsed.push(Ladder {
+            key: "geometry.order".into(),
+            values: vec!["1".into(), "2".into()],
+        });
+    }
+    let out = c.out.clone().unwrap_or_else(|| {
+        let mut d = pipeline.output.directory.clone().into_os_string();
+        d.push("-accuracy");
+        PathBuf::from(d)
+    });
+    let rungs = study(&c.pipeline, &c.set, &parsed, &out)?;
+    println!("{}", table(&rungs));
+    if !c.quiet {
+        eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
+    }
+    Ok(())
+}

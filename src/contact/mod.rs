@@ -1,1 +1,5 @@
-//! Rigid obstacles and the contact operator: B and g0 from boundary normals.
+//! Unilateral contact with rigid obstacles: candidates, normals and gaps (`geometry`), and the
+//! mass redistribution that removes the contact nodes' inertia (`mass`).
+
+pub mod geometry;
+pub mod mass;

@@ -1,0 +1,232 @@
+//! Contact candidates against a rigid obstacle: for each node of the tagged body boundary, the
+//! closest obstacle point, the unit normal n_i pointing from the body into the obstacle, and
+//! the initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload).
+
+use crate::config::{ContactSpec, ObstacleSpec};
+use crate::mesh::Mesh2d;
+use crate::{Error, Result};
+
+#[derive(Clone, Debug)]
+pub struct ContactSet {
+    /// Mesh node indices of the kept candidates, sorted.
+    pub nodes: Vec<usize>,
+    /// Unit normals from the body toward (into) the obstacle.
+    pub normals: Vec<[f64; 2]>,
+    /// Initial gaps along the normals.
+    pub gaps: Vec<f64>,
+    /// Closest obstacle points.
+    pub closest: Vec<[f64; 2]>,
+    /// Boundary length attributed to each node: pressure = force / (tributary × thickness).
+    /// 2-node edges give half their length to each end; 3-node edges their consistent weights
+    /// (1/6, 1/6, 2/3 of the length to end, end, middle).
+    pub tributary: Vec<f64>,
+    /// Nodes of the boundary group.
+    pub candidates: usize,
+    pub dropped_off_obstacle: usize,
+    pub dropped_beyond_search: usize,
+}
+
+fn suggest(name: &str, mesh: &Mesh2d) -> String {
+    let names = mesh.group_names();
+    let best = names
+        .iter()
+        .map(|n| (strsim::jaro_winkler(n, name), *n))
+        .filter(|(s, _)| *s > 0.7)
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let hint = best.map(|(_, n)| format!(" Did you mean `{n}`?")).unwrap_or_default();
+    format!("{hint} Groups in the mesh: {}", names.join(", "))
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// Outward unit normals of the body boundary at each candidate, averaged over its edges.
+fn outward_normals(mesh: &Mesh2d, group: &str) -> std::collections::HashMap<usize, [f64; 2]> {
+    use std::collections::HashMap;
+    // Which cell owns each boundary edge: the cell containing both end nodes.
+    let mut cells_of: HashMap<usize, Vec<usize>> = HashMap::new();
+    for (i, c) in mesh.cells.iter().enumerate() {
+        for &n in &c.nodes {
+            cells_of.entry(n).or_default().push(i);
+        }
+    }
+    let mut normals: HashMap<usize, [f64; 2]> = HashMap::new();
+    for e in mesh.edge_groups.get(group).map(Vec::as_slice).unwrap_or(&[]) {
+        let (a, b) = (e.nodes[0], e.nodes[1]);
+        let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
+        let t = sub(pb, pa);
+        let mut n = [t[1], -t[0]];
+        let owner = cells_of.get(&a).and_then(|ca| ca.iter().find(|c| mesh.cells[**c].nodes.contains(&b)));
+        if let Some(&c) = owner {
+            let k = mesh.cells[c].nodes.len() as f64;
+            let centroid = mesh.cells[c].nodes.iter().fold([0.0, 0.0], |s, &m| [s[0] + mesh.nodes[m][0] / k, s[1] + mesh.nodes[m][1] / k]);
+            if dot(n, sub(pa, centroid)) < 0.0 {
+                n = [-n[0], -n[1]];
+            }
+        }
+        for &m in &e.nodes {
+            let acc = normals.entry(m).or_insert([0.0, 0.0]);
+            acc[0] += n[0];
+            acc[1] += n[1];
+        }
+    }
+    for v in normals.values_mut() {
+        let l = dot(*v, *v).sqrt();
+        if l > 0.0 {
+            *v = [v[0] / l, v[1] / l];
+        }
+    }
+    normals
+}
+
+/// Build the candidates' normals and gaps.
+pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet> {
+    let Some(candidates) = mesh.node_groups.get(&spec.boundary) else {
+        return Err(Error::Model(format!("contact.boundary: no group `{}` in the mesh.{}", spec.boundary, suggest(&spec.boundary, mesh))));
+    };
+    let Some(edges) = mesh.edge_groups.get(&spec.boundary) else {
+        return Err(Error::Model(format!("contact.boundary: `{}` has no edges: it must be a curve of the body's boundary", spec.boundary)));
+    };
+    let body = mesh.body_nodes();
+    if candidates.iter().any(|n| body.binary_search(n).is_err()) {
+        return Err(Error::Model(format!("contact.boundary: `{}` has nodes outside the body (is it the obstacle curve?)", spec.boundary)));
+    }
+    // Tributary lengths.
+    let mut tributary = std::collections::HashMap::new();
+    for e in edges {
+        let (pa, pb) = (mesh.nodes[e.nodes[0]], mesh.nodes[e.nodes[1]]);
+        let len = if e.nodes.len() == 3 {
+            let pm = mesh.nodes[e.nodes[2]];
+            dot(sub(pm, pa), sub(pm, pa)).sqrt() + dot(sub(pb, pm), sub(pb, pm)).sqrt()
+        } else {
+            dot(sub(pb, pa), sub(pb, pa)).sqrt()
+        };
+        let weights: &[f64] = if e.nodes.len() == 3 { &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0] } else { &[0.5, 0.5] };
+        for (&n, w) in e.nodes.iter().zip(weights) {
+            *tributary.entry(n).or_insert(0.0) += w * len;
+        }
+    }
+    // The obstacle as a polyline of segments, for curves.
+    let segments: Vec<([f64; 2], [f64; 2])> = match &spec.obstacle {
+        ObstacleSpec::Curve { group } => {
+            if mesh.cell_groups.contains_key(group) {
+                return Err(Error::Model(format!("contact.obstacle.curve: `{group}` has 2-D cells; an obstacle must be a curve meshed as line elements only")));
+            }
+            let Some(obstacle_edges) = mesh.edge_groups.get(group) else {
+                return Err(Error::Model(format!("contact.obstacle.curve: no curve group `{group}` in the mesh.{}", suggest(group, mesh))));
+            };
+            if let Some(n) = mesh.node_groups.get(group).and_then(|g| g.iter().find(|n| body.binary_search(n).is_ok())) {
+                return Err(Error::Model(format!("contact.obstacle.curve: `{group}` shares node {n} with the body; draw the obstacle as a separate curve")));
+            }
+            let mut segs = Vec::new();
+            for e in obstacle_edges {
+                let p: Vec<[f64; 2]> = e.nodes.iter().map(|&n| mesh.nodes[n]).collect();
+                if p.len() == 3 {
+                    segs.push((p[0], p[2]));
+                    segs.push((p[2], p[1]));
+                } else {
+                    segs.push((p[0], p[1]));
+                }
+            }
+            segs
+        }
+        _ => Vec::new(),
+    };
+    // Curve end points: a closest point there is "off the obstacle".
+    let mut endpoint_count: Vec<([f64; 2], usize)> = Vec::new();
+    for (a, b) in &segments {
+        for p in [a, b] {
+            match endpoint_count.iter_mut().find(|(q, _)| (q[0] - p[0]).abs() < 1e-14 && (q[1] - p[1]).abs() < 1e-14) {
+                Some(e) => e.1 += 1,
+                None => endpoint_count.push((*p, 1)),
+            }
+        }
+    }
+    let ends: Vec<[f64; 2]> = endpoint_count.into_iter().filter(|(_, c)| *c == 1).map(|(p, _)| p).collect();
+    let outward = outward_normals(mesh, &spec.boundary);
+
+    let mut set = ContactSet {
+        nodes: Vec::new(),
+        normals: Vec::new(),
+        gaps: Vec::new(),
+        closest: Vec::new(),
+        tributary: Vec::new(),
+        candidates: candidates.len(),
+        dropped_off_obstacle: 0,
+        dropped_beyond_search: 0,
+    };
+    let mut smallest_gap = f64::INFINITY;
+    for &n in candidates {
+        let x = mesh.nodes[n];
+        let (closest, normal) = match &spec.obstacle {
+            ObstacleSpec::Line { point, normal } => {
+                let d = dot(sub(x, *point), *normal);
+                ([x[0] - d * normal[0], x[1] - d * normal[1]], [-normal[0], -normal[1]])
+            }
+            ObstacleSpec::Circle { center, radius, body_inside } => {
+                let r = sub(x, *center);
+                let len = dot(r, r).sqrt();
+                if len < 1e-300 {
+                    return Err(Error::Model(format!("contact: node {n} sits at the centre of the circle obstacle; its normal is undefined")));
+                }
+                let u = [r[0] / len, r[1] / len];
+                let c = [center[0] + radius * u[0], center[1] + radius * u[1]];
+                (c, if *body_inside { u } else { [-u[0], -u[1]] })
+            }
+            ObstacleSpec::Curve { .. } => {
+                let mut best = (f64::INFINITY, [0.0; 2], [0.0; 2]);
+                for (a, b) in &segments {
+                    let t = sub(*b, *a);
+                    let l2 = dot(t, t);
+                    let s = if l2 > 0.0 { (dot(sub(x, *a), t) / l2).clamp(0.0, 1.0) } else { 0.0 };
+                    let c = [a[0] + s * t[0], a[1] + s * t[1]];
+                    let d = dot(sub(x, c), sub(x, c));
+                    if d < best.0 {
+                        let l = l2.sqrt().max(1e-300);
+                        best = (d, c, [t[1] / l, -t[0] / l]);
+                    }
+                }
+                let (_, c, mut nrm) = best;
+                // Orient into the obstacle: along the body's outward normal.
+                let out = outward.get(&n).copied().unwrap_or(sub(c, x));
+                if dot(nrm, out) < 0.0 {
+                    nrm = [-nrm[0], -nrm[1]];
+                }
+                // Off the obstacle: the closest point is a free end and x is not straight across.
+                let at_end = ends.iter().any(|e| (e[0] - c[0]).abs() < 1e-14 && (e[1] - c[1]).abs() < 1e-14);
+                let v = sub(c, x);
+                let vl = dot(v, v).sqrt();
+                if at_end && vl > 0.0 && (dot(v, nrm) / vl).abs() < 1.0 - 1e-9 {
+                    set.dropped_off_obstacle += 1;
+                    continue;
+                }
+                (c, nrm)
+            }
+        };
+        let gap = dot(sub(closest, x), normal);
+        smallest_gap = smallest_gap.min(gap);
+        if let Some(limit) = spec.search_distance {
+            if gap > limit {
+                set.dropped_beyond_search += 1;
+                continue;
+            }
+        }
+        set.nodes.push(n);
+        set.normals.push(normal);
+        set.gaps.push(gap);
+        set.closest.push(closest);
+        set.tributary.push(tributary.get(&n).copied().unwrap_or(0.0));
+    }
+    if set.nodes.is_empty() {
+        return Err(Error::Model(format!(
+            "contact: none of the {} nodes of `{}` faces the obstacle ({} off the obstacle, {} farther than search_distance; smallest gap {smallest_gap:e}): extend the obstacle, raise contact.search_distance, or check the geometry",
+            set.candidates, spec.boundary, set.dropped_off_obstacle, set.dropped_beyond_search
+        )));
+    }
+    Ok(set)
+}

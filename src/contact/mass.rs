@@ -1,0 +1,138 @@
+//! The mass redistribution method (Khenous, Laborde, Renard, Eur. J. Mech. A/Solids 27, 2008):
+//! the contact nodes get no inertia, so a rigid obstacle stops them without an impulse and the
+//! periodic contact force has a converging Fourier series. Total mass and centre of mass are
+//! kept; the change of the moment of inertia is reported.
+//!
+//! On a diagonal mass: each contact node's mass moves to the non-contact nodes of the cells
+//! around it, in proportion to their own mass; then a minimum-norm correction of the receiving
+//! nodes' masses (Σδm = 0, Σδm·x = Δ, weights = what each received) restores the centre of mass
+//! exactly.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::mesh::Mesh2d;
+use crate::{Error, Result};
+
+pub struct Redistribution {
+    /// Diagonal mass over all dofs; exactly zero on the contact nodes' dofs.
+    pub mass: Vec<f64>,
+    /// The mass moved off the contact nodes (per unit thickness times thickness, as given).
+    pub moved_mass: f64,
+    /// `moved_mass` over the total mass.
+    pub moved_fraction: f64,
+    /// Relative change of the polar moment of inertia about the centre of mass.
+    pub inertia_change: f64,
+}
+
+fn moments(mesh: &Mesh2d, m: &[f64]) -> (f64, [f64; 2]) {
+    let mut total = 0.0;
+    let mut first = [0.0; 2];
+    for (n, p) in mesh.nodes.iter().enumerate() {
+        total += m[2 * n];
+        first[0] += m[2 * n] * p[0];
+        first[1] += m[2 * n] * p[1];
+    }
+    (total, first)
+}
+
+fn polar_inertia(mesh: &Mesh2d, m: &[f64], centre: [f64; 2]) -> f64 {
+    mesh.nodes
+        .iter()
+        .enumerate()
+        .map(|(n, p)| m[2 * n] * ((p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)))
+        .sum()
+}
+
+pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]) -> Result<Redistribution> {
+    let massless: BTreeSet<usize> = massless_nodes.iter().copied().collect();
+    let mut neighbours: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
+    for c in &mesh.cells {
+        for &a in &c.nodes {
+            for &b in &c.nodes {
+                if a != b {
+                    neighbours.entry(a).or_default().insert(b);
+                }
+            }
+        }
+    }
+    let (total, first) = moments(mesh, lumped);
+    if !(total > 0.0) {
+        return Err(Error::Model("mass redistribution: the body has no mass".into()));
+    }
+    let centre = [first[0] / total, first[1] / total];
+    let inertia_before = polar_inertia(mesh, lumped, centre);
+
+    let mut m: Vec<f64> = (0..mesh.nodes.len()).map(|n| lumped[2 * n]).collect();
+    let mut received = vec![0.0; mesh.nodes.len()];
+    let mut moved = 0.0;
+    for &c in &massless {
+        let mc = m[c];
+        if mc == 0.0 {
+            continue;
+        }
+        // First ring of non-contact nodes; widen once if the cells around are all contact nodes.
+        let mut ring: BTreeSet<usize> = neighbours.get(&c).cloned().unwrap_or_default();
+        ring.retain(|n| !massless.contains(n));
+        if ring.is_empty() {
+            let wider: BTreeSet<usize> = neighbours
+                .get(&c)
+                .into_iter()
+                .flatten()
+                .flat_map(|n| neighbours.get(n).into_iter().flatten().copied())
+                .filter(|n| !massless.contains(n))
+                .collect();
+            ring = wider;
+        }
+        let weight: f64 = ring.iter().map(|&n| lumped[2 * n]).sum();
+        if ring.is_empty() || !(weight > 0.0) {
+            return Err(Error::Model(format!(
+                "mass redistribution: contact node {c} has no non-contact neighbour to take its mass; refine the mesh near the contact boundary (at least two elements through the thickness)"
+            )));
+        }
+        for &n in &ring {
+            let share = mc * lumped[2 * n] / weight;
+            m[n] += share;
+            received[n] += share;
+        }
+        m[c] = 0.0;
+        moved += mc;
+    }
+    // Restore the first moment: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j) with w_j = received_j.
+    let (_, first_now) = {
+        let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
+        moments(mesh, &full)
+    };
+    let delta = [first[0] - first_now[0], first[1] - first_now[1]];
+    if moved > 0.0 {
+        let mut a = Matrix3::zeros();
+        for (n, &w) in received.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            let v = Vector3::new(1.0, mesh.nodes[n][0], mesh.nodes[n][1]);
+            a += v * v.transpose() * w;
+        }
+        let rhs = Vector3::new(0.0, delta[0], delta[1]);
+        let mu = a.lu().solve(&rhs).unwrap_or_else(Vector3::zeros);
+        for (n, &w) in received.iter().enumerate() {
+            if w > 0.0 {
+                m[n] += w * (mu[0] + mu[1] * mesh.nodes[n][0] + mu[2] * mesh.nodes[n][1]);
+            }
+        }
+    }
+    if let Some((n, v)) = m.iter().enumerate().find(|(n, v)| !massless.contains(n) && lumped[2 * n] > 0.0 && **v <= 0.0) {
+        return Err(Error::Model(format!(
+            "mass redistribution made node {n}'s mass non-positive ({v:e}): refine the mesh near the contact boundary"
+        )));
+    }
+    let mass: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
+    let inertia_after = polar_inertia(mesh, &mass, centre);
+    Ok(Redistribution {
+        mass,
+        moved_mass: moved,
+        moved_fraction: moved / total,
+        inertia_change: (inertia_after - inertia_before) / inertia_before,
+    })
+}
