@@ -1,18 +1,17 @@
-// A clamped strip [0, L] x [0, H] whose underside near the free end ("contact", the last
-// contact_length of the bottom edge) can strike a rigid wall y = -gap, drawn as a separate
-// curve ("wall", meshed as line elements only).
+// A clamped strip [0, L] x [0, H] whose free end face ("tip", x = L) can strike a rigid wall
+// x = L + gap, drawn as a separate curve ("wall", meshed as line elements only). The top edge
+// is split at L/2 so that a node ("probe") sits there.
 DefineConstant[
   L = {0.2, Name "Parameters/L"},
   H = {0.01, Name "Parameters/H"},
-  contact_length = {0.02, Name "Parameters/contact_length"},
-  gap = {2e-4, Name "Parameters/gap"},
-  lc = {0.0025, Name "Parameters/lc"},
+  gap = {1e-7, Name "Parameters/gap"},
+  lc = {0.00125, Name "Parameters/lc"},
   quads = {0, Name "Parameters/quads"}
 ];
 Point(1) = {0, 0, 0, lc};
-Point(2) = {L - contact_length, 0, 0, lc/2};
-Point(3) = {L, 0, 0, lc/2};
-Point(4) = {L, H, 0, lc};
+Point(2) = {L, 0, 0, lc};
+Point(3) = {L, H, 0, lc};
+Point(4) = {L/2, H, 0, lc};
 Point(5) = {0, H, 0, lc};
 Line(1) = {1, 2};
 Line(2) = {2, 3};
@@ -24,14 +23,14 @@ Plane Surface(1) = {1};
 If (quads)
   Recombine Surface{1};
 EndIf
-Point(10) = {L - 2*contact_length, -gap, 0, lc/2};
-Point(11) = {L + contact_length, -gap, 0, lc/2};
+Point(10) = {L + gap, -H/2, 0, lc};
+Point(11) = {L + gap, 1.5 * H, 0, lc};
 Line(10) = {10, 11};
 Physical Curve("bottom") = {1};
-Physical Curve("contact") = {2};
-Physical Curve("tip") = {3};
-Physical Curve("top") = {4};
+Physical Curve("tip") = {2};
+Physical Curve("top") = {3, 4};
 Physical Curve("clamp") = {5};
 Physical Point("probe") = {4};
+Physical Point("tip_corner") = {3};
 Physical Surface("body") = {1};
 Physical Curve("wall") = {10};

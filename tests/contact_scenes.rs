@@ -8,14 +8,14 @@ use hbcontact::hbm::{self, fourier};
 use hbcontact::pipeline::{Model, Purpose};
 use hbcontact::transient::{self, ContactRows, TransientProblem, TransientSettings};
 
-/// Mean y displacement of the probe nodes over one period at `samples` instants.
+/// Mean x displacement (the strip's axial motion) of the probe nodes over one period.
 fn probe_series(model: &Model, solution: &hbm::Solution, samples: usize) -> Vec<f64> {
     let nodes = &model.probes[0].1;
     let period = 2.0 * std::f64::consts::PI / solution.omega;
     (0..samples)
         .map(|j| {
             let u = solution.field_at(&model.system.dofs, j as f64 * period / samples as f64, 0);
-            nodes.iter().map(|&n| u[2 * n + 1]).sum::<f64>() / nodes.len() as f64
+            nodes.iter().map(|&n| u[2 * n]).sum::<f64>() / nodes.len() as f64
         })
         .collect()
 }
@@ -174,18 +174,18 @@ fn closed_contact_equals_the_constrained_linear_solve() {
     }
 }
 
-/// TEST GOAL: on the strip striking a wall, the probe amplitude converges toward a high-H
-/// reference as H grows, and the complementarity violation of the truncated series stays
-/// below a stated bound and shrinks with H.
+/// TEST GOAL: on the strip striking a wall, the probe's first-harmonic amplitude converges
+/// toward a high-H reference as H grows, and the complementarity violation of the truncated
+/// series stays below a stated bound (0.15 of the force and gap scales) and shrinks with H.
 #[test]
 fn strip_converges_in_h_and_complementarity_violation_shrinks() {
     let run = |h: usize| {
         let p = common::scene("strip_wall", &[&format!("harmonic_balance.harmonics={h}")]);
         let model = common::model(&p, Purpose::HarmonicBalance);
         let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("H = {h}: {e}"));
-        let amp = half_range(&probe_series(&model, &s, 1024));
+        let (_, first) = mean_and_first(&probe_series(&model, &s, 1024));
         let c = s.contact.as_ref().unwrap();
-        (amp, c.complementarity.violation, c.newton.iterations)
+        (first, c.complementarity.violation, c.newton.iterations)
     };
     let (reference, _, _) = run(60);
     let mut errors = Vec::new();
@@ -193,47 +193,76 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
     for h in [5, 10, 20, 40] {
         let (amp, violation, iterations) = run(h);
         let err = (amp - reference).abs() / reference;
-        println!("H = {h:>2}: amplitude {amp:.6e}, error vs H = 60 {err:.3e}, complementarity violation {violation:.3e}, {iterations} Newton iterations");
+        println!("H = {h:>2}: first-harmonic probe amplitude {amp:.6e}, error vs H = 60 {err:.3e}, complementarity violation {violation:.3e}, {iterations} Newton iterations");
         errors.push(err);
         violations.push(violation);
     }
-    assert!(errors[3] < errors[0] && errors[2] < errors[0], "error must fall with H: {errors:?}");
-    assert!(errors[3] < 2e-3, "{errors:?}");
-    assert!(violations[3] < violations[0], "violation must shrink with H: {violations:?}");
-    assert!(violations.iter().all(|&v| v < 0.1), "violation bound 0.1: {violations:?}");
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "error must fall with H: {errors:?}");
+    }
+    assert!(errors[3] < 1e-3, "{errors:?}");
+    assert!(violations[3] < violations[1], "violation must shrink with H: {violations:?}");
+    assert!(violations.iter().all(|&v| v < 0.15), "violation bound 0.15: {violations:?}");
 }
 
-/// TEST GOAL: mass redistribution is what makes the impact problem solvable: with the contact
-/// nodes' lumped mass the Newton stalls at high H and says what to change; with the mass
-/// redistributed it converges.
+/// TEST GOAL: a hard case is diagnosed, not answered wrongly: without stiffness-
+/// proportional damping the mesh's highest modes, excited by every impact, stay undamped and
+/// the H = 40 contact Newton stalls; it stops with a diagnosis that names what to change, and
+/// with the remedy it names (damping.beta) it converges.
 #[test]
-fn lumped_contact_mass_stalls_where_redistributed_mass_converges() {
-    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "contact.mass=lumped"]);
+fn undamped_impacts_stall_with_a_diagnosis_and_the_named_remedy_converges() {
+    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "damping.beta=0.0", "geometry.parameters.lc=0.005"]);
     let model = common::model(&p, Purpose::HarmonicBalance);
     match common::solve(&model, &p) {
         Err(hbcontact::Error::NotConverged(msg)) => {
-            assert!(msg.contains("redistributed"), "the diagnosis names the fix: {msg}");
-            println!("lumped, H = 40: {msg}");
+            assert!(msg.contains("damping.beta") && msg.contains("harmonic_balance.harmonics"), "the diagnosis names the fixes: {msg}");
+            println!("undamped, H = 40: {msg}");
         }
         Err(e) => panic!("wrong error: {e}"),
-        Ok(s) => panic!(
-            "lumped contact mass converged at H = 40 (violation {:.3e}); the test scene no longer shows the effect",
-            s.contact.unwrap().complementarity.violation
-        ),
+        Ok(s) => panic!("converged (violation {:.3e}): the scene no longer shows the hard case", s.contact.unwrap().complementarity.violation),
     }
-    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40"]);
+    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "geometry.parameters.lc=0.005"]);
     let model = common::model(&p, Purpose::HarmonicBalance);
-    let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("redistributed, H = 40: {e}"));
+    let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("with damping.beta, H = 40: {e}"));
     assert!(s.contact.unwrap().newton.converged);
 }
 
+/// TEST GOAL: the redistributed mass keeps total mass and centre of mass and takes all inertia
+/// off the contact nodes of the strip.
+#[test]
+fn redistributed_mass_keeps_total_mass_and_centre_of_mass() {
+    let p = common::scene("strip_wall", &[]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let c = model.contact.as_ref().unwrap();
+    let r = c.redistribution.as_ref().expect("redistributed");
+    let lumped = hbcontact::fem::assemble_mass(&model.mesh, &model.material, hbcontact::fem::MassKind::Lumped).unwrap().diagonal();
+    let moments = |m: &[f64]| {
+        let mut t = [0.0; 3];
+        for (n, x) in model.mesh.nodes.iter().enumerate() {
+            t[0] += m[2 * n];
+            t[1] += m[2 * n] * x[0];
+            t[2] += m[2 * n] * x[1];
+        }
+        t
+    };
+    let (a, b) = (moments(&lumped), moments(&r.mass));
+    assert!((a[0] - b[0]).abs() < 1e-12 * a[0]);
+    assert!((a[1] / a[0] - b[1] / b[0]).abs() < 1e-12 && (a[2] / a[0] - b[2] / b[0]).abs() < 1e-12);
+    for &n in &c.set.nodes {
+        assert_eq!(r.mass[2 * n], 0.0);
+        assert_eq!(r.mass[2 * n + 1], 0.0);
+    }
+    assert!(model.mesh.body_nodes().iter().filter(|n| !c.set.nodes.contains(n)).all(|&n| r.mass[2 * n] > 0.0));
+    println!("moved {:.3}% of the mass; polar inertia changed by {:.2e}", 100.0 * r.moved_fraction, r.inertia_change);
+}
+
 /// TEST GOAL: harmonic balance and explicit time marching (same mesh, same redistributed
-/// mass, same damping) agree on the strip in probe amplitude and in the mean and first
-/// harmonic of the total contact force, more closely as H grows.
+/// mass, same damping) agree on the strip in the probe's first-harmonic amplitude and in the
+/// mean and first harmonic of the total contact force, more closely as H grows.
 #[test]
 fn strip_agrees_with_time_marching() {
-    let overrides = ["damping.alpha=150.0"];
-    let p = common::scene("strip_wall", &overrides);
+    let coarse = "geometry.parameters.lc=0.0025";
+    let p = common::scene("strip_wall", &[coarse]);
     let model = common::model(&p, Purpose::Transient);
     let system = &model.system;
     let dofs = &system.dofs;
@@ -253,7 +282,7 @@ fn strip_agrees_with_time_marching() {
     };
     let op = &model.contact.as_ref().unwrap().operator;
     let probe_node = model.probes[0].1[0];
-    let probe_dof = dofs.free_of[2 * probe_node + 1];
+    let probe_dof = dofs.free_of[2 * probe_node];
     let problem = TransientProblem {
         stiffness: &system.k_ff,
         mass: &mass,
@@ -265,33 +294,37 @@ fn strip_agrees_with_time_marching() {
     };
     let settings = TransientSettings {
         courant: 0.8,
-        periodic_tolerance: 1e-7,
+        periodic_tolerance: 1e-8,
         max_periods: 400,
         samples_per_period: 64,
     };
     let tr = transient::run_to_periodic(&problem, &settings, None).unwrap_or_else(|e| panic!("{e}"));
     assert!(tr.converged, "time marching did not reach a periodic state");
-    let amp_tr = half_range(&tr.probe_history[0]);
+    let (_, amp_tr) = mean_and_first(&tr.probe_history[0]);
     let totals: Vec<f64> = tr.total_contact_history.iter().map(|v| -v).collect();
     let (mean_tr, first_tr) = mean_and_first(&totals);
-    println!("transient: {} periods, {} steps/period, amplitude {amp_tr:.6e}, mean force {mean_tr:.5e}, first harmonic {first_tr:.5e}", tr.periods, tr.steps_per_period);
-
+    println!(
+        "transient: {} periods, {} steps/period, {:.2} s; first-harmonic amplitude {amp_tr:.6e}, mean force {mean_tr:.5e}, first harmonic {first_tr:.5e}",
+        tr.periods,
+        tr.steps_per_period,
+        tr.wall_time.as_secs_f64()
+    );
     let mut amp_errors = Vec::new();
-    for h in [5usize, 10, 20] {
-        let q = common::scene("strip_wall", &[overrides[0], &format!("harmonic_balance.harmonics={h}")]);
+    for h in [5usize, 10, 20, 40] {
+        let q = common::scene("strip_wall", &[coarse, &format!("harmonic_balance.harmonics={h}")]);
         let s = common::solve(&model, &q).unwrap_or_else(|e| panic!("H = {h}: {e}"));
-        let amp = half_range(&probe_series(&model, &s, 2048));
+        let (_, amp) = mean_and_first(&probe_series(&model, &s, 2048));
         let (mean, first) = mean_and_first(&total_force_series(&s, 2048));
         let e_amp = (amp - amp_tr).abs() / amp_tr;
         let e_mean = (mean - mean_tr).abs() / mean_tr;
         let e_first = (first - first_tr).abs() / first_tr;
-        println!("H = {h:>2}: amplitude error {e_amp:.3e}, mean force error {e_mean:.3e}, first-harmonic error {e_first:.3e}");
+        println!("H = {h:>2}: amplitude error {e_amp:.3e}, mean force error {e_mean:.3e}, first-harmonic force error {e_first:.3e}");
         amp_errors.push(e_amp);
-        if h == 20 {
-            assert!(e_amp < 0.02, "amplitude within 2% at H = 20: {e_amp:e}");
-            assert!(e_mean < 0.02, "mean contact force within 2% at H = 20: {e_mean:e}");
-            assert!(e_first < 0.03, "first harmonic of the contact force within 3% at H = 20: {e_first:e}");
+        if h == 40 {
+            assert!(e_amp < 2e-3, "amplitude within 0.2% at H = 40: {e_amp:e}");
+            assert!(e_mean < 5e-3, "mean contact force within 0.5% at H = 40: {e_mean:e}");
+            assert!(e_first < 5e-3, "first harmonic of the contact force within 0.5% at H = 40: {e_first:e}");
         }
     }
-    assert!(amp_errors[2] < amp_errors[0], "agreement must tighten with H: {amp_errors:?}");
+    assert!(amp_errors[3] < amp_errors[0], "agreement must tighten with H: {amp_errors:?}");
 }

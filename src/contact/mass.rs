@@ -4,9 +4,8 @@
 //! kept; the change of the moment of inertia is reported.
 //!
 //! On a diagonal mass: each contact node's mass moves to the non-contact nodes of the cells
-//! around it, in proportion to their own mass; then a minimum-norm correction of the receiving
-//! nodes' masses (Σδm = 0, Σδm·x = Δ, weights = what each received) restores the centre of mass
-//! exactly.
+//! around it, in proportion to their own mass; then a minimum-norm, mass-weighted correction of
+//! all nodal masses (Σδm = 0, Σδm·x = Δ) restores the centre of mass exactly.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -99,7 +98,10 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
         m[c] = 0.0;
         moved += mc;
     }
-    // Restore the first moment: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j) with w_j = received_j.
+    // Restore the first moment: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j), w_j = m_j over all massive
+    // nodes. (Correcting the receiving ring alone can need negative masses: on a flat contact
+    // face every receiver lies on the same side of the moved mass.)
+    let weights: Vec<f64> = m.iter().enumerate().map(|(n, &v)| if massless.contains(&n) { 0.0 } else { v }).collect();
     let (_, first_now) = {
         let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
         moments(mesh, &full)
@@ -107,7 +109,7 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
     let delta = [first[0] - first_now[0], first[1] - first_now[1]];
     if moved > 0.0 {
         let mut a = Matrix3::zeros();
-        for (n, &w) in received.iter().enumerate() {
+        for (n, &w) in weights.iter().enumerate() {
             if w == 0.0 {
                 continue;
             }
@@ -116,7 +118,7 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
         }
         let rhs = Vector3::new(0.0, delta[0], delta[1]);
         let mu = a.lu().solve(&rhs).unwrap_or_else(Vector3::zeros);
-        for (n, &w) in received.iter().enumerate() {
+        for (n, &w) in weights.iter().enumerate() {
             if w > 0.0 {
                 m[n] += w * (mu[0] + mu[1] * mesh.nodes[n][0] + mu[2] * mesh.nodes[n][1]);
             }

@@ -421,7 +421,7 @@ fn solve_contact(
     timings.reduce += start.elapsed().as_secs_f64();
 
     let start = Instant::now();
-    let newton_settings = |hh: usize| NewtonSettings {
+    let newton_settings = |hh: usize, c: f64| NewtonSettings {
         samples: if hh == h {
             settings.samples
         } else {
@@ -433,51 +433,68 @@ fn solve_contact(
         max_iterations: settings.max_iterations,
         dense_limit: reduced::DENSE_LIMIT,
     };
-    progress(&format!("contact Newton: H = {h}, N = {}, {nc} nodes", settings.samples));
-    let mut outcome = reduced::newton(&problem, &newton_settings(h), &vec![0.0; nc * m]);
-    let mut ladder = vec![h];
-    if !outcome.converged && h >= 2 {
-        // Climb from a low H, each rung warm-starting the next: the low harmonics of an
-        // impact response are found first and the high ones refined after.
+    // Globalization, cheapest first: the plain Newton; then climbing the harmonic ladder from
+    // a low H (each rung warm-starting the next: the low harmonics of an impact response are
+    // found first); then both again with c ten times smaller (a softer penalty on the gap,
+    // method.md: the c that converges is a band).
+    let attempt = |c: f64, total: &mut usize, log: &mut Vec<IterationLog>, reasons: &mut Vec<String>| -> Option<(NewtonOutcome, Vec<usize>)> {
+        progress(&format!("contact Newton: H = {h}, N = {}, {nc} nodes, c = {c:.3e}", settings.samples));
+        let o = reduced::newton(&problem, &newton_settings(h, c), &vec![0.0; nc * m]);
+        *total += o.iterations;
+        log.extend(o.log.iter().cloned());
+        if o.converged {
+            return Some((o, vec![h]));
+        }
+        reasons.push(format!("direct at c = {c:.3e}: {}", o.reason));
+        if h < 2 {
+            return None;
+        }
         let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2].into_iter().filter(|&r| r >= 1).collect();
         rungs.dedup();
         rungs.push(h);
-        progress(&format!("contact Newton: direct solve failed ({}); climbing H = {rungs:?}", outcome.reason));
+        progress(&format!("contact Newton: climbing H = {rungs:?}"));
         let mut x = vec![0.0; nc * 3];
         let mut prev = 1;
-        let mut total_iterations = outcome.iterations;
-        let mut log = outcome.log.clone();
-        let mut rung_outcome = None;
         for &rung in &rungs {
             let start_x = reduced::pad(&x, nc, prev, rung);
-            let sub = problem.truncate(rung);
-            let o = reduced::newton(&sub, &newton_settings(rung), &start_x);
-            total_iterations += o.iterations;
+            let o = reduced::newton(&problem.truncate(rung), &newton_settings(rung, c), &start_x);
+            *total += o.iterations;
             log.extend(o.log.iter().cloned());
-            let ok = o.converged;
+            if !o.converged {
+                reasons.push(format!("ladder at c = {c:.3e} failed at H = {rung}: {}", o.reason));
+                return None;
+            }
             x = o.multipliers.clone();
             prev = rung;
-            rung_outcome = Some(o);
-            if !ok {
-                break;
+            if rung == h {
+                return Some((o, rungs));
             }
         }
-        if let Some(mut o) = rung_outcome {
-            if o.converged && prev == h {
-                o.iterations = total_iterations;
-                o.log = log;
-                outcome = o;
-                ladder = rungs;
-            } else {
-                outcome.reason = format!("{}; the harmonic ladder also failed at H = {prev} ({})", outcome.reason, o.reason);
-                outcome.iterations = total_iterations;
-            }
+        None
+    };
+    let (mut total, mut log, mut reasons) = (0usize, Vec::new(), Vec::new());
+    let mut found = None;
+    for c_try in [c, 0.1 * c] {
+        if let Some((o, ladder)) = attempt(c_try, &mut total, &mut log, &mut reasons) {
+            found = Some((o, ladder, c_try));
+            break;
         }
     }
     timings.newton += start.elapsed().as_secs_f64();
-    if !outcome.converged {
-        return Err(stall_diagnosis(system, settings, &outcome));
-    }
+    let Some((mut outcome, ladder, c)) = found else {
+        let last = log.last().cloned();
+        let failed = NewtonOutcome {
+            multipliers: Vec::new(),
+            converged: false,
+            iterations: total,
+            relative_residual: last.as_ref().map_or(f64::NAN, |l| l.residual),
+            log,
+            reason: reasons.join("; "),
+        };
+        return Err(stall_diagnosis(system, settings, &failed));
+    };
+    outcome.iterations = total;
+    outcome.log = log;
     let gaps = problem.gap(&outcome.multipliers);
     let complementarity = measure_complementarity(&problem, &outcome.multipliers, &gaps, settings.samples);
     Ok(ContactSolution {
@@ -513,8 +530,12 @@ fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutco
             settings.c_scale
         ));
     }
-    if system.rayleigh.is_none() {
-        advice.push("add a little damping (the scene has none)".into());
+    match system.rayleigh {
+        None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
+        Some((_, beta)) if beta == 0.0 => advice.push(
+            "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
+        ),
+        _ => {}
     }
     advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
     let last = outcome.log.last();

@@ -189,11 +189,6 @@ pub fn run_to_periodic(
     let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
     let z: Vec<usize> = (0..n).filter(|&i| mass[i] <= 0.0).collect();
     let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
-    if !z.is_empty() && beta != 0.0 {
-        return Err(Error::Model(
-            "time marching with massless (redistributed) contact nodes supports mass-proportional damping only: set damping.beta = 0 and use damping.alpha".into(),
-        ));
-    }
     let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
     // Contact rows as dense small vectors over the dofs they touch.
     let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nc];
@@ -294,8 +289,11 @@ pub fn run_to_periodic(
         times.push(i as f64 * problem.period / s as f64);
     }
 
-    // Condense the massless dofs for the current massive state (and time t).
-    let condense = |u: &mut [f64], f: &[f64], lambda: &mut [f64], active: &mut [bool]| -> Result<()> {
+    // Condense the massless dofs. Their rows carry no inertia but do carry stiffness-
+    // proportional damping: K_z·(u + βu̇) = f_z + B_zᵀλ is static in w = u + βu̇, and u_z
+    // follows from w_z by backward Euler, u_z' = s w_z + (1 − s) u_z with s = 1/(1 + β/Δt).
+    // `w` holds u + βu̇ on the massive dofs; `uz_old` the massless dofs' last values.
+    let condense = |w: &[f64], out: &mut [f64], uz_old: &[f64], s_weight: f64, f: &[f64], lambda: &mut [f64], active: &mut [bool]| -> Result<()> {
         let Some(c) = &condensation else { return Ok(()) };
         let nz = c.z.len();
         let mut rhs = DVector::zeros(nz);
@@ -304,31 +302,38 @@ pub fn run_to_periodic(
             for p in k.col_ptr[j]..k.col_ptr[j + 1] {
                 let r = k.row_idx[p];
                 if !is_z[r] {
-                    sum -= k.values[p] * u[r];
+                    sum -= k.values[p] * w[r];
                 }
             }
             rhs[a] = sum;
         }
-        let mut uz = &c.kzz_inv * &rhs;
+        let mut wz = &c.kzz_inv * &rhs;
+        let old = DVector::from_iterator(nz, c.z.iter().map(|&j| uz_old[j]));
         if condensed_contact {
-            let gap = &c.bz * &uz;
+            let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
+            let gap = &c.bz * &predicted;
             let q: Vec<f64> = (0..nc).map(|i| gap[i] - problem.contact.as_ref().map_or(0.0, |cr| cr.g0[i])).collect();
-            let p = solve_lcp(&c.w, &q, active)?;
+            let p = solve_lcp(&(&c.w * s_weight), &q, active)?;
             for i in 0..nc {
                 lambda[i] = -p[i];
             }
             let lam = DVector::from_iterator(nc, lambda.iter().copied());
-            uz += &c.kzz_inv * (c.bz.transpose() * lam);
+            wz += &c.kzz_inv * (c.bz.transpose() * lam);
         }
+        let uz = (&wz * s_weight) + (&old * (1.0 - s_weight));
         for (a, &j) in c.z.iter().enumerate() {
-            u[j] = uz[a];
+            out[j] = uz[a];
         }
         Ok(())
     };
+    let s_weight = 1.0 / (1.0 + beta / dt);
+    let mut w_massive = vec![0.0; n];
 
     let mut t = 0.0;
     (problem.force)(t, &mut f);
-    condense(&mut u, &f, &mut lambda, &mut active)?;
+    // At rest: the static state of the massless dofs (s = 1).
+    let rest = u.clone();
+    condense(&rest, &mut u, &rest, 1.0, &f, &mut lambda, &mut active)?;
     u_prev.copy_from_slice(&u);
     while periods < settings.max_periods {
         for step in 0..steps {
@@ -363,7 +368,10 @@ pub fn run_to_periodic(
             let t_next = t + dt;
             if condensation.is_some() {
                 (problem.force)(t_next, &mut f);
-                condense(&mut u_next, &f, &mut lambda, &mut active)?;
+                for i in 0..n {
+                    w_massive[i] = if is_z[i] { 0.0 } else { u_next[i] + beta * (u_next[i] - u[i]) / dt };
+                }
+                condense(&w_massive, &mut u_next, &u, s_weight, &f, &mut lambda, &mut active)?;
             }
             for i in 0..n {
                 v_half[i] = (u_next[i] - u[i]) / dt;
