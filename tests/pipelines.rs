@@ -187,3 +187,34 @@ fn bad_input_fails_cleanly() {
     assert!(String::from_utf8_lossy(&result.stderr).contains("contact"));
     run_ok(&["check", "pipelines/strip_wall.yaml", "--quiet"]);
 }
+
+/// What accuracy costs: the `accuracy` command runs ladders, tabulates error against wall
+/// time and plots it; on the strip, the error falls as H rises.
+#[test]
+fn accuracy_study_reports_error_against_cost() {
+    let out = common::temp_out("strip-accuracy");
+    let result = common::hbcontact(&[
+        "accuracy",
+        "pipelines/strip_wall.yaml",
+        "--quiet",
+        "--ladder",
+        "harmonic_balance.harmonics=5,10,20,40",
+        "--ladder",
+        "geometry.parameters.lc=0.005,0.0025",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
+    assert!(stdout.contains("| harmonic_balance.harmonics | 20 |"), "{stdout}");
+    let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 6);
+    // Columns: value, seconds, amplitude, error, complementarity, iterations, dofs.
+    let errors: Vec<f64> = rows[..4].iter().map(|r| r[3]).collect();
+    assert!(errors[0] > errors[1] && errors[1] > errors[2] && errors[3] == 0.0, "{errors:?}");
+    assert!(rows.iter().all(|r| r[1] > 0.0), "every rung has a wall time");
+    assert!(rows[4][6] < rows[5][6], "the coarser mesh has fewer dofs");
+    let svg = std::fs::read_to_string(out.join("accuracy.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("polyline") && svg.contains("harmonic_balance.harmonics"));
+}
