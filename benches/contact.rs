@@ -20,7 +20,9 @@ fn summary(dir: &Path) -> Value {
 
 /// The probe's axial first-harmonic amplitude (smooth in H, unlike the peak).
 fn probe_amplitude(s: &Value) -> f64 {
-    s["probes"]["probe"]["first_harmonic_x"].as_f64().unwrap_or(f64::NAN)
+    s["probes"]["probe"]["first_harmonic_x"]
+        .as_f64()
+        .unwrap_or(f64::NAN)
 }
 
 fn main() {
@@ -78,7 +80,20 @@ fn main() {
         transient["transient"]["periods"], transient["transient"]["dt"].as_f64().unwrap_or(f64::NAN)
     );
 
-    println!("\n{:>4} {:>10} {:>10} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>14}", "H", "amplitude", "error", "wall s", "factor%", "reduce%", "newton%", "recover%", "write%", "iters", "transient/HB");
+    println!(
+        "\n{:>4} {:>10} {:>10} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>14}",
+        "H",
+        "amplitude",
+        "error",
+        "wall s",
+        "factor%",
+        "reduce%",
+        "newton%",
+        "recover%",
+        "write%",
+        "iters",
+        "transient/HB"
+    );
     let mut matched = None;
     for h in [5usize, 10, 20, 40] {
         let Some((secs, s)) = run_hb(h) else { continue };

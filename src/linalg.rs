@@ -113,8 +113,7 @@ impl Csc {
     /// y = A x.
     pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
         let mut y = vec![0.0; self.nrows];
-        for j in 0..self.ncols {
-            let xj = x[j];
+        for (j, &xj) in x.iter().enumerate().take(self.ncols) {
             if xj != 0.0 {
                 for p in self.col_ptr[j]..self.col_ptr[j + 1] {
                     y[self.row_idx[p]] += self.values[p] * xj;
@@ -167,7 +166,10 @@ impl Csc {
     }
 
     fn faer_real(&self) -> Result<SparseColMat<usize, f64>> {
-        let trip: Vec<Triplet<usize, usize, f64>> = self.triplet_iter().map(|(i, j, v)| Triplet::new(i, j, v)).collect();
+        let trip: Vec<Triplet<usize, usize, f64>> = self
+            .triplet_iter()
+            .map(|(i, j, v)| Triplet::new(i, j, v))
+            .collect();
         SparseColMat::try_new_from_triplets(self.nrows, self.ncols, &trip)
             .map_err(|e| Error::Model(format!("building a sparse matrix failed: {e:?}")))
     }
@@ -183,7 +185,10 @@ impl Csc {
     }
 
     fn triplet_iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
-        (0..self.ncols).flat_map(move |j| (self.col_ptr[j]..self.col_ptr[j + 1]).map(move |p| (self.row_idx[p], j, self.values[p])))
+        (0..self.ncols).flat_map(move |j| {
+            (self.col_ptr[j]..self.col_ptr[j + 1])
+                .map(move |p| (self.row_idx[p], j, self.values[p]))
+        })
     }
 }
 
@@ -251,7 +256,13 @@ impl SparseLu {
                     }
                 }
                 let x = lu.solve(&b);
-                (0..k).map(|c| (0..n).map(|i| c64::new(x[(i, 2 * c)], x[(i, 2 * c + 1)])).collect()).collect()
+                (0..k)
+                    .map(|c| {
+                        (0..n)
+                            .map(|i| c64::new(x[(i, 2 * c)], x[(i, 2 * c + 1)]))
+                            .collect()
+                    })
+                    .collect()
             }
             SparseLu::Complex(lu) => {
                 let mut b = Mat::<c64>::zeros(n, k);
@@ -261,7 +272,9 @@ impl SparseLu {
                     }
                 }
                 let x = lu.solve(&b);
-                (0..k).map(|c| (0..n).map(|i| x[(i, c)]).collect()).collect()
+                (0..k)
+                    .map(|c| (0..n).map(|i| x[(i, c)]).collect())
+                    .collect()
             }
         }
     }

@@ -11,7 +11,11 @@ use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::Error;
 
 #[derive(Parser)]
-#[command(name = "hbcontact", version, about = "Periodic steady-state vibration of 2-D elastic bodies with unilateral contact, by harmonic-balance finite elements")]
+#[command(
+    name = "hbcontact",
+    version,
+    about = "Periodic steady-state vibration of 2-D elastic bodies with unilateral contact, by harmonic-balance finite elements"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -103,7 +107,10 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
         Mode::Check => {
             let report = pipeline::check(&pipeline, &options)?;
             if !c.quiet {
-                println!("{}", serde_json::to_string_pretty(&report).unwrap_or_default());
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&report).unwrap_or_default()
+                );
                 println!("ok: {} is valid", c.pipeline.display());
             }
         }
@@ -124,7 +131,11 @@ fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
         };
         parsed.push(Ladder {
             key: key.trim().to_string(),
-            values: values.split(',').map(|v| v.trim().to_string()).filter(|v| !v.is_empty()).collect(),
+            values: values
+                .split(',')
+                .map(|v| v.trim().to_string())
+                .filter(|v| !v.is_empty())
+                .collect(),
         });
     }
     if parsed.is_empty() {
@@ -132,7 +143,11 @@ fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
         if pipeline.contact.is_some() {
             parsed.push(Ladder {
                 key: "harmonic_balance.harmonics".into(),
-                values: [h / 4, h / 2, h, 2 * h].iter().filter(|&&v| v >= 1).map(|v| v.to_string()).collect(),
+                values: [h / 4, h / 2, h, 2 * h]
+                    .iter()
+                    .filter(|&&v| v >= 1)
+                    .map(|v| v.to_string())
+                    .collect(),
             });
         }
         parsed.push(Ladder {

@@ -20,12 +20,6 @@ fn probe_series(model: &Model, solution: &hbm::Solution, samples: usize) -> Vec<
         .collect()
 }
 
-fn half_range(v: &[f64]) -> f64 {
-    let max = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
-    0.5 * (max - min)
-}
-
 /// Mean and first-harmonic magnitude of a periodic sampled signal.
 fn mean_and_first(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
@@ -47,7 +41,10 @@ fn total_force_series(solution: &hbm::Solution, samples: usize) -> Vec<f64> {
     (0..samples)
         .map(|j| {
             let t = j as f64 * period / samples as f64;
-            -c.multipliers.chunks(m).map(|k| fourier::evaluate(k, solution.omega, t)[0]).sum::<f64>()
+            -c.multipliers
+                .chunks(m)
+                .map(|k| fourier::evaluate(k, solution.omega, t)[0])
+                .sum::<f64>()
         })
         .collect()
 }
@@ -101,11 +98,23 @@ fn half_disc_matches_hertz_line_contact() {
         "Hertz: P = {load:.4e} N/m, a = {a:.5e} m (FE {half_width:.5e}, {closed} closed nodes, h = {h}), p0 = {p0:.5e} Pa (FE {peak:.5e}, {:+.3}%)",
         100.0 * (peak - p0) / p0
     );
-    assert!(closed >= 15, "the contact zone must be resolved by ~20 elements, got {closed} nodes");
-    assert!((peak - p0).abs() / p0 < 0.01, "peak pressure {peak:e} vs Hertz {p0:e}");
+    assert!(
+        closed >= 15,
+        "the contact zone must be resolved by ~20 elements, got {closed} nodes"
+    );
+    assert!(
+        (peak - p0).abs() / p0 < 0.01,
+        "peak pressure {peak:e} vs Hertz {p0:e}"
+    );
     // The last closed node lies within one element of the Hertz edge.
-    assert!((half_width - a).abs() <= h, "half-width {half_width:e} vs Hertz {a:e} (h = {h})");
-    assert!(contact.complementarity.violation < 1e-8, "static: exact complementarity");
+    assert!(
+        (half_width - a).abs() <= h,
+        "half-width {half_width:e} vs Hertz {a:e} (h = {h})"
+    );
+    assert!(
+        contact.complementarity.violation < 1e-8,
+        "static: exact complementarity"
+    );
 }
 
 /// TEST GOAL: when the obstacle is out of reach, the contact solve returns the linear
@@ -114,7 +123,11 @@ fn half_disc_matches_hertz_line_contact() {
 fn unreachable_wall_gives_exactly_the_linear_result() {
     let p = common::scene(
         "strip_wall",
-        &["geometry.parameters.gap=0.05", "contact.search_distance=1.0", "harmonic_balance.harmonics=5"],
+        &[
+            "geometry.parameters.gap=0.05",
+            "contact.search_distance=1.0",
+            "harmonic_balance.harmonics=5",
+        ],
     );
     let model = common::model(&p, Purpose::HarmonicBalance);
     let with = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
@@ -123,7 +136,10 @@ fn unreachable_wall_gives_exactly_the_linear_result() {
     assert_eq!(c.newton.iterations, 0);
     assert!(c.multipliers.iter().all(|&l| l == 0.0));
     for (k, z) in &without.free {
-        assert_eq!(&with.free[k], z, "harmonic {k} differs from the linear solve");
+        assert_eq!(
+            &with.free[k], z,
+            "harmonic {k} differs from the linear solve"
+        );
     }
 }
 
@@ -142,7 +158,17 @@ fn closed_contact_equals_the_constrained_linear_solve() {
     with_contact.push("contact={boundary: bottom, obstacle: {line: {point: [0.0, -0.01], normal: [0.0, 1.0]}}, mass: lumped}");
     let p = common::scene("cantilever", &with_contact);
     let model = common::model(&p, Purpose::HarmonicBalance);
-    assert!(model.contact.as_ref().unwrap().set.gaps.iter().all(|g| g.abs() < 1e-12), "g0 = 0");
+    assert!(
+        model
+            .contact
+            .as_ref()
+            .unwrap()
+            .set
+            .gaps
+            .iter()
+            .all(|g| g.abs() < 1e-12),
+        "g0 = 0"
+    );
     let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
     let c = solution.contact.as_ref().unwrap();
     // Closed all period: every sampled multiplier of a free contact node presses.
@@ -169,7 +195,11 @@ fn closed_contact_equals_the_constrained_linear_solve() {
         let u = solution.field_at(&model.system.dofs, t, 0);
         let v = linear.field_at(&linear_model.system.dofs, t, 0);
         let scale = v.iter().map(|x| x.abs()).fold(0.0, f64::max);
-        let err = u.iter().zip(&v).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let err = u
+            .iter()
+            .zip(&v)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-6 * scale, "t = {t}: {err:e} vs {scale:e}");
     }
 }
@@ -201,8 +231,14 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
         assert!(w[1] < w[0], "error must fall with H: {errors:?}");
     }
     assert!(errors[3] < 1e-3, "{errors:?}");
-    assert!(violations[3] < violations[1], "violation must shrink with H: {violations:?}");
-    assert!(violations.iter().all(|&v| v < 0.15), "violation bound 0.15: {violations:?}");
+    assert!(
+        violations[3] < violations[1],
+        "violation must shrink with H: {violations:?}"
+    );
+    assert!(
+        violations.iter().all(|&v| v < 0.15),
+        "violation bound 0.15: {violations:?}"
+    );
 }
 
 /// TEST GOAL: a hard case is diagnosed, not answered wrongly: without stiffness-
@@ -211,17 +247,36 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
 /// with the remedy it names (damping.beta) it converges.
 #[test]
 fn undamped_impacts_stall_with_a_diagnosis_and_the_named_remedy_converges() {
-    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "damping.beta=0.0", "geometry.parameters.lc=0.005"]);
+    let p = common::scene(
+        "strip_wall",
+        &[
+            "harmonic_balance.harmonics=40",
+            "damping.beta=0.0",
+            "geometry.parameters.lc=0.005",
+        ],
+    );
     let model = common::model(&p, Purpose::HarmonicBalance);
     match common::solve(&model, &p) {
         Err(hbcontact::Error::NotConverged(msg)) => {
-            assert!(msg.contains("damping.beta") && msg.contains("harmonic_balance.harmonics"), "the diagnosis names the fixes: {msg}");
+            assert!(
+                msg.contains("damping.beta") && msg.contains("harmonic_balance.harmonics"),
+                "the diagnosis names the fixes: {msg}"
+            );
             println!("undamped, H = 40: {msg}");
         }
         Err(e) => panic!("wrong error: {e}"),
-        Ok(s) => panic!("converged (violation {:.3e}): the scene no longer shows the hard case", s.contact.unwrap().complementarity.violation),
+        Ok(s) => panic!(
+            "converged (violation {:.3e}): the scene no longer shows the hard case",
+            s.contact.unwrap().complementarity.violation
+        ),
     }
-    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=40", "geometry.parameters.lc=0.005"]);
+    let p = common::scene(
+        "strip_wall",
+        &[
+            "harmonic_balance.harmonics=40",
+            "geometry.parameters.lc=0.005",
+        ],
+    );
     let model = common::model(&p, Purpose::HarmonicBalance);
     let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("with damping.beta, H = 40: {e}"));
     assert!(s.contact.unwrap().newton.converged);
@@ -235,7 +290,13 @@ fn redistributed_mass_keeps_total_mass_and_centre_of_mass() {
     let model = common::model(&p, Purpose::HarmonicBalance);
     let c = model.contact.as_ref().unwrap();
     let r = c.redistribution.as_ref().expect("redistributed");
-    let lumped = hbcontact::fem::assemble_mass(&model.mesh, &model.material, hbcontact::fem::MassKind::Lumped).unwrap().diagonal();
+    let lumped = hbcontact::fem::assemble_mass(
+        &model.mesh,
+        &model.material,
+        hbcontact::fem::MassKind::Lumped,
+    )
+    .unwrap()
+    .diagonal();
     let moments = |m: &[f64]| {
         let mut t = [0.0; 3];
         for (n, x) in model.mesh.nodes.iter().enumerate() {
@@ -252,8 +313,17 @@ fn redistributed_mass_keeps_total_mass_and_centre_of_mass() {
         assert_eq!(r.mass[2 * n], 0.0);
         assert_eq!(r.mass[2 * n + 1], 0.0);
     }
-    assert!(model.mesh.body_nodes().iter().filter(|n| !c.set.nodes.contains(n)).all(|&n| r.mass[2 * n] > 0.0));
-    println!("moved {:.3}% of the mass; polar inertia changed by {:.2e}", 100.0 * r.moved_fraction, r.inertia_change);
+    assert!(model
+        .mesh
+        .body_nodes()
+        .iter()
+        .filter(|n| !c.set.nodes.contains(n))
+        .all(|&n| r.mass[2 * n] > 0.0));
+    println!(
+        "moved {:.3}% of the mass; polar inertia changed by {:.2e}",
+        100.0 * r.moved_fraction,
+        r.inertia_change
+    );
 }
 
 /// TEST GOAL: harmonic balance and explicit time marching (same mesh, same redistributed
@@ -270,7 +340,8 @@ fn strip_agrees_with_time_marching() {
     let mass: Vec<f64> = dofs.free.iter().map(|&d| diag[d]).collect();
     let omega = system.omega;
     let period = 2.0 * std::f64::consts::PI / omega;
-    let loads: Vec<(usize, Vec<c64>)> = system.inputs.keys().map(|&k| (k, system.load(k))).collect();
+    let loads: Vec<(usize, Vec<c64>)> =
+        system.inputs.keys().map(|&k| (k, system.load(k))).collect();
     let force = move |t: f64, f: &mut [f64]| {
         f.iter_mut().for_each(|v| *v = 0.0);
         for (k, z) in &loads {
@@ -288,7 +359,10 @@ fn strip_agrees_with_time_marching() {
         mass: &mass,
         rayleigh: system.rayleigh,
         force: &force,
-        contact: Some(ContactRows { b: &op.b_free, g0: &op.g0 }),
+        contact: Some(ContactRows {
+            b: &op.b_free,
+            g0: &op.g0,
+        }),
         period,
         probes: vec![probe_dof],
     };
@@ -298,7 +372,8 @@ fn strip_agrees_with_time_marching() {
         max_periods: 400,
         samples_per_period: 64,
     };
-    let tr = transient::run_to_periodic(&problem, &settings, None).unwrap_or_else(|e| panic!("{e}"));
+    let tr =
+        transient::run_to_periodic(&problem, &settings, None).unwrap_or_else(|e| panic!("{e}"));
     assert!(tr.converged, "time marching did not reach a periodic state");
     let (_, amp_tr) = mean_and_first(&tr.probe_history[0]);
     let totals: Vec<f64> = tr.total_contact_history.iter().map(|v| -v).collect();
@@ -311,7 +386,10 @@ fn strip_agrees_with_time_marching() {
     );
     let mut amp_errors = Vec::new();
     for h in [5usize, 10, 20, 40] {
-        let q = common::scene("strip_wall", &[coarse, &format!("harmonic_balance.harmonics={h}")]);
+        let q = common::scene(
+            "strip_wall",
+            &[coarse, &format!("harmonic_balance.harmonics={h}")],
+        );
         let s = common::solve(&model, &q).unwrap_or_else(|e| panic!("H = {h}: {e}"));
         let (_, amp) = mean_and_first(&probe_series(&model, &s, 2048));
         let (mean, first) = mean_and_first(&total_force_series(&s, 2048));
@@ -322,9 +400,18 @@ fn strip_agrees_with_time_marching() {
         amp_errors.push(e_amp);
         if h == 40 {
             assert!(e_amp < 2e-3, "amplitude within 0.2% at H = 40: {e_amp:e}");
-            assert!(e_mean < 5e-3, "mean contact force within 0.5% at H = 40: {e_mean:e}");
-            assert!(e_first < 5e-3, "first harmonic of the contact force within 0.5% at H = 40: {e_first:e}");
+            assert!(
+                e_mean < 5e-3,
+                "mean contact force within 0.5% at H = 40: {e_mean:e}"
+            );
+            assert!(
+                e_first < 5e-3,
+                "first harmonic of the contact force within 0.5% at H = 40: {e_first:e}"
+            );
         }
     }
-    assert!(amp_errors[3] < amp_errors[0], "agreement must tighten with H: {amp_errors:?}");
+    assert!(
+        amp_errors[3] < amp_errors[0],
+        "agreement must tighten with H: {amp_errors:?}"
+    );
 }

@@ -14,7 +14,13 @@ use hbcontact::mesh::gmsh::{mesh_geometry, MeshRequest};
 use hbcontact::mesh::msh::read_msh;
 use hbcontact::mesh::{Cell, CellKind, Mesh2d};
 
-const KINDS: [CellKind; 5] = [CellKind::Tri3, CellKind::Tri6, CellKind::Quad4, CellKind::Quad8, CellKind::Quad9];
+const KINDS: [CellKind; 5] = [
+    CellKind::Tri3,
+    CellKind::Tri6,
+    CellKind::Quad4,
+    CellKind::Quad8,
+    CellKind::Quad9,
+];
 
 fn material(model: PlaneModel) -> Material {
     Material {
@@ -51,33 +57,79 @@ fn square(kind: CellKind, n: usize, distort: bool) -> Mesh2d {
             let c = |a: usize, b: usize| id(i0 + a, j0 + b);
             match kind {
                 CellKind::Tri3 => {
-                    cells.push(Cell { kind, nodes: vec![c(0, 0), c(1, 0), c(1, 1)] });
-                    cells.push(Cell { kind, nodes: vec![c(0, 0), c(1, 1), c(0, 1)] });
+                    cells.push(Cell {
+                        kind,
+                        nodes: vec![c(0, 0), c(1, 0), c(1, 1)],
+                    });
+                    cells.push(Cell {
+                        kind,
+                        nodes: vec![c(0, 0), c(1, 1), c(0, 1)],
+                    });
                 }
                 CellKind::Tri6 => {
-                    cells.push(Cell { kind, nodes: vec![c(0, 0), c(2, 0), c(2, 2), c(1, 0), c(2, 1), c(1, 1)] });
-                    cells.push(Cell { kind, nodes: vec![c(0, 0), c(2, 2), c(0, 2), c(1, 1), c(1, 2), c(0, 1)] });
+                    cells.push(Cell {
+                        kind,
+                        nodes: vec![c(0, 0), c(2, 0), c(2, 2), c(1, 0), c(2, 1), c(1, 1)],
+                    });
+                    cells.push(Cell {
+                        kind,
+                        nodes: vec![c(0, 0), c(2, 2), c(0, 2), c(1, 1), c(1, 2), c(0, 1)],
+                    });
                 }
-                CellKind::Quad4 => cells.push(Cell { kind, nodes: vec![c(0, 0), c(1, 0), c(1, 1), c(0, 1)] }),
+                CellKind::Quad4 => cells.push(Cell {
+                    kind,
+                    nodes: vec![c(0, 0), c(1, 0), c(1, 1), c(0, 1)],
+                }),
                 CellKind::Quad8 => cells.push(Cell {
                     kind,
-                    nodes: vec![c(0, 0), c(2, 0), c(2, 2), c(0, 2), c(1, 0), c(2, 1), c(1, 2), c(0, 1)],
+                    nodes: vec![
+                        c(0, 0),
+                        c(2, 0),
+                        c(2, 2),
+                        c(0, 2),
+                        c(1, 0),
+                        c(2, 1),
+                        c(1, 2),
+                        c(0, 1),
+                    ],
                 }),
                 CellKind::Quad9 => cells.push(Cell {
                     kind,
-                    nodes: vec![c(0, 0), c(2, 0), c(2, 2), c(0, 2), c(1, 0), c(2, 1), c(1, 2), c(0, 1), c(1, 1)],
+                    nodes: vec![
+                        c(0, 0),
+                        c(2, 0),
+                        c(2, 2),
+                        c(0, 2),
+                        c(1, 0),
+                        c(2, 1),
+                        c(1, 2),
+                        c(0, 1),
+                        c(1, 1),
+                    ],
                 }),
             }
         }
     }
-    let boundary: Vec<usize> = (0..m * m).filter(|&k| k % m == 0 || k % m == m - 1 || k / m == 0 || k / m == m - 1).collect();
-    let mut mesh = Mesh2d { nodes, cells, ..Default::default() };
+    let boundary: Vec<usize> = (0..m * m)
+        .filter(|&k| k % m == 0 || k % m == m - 1 || k / m == 0 || k / m == m - 1)
+        .collect();
+    let mut mesh = Mesh2d {
+        nodes,
+        cells,
+        ..Default::default()
+    };
     mesh.node_groups.insert("boundary".into(), boundary);
     mesh
 }
 
 /// Solve K u = f with u prescribed on `held` nodes (values from `exact`), all others free.
-fn solve_with_dirichlet(mesh: &Mesh2d, k: &Triplets, f: &[f64], held: &[usize], exact: &dyn Fn([f64; 2]) -> [f64; 2]) -> Vec<f64> {
+fn solve_with_dirichlet(
+    mesh: &Mesh2d,
+    k: &Triplets,
+    f: &[f64],
+    held: &[usize],
+    exact: &dyn Fn([f64; 2]) -> [f64; 2],
+) -> Vec<f64> {
     let ndof = 2 * mesh.nodes.len();
     let body = mesh.body_nodes();
     let mut is_held = vec![false; ndof];
@@ -113,7 +165,12 @@ fn solve_with_dirichlet(mesh: &Mesh2d, k: &Triplets, f: &[f64], held: &[usize], 
 
 #[test]
 fn patch_test_reproduces_linear_fields_on_distorted_meshes() {
-    let exact = |p: [f64; 2]| [0.01 + 0.02 * p[0] - 0.03 * p[1], -0.02 + 0.015 * p[0] + 0.025 * p[1]];
+    let exact = |p: [f64; 2]| {
+        [
+            0.01 + 0.02 * p[0] - 0.03 * p[1],
+            -0.02 + 0.015 * p[0] + 0.025 * p[1],
+        ]
+    };
     for kind in KINDS {
         for model in [PlaneModel::PlaneStrain, PlaneModel::PlaneStress] {
             let mesh = square(kind, 3, true);
@@ -123,15 +180,26 @@ fn patch_test_reproduces_linear_fields_on_distorted_meshes() {
             let u = solve_with_dirichlet(&mesh, &k, &f, &mesh.node_groups["boundary"], &exact);
             for n in mesh.body_nodes() {
                 let e = exact(mesh.nodes[n]);
-                assert!((u[2 * n] - e[0]).abs() < 1e-12 && (u[2 * n + 1] - e[1]).abs() < 1e-12, "{kind:?}: node {n}");
+                assert!(
+                    (u[2 * n] - e[0]).abs() < 1e-12 && (u[2 * n + 1] - e[1]).abs() < 1e-12,
+                    "{kind:?}: node {n}"
+                );
             }
             // Constant stress everywhere: σ = C ε with ε = (0.02, 0.025, −0.03 + 0.015).
             let s = fem::cell_stresses(&mesh, &mat, &u);
             for c in &s {
-                assert!((c.xx - s[0].xx).abs() < 1e-12 && (c.xy - s[0].xy).abs() < 1e-12, "{kind:?}");
+                assert!(
+                    (c.xx - s[0].xx).abs() < 1e-12 && (c.xy - s[0].xy).abs() < 1e-12,
+                    "{kind:?}"
+                );
             }
-            let c = fem::elasticity::elasticity_matrix(&mat) * nalgebra::Vector3::new(0.02, 0.025, -0.015);
-            assert!((s[0].xx - c[0]).abs() < 1e-12 && (s[0].yy - c[1]).abs() < 1e-12 && (s[0].xy - c[2]).abs() < 1e-12);
+            let c = fem::elasticity::elasticity_matrix(&mat)
+                * nalgebra::Vector3::new(0.02, 0.025, -0.015);
+            assert!(
+                (s[0].xx - c[0]).abs() < 1e-12
+                    && (s[0].yy - c[1]).abs() < 1e-12
+                    && (s[0].xy - c[2]).abs() < 1e-12
+            );
         }
     }
 }
@@ -144,17 +212,26 @@ fn rigid_body_modes_are_stress_free_and_mass_is_exact() {
         let k = fem::assemble_stiffness(&mesh, &mat).unwrap();
         let rot: Vec<f64> = mesh.nodes.iter().flat_map(|p| [-p[1], p[0]]).collect();
         let ku = k.mul_vec(&rot);
-        assert!(ku.iter().all(|v| v.abs() < 1e-12), "{kind:?}: rotation is not stress-free");
+        assert!(
+            ku.iter().all(|v| v.abs() < 1e-12),
+            "{kind:?}: rotation is not stress-free"
+        );
         let expected = mat.density * mat.thickness * 1.0;
         for mk in [MassKind::Consistent, MassKind::Lumped] {
             let m = fem::assemble_mass(&mesh, &mat, mk).unwrap();
             let ones: Vec<f64> = (0..mesh.nodes.len()).flat_map(|_| [1.0, 0.0]).collect();
             let total: f64 = m.mul_vec(&ones).iter().sum();
-            assert!((total - expected).abs() < 1e-12, "{kind:?} {mk:?}: mass {total}");
+            assert!(
+                (total - expected).abs() < 1e-12,
+                "{kind:?} {mk:?}: mass {total}"
+            );
             if mk == MassKind::Lumped {
                 let used = mesh.body_nodes();
                 let d = m.diagonal();
-                assert!(used.iter().all(|&n| d[2 * n] > 0.0), "{kind:?}: HRZ masses must be positive");
+                assert!(
+                    used.iter().all(|&n| d[2 * n] > 0.0),
+                    "{kind:?}: HRZ masses must be positive"
+                );
             }
         }
     }
@@ -164,7 +241,9 @@ fn rigid_body_modes_are_stress_free_and_mass_is_exact() {
 fn inverted_cells_are_reported() {
     let mut mesh = square(CellKind::Tri3, 1, false);
     mesh.cells[0].nodes.swap(1, 2);
-    let e = fem::assemble_stiffness(&mesh, &material(PlaneModel::PlaneStrain)).unwrap_err().to_string();
+    let e = fem::assemble_stiffness(&mesh, &material(PlaneModel::PlaneStrain))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("cell 0") && e.contains("inverted"), "{e}");
 }
 
@@ -189,7 +268,11 @@ fn l2_error_converges_at_h2_for_linear_and_h3_for_quadratic_elements() {
         [-div, -div]
     };
     for kind in KINDS {
-        let ns: &[usize] = if kind.order() == 1 { &[4, 8, 16, 32] } else { &[2, 4, 8, 16] };
+        let ns: &[usize] = if kind.order() == 1 {
+            &[4, 8, 16, 32]
+        } else {
+            &[2, 4, 8, 16]
+        };
         let mut hs = Vec::new();
         let mut errs = Vec::new();
         for &n in ns {
@@ -221,10 +304,18 @@ fn l2_error_converges_at_h2_for_linear_and_h3_for_quadratic_elements() {
         let lx: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
         let ly: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
         let (mx, my) = (lx.iter().sum::<f64>() / 4.0, ly.iter().sum::<f64>() / 4.0);
-        let slope = lx.iter().zip(&ly).map(|(x, y)| (x - mx) * (y - my)).sum::<f64>() / lx.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
+        let slope = lx
+            .iter()
+            .zip(&ly)
+            .map(|(x, y)| (x - mx) * (y - my))
+            .sum::<f64>()
+            / lx.iter().map(|x| (x - mx).powi(2)).sum::<f64>();
         let expected = (kind.order() + 1) as f64;
         println!("{kind:?}: L2 errors {errs:?}, slope {slope:.3}");
-        assert!((slope - expected).abs() < 0.25, "{kind:?}: slope {slope} vs {expected}");
+        assert!(
+            (slope - expected).abs() < 0.25,
+            "{kind:?}: slope {slope} vs {expected}"
+        );
     }
 }
 
@@ -238,7 +329,8 @@ fn cantilever(order: u8, size: f64) -> Mesh2d {
         quads: false,
         gmsh: None,
     };
-    let meshed = mesh_geometry(&request, &root.join("output/test-mesh-cache")).unwrap_or_else(|e| panic!("{e}"));
+    let meshed = mesh_geometry(&request, &root.join("output/test-mesh-cache"))
+        .unwrap_or_else(|e| panic!("{e}"));
     read_msh(&meshed.msh).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -292,20 +384,41 @@ fn slender_cantilever_matches_euler_bernoulli() {
     };
     let (l, h) = (1.0f64, 0.02f64);
     let e_star = mat.youngs_modulus / (1.0 - mat.poisson_ratio.powi(2));
-    let beam = |bl: f64| bl * bl * (e_star * h.powi(3) / 12.0 / (mat.density * h * l.powi(4))).sqrt() / (2.0 * std::f64::consts::PI);
+    let beam = |bl: f64| {
+        bl * bl * (e_star * h.powi(3) / 12.0 / (mat.density * h * l.powi(4))).sqrt()
+            / (2.0 * std::f64::consts::PI)
+    };
     let exact = [beam(1.8751), beam(4.6941)];
     let quad = bending_frequencies(&cantilever(2, 0.01), &mat);
-    let err = [(quad[0] - exact[0]) / exact[0], (quad[1] - exact[1]) / exact[1]];
-    println!("Euler–Bernoulli {:.4} Hz, {:.4} Hz; Tri6 (h = H/2): {:.4}, {:.4} ({:+.3}%, {:+.3}%)", exact[0], exact[1], quad[0], quad[1], 100.0 * err[0], 100.0 * err[1]);
+    let err = [
+        (quad[0] - exact[0]) / exact[0],
+        (quad[1] - exact[1]) / exact[1],
+    ];
+    println!(
+        "Euler–Bernoulli {:.4} Hz, {:.4} Hz; Tri6 (h = H/2): {:.4}, {:.4} ({:+.3}%, {:+.3}%)",
+        exact[0],
+        exact[1],
+        quad[0],
+        quad[1],
+        100.0 * err[0],
+        100.0 * err[1]
+    );
     assert!(err[0].abs() < 0.01 && err[1].abs() < 0.01, "{err:?}");
 
     let mut previous = f64::INFINITY;
     for size in [0.01, 0.005, 0.0025] {
         let lin = bending_frequencies(&cantilever(1, size), &mat);
         let e1 = (lin[0] - exact[0]) / exact[0];
-        println!("Tri3, h = {size}: f1 = {:.4} Hz ({:+.2}%)", lin[0], 100.0 * e1);
+        println!(
+            "Tri3, h = {size}: f1 = {:.4} Hz ({:+.2}%)",
+            lin[0],
+            100.0 * e1
+        );
         assert!(e1 > 0.0, "linear triangles are too stiff, never too soft");
-        assert!(e1 < previous, "Tri3 must converge toward the beam frequency");
+        assert!(
+            e1 < previous,
+            "Tri3 must converge toward the beam frequency"
+        );
         previous = e1;
     }
 }

@@ -26,7 +26,13 @@ fn settings(h: usize) -> HbSettings {
 }
 
 /// [[A, −B], [B, A]] [x; y] = [f_r; f_i] for (A + iB)(x + iy) = f_r + i f_i.
-fn direct_complex_solve(a: &Triplets, b: &Triplets, free: &[usize], free_of: &[usize], f: &[c64]) -> Vec<c64> {
+fn direct_complex_solve(
+    a: &Triplets,
+    b: &Triplets,
+    free: &[usize],
+    free_of: &[usize],
+    f: &[c64],
+) -> Vec<c64> {
     let n = free.len();
     let mut entries = Vec::new();
     for (t, sign_off) in [(a, 0.0), (b, 1.0)] {
@@ -45,14 +51,21 @@ fn direct_complex_solve(a: &Triplets, b: &Triplets, free: &[usize], free_of: &[u
         }
     }
     let big = Csc::from_entries(2 * n, 2 * n, &entries);
-    let rhs: Vec<f64> = f.iter().map(|z| z.re).chain(f.iter().map(|z| z.im)).collect();
+    let rhs: Vec<f64> = f
+        .iter()
+        .map(|z| z.re)
+        .chain(f.iter().map(|z| z.im))
+        .collect();
     let x = solve_real(&big, &rhs).expect("direct solve");
     (0..n).map(|i| c64::new(x[i], x[n + i])).collect()
 }
 
 #[test]
 fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation() {
-    let p = common::scene("cantilever", &["damping.beta=1.0e-4", "harmonic_balance.frequency=12.0"]);
+    let p = common::scene(
+        "cantilever",
+        &["damping.beta=1.0e-4", "harmonic_balance.frequency=12.0"],
+    );
     let model = common::model(&p, Purpose::HarmonicBalance);
     let mesh = &model.mesh;
     let k = fem::assemble_stiffness(mesh, &model.material).unwrap();
@@ -64,7 +77,11 @@ fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation()
     let tip = fem::edge_traction_load(mesh, &mesh.edge_groups["tip"], [0.0, 1.0e4], 1.0);
     let side = fem::edge_traction_load(mesh, &mesh.edge_groups["tip"], [2.0e3, 0.0], 1.0);
     let dofs = model.system.dofs.clone();
-    let f1: Vec<c64> = dofs.free.iter().map(|&d| c64::new(tip[d], -side[d])).collect();
+    let f1: Vec<c64> = dofs
+        .free
+        .iter()
+        .map(|&d| c64::new(tip[d], -side[d]))
+        .collect();
     let np = dofs.prescribed.len();
     let inputs = BTreeMap::from([(
         1,
@@ -75,7 +92,11 @@ fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation()
     )]);
     let system = System::new(dofs.clone(), &k, &m, Some((alpha, beta)), omega, inputs).unwrap();
     let solution = hbm::solve(&system, None, &settings(1), &|_| {}).unwrap();
-    assert_eq!(solution.harmonics(), vec![1], "only the excited harmonic is computed");
+    assert_eq!(
+        solution.harmonics(),
+        vec![1],
+        "only the excited harmonic is computed"
+    );
     assert!(solution.complex_arithmetic);
 
     // (a) Direct: A = K − ω²M, B = ω(αM + βK).
@@ -92,10 +113,17 @@ fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation()
     let direct = direct_complex_solve(&a, &b, &dofs.free, &dofs.free_of, &f1);
     let hb = &solution.free[&1];
     let scale = direct.iter().map(|z| z.norm()).fold(0.0, f64::max);
-    let err = hb.iter().zip(&direct).map(|(x, y)| (x - y).norm()).fold(0.0, f64::max);
+    let err = hb
+        .iter()
+        .zip(&direct)
+        .map(|(x, y)| (x - y).norm())
+        .fold(0.0, f64::max);
     // Both are direct sparse LU solves of the same matrix in different forms (complex vs real
     // 2n × 2n): they agree to the round-off that the slender beam's condition number allows.
-    assert!(scale > 0.0 && err / scale < 1e-7, "HB vs direct complex solve: {err:e} of {scale:e}");
+    assert!(
+        scale > 0.0 && err / scale < 1e-7,
+        "HB vs direct complex solve: {err:e} of {scale:e}"
+    );
 
     // (b) The time-domain equation at a few instants: M ü + D u̇ + K u = f(t) on free dofs,
     // with f(t) = tip cos ωt + side sin ωt.
@@ -116,7 +144,10 @@ fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation()
             worst = worst.max(r.abs());
             fmax = fmax.max(tip[d].abs());
         }
-        assert!(worst < 1e-7 * fmax, "time-domain residual {worst:e} at t = {t}");
+        assert!(
+            worst < 1e-7 * fmax,
+            "time-domain residual {worst:e} at t = {t}"
+        );
     }
 }
 
@@ -133,7 +164,11 @@ fn prescribed_harmonic_motion_satisfies_the_global_equation() {
     );
     let model = common::model(&p, Purpose::HarmonicBalance);
     let solution = hbm::solve(&model.system, None, &settings(2), &|_| {}).unwrap();
-    assert_eq!(solution.harmonics(), vec![2], "no static solve without static load; only k = 2");
+    assert_eq!(
+        solution.harmonics(),
+        vec![2],
+        "no static solve without static load; only k = 2"
+    );
     assert!(model.effects.prescribed_motion);
     let k = fem::assemble_stiffness(&model.mesh, &model.material).unwrap();
     let m = fem::assemble_mass(&model.mesh, &model.material, fem::MassKind::Consistent).unwrap();
@@ -147,7 +182,10 @@ fn prescribed_harmonic_motion_satisfies_the_global_equation() {
     let scale = ku.iter().map(|x| x.abs()).fold(0.0, f64::max);
     for &d in &dofs.free {
         let r = ma[d] + alpha * mv[d] + beta * kv[d] + ku[d];
-        assert!(r.abs() < 1e-8 * scale, "free-row residual {r:e} (scale {scale:e})");
+        assert!(
+            r.abs() < 1e-8 * scale,
+            "free-row residual {r:e} (scale {scale:e})"
+        );
     }
     // The clamp follows the prescribed motion: u_y = 1e-3 sin(2ωt).
     let w = 2.0 * model.system.omega;
@@ -166,18 +204,32 @@ fn undamped_scenes_factor_real_matrices_and_resonance_is_diagnosed() {
     assert!(model.effects.damping.is_none());
     assert!(!model.effects.static_load);
     let solution = hbm::solve(&model.system, None, &settings(1), &|_| {}).unwrap();
-    assert!(!solution.complex_arithmetic, "no damping: real factorizations");
+    assert!(
+        !solution.complex_arithmetic,
+        "no damping: real factorizations"
+    );
     assert_eq!(solution.harmonics(), vec![1]);
     let z = &solution.free[&1];
-    assert!(z.iter().all(|v| v.im == 0.0), "undamped response is in phase with the load");
+    assert!(
+        z.iter().all(|v| v.im == 0.0),
+        "undamped response is in phase with the load"
+    );
 
     // A structure without supports: K singular, diagnosed instead of NaN.
-    let p = common::scene("cantilever", &["boundaries.fixed=[]", "boundaries.loads=[{group: tip, type: traction, static: [0.0, 1.0e3]}]"]);
+    let p = common::scene(
+        "cantilever",
+        &[
+            "boundaries.fixed=[]",
+            "boundaries.loads=[{group: tip, type: traction, static: [0.0, 1.0e3]}]",
+        ],
+    );
     let model = common::model(&p, Purpose::HarmonicBalance);
     match hbm::solve(&model.system, None, &settings(0), &|_| {}) {
-        Err(hbcontact::Error::Model(msg)) => assert!(msg.contains("rigid body") && msg.contains("boundaries.fixed"), "{msg}"),
+        Err(hbcontact::Error::Model(msg)) => assert!(
+            msg.contains("rigid body") && msg.contains("boundaries.fixed"),
+            "{msg}"
+        ),
         Err(e) => panic!("wrong error: {e}"),
         Ok(_) => panic!("a free-floating body must not solve"),
     }
 }
-

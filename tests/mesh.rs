@@ -66,39 +66,88 @@ fn area(mesh: &Mesh2d) -> f64 {
 fn every_geometry_meshes_with_its_groups_and_exact_area() {
     let pi = std::f64::consts::PI;
     let cases: &[(&str, &[&str], f64)] = &[
-        ("cantilever.geo", &["clamp", "tip", "top", "bottom", "tip_point", "body"], 1.0 * 0.02),
-        ("quickstart.geo", &["clamp", "load", "probe", "body", "hole"], 0.2 * 0.05 - pi * 0.01 * 0.01),
-        ("strip_wall.geo", &["clamp", "tip", "top", "bottom", "probe", "tip_corner", "wall", "body"], 0.2 * 0.01),
-        ("blade_casing.geo", &["root", "tip", "left", "right", "probe", "casing", "body"], 0.01 * 0.1),
-        ("half_disc.geo", &["top", "contact", "arc", "body"], pi / 2.0),
+        (
+            "cantilever.geo",
+            &["clamp", "tip", "top", "bottom", "tip_point", "body"],
+            1.0 * 0.02,
+        ),
+        (
+            "quickstart.geo",
+            &["clamp", "load", "probe", "body", "hole"],
+            0.2 * 0.05 - pi * 0.01 * 0.01,
+        ),
+        (
+            "strip_wall.geo",
+            &[
+                "clamp",
+                "tip",
+                "top",
+                "bottom",
+                "probe",
+                "tip_corner",
+                "wall",
+                "body",
+            ],
+            0.2 * 0.01,
+        ),
+        (
+            "blade_casing.geo",
+            &["root", "tip", "left", "right", "probe", "casing", "body"],
+            0.01 * 0.1,
+        ),
+        (
+            "half_disc.geo",
+            &["top", "contact", "arc", "body"],
+            pi / 2.0,
+        ),
     ];
     for (geo, groups, exact) in cases {
         for order in [1u8, 2] {
-            let meshed = mesh_geometry(&request(geo, order), &cache()).unwrap_or_else(|e| panic!("{geo}: {e}"));
+            let meshed = mesh_geometry(&request(geo, order), &cache())
+                .unwrap_or_else(|e| panic!("{geo}: {e}"));
             let mesh = read_msh(&meshed.msh).unwrap_or_else(|e| panic!("{geo}: {e}"));
             for g in *groups {
-                assert!(mesh.node_groups.contains_key(*g), "{geo}: group {g} missing; have {:?}", mesh.group_names());
+                assert!(
+                    mesh.node_groups.contains_key(*g),
+                    "{geo}: group {g} missing; have {:?}",
+                    mesh.group_names()
+                );
             }
-            let expected_kind = if order == 1 { CellKind::Tri3 } else { CellKind::Tri6 };
+            let expected_kind = if order == 1 {
+                CellKind::Tri3
+            } else {
+                CellKind::Tri6
+            };
             assert!(mesh.cells.iter().all(|c| c.kind == expected_kind));
             let a = area(&mesh);
             // Polygonal boundaries of curved shapes lose O(h²) area at order 1, O(h⁴) at order 2.
             let tol = if order == 1 { 2e-3 } else { 1e-5 };
-            assert!((a - exact).abs() / exact < tol, "{geo} order {order}: area {a} vs {exact}");
+            assert!(
+                (a - exact).abs() / exact < tol,
+                "{geo} order {order}: area {a} vs {exact}"
+            );
             // Every cell counter-clockwise.
             for c in &mesh.cells {
                 let p: Vec<[f64; 2]> = c.nodes.iter().take(3).map(|&n| mesh.nodes[n]).collect();
-                let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+                let cross = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
                 assert!(cross > 0.0);
             }
         }
     }
     // Points are single nodes; obstacle curves carry no cells.
-    let mesh = read_msh(&mesh_geometry(&request("strip_wall.geo", 1), &cache()).unwrap().msh).unwrap();
+    let mesh = read_msh(
+        &mesh_geometry(&request("strip_wall.geo", 1), &cache())
+            .unwrap()
+            .msh,
+    )
+    .unwrap();
     assert_eq!(mesh.node_groups["probe"].len(), 1);
     let body = mesh.body_nodes();
-    assert!(mesh.node_groups["wall"].iter().all(|n| body.binary_search(n).is_err()));
-    assert!(mesh.cell_groups.get("wall").is_none());
+    assert!(mesh.node_groups["wall"]
+        .iter()
+        .all(|n| body.binary_search(n).is_err()));
+    assert!(!mesh.cell_groups.contains_key("wall"));
 }
 
 #[test]
@@ -108,12 +157,19 @@ fn cache_hits_and_misses() {
     let mut r = request("cantilever.geo", 1);
     let first = mesh_geometry(&r, &dir).unwrap();
     assert!(!first.cache_hit);
-    assert!(first.gmsh_version.starts_with("4.15"), "{}", first.gmsh_version);
+    assert!(
+        first.gmsh_version.starts_with("4.15"),
+        "{}",
+        first.gmsh_version
+    );
     let modified = std::fs::metadata(&first.msh).unwrap().modified().unwrap();
     let second = mesh_geometry(&r, &dir).unwrap();
     assert!(second.cache_hit);
     assert_eq!(second.msh, first.msh);
-    assert_eq!(std::fs::metadata(&second.msh).unwrap().modified().unwrap(), modified);
+    assert_eq!(
+        std::fs::metadata(&second.msh).unwrap().modified().unwrap(),
+        modified
+    );
     r.parameters.insert("H".into(), 0.03);
     let third = mesh_geometry(&r, &dir).unwrap();
     assert!(!third.cache_hit);
@@ -154,12 +210,19 @@ fn mesh_errors_are_clear() {
     let mut r = request("cantilever.geo", 1);
     r.gmsh = Some(PathBuf::from("/nonexistent/gmsh"));
     let e = mesh_geometry(&r, &cache()).unwrap_err().to_string();
-    assert!(e.contains("/nonexistent/gmsh") && e.contains("make venv"), "{e}");
+    assert!(
+        e.contains("/nonexistent/gmsh") && e.contains("make venv"),
+        "{e}"
+    );
     // A 3-D element.
-    let e = read_msh(&common::root().join("tests/data/tetra.msh")).unwrap_err().to_string();
+    let e = read_msh(&common::root().join("tests/data/tetra.msh"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("3-D elements") && e.contains("tetra.msh"), "{e}");
     // Not a mesh at all.
-    let e = read_msh(&common::root().join("tests/data/bad_syntax.geo")).unwrap_err().to_string();
+    let e = read_msh(&common::root().join("tests/data/bad_syntax.geo"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("not a gmsh .msh"), "{e}");
 }
 
@@ -177,6 +240,8 @@ fn clockwise_cells_are_reoriented_and_degenerate_cells_rejected() {
     };
     let cw = read_msh(&write("cw.msh", "1 1 3 2")).unwrap();
     assert_eq!(cw.cells[0].nodes, vec![0, 1, 2]);
-    let e = read_msh(&write("degenerate.msh", "1 1 3 4")).unwrap_err().to_string();
+    let e = read_msh(&write("degenerate.msh", "1 1 3 4"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("degenerate"), "{e}");
 }

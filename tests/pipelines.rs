@@ -10,7 +10,12 @@ use std::process::Command;
 fn expect_json(dir: &Path, contact: bool) -> std::path::PathBuf {
     let mut point = serde_json::json!({"displacement": 3, "velocity": 3, "acceleration": 3});
     if contact {
-        for k in ["contact_gap", "contact_force", "contact_pressure", "contact_status"] {
+        for k in [
+            "contact_gap",
+            "contact_force",
+            "contact_pressure",
+            "contact_status",
+        ] {
             point[k] = serde_json::json!(1);
         }
     }
@@ -68,11 +73,25 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
         assert!(summary["effects"]["harmonics_computed"].is_array());
         meshio_check(&out, contact);
         let frames = summary["frames"].as_u64().unwrap() as usize;
-        let vtus = std::fs::read_dir(&out).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "vtu")).count();
+        let vtus = std::fs::read_dir(&out)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "vtu")
+            })
+            .count();
         assert_eq!(vtus, frames + 1, "{name}: frames plus amplitudes.vtu");
         if contact {
             let c = &summary["contact"];
-            for key in ["newton_iterations", "complementarity", "max_sampled_penetration", "peak_contact_force"] {
+            for key in [
+                "newton_iterations",
+                "complementarity",
+                "max_sampled_penetration",
+                "peak_contact_force",
+            ] {
                 assert!(!c[key].is_null(), "{name}: summary.contact.{key} missing");
             }
             assert!(out.join("contact.csv").exists());
@@ -84,10 +103,20 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
 #[test]
 fn summary_lists_the_effects_and_harmonics_computed() {
     let out = common::temp_out("quickstart-effects");
-    run_ok(&["run", "pipelines/quickstart.yaml", "--quiet", "--out", out.to_str().unwrap()]);
+    run_ok(&[
+        "run",
+        "pipelines/quickstart.yaml",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     let s = common::read_json(&out.join("summary.json"));
     let e = &s["effects"];
-    assert_eq!(e["harmonics_computed"], serde_json::json!([1]), "one harmonic load: one factorization");
+    assert_eq!(
+        e["harmonics_computed"],
+        serde_json::json!([1]),
+        "one harmonic load: one factorization"
+    );
     assert_eq!(e["static_load"], false);
     assert_eq!(e["arithmetic"], "complex");
     assert!(e["contact"].is_null());
@@ -105,7 +134,10 @@ fn summary_lists_the_effects_and_harmonics_computed() {
         out2.to_str().unwrap(),
     ]);
     let s = common::read_json(&out2.join("summary.json"));
-    assert_eq!(s["effects"]["harmonics_computed"], serde_json::json!([0, 3]));
+    assert_eq!(
+        s["effects"]["harmonics_computed"],
+        serde_json::json!([0, 3])
+    );
     assert_eq!(s["effects"]["arithmetic"], "real");
     assert!(s["effects"]["damping"].is_null());
 }
@@ -114,16 +146,31 @@ fn summary_lists_the_effects_and_harmonics_computed() {
 /// warps by displacement and saves a PNG.
 #[test]
 fn paraview_opens_warps_and_renders_the_series() {
-    let have = |cmd: &str| Command::new("sh").arg("-c").arg(format!("command -v {cmd}")).output().map(|o| o.status.success()).unwrap_or(false);
+    let have = |cmd: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!("command -v {cmd}"))
+            .output()
+            .map(|o| o.status.success())
+            .unwrap_or(false)
+    };
     if !(have("pvbatch") && have("xvfb-run")) {
         if std::env::var("HBCONTACT_REQUIRE_PARAVIEW").as_deref() == Ok("1") {
             panic!("pvbatch or xvfb-run missing but HBCONTACT_REQUIRE_PARAVIEW=1 (.ci/run installs them)");
         }
-        eprintln!("SKIPPED: pvbatch/xvfb-run not installed (apt-get install paraview xvfb; .ci/run does)");
+        eprintln!(
+            "SKIPPED: pvbatch/xvfb-run not installed (apt-get install paraview xvfb; .ci/run does)"
+        );
         return;
     }
     let out = common::temp_out("quickstart-paraview");
-    run_ok(&["run", "pipelines/quickstart.yaml", "--quiet", "--out", out.to_str().unwrap()]);
+    run_ok(&[
+        "run",
+        "pipelines/quickstart.yaml",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     let png = out.with_extension("png");
     // xvfb-run -a can race for a display on a busy machine: a few attempts.
     let mut status = None;
@@ -150,39 +197,96 @@ fn paraview_opens_warps_and_renders_the_series() {
         String::from_utf8_lossy(&status.stdout),
         String::from_utf8_lossy(&status.stderr)
     );
-    assert!(std::fs::metadata(&png).map(|m| m.len() > 10_000).unwrap_or(false));
+    assert!(std::fs::metadata(&png)
+        .map(|m| m.len() > 10_000)
+        .unwrap_or(false));
 }
 
 /// Bad input: a clear error, the documented exit code, no panic, nothing half-written.
 #[test]
 fn bad_input_fails_cleanly() {
     let cases: &[(&str, &[&str], &str, i32)] = &[
-        ("unknown key", &["--set", "harmonic_balance.harmonicz=3"], "harmonics", 2),
-        ("wrong type", &["--set", "harmonic_balance.frequency=fast"], "frequency", 2),
-        ("missing geometry", &["--set", "geometry.file=geometries/nope.geo"], "nope.geo", 2),
-        ("gmsh not found", &["--set", "geometry.gmsh=/nonexistent/gmsh"], "gmsh", 2),
-        ("gmsh syntax error", &["--set", "geometry.file=tests/data/bad_syntax.geo"], "rror", 2),
-        ("missing group", &["--set", "boundaries.fixed=[clammp]"], "clamp", 2),
-        ("unsupported element", &["--set", "geometry.file=tests/data/tetra.msh"], "element", 2),
+        (
+            "unknown key",
+            &["--set", "harmonic_balance.harmonicz=3"],
+            "harmonics",
+            2,
+        ),
+        (
+            "wrong type",
+            &["--set", "harmonic_balance.frequency=fast"],
+            "frequency",
+            2,
+        ),
+        (
+            "missing geometry",
+            &["--set", "geometry.file=geometries/nope.geo"],
+            "nope.geo",
+            2,
+        ),
+        (
+            "gmsh not found",
+            &["--set", "geometry.gmsh=/nonexistent/gmsh"],
+            "gmsh",
+            2,
+        ),
+        (
+            "gmsh syntax error",
+            &["--set", "geometry.file=tests/data/bad_syntax.geo"],
+            "rror",
+            2,
+        ),
+        (
+            "missing group",
+            &["--set", "boundaries.fixed=[clammp]"],
+            "clamp",
+            2,
+        ),
+        (
+            "unsupported element",
+            &["--set", "geometry.file=tests/data/tetra.msh"],
+            "element",
+            2,
+        ),
     ];
     for (what, args, needle, code) in cases {
         let out = common::temp_out(&format!("bad-{}", what.replace(' ', "-")));
-        let mut full = vec!["run", "pipelines/quickstart.yaml", "--out", out.to_str().unwrap()];
+        let mut full = vec![
+            "run",
+            "pipelines/quickstart.yaml",
+            "--out",
+            out.to_str().unwrap(),
+        ];
         full.extend_from_slice(args);
         let result = common::hbcontact(&full);
         let stderr = String::from_utf8_lossy(&result.stderr);
-        assert_eq!(result.status.code(), Some(*code), "{what}: exit code; stderr:\n{stderr}");
-        assert!(stderr.contains("error:") && stderr.contains(needle), "{what}: message lacks `{needle}`:\n{stderr}");
+        assert_eq!(
+            result.status.code(),
+            Some(*code),
+            "{what}: exit code; stderr:\n{stderr}"
+        );
+        assert!(
+            stderr.contains("error:") && stderr.contains(needle),
+            "{what}: message lacks `{needle}`:\n{stderr}"
+        );
         assert!(!stderr.contains("panicked"), "{what}: panic:\n{stderr}");
         assert!(!out.exists(), "{what}: an output directory was left behind");
         let parent = out.parent().unwrap();
         let partial = std::fs::read_dir(parent)
-            .map(|d| d.filter_map(|e| e.ok()).any(|e| e.file_name().to_string_lossy().contains(".partial-")))
+            .map(|d| {
+                d.filter_map(|e| e.ok())
+                    .any(|e| e.file_name().to_string_lossy().contains(".partial-"))
+            })
             .unwrap_or(false);
         assert!(!partial, "{what}: a partial directory was left behind");
     }
     // `check` validates without solving and reports the same errors.
-    let result = common::hbcontact(&["check", "pipelines/strip_wall.yaml", "--set", "contact.boundary=contakt"]);
+    let result = common::hbcontact(&[
+        "check",
+        "pipelines/strip_wall.yaml",
+        "--set",
+        "contact.boundary=contakt",
+    ]);
     assert_eq!(result.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&result.stderr).contains("contact"));
     run_ok(&["check", "pipelines/strip_wall.yaml", "--quiet"]);
@@ -205,16 +309,37 @@ fn accuracy_study_reports_error_against_cost() {
         out.to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&result.stdout);
-    assert!(result.status.success(), "{}", String::from_utf8_lossy(&result.stderr));
-    assert!(stdout.contains("| harmonic_balance.harmonics | 20 |"), "{stdout}");
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    assert!(
+        stdout.contains("| harmonic_balance.harmonics | 20 |"),
+        "{stdout}"
+    );
     let csv = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = csv.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
     assert_eq!(rows.len(), 6);
     // Columns: value, seconds, amplitude, error, complementarity, iterations, dofs.
     let errors: Vec<f64> = rows[..4].iter().map(|r| r[3]).collect();
-    assert!(errors[0] > errors[1] && errors[1] > errors[2] && errors[3] == 0.0, "{errors:?}");
-    assert!(rows.iter().all(|r| r[1] > 0.0), "every rung has a wall time");
+    assert!(
+        errors[0] > errors[1] && errors[1] > errors[2] && errors[3] == 0.0,
+        "{errors:?}"
+    );
+    assert!(
+        rows.iter().all(|r| r[1] > 0.0),
+        "every rung has a wall time"
+    );
     assert!(rows[4][6] < rows[5][6], "the coarser mesh has fewer dofs");
     let svg = std::fs::read_to_string(out.join("accuracy.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("polyline") && svg.contains("harmonic_balance.harmonics"));
+    assert!(
+        svg.starts_with("<svg")
+            && svg.contains("polyline")
+            && svg.contains("harmonic_balance.harmonics")
+    );
 }

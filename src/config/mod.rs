@@ -150,7 +150,11 @@ pub enum ObstacleSpec {
     /// into the free space where the body is.
     Line { point: [f64; 2], normal: [f64; 2] },
     /// A circle; `body_inside` = the body lies inside it (a casing), else outside (a cylinder).
-    Circle { center: [f64; 2], radius: f64, body_inside: bool },
+    Circle {
+        center: [f64; 2],
+        radius: f64,
+        body_inside: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -168,7 +168,10 @@ struct RawHarmonicBalance {
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 enum RawObstacle {
     Curve(String),
-    Line { point: [f64; 2], normal: [f64; 2] },
+    Line {
+        point: [f64; 2],
+        normal: [f64; 2],
+    },
     Circle {
         center: [f64; 2],
         radius: f64,
@@ -244,17 +247,24 @@ fn expected_names(message: &str) -> Vec<String> {
     let Some(pos) = message.find("expected") else {
         return Vec::new();
     };
-    message[pos..].split('`').skip(1).step_by(2).map(str::to_string).collect()
+    message[pos..]
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
 }
 
 /// serde's message plus a "did you mean" for unknown keys and values.
 fn explain(message: &str) -> String {
-    let unknown = ["unknown field `", "unknown variant `"].iter().find_map(|p| {
-        message.find(p).and_then(|i| {
-            let rest = &message[i + p.len()..];
-            rest.find('`').map(|j| rest[..j].to_string())
-        })
-    });
+    let unknown = ["unknown field `", "unknown variant `"]
+        .iter()
+        .find_map(|p| {
+            message.find(p).and_then(|i| {
+                let rest = &message[i + p.len()..];
+                rest.find('`').map(|j| rest[..j].to_string())
+            })
+        });
     let Some(word) = unknown else {
         return message.to_string();
     };
@@ -270,7 +280,10 @@ fn explain(message: &str) -> String {
 }
 
 fn yaml_error(path: &Path, e: &serde_yaml::Error, context: Option<&str>) -> Error {
-    let location = e.location().map(|l| format!("line {}, column {}: ", l.line(), l.column())).unwrap_or_default();
+    let location = e
+        .location()
+        .map(|l| format!("line {}, column {}: ", l.line(), l.column()))
+        .unwrap_or_default();
     let message = explain(&e.to_string());
     let message = match context {
         Some(c) => format!("{c}: {message}"),
@@ -282,19 +295,32 @@ fn yaml_error(path: &Path, e: &serde_yaml::Error, context: Option<&str>) -> Erro
 /// Set `a.b.c` to `value` (a YAML scalar or flow value), creating mappings on the way.
 fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
     let Some((key, value)) = spec.split_once('=') else {
-        return Err(config_error(path, format!("--set {spec}: expected KEY=VALUE, e.g. --set harmonic_balance.harmonics=20")));
+        return Err(config_error(
+            path,
+            format!("--set {spec}: expected KEY=VALUE, e.g. --set harmonic_balance.harmonics=20"),
+        ));
     };
-    let parsed: Value = serde_yaml::from_str(value).map_err(|e| config_error(path, format!("--set {spec}: the value is not valid YAML: {e}")))?;
+    let parsed: Value = serde_yaml::from_str(value).map_err(|e| {
+        config_error(
+            path,
+            format!("--set {spec}: the value is not valid YAML: {e}"),
+        )
+    })?;
     let mut node = root;
     let parts: Vec<&str> = key.trim().split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
-        return Err(config_error(path, format!("--set {spec}: empty key segment")));
+        return Err(config_error(
+            path,
+            format!("--set {spec}: empty key segment"),
+        ));
     }
     for (i, part) in parts.iter().enumerate() {
         if !node.is_mapping() {
             *node = Value::Mapping(Default::default());
         }
-        let Value::Mapping(map) = node else { unreachable!("just made a mapping") };
+        let Value::Mapping(map) = node else {
+            unreachable!("just made a mapping")
+        };
         let k = Value::String(part.to_string());
         if i + 1 == parts.len() {
             map.insert(k, parsed);
@@ -307,11 +333,13 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
 
 /// Read `path`, apply `--set key.path=value` overrides, and validate.
 pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
-    let text = std::fs::read_to_string(path).map_err(|e| config_error(path, format!("cannot read the pipeline file: {e}")))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| config_error(path, format!("cannot read the pipeline file: {e}")))?;
     let raw: RawPipeline = if overrides.is_empty() {
         serde_yaml::from_str(&text).map_err(|e| yaml_error(path, &e, None))?
     } else {
-        let mut value: Value = serde_yaml::from_str(&text).map_err(|e| yaml_error(path, &e, None))?;
+        let mut value: Value =
+            serde_yaml::from_str(&text).map_err(|e| yaml_error(path, &e, None))?;
         for o in overrides {
             apply_override(&mut value, o, path)?;
         }
@@ -324,7 +352,14 @@ pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
                         return Err(yaml_error(path, &file_error, None));
                     }
                 }
-                let context = format!("with {}", overrides.iter().map(|o| format!("--set {o}")).collect::<Vec<_>>().join(" "));
+                let context = format!(
+                    "with {}",
+                    overrides
+                        .iter()
+                        .map(|o| format!("--set {o}"))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                );
                 return Err(yaml_error(path, &e, Some(&context)));
             }
         }
@@ -336,7 +371,10 @@ fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
     if v > 0.0 && v.is_finite() {
         Ok(v)
     } else {
-        Err(config_error(path, format!("{field} = {v} must be a positive number")))
+        Err(config_error(
+            path,
+            format!("{field} = {v} must be a positive number"),
+        ))
     }
 }
 
@@ -347,7 +385,10 @@ fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
         return if file.exists() {
             Ok(file.to_path_buf())
         } else {
-            Err(config_error(path, format!("{field}: {} does not exist", file.display())))
+            Err(config_error(
+                path,
+                format!("{field}: {} does not exist", file.display()),
+            ))
         };
     }
     let dir = path.parent().unwrap_or(Path::new("."));
@@ -370,8 +411,16 @@ fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
 
 fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let bad = |m: String| config_error(path, m);
-    if raw.name.is_empty() || !raw.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
-        return Err(bad(format!("name = {:?}: use letters, digits, `_` and `-` only (it names the output directory)", raw.name)));
+    if raw.name.is_empty()
+        || !raw
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(bad(format!(
+            "name = {:?}: use letters, digits, `_` and `-` only (it names the output directory)",
+            raw.name
+        )));
     }
     // Geometry.
     let g = raw.geometry;
@@ -397,7 +446,10 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     positive(path, "material.youngs_modulus", m.youngs_modulus)?;
     positive(path, "material.density", m.density)?;
     if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
-        return Err(bad(format!("material.poisson_ratio = {} must lie in (−1, 0.5)", m.poisson_ratio)));
+        return Err(bad(format!(
+            "material.poisson_ratio = {} must lie in (−1, 0.5)",
+            m.poisson_ratio
+        )));
     }
     let thickness = positive(path, "material.thickness", m.thickness.unwrap_or(1.0))?;
     // Boundaries.
@@ -436,7 +488,10 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             harmonics.push((h.k, h.cos, h.sin));
         }
         if l.static_part.is_none() && harmonics.is_empty() {
-            return Err(bad(format!("boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both", l.group)));
+            return Err(bad(format!(
+                "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
+                l.group
+            )));
         }
         loads.push(LoadSpec {
             group: l.group,
@@ -453,9 +508,15 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let damping = match raw.damping {
         Some(d) => {
             if !(d.alpha >= 0.0 && d.beta >= 0.0) {
-                return Err(bad(format!("damping: alpha = {} and beta = {} must be ≥ 0", d.alpha, d.beta)));
+                return Err(bad(format!(
+                    "damping: alpha = {} and beta = {} must be ≥ 0",
+                    d.alpha, d.beta
+                )));
             }
-            Some(Rayleigh { alpha: d.alpha, beta: d.beta })
+            Some(Rayleigh {
+                alpha: d.alpha,
+                beta: d.beta,
+            })
         }
         None => None,
     };
@@ -500,7 +561,11 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
                         normal: [normal[0] / len, normal[1] / len],
                     }
                 }
-                RawObstacle::Circle { center, radius, body_inside } => ObstacleSpec::Circle {
+                RawObstacle::Circle {
+                    center,
+                    radius,
+                    body_inside,
+                } => ObstacleSpec::Circle {
                     center,
                     radius: positive(path, "contact.obstacle.circle.radius", radius)?,
                     body_inside,

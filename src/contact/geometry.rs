@@ -33,7 +33,9 @@ fn suggest(name: &str, mesh: &Mesh2d) -> String {
         .map(|n| (strsim::jaro_winkler(n, name), *n))
         .filter(|(s, _)| *s > 0.7)
         .max_by(|a, b| a.0.total_cmp(&b.0));
-    let hint = best.map(|(_, n)| format!(" Did you mean `{n}`?")).unwrap_or_default();
+    let hint = best
+        .map(|(_, n)| format!(" Did you mean `{n}`?"))
+        .unwrap_or_default();
     format!("{hint} Groups in the mesh: {}", names.join(", "))
 }
 
@@ -56,15 +58,24 @@ fn outward_normals(mesh: &Mesh2d, group: &str) -> std::collections::HashMap<usiz
         }
     }
     let mut normals: HashMap<usize, [f64; 2]> = HashMap::new();
-    for e in mesh.edge_groups.get(group).map(Vec::as_slice).unwrap_or(&[]) {
+    for e in mesh
+        .edge_groups
+        .get(group)
+        .map(Vec::as_slice)
+        .unwrap_or(&[])
+    {
         let (a, b) = (e.nodes[0], e.nodes[1]);
         let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
         let t = sub(pb, pa);
         let mut n = [t[1], -t[0]];
-        let owner = cells_of.get(&a).and_then(|ca| ca.iter().find(|c| mesh.cells[**c].nodes.contains(&b)));
+        let owner = cells_of
+            .get(&a)
+            .and_then(|ca| ca.iter().find(|c| mesh.cells[**c].nodes.contains(&b)));
         if let Some(&c) = owner {
             let k = mesh.cells[c].nodes.len() as f64;
-            let centroid = mesh.cells[c].nodes.iter().fold([0.0, 0.0], |s, &m| [s[0] + mesh.nodes[m][0] / k, s[1] + mesh.nodes[m][1] / k]);
+            let centroid = mesh.cells[c].nodes.iter().fold([0.0, 0.0], |s, &m| {
+                [s[0] + mesh.nodes[m][0] / k, s[1] + mesh.nodes[m][1] / k]
+            });
             if dot(n, sub(pa, centroid)) < 0.0 {
                 n = [-n[0], -n[1]];
             }
@@ -87,14 +98,24 @@ fn outward_normals(mesh: &Mesh2d, group: &str) -> std::collections::HashMap<usiz
 /// Build the candidates' normals and gaps.
 pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet> {
     let Some(candidates) = mesh.node_groups.get(&spec.boundary) else {
-        return Err(Error::Model(format!("contact.boundary: no group `{}` in the mesh.{}", spec.boundary, suggest(&spec.boundary, mesh))));
+        return Err(Error::Model(format!(
+            "contact.boundary: no group `{}` in the mesh.{}",
+            spec.boundary,
+            suggest(&spec.boundary, mesh)
+        )));
     };
     let Some(edges) = mesh.edge_groups.get(&spec.boundary) else {
-        return Err(Error::Model(format!("contact.boundary: `{}` has no edges: it must be a curve of the body's boundary", spec.boundary)));
+        return Err(Error::Model(format!(
+            "contact.boundary: `{}` has no edges: it must be a curve of the body's boundary",
+            spec.boundary
+        )));
     };
     let body = mesh.body_nodes();
     if candidates.iter().any(|n| body.binary_search(n).is_err()) {
-        return Err(Error::Model(format!("contact.boundary: `{}` has nodes outside the body (is it the obstacle curve?)", spec.boundary)));
+        return Err(Error::Model(format!(
+            "contact.boundary: `{}` has nodes outside the body (is it the obstacle curve?)",
+            spec.boundary
+        )));
     }
     // Tributary lengths.
     let mut tributary = std::collections::HashMap::new();
@@ -106,7 +127,11 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
         } else {
             dot(sub(pb, pa), sub(pb, pa)).sqrt()
         };
-        let weights: &[f64] = if e.nodes.len() == 3 { &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0] } else { &[0.5, 0.5] };
+        let weights: &[f64] = if e.nodes.len() == 3 {
+            &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0]
+        } else {
+            &[0.5, 0.5]
+        };
         for (&n, w) in e.nodes.iter().zip(weights) {
             *tributary.entry(n).or_insert(0.0) += w * len;
         }
@@ -118,9 +143,16 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
                 return Err(Error::Model(format!("contact.obstacle.curve: `{group}` has 2-D cells; an obstacle must be a curve meshed as line elements only")));
             }
             let Some(obstacle_edges) = mesh.edge_groups.get(group) else {
-                return Err(Error::Model(format!("contact.obstacle.curve: no curve group `{group}` in the mesh.{}", suggest(group, mesh))));
+                return Err(Error::Model(format!(
+                    "contact.obstacle.curve: no curve group `{group}` in the mesh.{}",
+                    suggest(group, mesh)
+                )));
             };
-            if let Some(n) = mesh.node_groups.get(group).and_then(|g| g.iter().find(|n| body.binary_search(n).is_ok())) {
+            if let Some(n) = mesh
+                .node_groups
+                .get(group)
+                .and_then(|g| g.iter().find(|n| body.binary_search(n).is_ok()))
+            {
                 return Err(Error::Model(format!("contact.obstacle.curve: `{group}` shares node {n} with the body; draw the obstacle as a separate curve")));
             }
             let mut segs = Vec::new();
@@ -141,13 +173,20 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
     let mut endpoint_count: Vec<([f64; 2], usize)> = Vec::new();
     for (a, b) in &segments {
         for p in [a, b] {
-            match endpoint_count.iter_mut().find(|(q, _)| (q[0] - p[0]).abs() < 1e-14 && (q[1] - p[1]).abs() < 1e-14) {
+            match endpoint_count
+                .iter_mut()
+                .find(|(q, _)| (q[0] - p[0]).abs() < 1e-14 && (q[1] - p[1]).abs() < 1e-14)
+            {
                 Some(e) => e.1 += 1,
                 None => endpoint_count.push((*p, 1)),
             }
         }
     }
-    let ends: Vec<[f64; 2]> = endpoint_count.into_iter().filter(|(_, c)| *c == 1).map(|(p, _)| p).collect();
+    let ends: Vec<[f64; 2]> = endpoint_count
+        .into_iter()
+        .filter(|(_, c)| *c == 1)
+        .map(|(p, _)| p)
+        .collect();
     let outward = outward_normals(mesh, &spec.boundary);
 
     let mut set = ContactSet {
@@ -166,9 +205,16 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
         let (closest, normal) = match &spec.obstacle {
             ObstacleSpec::Line { point, normal } => {
                 let d = dot(sub(x, *point), *normal);
-                ([x[0] - d * normal[0], x[1] - d * normal[1]], [-normal[0], -normal[1]])
+                (
+                    [x[0] - d * normal[0], x[1] - d * normal[1]],
+                    [-normal[0], -normal[1]],
+                )
             }
-            ObstacleSpec::Circle { center, radius, body_inside } => {
+            ObstacleSpec::Circle {
+                center,
+                radius,
+                body_inside,
+            } => {
                 let r = sub(x, *center);
                 let len = dot(r, r).sqrt();
                 if len < 1e-300 {
@@ -183,7 +229,11 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
                 for (a, b) in &segments {
                     let t = sub(*b, *a);
                     let l2 = dot(t, t);
-                    let s = if l2 > 0.0 { (dot(sub(x, *a), t) / l2).clamp(0.0, 1.0) } else { 0.0 };
+                    let s = if l2 > 0.0 {
+                        (dot(sub(x, *a), t) / l2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
                     let c = [a[0] + s * t[0], a[1] + s * t[1]];
                     let d = dot(sub(x, c), sub(x, c));
                     if d < best.0 {
@@ -198,7 +248,9 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
                     nrm = [-nrm[0], -nrm[1]];
                 }
                 // Off the obstacle: the closest point is a free end and x is not straight across.
-                let at_end = ends.iter().any(|e| (e[0] - c[0]).abs() < 1e-14 && (e[1] - c[1]).abs() < 1e-14);
+                let at_end = ends
+                    .iter()
+                    .any(|e| (e[0] - c[0]).abs() < 1e-14 && (e[1] - c[1]).abs() < 1e-14);
                 let v = sub(c, x);
                 let vl = dot(v, v).sqrt();
                 if at_end && vl > 0.0 && (dot(v, nrm) / vl).abs() < 1.0 - 1e-9 {
@@ -220,7 +272,8 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
         set.normals.push(normal);
         set.gaps.push(gap);
         set.closest.push(closest);
-        set.tributary.push(tributary.get(&n).copied().unwrap_or(0.0));
+        set.tributary
+            .push(tributary.get(&n).copied().unwrap_or(0.0));
     }
     if set.nodes.is_empty() {
         return Err(Error::Model(format!(

@@ -44,7 +44,11 @@ fn polar_inertia(mesh: &Mesh2d, m: &[f64], centre: [f64; 2]) -> f64 {
         .sum()
 }
 
-pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]) -> Result<Redistribution> {
+pub fn redistribute_mass(
+    mesh: &Mesh2d,
+    lumped: &[f64],
+    massless_nodes: &[usize],
+) -> Result<Redistribution> {
     let massless: BTreeSet<usize> = massless_nodes.iter().copied().collect();
     let mut neighbours: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for c in &mesh.cells {
@@ -58,7 +62,9 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
     }
     let (total, first) = moments(mesh, lumped);
     if !(total > 0.0) {
-        return Err(Error::Model("mass redistribution: the body has no mass".into()));
+        return Err(Error::Model(
+            "mass redistribution: the body has no mass".into(),
+        ));
     }
     let centre = [first[0] / total, first[1] / total];
     let inertia_before = polar_inertia(mesh, lumped, centre);
@@ -101,7 +107,11 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
     // Restore the first moment: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j), w_j = m_j over all massive
     // nodes. (Correcting the receiving ring alone can need negative masses: on a flat contact
     // face every receiver lies on the same side of the moved mass.)
-    let weights: Vec<f64> = m.iter().enumerate().map(|(n, &v)| if massless.contains(&n) { 0.0 } else { v }).collect();
+    let weights: Vec<f64> = m
+        .iter()
+        .enumerate()
+        .map(|(n, &v)| if massless.contains(&n) { 0.0 } else { v })
+        .collect();
     let (_, first_now) = {
         let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
         moments(mesh, &full)
@@ -124,7 +134,11 @@ pub fn redistribute_mass(mesh: &Mesh2d, lumped: &[f64], massless_nodes: &[usize]
             }
         }
     }
-    if let Some((n, v)) = m.iter().enumerate().find(|(n, v)| !massless.contains(n) && lumped[2 * n] > 0.0 && **v <= 0.0) {
+    if let Some((n, v)) = m
+        .iter()
+        .enumerate()
+        .find(|(n, v)| !massless.contains(n) && lumped[2 * n] > 0.0 && **v <= 0.0)
+    {
         return Err(Error::Model(format!(
             "mass redistribution made node {n}'s mass non-positive ({v:e}): refine the mesh near the contact boundary"
         )));

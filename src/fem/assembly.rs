@@ -21,7 +21,12 @@ fn coords(mesh: &Mesh2d, nodes: &[usize]) -> Vec<[f64; 2]> {
 /// Global stiffness K (2·nodes square). Errors name the first inverted or degenerate cell.
 pub fn assemble_stiffness(mesh: &Mesh2d, material: &Material) -> Result<Triplets> {
     let mut t = Triplets::new(2 * mesh.nodes.len());
-    t.entries.reserve(mesh.cells.iter().map(|c| 4 * c.nodes.len() * c.nodes.len()).sum());
+    t.entries.reserve(
+        mesh.cells
+            .iter()
+            .map(|c| 4 * c.nodes.len() * c.nodes.len())
+            .sum(),
+    );
     for (i, cell) in mesh.cells.iter().enumerate() {
         let ke = element_stiffness(i, cell, &coords(mesh, &cell.nodes), material)?;
         for (a, &na) in cell.nodes.iter().enumerate() {

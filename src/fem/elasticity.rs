@@ -14,11 +14,31 @@ pub fn elasticity_matrix(m: &Material) -> Matrix3<f64> {
     match m.model {
         PlaneModel::PlaneStrain => {
             let f = e / ((1.0 + nu) * (1.0 - 2.0 * nu));
-            Matrix3::new(f * (1.0 - nu), f * nu, 0.0, f * nu, f * (1.0 - nu), 0.0, 0.0, 0.0, f * (1.0 - 2.0 * nu) / 2.0)
+            Matrix3::new(
+                f * (1.0 - nu),
+                f * nu,
+                0.0,
+                f * nu,
+                f * (1.0 - nu),
+                0.0,
+                0.0,
+                0.0,
+                f * (1.0 - 2.0 * nu) / 2.0,
+            )
         }
         PlaneModel::PlaneStress => {
             let f = e / (1.0 - nu * nu);
-            Matrix3::new(f, f * nu, 0.0, f * nu, f, 0.0, 0.0, 0.0, f * (1.0 - nu) / 2.0)
+            Matrix3::new(
+                f,
+                f * nu,
+                0.0,
+                f * nu,
+                f,
+                0.0,
+                0.0,
+                0.0,
+                f * (1.0 - nu) / 2.0,
+            )
         }
     }
 }
@@ -48,7 +68,15 @@ pub fn physical_derivatives(
         )));
     }
     let inv = [[j11 / det, -j01 / det], [-j10 / det, j00 / det]];
-    let dx = d.iter().map(|g| [inv[0][0] * g[0] + inv[0][1] * g[1], inv[1][0] * g[0] + inv[1][1] * g[1]]).collect();
+    let dx = d
+        .iter()
+        .map(|g| {
+            [
+                inv[0][0] * g[0] + inv[0][1] * g[1],
+                inv[1][0] * g[0] + inv[1][1] * g[1],
+            ]
+        })
+        .collect();
     Ok((n, dx, det))
 }
 
@@ -69,7 +97,12 @@ fn mass_degree(kind: CellKind) -> usize {
     }
 }
 
-pub fn element_stiffness(index: usize, cell: &Cell, coords: &[[f64; 2]], m: &Material) -> Result<DMatrix<f64>> {
+pub fn element_stiffness(
+    index: usize,
+    cell: &Cell,
+    coords: &[[f64; 2]],
+    m: &Material,
+) -> Result<DMatrix<f64>> {
     let c = elasticity_matrix(m);
     let nn = coords.len();
     let mut k = DMatrix::zeros(2 * nn, 2 * nn);
@@ -89,7 +122,12 @@ pub fn element_stiffness(index: usize, cell: &Cell, coords: &[[f64; 2]], m: &Mat
 }
 
 /// Consistent mass per component (nn × nn; the same for x and y).
-pub fn element_mass_scalar(index: usize, cell: &Cell, coords: &[[f64; 2]], m: &Material) -> Result<DMatrix<f64>> {
+pub fn element_mass_scalar(
+    index: usize,
+    cell: &Cell,
+    coords: &[[f64; 2]],
+    m: &Material,
+) -> Result<DMatrix<f64>> {
     let nn = coords.len();
     let mut mm = DMatrix::zeros(nn, nn);
     for (xi, eta, w) in gauss(cell.kind, mass_degree(cell.kind)) {
@@ -108,7 +146,9 @@ pub fn element_mass_scalar(index: usize, cell: &Cell, coords: &[[f64; 2]], m: &M
 /// every element kind (unlike row summing, which gives negative corner masses for Tri6).
 pub fn hrz_lumped(consistent: &DMatrix<f64>) -> Vec<f64> {
     let total: f64 = consistent.iter().sum();
-    let diag: Vec<f64> = (0..consistent.nrows()).map(|i| consistent[(i, i)]).collect();
+    let diag: Vec<f64> = (0..consistent.nrows())
+        .map(|i| consistent[(i, i)])
+        .collect();
     let s: f64 = diag.iter().sum();
     diag.iter().map(|d| d * total / s).collect()
 }

@@ -7,7 +7,12 @@ use crate::mesh::{Edge, Mesh2d};
 
 /// Consistent nodal forces (length 2·nodes) of a constant traction `t` (force per area) on
 /// `edges`, times `thickness`. Curved (3-node) edges are integrated on their parabola.
-pub fn edge_traction_load(mesh: &Mesh2d, edges: &[Edge], traction: [f64; 2], thickness: f64) -> Vec<f64> {
+pub fn edge_traction_load(
+    mesh: &Mesh2d,
+    edges: &[Edge],
+    traction: [f64; 2],
+    thickness: f64,
+) -> Vec<f64> {
     let mut f = vec![0.0; 2 * mesh.nodes.len()];
     for e in edges {
         let nn = e.nodes.len();
@@ -45,12 +50,18 @@ pub fn point_force_load(mesh: &Mesh2d, nodes: &[usize], force: [f64; 2]) -> Vec<
 
 /// Consistent nodal forces of a body force density b(x) (force per volume), × thickness.
 /// Cells whose Jacobian is invalid are skipped here (assembly reports them).
-pub fn body_force_load(mesh: &Mesh2d, material: &Material, body: impl Fn([f64; 2]) -> [f64; 2]) -> Vec<f64> {
+pub fn body_force_load(
+    mesh: &Mesh2d,
+    material: &Material,
+    body: impl Fn([f64; 2]) -> [f64; 2],
+) -> Vec<f64> {
     let mut f = vec![0.0; 2 * mesh.nodes.len()];
     for (i, cell) in mesh.cells.iter().enumerate() {
         let coords: Vec<[f64; 2]> = cell.nodes.iter().map(|&n| mesh.nodes[n]).collect();
         for (xi, eta, w) in gauss(cell.kind, 5) {
-            let Ok((n, _, det)) = physical_derivatives(i, cell, &coords, xi, eta) else { continue };
+            let Ok((n, _, det)) = physical_derivatives(i, cell, &coords, xi, eta) else {
+                continue;
+            };
             let mut x = [0.0; 2];
             for (a, p) in coords.iter().enumerate() {
                 x[0] += n[a] * p[0];

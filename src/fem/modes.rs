@@ -26,13 +26,32 @@ pub fn lowest_modes(k: &Csc, m: &Csc, count: usize, shift: f64) -> Result<Vec<(f
     let lu = SparseLu::factor_real(&pattern, &shifted)?;
     // Start vectors: M-weighted deterministic pseudo-random columns.
     let mut x: Vec<Vec<f64>> = (0..p)
-        .map(|j| (0..n).map(|i| (((i * 7919 + j * 104_729) % 1000) as f64 / 1000.0) - 0.5 + if i % p == j { 1.0 } else { 0.0 }).collect())
+        .map(|j| {
+            (0..n)
+                .map(|i| {
+                    (((i * 7919 + j * 104_729) % 1000) as f64 / 1000.0) - 0.5
+                        + if i % p == j { 1.0 } else { 0.0 }
+                })
+                .collect()
+        })
         .collect();
     let mut previous = vec![f64::INFINITY; count];
     for _ in 0..200 {
         // Y = (K − σM)⁻¹ M X
-        let rhs: Vec<Vec<c64>> = x.iter().map(|col| m.mul_vec(col).into_iter().map(|v| c64::new(v, 0.0)).collect()).collect();
-        let y: Vec<Vec<f64>> = lu.solve_many(&rhs).into_iter().map(|col| col.into_iter().map(|z| z.re).collect()).collect();
+        let rhs: Vec<Vec<c64>> = x
+            .iter()
+            .map(|col| {
+                m.mul_vec(col)
+                    .into_iter()
+                    .map(|v| c64::new(v, 0.0))
+                    .collect()
+            })
+            .collect();
+        let y: Vec<Vec<f64>> = lu
+            .solve_many(&rhs)
+            .into_iter()
+            .map(|col| col.into_iter().map(|z| z.re).collect())
+            .collect();
         // Rayleigh–Ritz on span(Y).
         let ky: Vec<Vec<f64>> = y.iter().map(|c| k.mul_vec(c)).collect();
         let my: Vec<Vec<f64>> = y.iter().map(|c| m.mul_vec(c)).collect();
@@ -42,9 +61,15 @@ pub fn lowest_modes(k: &Csc, m: &Csc, count: usize, shift: f64) -> Result<Vec<(f
         let kr = (&kr + kr.transpose()) * 0.5;
         let mr = (&mr + mr.transpose()) * 0.5;
         let Some(chol) = mr.clone().cholesky() else {
-            return Err(Error::Model("mode extraction: the mass matrix is not positive on the subspace (massless dofs?)".into()));
+            return Err(Error::Model(
+                "mode extraction: the mass matrix is not positive on the subspace (massless dofs?)"
+                    .into(),
+            ));
         };
-        let l_inv = chol.l().try_inverse().ok_or_else(|| Error::Model("mode extraction: singular subspace".into()))?;
+        let l_inv = chol
+            .l()
+            .try_inverse()
+            .ok_or_else(|| Error::Model("mode extraction: singular subspace".into()))?;
         let a = &l_inv * kr * l_inv.transpose();
         let eig = SymmetricEigen::new((&a + a.transpose()) * 0.5);
         let mut order: Vec<usize> = (0..p).collect();
@@ -64,8 +89,15 @@ pub fn lowest_modes(k: &Csc, m: &Csc, count: usize, shift: f64) -> Result<Vec<(f
                 v
             })
             .collect();
-        let values: Vec<f64> = order.iter().take(count).map(|&i| eig.eigenvalues[i]).collect();
-        let converged = values.iter().zip(&previous).all(|(a, b)| ((a - b) / a).abs() < 1e-12);
+        let values: Vec<f64> = order
+            .iter()
+            .take(count)
+            .map(|&i| eig.eigenvalues[i])
+            .collect();
+        let converged = values
+            .iter()
+            .zip(&previous)
+            .all(|(a, b)| ((a - b) / a).abs() < 1e-12);
         previous = values;
         if converged {
             break;

@@ -35,10 +35,18 @@ pub fn shape(kind: CellKind, xi: f64, eta: f64) -> (Vec<f64>, Vec<[f64; 2]>) {
         }
         CellKind::Quad4 => {
             let s = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
-            let n = s.iter().map(|c| 0.25 * (1.0 + c[0] * xi) * (1.0 + c[1] * eta)).collect();
+            let n = s
+                .iter()
+                .map(|c| 0.25 * (1.0 + c[0] * xi) * (1.0 + c[1] * eta))
+                .collect();
             let d = s
                 .iter()
-                .map(|c| [0.25 * c[0] * (1.0 + c[1] * eta), 0.25 * c[1] * (1.0 + c[0] * xi)])
+                .map(|c| {
+                    [
+                        0.25 * c[0] * (1.0 + c[1] * eta),
+                        0.25 * c[1] * (1.0 + c[0] * xi),
+                    ]
+                })
                 .collect();
             (n, d)
         }
@@ -69,10 +77,23 @@ pub fn shape(kind: CellKind, xi: f64, eta: f64) -> (Vec<f64>, Vec<[f64; 2]>) {
             let q = |t: f64| [0.5 * t * (t - 1.0), 1.0 - t * t, 0.5 * t * (t + 1.0)];
             let dq = |t: f64| [t - 0.5, -2.0 * t, t + 0.5];
             // gmsh order: corners (−1,−1) (1,−1) (1,1) (−1,1), mids (0,−1) (1,0) (0,1) (−1,0), centre.
-            let idx = [[0, 0], [2, 0], [2, 2], [0, 2], [1, 0], [2, 1], [1, 2], [0, 1], [1, 1]];
+            let idx = [
+                [0, 0],
+                [2, 0],
+                [2, 2],
+                [0, 2],
+                [1, 0],
+                [2, 1],
+                [1, 2],
+                [0, 1],
+                [1, 1],
+            ];
             let (qx, qy, dx, dy) = (q(xi), q(eta), dq(xi), dq(eta));
             let n = idx.iter().map(|[i, j]| qx[*i] * qy[*j]).collect();
-            let d = idx.iter().map(|[i, j]| [dx[*i] * qy[*j], qx[*i] * dy[*j]]).collect();
+            let d = idx
+                .iter()
+                .map(|[i, j]| [dx[*i] * qy[*j], qx[*i] * dy[*j]])
+                .collect();
             (n, d)
         }
     }
@@ -86,7 +107,11 @@ pub fn gauss(kind: CellKind, degree: usize) -> Vec<(f64, f64, f64)> {
                 vec![(1.0 / 3.0, 1.0 / 3.0, 0.5)]
             } else if degree == 2 {
                 let w = 1.0 / 6.0;
-                vec![(1.0 / 6.0, 1.0 / 6.0, w), (2.0 / 3.0, 1.0 / 6.0, w), (1.0 / 6.0, 2.0 / 3.0, w)]
+                vec![
+                    (1.0 / 6.0, 1.0 / 6.0, w),
+                    (2.0 / 3.0, 1.0 / 6.0, w),
+                    (1.0 / 6.0, 2.0 / 3.0, w),
+                ]
             } else {
                 // 7-point Radon rule, degree 5 (weights for the reference area 1/2).
                 let a1 = 0.059_715_871_789_769_82;

@@ -56,7 +56,8 @@ impl Sampler {
     /// Q: the discrete Fourier projection of `samples` (length N) onto M coefficients.
     pub fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
         let n = self.samples;
-        let mut spectrum: Vec<Complex64> = samples.iter().map(|&x| Complex64::new(x, 0.0)).collect();
+        let mut spectrum: Vec<Complex64> =
+            samples.iter().map(|&x| Complex64::new(x, 0.0)).collect();
         self.forward.process(&mut spectrum);
         let scale = 1.0 / n as f64;
         out[0] = spectrum[0].re * scale;

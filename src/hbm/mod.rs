@@ -209,7 +209,9 @@ pub fn solve(
     // Z_k⁻¹ Bᵀ per harmonic, kept for the recovery (24).
     let mut compliance_columns: BTreeMap<usize, Vec<Vec<c64>>> = BTreeMap::new();
     let mut compliance = Vec::new();
-    let bt_columns: Vec<Vec<c64>> = contact.map(|op| transpose_rows(&op.b_free)).unwrap_or_default();
+    let bt_columns: Vec<Vec<c64>> = contact
+        .map(|op| transpose_rows(&op.b_free))
+        .unwrap_or_default();
 
     if harmonics.first() == Some(&0) && system.dofs.prescribed.is_empty() {
         // Nothing holds the body against rigid motion: K is singular by construction.
@@ -223,7 +225,11 @@ pub fn solve(
 
         let start = Instant::now();
         let rhs = system.load(k);
-        let mut z = if is_zero(&rhs) { rhs.clone() } else { lu.solve(&rhs) };
+        let mut z = if is_zero(&rhs) {
+            rhs.clone()
+        } else {
+            lu.solve(&rhs)
+        };
         let mut res = system::relative_residual(system, k, &z, &rhs);
         // Iterative refinement: large, badly conditioned systems (slender parts, fine
         // meshes) lose digits in the LU; a few cheap solves win them back.
@@ -275,7 +281,16 @@ pub fn solve(
     let contact_solution = match contact {
         None => None,
         Some(op) => {
-            let solution = solve_contact(system, op, settings, &free, &motion, compliance, &mut timings, progress)?;
+            let solution = solve_contact(
+                system,
+                op,
+                settings,
+                &free,
+                &motion,
+                compliance,
+                &mut timings,
+                progress,
+            )?;
             // Recovery (24): z_k = Z_k⁻¹(f_k + Bᵀλ_k) = z_lin,k + (Z_k⁻¹Bᵀ) λ_k.
             let start = Instant::now();
             let m = 2 * settings.harmonics + 1;
@@ -285,7 +300,10 @@ pub fn solve(
                     let lam = if k == 0 {
                         c64::new(solution.multipliers[j * m], 0.0)
                     } else {
-                        c64::new(solution.multipliers[j * m + 2 * k - 1], -solution.multipliers[j * m + 2 * k])
+                        c64::new(
+                            solution.multipliers[j * m + 2 * k - 1],
+                            -solution.multipliers[j * m + 2 * k],
+                        )
                     };
                     if lam.norm() == 0.0 {
                         continue;
@@ -314,15 +332,21 @@ pub fn solve(
 /// Columns of Bᵀ (= rows of B) as dense complex vectors.
 fn transpose_rows(b: &Csc) -> Vec<Vec<c64>> {
     let mut rows = vec![vec![c64::new(0.0, 0.0); b.ncols]; b.nrows];
-    for j in 0..b.ncols {
-        for p in b.col_ptr[j]..b.col_ptr[j + 1] {
+    for (j, window) in b.col_ptr.windows(2).enumerate() {
+        for p in window[0]..window[1] {
             rows[b.row_idx[p]][j] = c64::new(b.values[p], 0.0);
         }
     }
     rows
 }
 
-fn check_solve(system: &System, k: usize, backward_error: f64, amplification: f64, z: &[c64]) -> Result<()> {
+fn check_solve(
+    system: &System,
+    k: usize,
+    backward_error: f64,
+    amplification: f64,
+    z: &[c64],
+) -> Result<()> {
     let finite = z.iter().all(|v| v.re.is_finite() && v.im.is_finite());
     // A stable LU of a regular matrix leaves a backward error near round-off; a singular one
     // shows up as a non-finite or enormous solution.
@@ -341,7 +365,12 @@ fn resonance_warning(system: &System, k: usize, z: &[c64], f: &[c64]) -> Option<
     }
     let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
     let (kr, ki) = (system.k_ff.mul_vec(&re), system.k_ff.mul_vec(&im));
-    let num: f64 = kr.iter().zip(&ki).map(|(a, b)| a * a + b * b).sum::<f64>().sqrt();
+    let num: f64 = kr
+        .iter()
+        .zip(&ki)
+        .map(|(a, b)| a * a + b * b)
+        .sum::<f64>()
+        .sqrt();
     let den: f64 = f.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
     let amplification = if den > 0.0 { num / den } else { 0.0 };
     let f_hz = k as f64 * system.omega / (2.0 * std::f64::consts::PI);
@@ -425,7 +454,10 @@ fn solve_contact(
         compliance,
         linear_gap: r,
     };
-    let mean_compliance = (0..nc).map(|i| problem.compliance[0][i * nc + i].re.abs()).sum::<f64>() / nc as f64;
+    let mean_compliance = (0..nc)
+        .map(|i| problem.compliance[0][i * nc + i].re.abs())
+        .sum::<f64>()
+        / nc as f64;
     if !(mean_compliance.is_finite() && mean_compliance > 0.0) {
         return Err(Error::Model(
             "the contact nodes' static compliance B K⁻¹ Bᵀ is zero or not finite: are the contact \
@@ -453,8 +485,15 @@ fn solve_contact(
     // a low H (each rung warm-starting the next: the low harmonics of an impact response are
     // found first); then both again with c ten times smaller (a softer penalty on the gap,
     // method.md: the c that converges is a band).
-    let attempt = |c: f64, total: &mut usize, log: &mut Vec<IterationLog>, reasons: &mut Vec<String>| -> Option<(NewtonOutcome, Vec<usize>)> {
-        progress(&format!("contact Newton: H = {h}, N = {}, {nc} nodes, c = {c:.3e}", settings.samples));
+    let attempt = |c: f64,
+                   total: &mut usize,
+                   log: &mut Vec<IterationLog>,
+                   reasons: &mut Vec<String>|
+     -> Option<(NewtonOutcome, Vec<usize>)> {
+        progress(&format!(
+            "contact Newton: H = {h}, N = {}, {nc} nodes, c = {c:.3e}",
+            settings.samples
+        ));
         let o = reduced::newton(&problem, &newton_settings(h, c), &vec![0.0; nc * m]);
         *total += o.iterations;
         log.extend(o.log.iter().cloned());
@@ -465,7 +504,10 @@ fn solve_contact(
         if h < 2 {
             return None;
         }
-        let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2].into_iter().filter(|&r| r >= 1).collect();
+        let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2]
+            .into_iter()
+            .filter(|&r| r >= 1)
+            .collect();
         rungs.dedup();
         rungs.push(h);
         progress(&format!("contact Newton: climbing H = {rungs:?}"));
@@ -477,7 +519,10 @@ fn solve_contact(
             *total += o.iterations;
             log.extend(o.log.iter().cloned());
             if !o.converged {
-                reasons.push(format!("ladder at c = {c:.3e} failed at H = {rung}: {}", o.reason));
+                reasons.push(format!(
+                    "ladder at c = {c:.3e} failed at H = {rung}: {}",
+                    o.reason
+                ));
                 return None;
             }
             x = o.multipliers.clone();
@@ -512,7 +557,8 @@ fn solve_contact(
     outcome.iterations = total;
     outcome.log = log;
     let gaps = problem.gap(&outcome.multipliers);
-    let complementarity = measure_complementarity(&problem, &outcome.multipliers, &gaps, settings.samples);
+    let complementarity =
+        measure_complementarity(&problem, &outcome.multipliers, &gaps, settings.samples);
     Ok(ContactSolution {
         harmonics: h,
         samples: settings.samples,
@@ -548,7 +594,7 @@ fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutco
     }
     match system.rayleigh {
         None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
-        Some((_, beta)) if beta == 0.0 => advice.push(
+        Some((_, 0.0)) => advice.push(
             "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
         ),
         _ => {}
@@ -567,7 +613,12 @@ fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutco
 }
 
 /// Violation of λ ≤ 0, g ≤ 0, λg = 0 by the Fourier series at the N samples.
-pub fn measure_complementarity(problem: &ReducedProblem, lambda: &[f64], gaps: &[f64], samples: usize) -> Complementarity {
+pub fn measure_complementarity(
+    problem: &ReducedProblem,
+    lambda: &[f64],
+    gaps: &[f64],
+    samples: usize,
+) -> Complementarity {
     let sampler = fourier::Sampler::new(problem.harmonics, samples);
     let (nc, m) = (problem.nodes, problem.coefficients());
     let (mut ls, mut gs, mut rs) = (vec![0.0; samples], vec![0.0; samples], vec![0.0; samples]);

@@ -31,7 +31,8 @@ impl ReducedProblem {
         let (m_old, m_new) = (self.coefficients(), 2 * h + 1);
         let mut r = vec![0.0; self.nodes * m_new];
         for i in 0..self.nodes {
-            r[i * m_new..(i + 1) * m_new].copy_from_slice(&self.linear_gap[i * m_old..i * m_old + m_new]);
+            r[i * m_new..(i + 1) * m_new]
+                .copy_from_slice(&self.linear_gap[i * m_old..i * m_old + m_new]);
         }
         ReducedProblem {
             nodes: self.nodes,
@@ -96,6 +97,9 @@ pub struct NewtonSettings {
     /// Reduced systems larger than this use the matrix-free Krylov path instead of a dense LU.
     pub dense_limit: usize,
 }
+
+/// A rejected line-search trial: (‖R‖, step, λ, R, force peak, active samples).
+type Trial = (f64, f64, Vec<f64>, Vec<f64>, f64, Vec<bool>);
 
 /// Residual norms the non-monotone line search looks back over.
 const NONMONOTONE_WINDOW: usize = 8;
@@ -232,12 +236,16 @@ pub fn newton(problem: &ReducedProblem, settings: &NewtonSettings, start: &[f64]
         // a strictly monotone search stalls on them.
         let r0 = norm2(&residual);
         history.push(r0);
-        let reference = history.iter().rev().take(NONMONOTONE_WINDOW).fold(0.0f64, |a, &b| a.max(b));
+        let reference = history
+            .iter()
+            .rev()
+            .take(NONMONOTONE_WINDOW)
+            .fold(0.0f64, |a, &b| a.max(b));
         let mut alpha = 1.0;
         let mut accepted = false;
         let mut trial = x.clone();
         let mut trial_active = Vec::new();
-        let mut best: Option<(f64, f64, Vec<f64>, Vec<f64>, f64, Vec<bool>)> = None;
+        let mut best: Option<Trial> = None;
         while alpha >= 1.0 / 1024.0 {
             for a in 0..dim {
                 trial[a] = x[a] + alpha * step[a];
@@ -253,7 +261,14 @@ pub fn newton(problem: &ReducedProblem, settings: &NewtonSettings, start: &[f64]
                 break;
             }
             if best.as_ref().is_none_or(|b| norm < b.0) {
-                best = Some((norm, alpha, trial.clone(), r_trial, p_trial, trial_active.clone()));
+                best = Some((
+                    norm,
+                    alpha,
+                    trial.clone(),
+                    r_trial,
+                    p_trial,
+                    trial_active.clone(),
+                ));
             }
             alpha *= 0.5;
         }
@@ -291,9 +306,16 @@ pub fn newton(problem: &ReducedProblem, settings: &NewtonSettings, start: &[f64]
     }
 }
 
-
 /// The Newton step from the dense generalized Jacobian J = I − A + c A G, A = blockdiag(Q S_i P).
-fn dense_step(problem: &ReducedProblem, p: &[f64], q: &[f64], ns: usize, c: f64, active: &[bool], residual: &[f64]) -> Option<Vec<f64>> {
+fn dense_step(
+    problem: &ReducedProblem,
+    p: &[f64],
+    q: &[f64],
+    ns: usize,
+    c: f64,
+    active: &[bool],
+    residual: &[f64],
+) -> Option<Vec<f64>> {
     let (nc, m) = (problem.nodes, problem.coefficients());
     let dim = nc * m;
     let mut jac = DMatrix::<f64>::identity(dim, dim);
@@ -343,7 +365,13 @@ fn dense_step(problem: &ReducedProblem, p: &[f64], q: &[f64], ns: usize, c: f64,
 /// The Newton step without forming J: restarted GMRES on J v = v − A v + c A G v (products
 /// by FFT and per-harmonic G), right-preconditioned by J's node-diagonal blocks. Inexact
 /// Newton: the linear tolerance is loose because the line search guards the step.
-fn krylov_step(problem: &ReducedProblem, sampler: &Sampler, c: f64, active: &[bool], residual: &[f64]) -> Result<Vec<f64>, String> {
+fn krylov_step(
+    problem: &ReducedProblem,
+    sampler: &Sampler,
+    c: f64,
+    active: &[bool],
+    residual: &[f64],
+) -> Result<Vec<f64>, String> {
     let (nc, m, ns) = (problem.nodes, problem.coefficients(), sampler.samples);
     let p = sampler.p_matrix();
     let q = sampler.q_matrix();
@@ -599,7 +627,12 @@ mod tests {
     fn krylov_path_matches_dense() {
         let h = 8;
         let m = 2 * h + 1;
-        let g = vec![c64::new(1.0, 0.0), c64::new(0.3, 0.0), c64::new(0.3, 0.0), c64::new(0.8, 0.0)];
+        let g = vec![
+            c64::new(1.0, 0.0),
+            c64::new(0.3, 0.0),
+            c64::new(0.3, 0.0),
+            c64::new(0.8, 0.0),
+        ];
         let mut r = vec![0.0; 2 * m];
         r[0] = -0.5;
         r[1] = 1.2;
@@ -621,10 +654,23 @@ mod tests {
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m]);
         settings.dense_limit = 0;
         let krylov = newton(&problem, &settings, &vec![0.0; 2 * m]);
-        assert!(dense.converged && krylov.converged, "{} / {}", dense.reason, krylov.reason);
-        let diff = dense.multipliers.iter().zip(&krylov.multipliers).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(
+            dense.converged && krylov.converged,
+            "{} / {}",
+            dense.reason,
+            krylov.reason
+        );
+        let diff = dense
+            .multipliers
+            .iter()
+            .zip(&krylov.multipliers)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(diff < 1e-8, "{diff:e}");
-        assert!(dense.multipliers.iter().any(|&v| v.abs() > 0.1), "contact must be active");
+        assert!(
+            dense.multipliers.iter().any(|&v| v.abs() > 0.1),
+            "contact must be active"
+        );
     }
 }
 
@@ -639,7 +685,9 @@ mod jacobian_tests {
         let m = 2 * h + 1;
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
         };
         let compliance: Vec<Vec<c64>> = (0..=h)

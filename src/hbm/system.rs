@@ -215,7 +215,11 @@ impl System {
 /// on fine meshes).
 pub fn relative_residual(system: &System, k: usize, x: &[c64], b: &[c64]) -> f64 {
     let zx = system.apply(k, x);
-    let r = zx.iter().zip(b).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    let r = zx
+        .iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
     let bn = b.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let xn = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let den = system.norm_inf(k) * xn + bn;

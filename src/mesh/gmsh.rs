@@ -144,10 +144,22 @@ pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
         .arg("--version")
         .output()
         .map_err(|e| Error::Gmsh(format!("cannot start {key}: {e}")))?;
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    let version = text.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("").to_string();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let version = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty())
+        .unwrap_or("")
+        .to_string();
     if !out.status.success() || version.is_empty() {
-        return Err(Error::Gmsh(format!("{key} --version failed: {}", text.trim())));
+        return Err(Error::Gmsh(format!(
+            "{key} --version failed: {}",
+            text.trim()
+        )));
     }
     if let Ok(mut cache) = VERSIONS.lock() {
         cache.push((key, version.clone()));
@@ -161,7 +173,13 @@ fn cache_key(request: &MeshRequest, contents: &[u8], version: &str) -> String {
     for (k, v) in &request.parameters {
         h.update(format!("|{k}={v:e}").as_bytes());
     }
-    h.update(format!("|size={:?}|order={}|quads={}|gmsh={version}", request.mesh_size, request.order, request.quads).as_bytes());
+    h.update(
+        format!(
+            "|size={:?}|order={}|quads={}|gmsh={version}",
+            request.mesh_size, request.order, request.quads
+        )
+        .as_bytes(),
+    );
     let digest = h.finalize();
     digest.iter().take(8).map(|b| format!("{b:02x}")).collect()
 }
@@ -171,7 +189,10 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
     let geo = &request.geo;
     if geo.extension().is_some_and(|e| e == "msh") {
         if !geo.is_file() {
-            return Err(Error::Gmsh(format!("mesh file {} does not exist", geo.display())));
+            return Err(Error::Gmsh(format!(
+                "mesh file {} does not exist",
+                geo.display()
+            )));
         }
         return Ok(MeshedGeometry {
             msh: geo.clone(),
@@ -179,11 +200,18 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
             gmsh_version: String::new(),
         });
     }
-    let contents = std::fs::read(geo).map_err(|e| Error::Gmsh(format!("cannot read geometry {}: {e}", geo.display())))?;
+    let contents = std::fs::read(geo)
+        .map_err(|e| Error::Gmsh(format!("cannot read geometry {}: {e}", geo.display())))?;
     let cmd = find_gmsh(request.gmsh.as_deref(), geo.parent())?;
     let version = gmsh_version(&cmd)?;
-    let stem = geo.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "mesh".into());
-    let msh = cache_dir.join(format!("{stem}-{}.msh", cache_key(request, &contents, &version)));
+    let stem = geo
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "mesh".into());
+    let msh = cache_dir.join(format!(
+        "{stem}-{}.msh",
+        cache_key(request, &contents, &version)
+    ));
     if msh.is_file() {
         return Ok(MeshedGeometry {
             msh,
@@ -194,7 +222,10 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
     let tmp = cache_dir.join(format!("{stem}.tmp-{}.msh", std::process::id()));
     let mut c = cmd.command();
-    c.arg(geo).arg("-2").arg("-order").arg(request.order.to_string());
+    c.arg(geo)
+        .arg("-2")
+        .arg("-order")
+        .arg(request.order.to_string());
     for (k, v) in &request.parameters {
         c.arg("-setnumber").arg(k).arg(format!("{v:e}"));
     }
@@ -204,18 +235,35 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
     if let Some(h) = request.mesh_size {
         c.arg("-clmax").arg(format!("{h:e}"));
     }
-    c.args(["-format", "msh41", "-save_all", "0", "-nopopup", "-o"]).arg(&tmp);
-    let out = c.output().map_err(|e| Error::Gmsh(format!("cannot start {}: {e}", cmd.describe())))?;
-    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    c.args(["-format", "msh41", "-save_all", "0", "-nopopup", "-o"])
+        .arg(&tmp);
+    let out = c
+        .output()
+        .map_err(|e| Error::Gmsh(format!("cannot start {}: {e}", cmd.describe())))?;
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
     if !out.status.success() || !errors.is_empty() || !tmp.is_file() {
         let _ = std::fs::remove_file(&tmp);
         let shown = if errors.is_empty() {
-            text.lines().rev().take(10).collect::<Vec<_>>().into_iter().rev().collect::<Vec<_>>().join("\n")
+            text.lines()
+                .rev()
+                .take(10)
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev()
+                .collect::<Vec<_>>()
+                .join("\n")
         } else {
             errors.join("\n")
         };
-        return Err(Error::Gmsh(format!("meshing {} failed:\n{shown}", geo.display())));
+        return Err(Error::Gmsh(format!(
+            "meshing {} failed:\n{shown}",
+            geo.display()
+        )));
     }
     std::fs::rename(&tmp, &msh).map_err(|e| Error::io(&msh, e))?;
     Ok(MeshedGeometry {

@@ -90,7 +90,8 @@ fn reverse(cell: &mut Cell) {
 }
 
 pub fn read_msh(path: &Path) -> Result<Mesh2d> {
-    let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read the mesh file: {e}")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| err(path, format!("cannot read the mesh file: {e}")))?;
     if !bytes.starts_with(b"$MeshFormat") {
         return Err(err(path, "not a gmsh .msh file (no $MeshFormat header)"));
     }
@@ -120,7 +121,12 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
             entity_physicals.insert((3, v.tag), v.physical_tags.clone());
         }
     }
-    let group_name = |dim: i32, tag: i32| names.get(&(dim, tag)).cloned().unwrap_or_else(|| format!("{dim}D-{tag}"));
+    let group_name = |dim: i32, tag: i32| {
+        names
+            .get(&(dim, tag))
+            .cloned()
+            .unwrap_or_else(|| format!("{dim}D-{tag}"))
+    };
 
     // Nodes, with a tag → index map (tags need not be consecutive).
     let Some(node_data) = &msh.data.nodes else {
@@ -134,7 +140,9 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
         let mut tags: Vec<(u64, usize)> = match &block.node_tags {
             Some(map) => map.iter().map(|(&t, &i)| (t, i)).collect(),
             // mshio drops contiguous tags: they run on from the previous block.
-            None => (0..block.nodes.len()).map(|i| (next_tag + i as u64, i)).collect(),
+            None => (0..block.nodes.len())
+                .map(|i| (next_tag + i as u64, i))
+                .collect(),
         };
         tags.sort_by_key(|&(_, i)| i);
         next_tag += block.nodes.len() as u64;
@@ -146,17 +154,22 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
         }
     }
     let node_index = |tag: u64| -> Result<usize> {
-        index_of
-            .get(&tag)
-            .copied()
-            .ok_or_else(|| err(path, format!("an element refers to node {tag}, which is not in $Nodes")))
+        index_of.get(&tag).copied().ok_or_else(|| {
+            err(
+                path,
+                format!("an element refers to node {tag}, which is not in $Nodes"),
+            )
+        })
     };
 
     let Some(elements) = &msh.data.elements else {
         return Err(err(path, "the file has no $Elements section"));
     };
     let any_physical_2d = elements.element_blocks.iter().any(|b| {
-        b.entity_dim == 2 && entity_physicals.get(&(2, b.entity_tag)).is_some_and(|p| !p.is_empty())
+        b.entity_dim == 2
+            && entity_physicals
+                .get(&(2, b.entity_tag))
+                .is_some_and(|p| !p.is_empty())
     });
     let mut mesh = Mesh2d {
         nodes,
@@ -165,8 +178,14 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
     let mut node_sets: BTreeMap<String, BTreeSet<usize>> = BTreeMap::new();
     let mut seen_cells: HashMap<u64, usize> = HashMap::new();
     for block in &elements.element_blocks {
-        let physicals = entity_physicals.get(&(block.entity_dim, block.entity_tag)).cloned().unwrap_or_default();
-        let groups: Vec<String> = physicals.iter().map(|&t| group_name(block.entity_dim, t)).collect();
+        let physicals = entity_physicals
+            .get(&(block.entity_dim, block.entity_tag))
+            .cloned()
+            .unwrap_or_default();
+        let groups: Vec<String> = physicals
+            .iter()
+            .map(|&t| group_name(block.entity_dim, t))
+            .collect();
         match block.entity_dim {
             2 => {
                 let Some(kind) = cell_kind(block.element_type) else {
@@ -185,38 +204,78 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
                     let index = match seen_cells.get(&e.element_tag) {
                         Some(&i) => i,
                         None => {
-                            let cell_nodes = e.nodes.iter().map(|&t| node_index(t)).collect::<Result<Vec<_>>>()?;
+                            let cell_nodes = e
+                                .nodes
+                                .iter()
+                                .map(|&t| node_index(t))
+                                .collect::<Result<Vec<_>>>()?;
                             if cell_nodes.len() != kind.nodes_per_cell() {
-                                return Err(err(path, format!("element {} has {} nodes, expected {}", e.element_tag, cell_nodes.len(), kind.nodes_per_cell())));
+                                return Err(err(
+                                    path,
+                                    format!(
+                                        "element {} has {} nodes, expected {}",
+                                        e.element_tag,
+                                        cell_nodes.len(),
+                                        kind.nodes_per_cell()
+                                    ),
+                                ));
                             }
-                            mesh.cells.push(Cell { kind, nodes: cell_nodes });
+                            mesh.cells.push(Cell {
+                                kind,
+                                nodes: cell_nodes,
+                            });
                             seen_cells.insert(e.element_tag, mesh.cells.len() - 1);
                             mesh.cells.len() - 1
                         }
                     };
                     for g in &groups {
                         mesh.cell_groups.entry(g.clone()).or_default().push(index);
-                        node_sets.entry(g.clone()).or_default().extend(mesh.cells[index].nodes.iter().copied());
+                        node_sets
+                            .entry(g.clone())
+                            .or_default()
+                            .extend(mesh.cells[index].nodes.iter().copied());
                     }
                 }
             }
             1 => {
                 if !matches!(block.element_type, ElementType::Lin2 | ElementType::Lin3) {
-                    return Err(err(path, format!("unsupported 1-D element type {:?}: expected 2- or 3-node lines", block.element_type)));
+                    return Err(err(
+                        path,
+                        format!(
+                            "unsupported 1-D element type {:?}: expected 2- or 3-node lines",
+                            block.element_type
+                        ),
+                    ));
                 }
                 for e in &block.elements {
-                    let edge_nodes = e.nodes.iter().map(|&t| node_index(t)).collect::<Result<Vec<_>>>()?;
+                    let edge_nodes = e
+                        .nodes
+                        .iter()
+                        .map(|&t| node_index(t))
+                        .collect::<Result<Vec<_>>>()?;
                     for g in &groups {
-                        node_sets.entry(g.clone()).or_default().extend(edge_nodes.iter().copied());
-                        mesh.edge_groups.entry(g.clone()).or_default().push(Edge { nodes: edge_nodes.clone() });
+                        node_sets
+                            .entry(g.clone())
+                            .or_default()
+                            .extend(edge_nodes.iter().copied());
+                        mesh.edge_groups.entry(g.clone()).or_default().push(Edge {
+                            nodes: edge_nodes.clone(),
+                        });
                     }
                 }
             }
             0 => {
                 for e in &block.elements {
-                    let point_nodes = e.nodes.iter().map(|&t| node_index(t)).collect::<Result<Vec<_>>>()?;
+                    let point_nodes = e
+                        .nodes
+                        .iter()
+                        .map(|&t| node_index(t))
+                        .collect::<Result<Vec<_>>>()?;
                     for g in &groups {
-                        node_sets.entry(g.clone()).or_default().extend(point_nodes.iter().copied());
+                        node_sets
+                            .entry(g.clone())
+                            .or_default()
+                            .extend(point_nodes.iter().copied());
                     }
                 }
             }
@@ -232,7 +291,10 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
         }
     }
     if mesh.cells.is_empty() {
-        return Err(err(path, "the mesh has no 2-D cells: is the surface meshed (gmsh -2) and in a physical group?"));
+        return Err(err(
+            path,
+            "the mesh has no 2-D cells: is the surface meshed (gmsh -2) and in a physical group?",
+        ));
     }
     for c in &mesh.cells {
         for &n in &c.nodes {
@@ -245,7 +307,10 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
             }
         }
     }
-    mesh.node_groups = node_sets.into_iter().map(|(k, v)| (k, v.into_iter().collect())).collect();
+    mesh.node_groups = node_sets
+        .into_iter()
+        .map(|(k, v)| (k, v.into_iter().collect()))
+        .collect();
 
     // Orientation: counter-clockwise; degenerate cells are an error.
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);

@@ -17,8 +17,16 @@ impl StagedDir {
         let name = final_dir
             .file_name()
             .map(|n| n.to_string_lossy().to_string())
-            .ok_or_else(|| Error::Model(format!("output directory {} has no name", final_dir.display())))?;
-        let parent = final_dir.parent().map(Path::to_path_buf).unwrap_or_default();
+            .ok_or_else(|| {
+                Error::Model(format!(
+                    "output directory {} has no name",
+                    final_dir.display()
+                ))
+            })?;
+        let parent = final_dir
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
         if !parent.as_os_str().is_empty() {
             std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
         }
@@ -43,7 +51,8 @@ impl StagedDir {
         if self.final_dir.exists() {
             std::fs::remove_dir_all(&self.final_dir).map_err(|e| Error::io(&self.final_dir, e))?;
         }
-        std::fs::rename(&self.temp_dir, &self.final_dir).map_err(|e| Error::io(&self.final_dir, e))?;
+        std::fs::rename(&self.temp_dir, &self.final_dir)
+            .map_err(|e| Error::io(&self.final_dir, e))?;
         self.committed = true;
         Ok(self.final_dir.clone())
     }

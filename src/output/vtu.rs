@@ -3,7 +3,8 @@
 use std::path::Path;
 
 use vtkio::model::{
-    Attribute, Attributes, ByteOrder, CellType, Cells, DataSet, UnstructuredGridPiece, Version, VertexNumbers,
+    Attribute, Attributes, ByteOrder, CellType, Cells, DataSet, UnstructuredGridPiece, Version,
+    VertexNumbers,
 };
 use vtkio::Vtk;
 
@@ -44,7 +45,12 @@ fn check(path: &Path, f: &Field, count: usize) -> Result<()> {
 
 /// Write the body cells with point and cell fields. Every mesh node is a point (obstacle nodes
 /// simply belong to no cell), so point fields have one tuple per mesh node.
-pub fn write_vtu(path: &Path, mesh: &Mesh2d, point_fields: &[Field], cell_fields: &[Field]) -> Result<()> {
+pub fn write_vtu(
+    path: &Path,
+    mesh: &Mesh2d,
+    point_fields: &[Field],
+    cell_fields: &[Field],
+) -> Result<()> {
     let points: Vec<f64> = mesh.nodes.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
     let mut connectivity = Vec::new();
     let mut offsets = Vec::with_capacity(mesh.cells.len());
@@ -57,11 +63,15 @@ pub fn write_vtu(path: &Path, mesh: &Mesh2d, point_fields: &[Field], cell_fields
     let mut data = Attributes::new();
     for f in point_fields {
         check(path, f, mesh.nodes.len())?;
-        data.point.push(Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()));
+        data.point.push(
+            Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()),
+        );
     }
     for f in cell_fields {
         check(path, f, mesh.cells.len())?;
-        data.cell.push(Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()));
+        data.cell.push(
+            Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()),
+        );
     }
     let vtk = Vtk {
         // 1.0 (as fenris does) so that ParaView reads 64-bit offsets without a warning.
@@ -72,20 +82,26 @@ pub fn write_vtu(path: &Path, mesh: &Mesh2d, point_fields: &[Field], cell_fields
         data: DataSet::inline(UnstructuredGridPiece {
             points: points.into(),
             cells: Cells {
-                cell_verts: VertexNumbers::XML { connectivity, offsets },
+                cell_verts: VertexNumbers::XML {
+                    connectivity,
+                    offsets,
+                },
                 types,
             },
             data,
         }),
     };
-    vtk.export(path).map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
+    vtk.export(path)
+        .map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
 }
 
 /// A ParaView collection of (time, file relative to the .pvd) entries.
 pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<()> {
     let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
     for (t, file) in entries {
-        s.push_str(&format!("    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"));
+        s.push_str(&format!(
+            "    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{file}\"/>\n"
+        ));
     }
     s.push_str("  </Collection>\n</VTKFile>\n");
     std::fs::write(path, s).map_err(|e| Error::io(path, e))

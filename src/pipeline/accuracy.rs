@@ -51,13 +51,20 @@ fn run_one(path: &Path, overrides: &[String], out: PathBuf) -> Result<(f64, Valu
     if p.output.probes.is_empty() {
         return Err(Error::Config {
             path: path.to_path_buf(),
-            message: "output.probes: the accuracy study measures a probe's amplitude; name a probe group".into(),
+            message:
+                "output.probes: the accuracy study measures a probe's amplitude; name a probe group"
+                    .into(),
         });
     }
-    let options = RunOptions { out: Some(out), quiet: true };
+    let options = RunOptions {
+        out: Some(out),
+        quiet: true,
+    };
     let dir = run(&p, &options)?;
-    let text = std::fs::read_to_string(dir.join("summary.json")).map_err(|e| Error::io(dir.join("summary.json"), e))?;
-    let summary: Value = serde_json::from_str(&text).map_err(|e| Error::Model(format!("summary.json: {e}")))?;
+    let text = std::fs::read_to_string(dir.join("summary.json"))
+        .map_err(|e| Error::io(dir.join("summary.json"), e))?;
+    let summary: Value =
+        serde_json::from_str(&text).map_err(|e| Error::Model(format!("summary.json: {e}")))?;
     // What the setting costs: every stage but meshing, which a study's cache makes free.
     let st = &summary["stage_seconds"];
     let secs = st["total"].as_f64().unwrap_or(f64::NAN) - st["mesh"].as_f64().unwrap_or(0.0);
@@ -73,12 +80,18 @@ pub fn study(path: &Path, base: &[String], ladders: &[Ladder], out: &Path) -> Re
         for value in &ladder.values {
             let mut overrides = base.to_vec();
             overrides.push(format!("{}={}", ladder.key, value));
-            let tag = format!("{}-{}", ladder.key.replace('.', "_"), value.replace(['/', ' '], "_"));
+            let tag = format!(
+                "{}-{}",
+                ladder.key.replace('.', "_"),
+                value.replace(['/', ' '], "_")
+            );
             eprintln!("[accuracy] {} = {value}", ladder.key);
             let (secs, summary) = run_one(path, &overrides, out.join("runs").join(tag))?;
             rows.push((value.clone(), secs, summary));
         }
-        let Some((_, _, reference)) = rows.last() else { continue };
+        let Some((_, _, reference)) = rows.last() else {
+            continue;
+        };
         let a_ref = probe_amplitude(reference);
         for (value, secs, s) in &rows {
             let a = probe_amplitude(s);
@@ -95,10 +108,18 @@ pub fn study(path: &Path, base: &[String], ladders: &[Ladder], out: &Path) -> Re
         }
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let header: Vec<String> = ["ladder_value", "seconds", "probe_amplitude", "relative_error", "complementarity_violation", "newton_iterations", "free_dofs"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let header: Vec<String> = [
+        "ladder_value",
+        "seconds",
+        "probe_amplitude",
+        "relative_error",
+        "complementarity_violation",
+        "newton_iterations",
+        "free_dofs",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let rows: Vec<Vec<f64>> = rungs
         .iter()
         .map(|r| {
@@ -117,7 +138,8 @@ pub fn study(path: &Path, base: &[String], ladders: &[Ladder], out: &Path) -> Re
     let svg = plot(&rungs);
     let tmp = out.join(format!("accuracy.svg.tmp-{}", std::process::id()));
     std::fs::write(&tmp, svg).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, out.join("accuracy.svg")).map_err(|e| Error::io(out.join("accuracy.svg"), e))?;
+    std::fs::rename(&tmp, out.join("accuracy.svg"))
+        .map_err(|e| Error::io(out.join("accuracy.svg"), e))?;
     Ok(rungs)
 }
 
@@ -144,10 +166,18 @@ pub fn table(rungs: &[Rung]) -> String {
 /// Error against wall time, log–log, one polyline per ladder (the reference rung, error 0,
 /// is left out).
 pub fn plot(rungs: &[Rung]) -> String {
-    let pts: Vec<&Rung> = rungs.iter().filter(|r| r.error > 0.0 && r.seconds > 0.0).collect();
+    let pts: Vec<&Rung> = rungs
+        .iter()
+        .filter(|r| r.error > 0.0 && r.seconds > 0.0)
+        .collect();
     let (w, h, m) = (640.0, 420.0, 60.0);
     let lx = |v: f64| v.log10();
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for r in &pts {
         x0 = x0.min(lx(r.seconds));
         x1 = x1.max(lx(r.seconds));
@@ -162,29 +192,66 @@ pub fn plot(rungs: &[Rung]) -> String {
     let px = |v: f64| m + (lx(v) - x0) / (x1 - x0) * (w - 2.0 * m);
     let py = |v: f64| h - m - (lx(v) - y0) / (y1 - y0) * (h - 2.0 * m);
     let mut s = format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
-    let _ = writeln!(s, "<rect x=\"{m}\" y=\"{m}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>", w - 2.0 * m, h - 2.0 * m);
+    let _ = writeln!(
+        s,
+        "<rect x=\"{m}\" y=\"{m}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>",
+        w - 2.0 * m,
+        h - 2.0 * m
+    );
     for d in (x0 as i32)..=(x1 as i32) {
         let x = m + (d as f64 - x0) / (x1 - x0) * (w - 2.0 * m);
-        let _ = writeln!(s, "<text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">1e{d}</text>", h - m + 16.0);
+        let _ = writeln!(
+            s,
+            "<text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">1e{d}</text>",
+            h - m + 16.0
+        );
     }
     for d in (y0 as i32)..=(y1 as i32) {
         let y = h - m - (d as f64 - y0) / (y1 - y0) * (h - 2.0 * m);
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{y}\" text-anchor=\"end\">1e{d}</text>", m - 6.0);
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{y}\" text-anchor=\"end\">1e{d}</text>",
+            m - 6.0
+        );
     }
-    let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">wall time [s]</text>", w / 2.0, h - 16.0);
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">wall time [s]</text>",
+        w / 2.0,
+        h - 16.0
+    );
     let _ = writeln!(s, "<text x=\"16\" y=\"{}\" transform=\"rotate(-90 16 {})\" text-anchor=\"middle\">relative error of the probe amplitude</text>", h / 2.0, h / 2.0);
     let colours = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
     let mut keys: Vec<&str> = pts.iter().map(|r| r.key.as_str()).collect();
     keys.dedup();
     for (i, key) in keys.iter().enumerate() {
         let colour = colours[i % colours.len()];
-        let line: Vec<String> = pts.iter().filter(|r| r.key == *key).map(|r| format!("{:.1},{:.1}", px(r.seconds), py(r.error))).collect();
-        let _ = writeln!(s, "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>", line.join(" "));
+        let line: Vec<String> = pts
+            .iter()
+            .filter(|r| r.key == *key)
+            .map(|r| format!("{:.1},{:.1}", px(r.seconds), py(r.error)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>",
+            line.join(" ")
+        );
         for r in pts.iter().filter(|r| r.key == *key) {
             let _ = writeln!(s, "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"4\" fill=\"{colour}\"><title>{} = {}</title></circle>", px(r.seconds), py(r.error), r.key, r.value);
-            let _ = writeln!(s, "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{colour}\">{}</text>", px(r.seconds) + 6.0, py(r.error) - 6.0, r.value);
+            let _ = writeln!(
+                s,
+                "<text x=\"{:.1}\" y=\"{:.1}\" fill=\"{colour}\">{}</text>",
+                px(r.seconds) + 6.0,
+                py(r.error) - 6.0,
+                r.value
+            );
         }
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{key}</text>", w - m - 150.0, m + 18.0 + 16.0 * i as f64);
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{key}</text>",
+            w - m - 150.0,
+            m + 18.0 + 16.0 * i as f64
+        );
     }
     s.push_str("</svg>\n");
     s

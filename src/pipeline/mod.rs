@@ -58,19 +58,33 @@ impl StageTimes {
         for (k, v) in &self.0 {
             map.insert(k.clone(), json!(v));
         }
-        map.insert("total".into(), json!(self.0.iter().map(|(_, v)| v).sum::<f64>()));
+        map.insert(
+            "total".into(),
+            json!(self.0.iter().map(|(_, v)| v).sum::<f64>()),
+        );
         Value::Object(map)
     }
 }
 
 /// The directory results go to.
 pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
-    options.out.clone().unwrap_or_else(|| p.output.directory.clone())
+    options
+        .out
+        .clone()
+        .unwrap_or_else(|| p.output.directory.clone())
 }
 
 /// Mesh the geometry (or reuse the cache) and read it.
-pub fn mesh_stage(p: &Pipeline, out: &Path, times: &mut StageTimes, quiet: bool) -> Result<(Mesh2d, Value)> {
-    let cache_dir = out.parent().map(|d| d.join(".mesh-cache")).unwrap_or_else(|| PathBuf::from(".mesh-cache"));
+pub fn mesh_stage(
+    p: &Pipeline,
+    out: &Path,
+    times: &mut StageTimes,
+    quiet: bool,
+) -> Result<(Mesh2d, Value)> {
+    let cache_dir = out
+        .parent()
+        .map(|d| d.join(".mesh-cache"))
+        .unwrap_or_else(|| PathBuf::from(".mesh-cache"));
     let request = mesh::gmsh::MeshRequest {
         geo: p.geometry.file.clone(),
         parameters: p.geometry.parameters.clone(),
@@ -79,7 +93,9 @@ pub fn mesh_stage(p: &Pipeline, out: &Path, times: &mut StageTimes, quiet: bool)
         quads: p.geometry.quads,
         gmsh: p.geometry.gmsh.clone(),
     };
-    let meshed = times.time("mesh", quiet, || mesh::gmsh::mesh_geometry(&request, &cache_dir))?;
+    let meshed = times.time("mesh", quiet, || {
+        mesh::gmsh::mesh_geometry(&request, &cache_dir)
+    })?;
     let msh = meshed.msh.clone();
     let mesh = times.time("read", quiet, || mesh::msh::read_msh(&msh))?;
     let info = json!({
@@ -105,7 +121,9 @@ pub fn check(p: &Pipeline, options: &RunOptions) -> Result<Value> {
     model::check_groups(p, &mesh)?;
     if let Some(spec) = &p.contact {
         let set = crate::contact::geometry::build_contact_set(&mesh, spec)?;
-        return Ok(json!({"mesh": info, "contact_nodes": set.nodes.len(), "contact_candidates": set.candidates}));
+        return Ok(
+            json!({"mesh": info, "contact_nodes": set.nodes.len(), "contact_candidates": set.candidates}),
+        );
     }
     Ok(json!({ "mesh": info }))
 }
@@ -158,7 +176,10 @@ fn probe_amplitudes(model: &Model, displacements: &[Vec<f64>]) -> Value {
             .collect();
         let mut entry = serde_json::Map::new();
         for (c, axis) in ["x", "y"].iter().enumerate() {
-            let max = series.iter().map(|s| s[c]).fold(f64::NEG_INFINITY, f64::max);
+            let max = series
+                .iter()
+                .map(|s| s[c])
+                .fold(f64::NEG_INFINITY, f64::max);
             let min = series.iter().map(|s| s[c]).fold(f64::INFINITY, f64::min);
             let (mut a, mut b) = (0.0, 0.0);
             for (j, s) in series.iter().enumerate() {
@@ -166,8 +187,14 @@ fn probe_amplitudes(model: &Model, displacements: &[Vec<f64>]) -> Value {
                 a += s[c] * phase.cos();
                 b += s[c] * phase.sin();
             }
-            entry.insert(format!("half_peak_to_peak_{axis}"), json!(0.5 * (max - min)));
-            entry.insert(format!("first_harmonic_{axis}"), json!(2.0 * (a * a + b * b).sqrt() / count));
+            entry.insert(
+                format!("half_peak_to_peak_{axis}"),
+                json!(0.5 * (max - min)),
+            );
+            entry.insert(
+                format!("first_harmonic_{axis}"),
+                json!(2.0 * (a * a + b * b).sqrt() / count),
+            );
         }
         map.insert(name.clone(), Value::Object(entry));
     }
@@ -180,12 +207,16 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     let out = output_dir(p, options);
     let mut times = StageTimes::default();
     let (mesh, mesh_info) = mesh_stage(p, &out, &mut times, quiet)?;
-    let model = times.time("assemble", quiet, || build(p, mesh, Purpose::HarmonicBalance))?;
+    let model = times.time("assemble", quiet, || {
+        build(p, mesh, Purpose::HarmonicBalance)
+    })?;
 
     let hb = &p.harmonic_balance;
     let settings = HbSettings {
         harmonics: hb.harmonics,
-        samples: hb.samples.unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        samples: hb
+            .samples
+            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
         c_scale: hb.solver.c_scale,
         tolerance: hb.solver.tolerance,
         max_iterations: hb.solver.max_iterations,
@@ -198,7 +229,12 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     if !quiet {
         eprintln!("[solve]");
     }
-    let solution = hbm::solve(&model.system, model.contact.as_ref().map(|c| &c.operator), &settings, &progress)?;
+    let solution = hbm::solve(
+        &model.system,
+        model.contact.as_ref().map(|c| &c.operator),
+        &settings,
+        &progress,
+    )?;
     for w in &solution.warnings {
         if !quiet {
             eprintln!("warning: {w}");
@@ -299,7 +335,12 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     finish(staged, summary, &times, quiet)
 }
 
-fn finish(staged: StagedDir, mut summary: Value, times: &StageTimes, quiet: bool) -> Result<PathBuf> {
+fn finish(
+    staged: StagedDir,
+    mut summary: Value,
+    times: &StageTimes,
+    quiet: bool,
+) -> Result<PathBuf> {
     if let Value::Object(map) = &mut summary {
         map.insert("stage_seconds".into(), times.to_json());
     }
@@ -324,12 +365,15 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     let system = &model.system;
     let dofs = &system.dofs;
     let Some(diag) = &model.mass_diagonal else {
-        return Err(Error::Model("internal: transient needs a diagonal mass".into()));
+        return Err(Error::Model(
+            "internal: transient needs a diagonal mass".into(),
+        ));
     };
     let mass: Vec<f64> = dofs.free.iter().map(|&d| diag[d]).collect();
     let omega = system.omega;
     let period = 2.0 * std::f64::consts::PI / omega;
-    let loads: Vec<(usize, Vec<faer::c64>)> = system.inputs.keys().map(|&k| (k, system.load(k))).collect();
+    let loads: Vec<(usize, Vec<faer::c64>)> =
+        system.inputs.keys().map(|&k| (k, system.load(k))).collect();
     let force = move |t: f64, f: &mut [f64]| {
         f.iter_mut().for_each(|v| *v = 0.0);
         for (k, z) in &loads {
@@ -340,7 +384,10 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         }
     };
     if let Some(c) = &model.contact {
-        let moving = system.inputs.iter().any(|(_, i)| i.motion.iter().any(|z| z.norm() != 0.0));
+        let moving = system
+            .inputs
+            .iter()
+            .any(|(_, i)| i.motion.iter().any(|z| z.norm() != 0.0));
         if c.operator.b_prescribed.nnz() > 0 && moving {
             return Err(Error::Model(
                 "transient mode does not support prescribed motion on contact nodes; hold them \
@@ -376,7 +423,7 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         samples_per_period: frames,
     };
     let progress = |period: usize, change: f64| {
-        if !quiet && (period < 10 || period % 10 == 0) {
+        if !quiet && (period < 10 || period.is_multiple_of(10)) {
             eprintln!("  period {period}: change {change:.3e}");
         }
     };
@@ -412,7 +459,10 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
                     displacement: to_global(&result.displacement[j], t, 0),
                     velocity: to_global(&result.velocity[j], t, 1),
                     acceleration: to_global(&result.acceleration[j], t, 2),
-                    contact_force: model.contact.as_ref().map(|_| result.contact_force[j].clone()),
+                    contact_force: model
+                        .contact
+                        .as_ref()
+                        .map(|_| result.contact_force[j].clone()),
                 }
             })
             .collect();
@@ -422,7 +472,13 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         let mut contact_json = Value::Null;
         if model.contact.is_some() {
             let gaps: Vec<Vec<f64>> = us.iter().map(|u| report::contact_gaps(&model, u)).collect();
-            report::write_contact_history(&dir.join("contact.csv"), &model, &result.times, &gaps, &result.contact_force)?;
+            report::write_contact_history(
+                &dir.join("contact.csv"),
+                &model,
+                &result.times,
+                &gaps,
+                &result.contact_force,
+            )?;
             let totals = &result.total_contact_history;
             let peak = totals.iter().map(|v| -v).fold(0.0, f64::max);
             let mean = -totals.iter().sum::<f64>() / totals.len().max(1) as f64;

@@ -7,9 +7,7 @@ use std::collections::BTreeMap;
 use faer::c64;
 use serde::Serialize;
 
-use crate::config::{
-    ContactMass, LoadKind, ObstacleSpec, Pipeline, PlaneModelSpec, Signal,
-};
+use crate::config::{ContactMass, LoadKind, ObstacleSpec, Pipeline, PlaneModelSpec, Signal};
 use crate::contact::geometry::{build_contact_set, ContactSet};
 use crate::contact::mass::{redistribute_mass, Redistribution};
 use crate::fem::{self, MassKind, Material, PlaneModel};
@@ -88,7 +86,9 @@ pub fn missing_group(p: &Pipeline, field: &str, group: &str, mesh: &Mesh2d) -> E
         .map(|n| (strsim::jaro_winkler(n, group), *n))
         .filter(|(s, _)| *s > 0.7)
         .max_by(|a, b| a.0.total_cmp(&b.0));
-    let hint = best.map(|(_, n)| format!(" Did you mean `{n}`?")).unwrap_or_default();
+    let hint = best
+        .map(|(_, n)| format!(" Did you mean `{n}`?"))
+        .unwrap_or_default();
     Error::Config {
         path: p.source.clone(),
         message: format!(
@@ -99,8 +99,15 @@ pub fn missing_group(p: &Pipeline, field: &str, group: &str, mesh: &Mesh2d) -> E
     }
 }
 
-fn node_group<'m>(p: &Pipeline, mesh: &'m Mesh2d, field: &str, group: &str) -> Result<&'m Vec<usize>> {
-    mesh.node_groups.get(group).ok_or_else(|| missing_group(p, field, group, mesh))
+fn node_group<'m>(
+    p: &Pipeline,
+    mesh: &'m Mesh2d,
+    field: &str,
+    group: &str,
+) -> Result<&'m Vec<usize>> {
+    mesh.node_groups
+        .get(group)
+        .ok_or_else(|| missing_group(p, field, group, mesh))
 }
 
 /// Check that every group the pipeline names exists (the `check` command and `build`).
@@ -186,7 +193,10 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     };
     let mut redistribution = None;
     let (mass, mass_diagonal) = match mass_model {
-        MassModel::Consistent => (fem::assemble_mass(&mesh, &material, MassKind::Consistent)?, None),
+        MassModel::Consistent => (
+            fem::assemble_mass(&mesh, &material, MassKind::Consistent)?,
+            None,
+        ),
         MassModel::Lumped | MassModel::Redistributed => {
             let lumped = fem::assemble_mass(&mesh, &material, MassKind::Lumped)?.diagonal();
             let diag = if let (MassModel::Redistributed, Some(set)) = (mass_model, &contact_set) {
@@ -217,11 +227,19 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let nodal = |kind: LoadKind, group: &str, value: [f64; 2]| -> Vec<f64> {
         match kind {
             LoadKind::Traction => {
-                let edges = mesh.edge_groups.get(group).map(Vec::as_slice).unwrap_or(&[]);
+                let edges = mesh
+                    .edge_groups
+                    .get(group)
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[]);
                 fem::edge_traction_load(&mesh, edges, value, material.thickness)
             }
             LoadKind::Force => {
-                let nodes = mesh.node_groups.get(group).map(Vec::as_slice).unwrap_or(&[]);
+                let nodes = mesh
+                    .node_groups
+                    .get(group)
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[]);
                 fem::point_force_load(&mesh, nodes, value)
             }
         }
@@ -274,7 +292,10 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let _ = has_content::<2>;
 
     let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
-    let rayleigh = p.damping.map(|d| (d.alpha, d.beta)).filter(|&(a, b)| a != 0.0 || b != 0.0);
+    let rayleigh = p
+        .damping
+        .map(|d| (d.alpha, d.beta))
+        .filter(|&(a, b)| a != 0.0 || b != 0.0);
     let excited: Vec<usize> = inputs
         .iter()
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
@@ -309,8 +330,13 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         prescribed_motion,
         damping: rayleigh.map(|(a, b)| format!("Rayleigh: alpha = {a:e} 1/s, beta = {b:e} s")),
         contact: p.contact.as_ref().map(|c| match &c.obstacle {
-            ObstacleSpec::Curve { group } => format!("unilateral, `{}` against the rigid curve `{group}`", c.boundary),
-            ObstacleSpec::Line { .. } => format!("unilateral, `{}` against a rigid line", c.boundary),
+            ObstacleSpec::Curve { group } => format!(
+                "unilateral, `{}` against the rigid curve `{group}`",
+                c.boundary
+            ),
+            ObstacleSpec::Line { .. } => {
+                format!("unilateral, `{}` against a rigid line", c.boundary)
+            }
             ObstacleSpec::Circle { body_inside, .. } => format!(
                 "unilateral, `{}` against a rigid circle (body {})",
                 c.boundary,
@@ -334,12 +360,12 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
 pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
     let (mut free, mut held) = (Vec::new(), Vec::new());
     for (i, (&n, normal)) in set.nodes.iter().zip(&set.normals).enumerate() {
-        for c in 0..2 {
+        for (c, &component) in normal.iter().enumerate() {
             let d = 2 * n + c;
             if dofs.free_of[d] != usize::MAX {
-                free.push((i, dofs.free_of[d], normal[c]));
+                free.push((i, dofs.free_of[d], component));
             } else if dofs.prescribed_of[d] != usize::MAX {
-                held.push((i, dofs.prescribed_of[d], normal[c]));
+                held.push((i, dofs.prescribed_of[d], component));
             }
         }
     }

@@ -41,7 +41,12 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
 }
 
 /// Write one VTU per snapshot and the `.pvd`; returns the file names.
-pub fn write_series(dir: &Path, model: &Model, snapshots: &[Snapshot], fields: &[FieldName]) -> Result<Vec<String>> {
+pub fn write_series(
+    dir: &Path,
+    model: &Model,
+    snapshots: &[Snapshot],
+    fields: &[FieldName],
+) -> Result<Vec<String>> {
     let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
@@ -69,7 +74,9 @@ pub fn write_series(dir: &Path, model: &Model, snapshots: &[Snapshot], fields: &
                 values: vector3(&s.acceleration),
             });
         }
-        if let (true, Some(c), Some(lambda)) = (want(FieldName::Contact), &model.contact, &s.contact_force) {
+        if let (true, Some(c), Some(lambda)) =
+            (want(FieldName::Contact), &model.contact, &s.contact_force)
+        {
             let gaps = contact_gaps(model, &s.displacement);
             let (mut gap, mut force, mut pressure) = (vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]);
             let mut status = vec![-1.0; nn];
@@ -79,7 +86,11 @@ pub fn write_series(dir: &Path, model: &Model, snapshots: &[Snapshot], fields: &
                 force[n] = -lambda[i];
                 let area = c.set.tributary[i] * model.material.thickness;
                 pressure[n] = if area > 0.0 { -lambda[i] / area } else { 0.0 };
-                status[n] = if -lambda[i] > 1e-6 * scale && scale > 0.0 { 1.0 } else { 0.0 };
+                status[n] = if -lambda[i] > 1e-6 * scale && scale > 0.0 {
+                    1.0
+                } else {
+                    0.0
+                };
             }
             for (name, values) in [
                 ("contact_gap", gap),
@@ -101,7 +112,10 @@ pub fn write_series(dir: &Path, model: &Model, snapshots: &[Snapshot], fields: &
                 cells.push(Field {
                     name: "stress".into(),
                     components: 6,
-                    values: stresses.iter().flat_map(|t| [t.xx, t.yy, t.zz, t.xy, 0.0, 0.0]).collect(),
+                    values: stresses
+                        .iter()
+                        .flat_map(|t| [t.xx, t.yy, t.zz, t.xy, 0.0, 0.0])
+                        .collect(),
                 });
             }
             if want(FieldName::VonMises) {
@@ -122,7 +136,11 @@ pub fn write_series(dir: &Path, model: &Model, snapshots: &[Snapshot], fields: &
 }
 
 /// Per-harmonic cos/sin amplitude fields in one VTU.
-pub fn write_amplitudes(path: &Path, model: &Model, amplitudes: &[(usize, Vec<c64>)]) -> Result<()> {
+pub fn write_amplitudes(
+    path: &Path,
+    model: &Model,
+    amplitudes: &[(usize, Vec<c64>)],
+) -> Result<()> {
     let mut points = Vec::new();
     for (k, z) in amplitudes {
         let cos: Vec<f64> = z.iter().map(|v| v.re).collect();
@@ -150,7 +168,12 @@ pub fn write_amplitudes(path: &Path, model: &Model, amplitudes: &[(usize, Vec<c6
 }
 
 /// `probes.csv`: time and each probe's mean displacement (x, y) over its nodes.
-pub fn write_probes(path: &Path, model: &Model, times: &[f64], displacements: &[Vec<f64>]) -> Result<()> {
+pub fn write_probes(
+    path: &Path,
+    model: &Model,
+    times: &[f64],
+    displacements: &[Vec<f64>],
+) -> Result<()> {
     let mut header = vec!["time".to_string()];
     for (name, _) in &model.probes {
         header.push(format!("{name}_ux"));
@@ -173,7 +196,13 @@ pub fn write_probes(path: &Path, model: &Model, times: &[f64], displacements: &[
 }
 
 /// `contact.csv`: time, total contact force, then each contact node's gap and force.
-pub fn write_contact_history(path: &Path, model: &Model, times: &[f64], gaps: &[Vec<f64>], forces: &[Vec<f64>]) -> Result<()> {
+pub fn write_contact_history(
+    path: &Path,
+    model: &Model,
+    times: &[f64],
+    gaps: &[Vec<f64>],
+    forces: &[Vec<f64>],
+) -> Result<()> {
     let Some(c) = &model.contact else {
         return Ok(());
     };

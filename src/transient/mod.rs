@@ -85,7 +85,15 @@ fn sym_mul(k: &Csc, x: &[f64], y: &mut [f64]) {
 /// condensed system's, whose Schur complement is softer).
 pub fn estimate_max_eigenvalue(k: &Csc, mass: &[f64]) -> f64 {
     let n = mass.len();
-    let mut x: Vec<f64> = (0..n).map(|i| if mass[i] > 0.0 { 1.0 + ((i * 7919) % 13) as f64 / 13.0 } else { 0.0 }).collect();
+    let mut x: Vec<f64> = (0..n)
+        .map(|i| {
+            if mass[i] > 0.0 {
+                1.0 + ((i * 7919) % 13) as f64 / 13.0
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let mut y = vec![0.0; n];
     let mut lambda = 0.0;
     for _ in 0..300 {
@@ -124,7 +132,10 @@ fn solve_lcp(w: &DMatrix<f64>, q: &[f64], active: &mut [bool]) -> Result<Vec<f64
             let qa = DVector::from_iterator(idx.len(), idx.iter().map(|&i| q[i]));
             let sol = match Cholesky::<f64, Dyn>::new(waa.clone()) {
                 Some(c) => c.solve(&qa),
-                None => waa.lu().solve(&qa).unwrap_or_else(|| DVector::zeros(idx.len())),
+                None => waa
+                    .lu()
+                    .solve(&qa)
+                    .unwrap_or_else(|| DVector::zeros(idx.len())),
             };
             for (a, &i) in idx.iter().enumerate() {
                 p[i] = sol[a];
@@ -155,7 +166,10 @@ fn solve_lcp(w: &DMatrix<f64>, q: &[f64], active: &mut [bool]) -> Result<Vec<f64
             delta = delta.max((next - p[i]).abs());
             p[i] = next;
         }
-        let scale = p.iter().fold(0.0f64, |a, &v| a.max(v)).max(f64::MIN_POSITIVE);
+        let scale = p
+            .iter()
+            .fold(0.0f64, |a, &v| a.max(v))
+            .max(f64::MIN_POSITIVE);
         if delta <= 1e-13 * scale {
             for i in 0..n {
                 active[i] = p[i] > 0.0;
@@ -163,7 +177,10 @@ fn solve_lcp(w: &DMatrix<f64>, q: &[f64], active: &mut [bool]) -> Result<Vec<f64
             return Ok(p);
         }
     }
-    Err(Error::NotConverged("time marching: the contact LCP of a step did not converge; reduce transient.courant".into()))
+    Err(Error::NotConverged(
+        "time marching: the contact LCP of a step did not converge; reduce transient.courant"
+            .into(),
+    ))
 }
 
 struct Condensation {
@@ -210,7 +227,8 @@ pub fn run_to_periodic(
     let condensation = if z.is_empty() {
         None
     } else {
-        let pos: std::collections::HashMap<usize, usize> = z.iter().enumerate().map(|(a, &d)| (d, a)).collect();
+        let pos: std::collections::HashMap<usize, usize> =
+            z.iter().enumerate().map(|(a, &d)| (d, a)).collect();
         let mut kzz = DMatrix::zeros(z.len(), z.len());
         for (b, &j) in z.iter().enumerate() {
             for p in k.col_ptr[j]..k.col_ptr[j + 1] {
@@ -238,7 +256,9 @@ pub fn run_to_periodic(
     // Time step: stable for central differences, fitted to the period and the samples.
     let omega_max = estimate_max_eigenvalue(k, mass).sqrt() * 1.05;
     if !(omega_max > 0.0 && omega_max.is_finite()) {
-        return Err(Error::Model("time marching: no massive dof or no stiffness".into()));
+        return Err(Error::Model(
+            "time marching: no massive dof or no stiffness".into(),
+        ));
     }
     let xi = beta * omega_max / 2.0;
     let dt_stable = settings.courant * (2.0 / omega_max) * ((1.0 + xi * xi).sqrt() - xi);
@@ -293,8 +313,17 @@ pub fn run_to_periodic(
     // proportional damping: K_z·(u + βu̇) = f_z + B_zᵀλ is static in w = u + βu̇, and u_z
     // follows from w_z by backward Euler, u_z' = s w_z + (1 − s) u_z with s = 1/(1 + β/Δt).
     // `w` holds u + βu̇ on the massive dofs; `uz_old` the massless dofs' last values.
-    let condense = |w: &[f64], out: &mut [f64], uz_old: &[f64], s_weight: f64, f: &[f64], lambda: &mut [f64], active: &mut [bool]| -> Result<()> {
-        let Some(c) = &condensation else { return Ok(()) };
+    let condense = |w: &[f64],
+                    out: &mut [f64],
+                    uz_old: &[f64],
+                    s_weight: f64,
+                    f: &[f64],
+                    lambda: &mut [f64],
+                    active: &mut [bool]|
+     -> Result<()> {
+        let Some(c) = &condensation else {
+            return Ok(());
+        };
         let nz = c.z.len();
         let mut rhs = DVector::zeros(nz);
         for (a, &j) in c.z.iter().enumerate() {
@@ -312,7 +341,9 @@ pub fn run_to_periodic(
         if condensed_contact {
             let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
             let gap = &c.bz * &predicted;
-            let q: Vec<f64> = (0..nc).map(|i| gap[i] - problem.contact.as_ref().map_or(0.0, |cr| cr.g0[i])).collect();
+            let q: Vec<f64> = (0..nc)
+                .map(|i| gap[i] - problem.contact.as_ref().map_or(0.0, |cr| cr.g0[i]))
+                .collect();
             let p = solve_lcp(&(&c.w * s_weight), &q, active)?;
             for i in 0..nc {
                 lambda[i] = -p[i];
@@ -356,7 +387,9 @@ pub fn run_to_periodic(
             if let Some(w) = &lumped_w {
                 // Forward-increment multipliers on massive contact dofs.
                 let c = problem.contact.as_ref().map(|c| c.g0).unwrap_or(&[]);
-                let q: Vec<f64> = (0..nc).map(|a| rows[a].iter().map(|&(d, v)| v * u_next[d]).sum::<f64>() - c[a]).collect();
+                let q: Vec<f64> = (0..nc)
+                    .map(|a| rows[a].iter().map(|&(d, v)| v * u_next[d]).sum::<f64>() - c[a])
+                    .collect();
                 let p = solve_lcp(w, &q, &mut active)?;
                 for a in 0..nc {
                     lambda[a] = -p[a];
@@ -369,27 +402,43 @@ pub fn run_to_periodic(
             if condensation.is_some() {
                 (problem.force)(t_next, &mut f);
                 for i in 0..n {
-                    w_massive[i] = if is_z[i] { 0.0 } else { u_next[i] + beta * (u_next[i] - u[i]) / dt };
+                    w_massive[i] = if is_z[i] {
+                        0.0
+                    } else {
+                        u_next[i] + beta * (u_next[i] - u[i]) / dt
+                    };
                 }
-                condense(&w_massive, &mut u_next, &u, s_weight, &f, &mut lambda, &mut active)?;
+                condense(
+                    &w_massive,
+                    &mut u_next,
+                    &u,
+                    s_weight,
+                    &f,
+                    &mut lambda,
+                    &mut active,
+                )?;
             }
             for i in 0..n {
                 v_half[i] = (u_next[i] - u[i]) / dt;
             }
             // Record the state at the step (u at `step`, centred differences around it).
-            if step % per_sample == 0 {
+            if step.is_multiple_of(per_sample) {
                 let j = step / per_sample;
                 displacement[j] = u.clone();
-                velocity[j] = (0..n).map(|i| (u_next[i] - u_prev[i]) / (2.0 * dt)).collect();
-                acceleration[j] = (0..n).map(|i| (u_next[i] - 2.0 * u[i] + u_prev[i]) / (dt * dt)).collect();
+                velocity[j] = (0..n)
+                    .map(|i| (u_next[i] - u_prev[i]) / (2.0 * dt))
+                    .collect();
+                acceleration[j] = (0..n)
+                    .map(|i| (u_next[i] - 2.0 * u[i] + u_prev[i]) / (dt * dt))
+                    .collect();
             }
-            for (pi, &d) in problem.probes.iter().enumerate() {
-                probe_history[pi][step] = u[d];
+            for (history, &d) in probe_history.iter_mut().zip(&problem.probes) {
+                history[step] = u[d];
             }
             // λ belongs to the end of this step (it enforced u_next); book it at step + 1.
             let next = (step + 1) % steps;
             total_contact_history[next] = lambda.iter().sum();
-            if next % per_sample == 0 {
+            if next.is_multiple_of(per_sample) {
                 contact_force[next / per_sample] = lambda.clone();
             }
             u_prev = std::mem::replace(&mut u, u_next);
@@ -401,10 +450,24 @@ pub fn run_to_periodic(
                 settings.courant
             )));
         }
-        let state: Vec<f64> = u.iter().copied().chain(v_half.iter().map(|v| v * problem.period)).collect();
+        let state: Vec<f64> = u
+            .iter()
+            .copied()
+            .chain(v_half.iter().map(|v| v * problem.period))
+            .collect();
         if let Some(prev) = &last_state {
-            let diff = state.iter().zip(prev).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
-            let norm = state.iter().map(|a| a * a).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+            let diff = state
+                .iter()
+                .zip(prev)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let norm = state
+                .iter()
+                .map(|a| a * a)
+                .sum::<f64>()
+                .sqrt()
+                .max(f64::MIN_POSITIVE);
             change = diff / norm;
             if let Some(cb) = progress {
                 cb(periods, change);

@@ -16,7 +16,11 @@ pub fn root() -> PathBuf {
 /// The venv's Python (made by `make venv`); tests fail without it, as CI must have it.
 pub fn venv_python() -> PathBuf {
     let p = root().join(".venv/bin/python");
-    assert!(p.exists(), "{} is missing: run `make venv` (make test does it)", p.display());
+    assert!(
+        p.exists(),
+        "{} is missing: run `make venv` (make test does it)",
+        p.display()
+    );
     p
 }
 
@@ -41,7 +45,8 @@ pub fn scene(name: &str, overrides: &[&str]) -> Pipeline {
 pub fn model(p: &Pipeline, purpose: Purpose) -> Model {
     let out = root().join("output").join("test-scenes").join(&p.name);
     let mut times = StageTimes::default();
-    let (mesh, _) = pipeline::mesh_stage(p, &out, &mut times, true).unwrap_or_else(|e| panic!("{e}"));
+    let (mesh, _) =
+        pipeline::mesh_stage(p, &out, &mut times, true).unwrap_or_else(|e| panic!("{e}"));
     pipeline::build(p, mesh, purpose).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -49,7 +54,9 @@ pub fn settings(p: &Pipeline) -> HbSettings {
     let hb = &p.harmonic_balance;
     HbSettings {
         harmonics: hb.harmonics,
-        samples: hb.samples.unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        samples: hb
+            .samples
+            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
         c_scale: hb.solver.c_scale,
         tolerance: hb.solver.tolerance,
         max_iterations: hb.solver.max_iterations,
@@ -57,7 +64,12 @@ pub fn settings(p: &Pipeline) -> HbSettings {
 }
 
 pub fn solve(model: &Model, p: &Pipeline) -> hbcontact::Result<Solution> {
-    hbm::solve(&model.system, model.contact.as_ref().map(|c| &c.operator), &settings(p), &|_| {})
+    hbm::solve(
+        &model.system,
+        model.contact.as_ref().map(|c| &c.operator),
+        &settings(p),
+        &|_| {},
+    )
 }
 
 pub fn temp_out(tag: &str) -> PathBuf {
