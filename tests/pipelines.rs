@@ -72,6 +72,10 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
         assert!(summary["stage_seconds"]["total"].as_f64().unwrap() > 0.0);
         assert!(summary["effects"]["harmonics_computed"].is_array());
         meshio_check(&out, contact);
+        assert!(
+            out.join("mesh.msh").exists(),
+            "{name}: the mesh travels with the results"
+        );
         let frames = summary["frames"].as_u64().unwrap() as usize;
         let vtus = std::fs::read_dir(&out)
             .unwrap()

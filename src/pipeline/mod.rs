@@ -240,6 +240,9 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
             eprintln!("warning: {w}");
         }
     }
+    if let (false, Some(c)) = (quiet, &solution.contact) {
+        print_newton_log(&c.newton.log);
+    }
     let t = &solution.timings;
     for (name, secs) in [
         ("factor", t.factor),
@@ -274,6 +277,7 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     };
 
     let staged = StagedDir::create(&out)?;
+    copy_mesh(&mesh_info, staged.path())?;
     let dir = staged.path().to_path_buf();
     let summary = times.time("write", quiet, || {
         let snapshots: Vec<Snapshot> = (0..frames).map(|j| snapshot(j as f64 * period / frames as f64)).collect();
@@ -333,6 +337,29 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         }))
     })?;
     finish(staged, summary, &times, quiet)
+}
+
+/// The mesh the run used, next to its results (`mesh.msh`), so the output stands alone.
+fn copy_mesh(mesh_info: &Value, dir: &Path) -> Result<()> {
+    if let Some(msh) = mesh_info["msh"].as_str() {
+        let target = dir.join("mesh.msh");
+        std::fs::copy(msh, &target).map_err(|e| Error::io(&target, e))?;
+    }
+    Ok(())
+}
+
+/// The contact Newton's log, one line per iteration (long logs are elided in the middle).
+fn print_newton_log(log: &[hbm::IterationLog]) {
+    for (i, l) in log.iter().enumerate() {
+        if i < 30 || i + 5 >= log.len() {
+            eprintln!(
+                "    iteration {i:>3}: residual {:.3e}, active samples {:>5}, step {}",
+                l.residual, l.active_samples, l.step
+            );
+        } else if i == 30 {
+            eprintln!("    …");
+        }
+    }
 }
 
 fn finish(
@@ -449,6 +476,7 @@ pub fn run_transient(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         u
     };
     let staged = StagedDir::create(&out)?;
+    copy_mesh(&mesh_info, staged.path())?;
     let dir = staged.path().to_path_buf();
     let summary = times.time("write", quiet, || {
         let snapshots: Vec<Snapshot> = (0..result.times.len())
