@@ -26,19 +26,6 @@ pub struct ContactSet {
     pub dropped_beyond_search: usize,
 }
 
-fn suggest(name: &str, mesh: &Mesh2d) -> String {
-    let names = mesh.group_names();
-    let best = names
-        .iter()
-        .map(|n| (strsim::jaro_winkler(n, name), *n))
-        .filter(|(s, _)| *s > 0.7)
-        .max_by(|a, b| a.0.total_cmp(&b.0));
-    let hint = best
-        .map(|(_, n)| format!(" Did you mean `{n}`?"))
-        .unwrap_or_default();
-    format!("{hint} Groups in the mesh: {}", names.join(", "))
-}
-
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [a[0] - b[0], a[1] - b[1]]
 }
@@ -101,7 +88,7 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
         return Err(Error::Model(format!(
             "contact.boundary: no group `{}` in the mesh.{}",
             spec.boundary,
-            suggest(&spec.boundary, mesh)
+            mesh.group_hint(&spec.boundary)
         )));
     };
     let Some(edges) = mesh.edge_groups.get(&spec.boundary) else {
@@ -145,7 +132,7 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
             let Some(obstacle_edges) = mesh.edge_groups.get(group) else {
                 return Err(Error::Model(format!(
                     "contact.obstacle.curve: no curve group `{group}` in the mesh.{}",
-                    suggest(group, mesh)
+                    mesh.group_hint(group)
                 )));
             };
             if let Some(n) = mesh

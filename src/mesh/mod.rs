@@ -96,6 +96,20 @@ impl Mesh2d {
         self.node_groups.keys().map(String::as_str).collect()
     }
 
+    /// " Did you mean `x`? Groups in the mesh: …" for a group name that is not in the mesh.
+    pub fn group_hint(&self, name: &str) -> String {
+        let names = self.group_names();
+        let best = names
+            .iter()
+            .map(|n| (strsim::jaro_winkler(n, name), *n))
+            .filter(|(s, _)| *s > 0.7)
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let hint = best
+            .map(|(_, n)| format!(" Did you mean `{n}`?"))
+            .unwrap_or_default();
+        format!("{hint} Groups in the mesh: {}", names.join(", "))
+    }
+
     /// The smallest edge length over all cells (a mesh-size measure for messages and tests).
     pub fn min_edge_length(&self) -> f64 {
         let mut h = f64::INFINITY;

@@ -41,6 +41,12 @@ fn physical_names(bytes: &[u8]) -> BTreeMap<(i32, i32), String> {
     names
 }
 
+fn add_nodes(sets: &mut BTreeMap<String, BTreeSet<usize>>, group: &str, nodes: &[usize]) {
+    sets.entry(group.to_string())
+        .or_default()
+        .extend(nodes.iter().copied());
+}
+
 fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     haystack.windows(needle.len()).position(|w| w == needle)
 }
@@ -254,10 +260,7 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
                         .map(|&t| node_index(t))
                         .collect::<Result<Vec<_>>>()?;
                     for g in &groups {
-                        node_sets
-                            .entry(g.clone())
-                            .or_default()
-                            .extend(edge_nodes.iter().copied());
+                        add_nodes(&mut node_sets, g, &edge_nodes);
                         mesh.edge_groups.entry(g.clone()).or_default().push(Edge {
                             nodes: edge_nodes.clone(),
                         });
@@ -272,10 +275,7 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
                         .map(|&t| node_index(t))
                         .collect::<Result<Vec<_>>>()?;
                     for g in &groups {
-                        node_sets
-                            .entry(g.clone())
-                            .or_default()
-                            .extend(point_nodes.iter().copied());
+                        add_nodes(&mut node_sets, g, &point_nodes);
                     }
                 }
             }

@@ -201,6 +201,20 @@ fn probe_amplitudes(model: &Model, displacements: &[Vec<f64>]) -> Value {
     Value::Object(map)
 }
 
+/// The solver settings a pipeline asks for (N defaults to 16H).
+pub fn hb_settings(p: &Pipeline) -> HbSettings {
+    let hb = &p.harmonic_balance;
+    HbSettings {
+        harmonics: hb.harmonics,
+        samples: hb
+            .samples
+            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        c_scale: hb.solver.c_scale,
+        tolerance: hb.solver.tolerance,
+        max_iterations: hb.solver.max_iterations,
+    }
+}
+
 /// `hbcontact run`: the harmonic-balance steady state.
 pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
     let quiet = options.quiet;
@@ -211,16 +225,7 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<PathBuf> {
         build(p, mesh, Purpose::HarmonicBalance)
     })?;
 
-    let hb = &p.harmonic_balance;
-    let settings = HbSettings {
-        harmonics: hb.harmonics,
-        samples: hb
-            .samples
-            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
-        c_scale: hb.solver.c_scale,
-        tolerance: hb.solver.tolerance,
-        max_iterations: hb.solver.max_iterations,
-    };
+    let settings = hb_settings(p);
     let progress = |msg: &str| {
         if !quiet {
             eprintln!("  {msg}");

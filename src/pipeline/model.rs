@@ -80,21 +80,12 @@ pub fn material(p: &Pipeline) -> Material {
 
 /// An error for a group the pipeline names but the mesh lacks, with a suggestion.
 pub fn missing_group(p: &Pipeline, field: &str, group: &str, mesh: &Mesh2d) -> Error {
-    let names = mesh.group_names();
-    let best = names
-        .iter()
-        .map(|n| (strsim::jaro_winkler(n, group), *n))
-        .filter(|(s, _)| *s > 0.7)
-        .max_by(|a, b| a.0.total_cmp(&b.0));
-    let hint = best
-        .map(|(_, n)| format!(" Did you mean `{n}`?"))
-        .unwrap_or_default();
+    let hint = mesh.group_hint(group);
     Error::Config {
         path: p.source.clone(),
         message: format!(
-            "{field}: the mesh of {} has no physical group `{group}`.{hint} Groups in the mesh: {}",
-            p.geometry.file.display(),
-            names.join(", ")
+            "{field}: the mesh of {} has no physical group `{group}`.{hint}",
+            p.geometry.file.display()
         ),
     }
 }

@@ -51,16 +51,7 @@ pub fn model(p: &Pipeline, purpose: Purpose) -> Model {
 }
 
 pub fn settings(p: &Pipeline) -> HbSettings {
-    let hb = &p.harmonic_balance;
-    HbSettings {
-        harmonics: hb.harmonics,
-        samples: hb
-            .samples
-            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
-        c_scale: hb.solver.c_scale,
-        tolerance: hb.solver.tolerance,
-        max_iterations: hb.solver.max_iterations,
-    }
+    pipeline::hb_settings(p)
 }
 
 pub fn solve(model: &Model, p: &Pipeline) -> hbcontact::Result<Solution> {
