@@ -129,6 +129,8 @@ pub fn find_gmsh(explicit: Option<&Path>, near: Option<&Path>) -> Result<GmshCom
     )))
 }
 
+static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
 /// `gmsh --version`, remembered per command.
@@ -220,7 +222,9 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
         });
     }
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
-    let tmp = cache_dir.join(format!("{stem}.tmp-{}.msh", std::process::id()));
+    // Unique per call: threads of one process (parallel tests, studies) may mesh at once.
+    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = cache_dir.join(format!("{stem}.tmp-{}-{unique}.msh", std::process::id()));
     let mut c = cmd.command();
     c.arg(geo)
         .arg("-2")
