@@ -70,6 +70,7 @@ fn half_disc_matches_hertz_line_contact() {
         &[
             "harmonic_balance.harmonics=0",
             "damping=null",
+            "geometry.parameters.lc_contact=0.0015",
             "boundaries.prescribed=[{group: top, component: x, static: 0.0}, {group: top, component: y, static: -1.0e-3}]",
         ],
     );
