@@ -245,3 +245,15 @@ fn clockwise_cells_are_reoriented_and_degenerate_cells_rejected() {
         .to_string();
     assert!(e.contains("degenerate"), "{e}");
 }
+
+#[test]
+fn quadrilateral_meshes_come_through_gmsh() {
+    for (order, kind) in [(1u8, CellKind::Quad4), (2, CellKind::Quad9)] {
+        let mut r = request("cantilever.geo", order);
+        r.quads = true;
+        let mesh = read_msh(&mesh_geometry(&r, &cache()).unwrap().msh).unwrap();
+        let quads = mesh.cells.iter().filter(|c| c.kind == kind).count();
+        assert!(quads * 10 > mesh.cells.len() * 9, "order {order}: {quads} of {} cells are {kind:?}", mesh.cells.len());
+        assert!((area(&mesh) - 0.02).abs() < 1e-9, "{}", area(&mesh));
+    }
+}
