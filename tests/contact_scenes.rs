@@ -416,3 +416,19 @@ fn strip_agrees_with_time_marching() {
         "agreement must tighten with H: {amp_errors:?}"
     );
 }
+
+/// TEST GOAL: a contact scene whose loads excite a harmonic above H is refused with the fix,
+/// instead of silently dropping the load.
+#[test]
+fn loads_above_h_are_refused() {
+    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=0"]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    match common::solve(&model, &p) {
+        Err(hbcontact::Error::Model(msg)) => assert!(
+            msg.contains("harmonic 1") && msg.contains("raise it"),
+            "{msg}"
+        ),
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a load above H must not be dropped"),
+    }
+}

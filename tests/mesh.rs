@@ -253,7 +253,11 @@ fn quadrilateral_meshes_come_through_gmsh() {
         r.quads = true;
         let mesh = read_msh(&mesh_geometry(&r, &cache()).unwrap().msh).unwrap();
         let quads = mesh.cells.iter().filter(|c| c.kind == kind).count();
-        assert!(quads * 10 > mesh.cells.len() * 9, "order {order}: {quads} of {} cells are {kind:?}", mesh.cells.len());
+        assert!(
+            quads * 10 > mesh.cells.len() * 9,
+            "order {order}: {quads} of {} cells are {kind:?}",
+            mesh.cells.len()
+        );
         assert!((area(&mesh) - 0.02).abs() < 1e-9, "{}", area(&mesh));
     }
 }

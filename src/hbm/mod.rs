@@ -201,6 +201,15 @@ pub fn solve(
             .collect(),
     };
     let complex_arithmetic = system.rayleigh.is_some() && harmonics.iter().any(|&k| k > 0);
+    if contact.is_some() {
+        let excited_max = system.inputs.keys().copied().max().unwrap_or(0);
+        if excited_max > settings.harmonics {
+            return Err(Error::Model(format!(
+                "the loads excite harmonic {excited_max} but harmonic_balance.harmonics = {}: raise it to at least {excited_max} (contact couples all harmonics up to H, and a load above H would be dropped)",
+                settings.harmonics
+            )));
+        }
+    }
 
     let mut free = BTreeMap::new();
     let mut motion = BTreeMap::new();
