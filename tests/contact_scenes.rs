@@ -432,3 +432,39 @@ fn loads_above_h_are_refused() {
         Ok(_) => panic!("a load above H must not be dropped"),
     }
 }
+
+/// TEST GOAL: hard cases converge: from an initial penetration (a preload, g0 < 0) through
+/// contact to grazing (the gap equal to the free amplitude) and beyond, the solver converges
+/// at every gap, and the mean contact force falls monotonically to zero.
+#[test]
+fn penetration_to_grazing_converges_and_the_mean_force_falls_to_zero() {
+    let mut previous = f64::INFINITY;
+    for gap in [-5e-8, 0.0, 1e-7, 2e-7, 2.4e-7, 2.5e-7, 3e-7] {
+        let p = common::scene(
+            "strip_wall",
+            &[
+                "geometry.parameters.lc=0.0025",
+                "harmonic_balance.harmonics=10",
+                &format!("geometry.parameters.gap={gap:e}"),
+            ],
+        );
+        let model = common::model(&p, Purpose::HarmonicBalance);
+        let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("gap {gap:e}: {e}"));
+        let (mean, _) = mean_and_first(&total_force_series(&s, 512));
+        let c = s.contact.as_ref().unwrap();
+        println!(
+            "gap {gap:>9.2e}: mean force {mean:.4e}, {} iterations, violation {:.3e}",
+            c.newton.iterations, c.complementarity.violation
+        );
+        assert!(mean.is_finite() && c.complementarity.violation < 0.25);
+        assert!(
+            mean < previous || (mean == 0.0 && previous == 0.0),
+            "mean force must fall with the gap: {mean} after {previous}"
+        );
+        previous = mean;
+    }
+    assert_eq!(
+        previous, 0.0,
+        "beyond the free amplitude the wall is never touched"
+    );
+}
