@@ -347,3 +347,26 @@ fn accuracy_study_reports_error_against_cost() {
             && svg.contains("harmonic_balance.harmonics")
     );
 }
+
+/// `hbcontact transient` writes the same kind of output as `run`, readable by meshio, with
+/// its own summary of the time marching.
+#[test]
+fn transient_mode_writes_a_readable_series() {
+    let out = common::temp_out("strip-transient");
+    run_ok(&[
+        "transient",
+        "pipelines/strip_wall.yaml",
+        "--quiet",
+        "--set",
+        "geometry.parameters.lc=0.0025",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let s = common::read_json(&out.join("summary.json"));
+    assert_eq!(s["mode"], "transient");
+    assert_eq!(s["transient"]["converged"], true);
+    assert!(s["transient"]["periods"].as_u64().unwrap() > 2);
+    assert!(s["contact"]["mean_contact_force"].as_f64().unwrap() > 0.0);
+    meshio_check(&out, true);
+    assert!(out.join("contact.csv").exists() && out.join("probes.csv").exists());
+}
