@@ -269,6 +269,8 @@ pub fn run_to_periodic(
 
     let mut u = vec![0.0; n];
     let mut u_prev = vec![0.0; n];
+    // Three rotating buffers: no allocation in the time loop.
+    let mut u_next = vec![0.0; n];
     let mut v_half = vec![0.0; n];
     let mut f = vec![0.0; n];
     let mut ku = vec![0.0; n];
@@ -374,7 +376,6 @@ pub fn run_to_periodic(
             if beta != 0.0 {
                 sym_mul(k, &v_half, &mut kv);
             }
-            let mut u_next = vec![0.0; n];
             let damp = alpha * dt / 2.0;
             for i in 0..n {
                 if is_z[i] {
@@ -441,7 +442,9 @@ pub fn run_to_periodic(
             if next.is_multiple_of(per_sample) {
                 contact_force[next / per_sample] = lambda.clone();
             }
-            u_prev = std::mem::replace(&mut u, u_next);
+            // Rotate: (prev, current, next) ← (current, next, old prev).
+            std::mem::swap(&mut u_prev, &mut u);
+            std::mem::swap(&mut u, &mut u_next);
         }
         periods += 1;
         if u.iter().any(|v| !v.is_finite()) {
