@@ -4,40 +4,32 @@
 //!
 //! `cargo bench --bench contact [-- --mesh-size 0.0025]`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use hbcontact::config::load_pipeline;
-use hbcontact::pipeline::{self, RunOptions};
-use serde_json::Value;
-
-fn summary(dir: &Path) -> Value {
-    std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok())
-        .unwrap_or(Value::Null)
-}
+use hbcontact::pipeline::{self, RunOptions, Summary};
+use hbcontact::Silent;
 
 /// The probe's axial first-harmonic amplitude (smooth in H, unlike the peak).
-fn probe_amplitude(s: &Value) -> f64 {
-    s["probes"]["probe"]["first_harmonic_x"]
-        .as_f64()
-        .unwrap_or(f64::NAN)
+fn probe_amplitude(s: &Summary) -> f64 {
+    s.probes
+        .get("probe")
+        .map_or(f64::NAN, |p| p.first_harmonic_x)
 }
 
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("pipelines/strip_wall.yaml");
     let work = root.join("output/bench-contact");
-    let run_hb = |h: usize| -> Option<(f64, Value)> {
+    let run_hb = |h: usize| -> Option<(f64, Summary)> {
         let p = load_pipeline(&scene, &[format!("harmonic_balance.harmonics={h}")]).ok()?;
         let options = RunOptions {
             out: Some(work.join(format!("hb-h{h}"))),
-            quiet: true,
         };
         let t = Instant::now();
-        match pipeline::run(&p, &options) {
-            Ok(dir) => Some((t.elapsed().as_secs_f64(), summary(&dir))),
+        match pipeline::run(&p, &options, &Silent) {
+            Ok(r) => Some((t.elapsed().as_secs_f64(), r.summary)),
             Err(e) => {
                 eprintln!("H = {h}: {e}");
                 None
@@ -62,11 +54,10 @@ fn main() {
     };
     let options = RunOptions {
         out: Some(work.join("transient")),
-        quiet: true,
     };
     let t = Instant::now();
-    let transient = match pipeline::run_transient(&p, &options) {
-        Ok(dir) => summary(&dir),
+    let transient = match pipeline::run_transient(&p, &options, &Silent) {
+        Ok(r) => r.summary,
         Err(e) => {
             eprintln!("transient: {e}");
             return;
@@ -75,9 +66,12 @@ fn main() {
     let t_transient = t.elapsed().as_secs_f64();
     let a_tr = probe_amplitude(&transient);
     let e_tr = (a_tr - a_ref).abs() / a_ref;
+    let (periods, dt) = transient
+        .transient
+        .as_ref()
+        .map_or((0, f64::NAN), |t| (t.periods, t.dt));
     println!(
-        "transient: {} periods, dt = {:.3e} s, probe amplitude {a_tr:.6e} m, error {e_tr:.2e}, {t_transient:.2} s",
-        transient["transient"]["periods"], transient["transient"]["dt"].as_f64().unwrap_or(f64::NAN)
+        "transient: {periods} periods, dt = {dt:.3e} s, probe amplitude {a_tr:.6e} m, error {e_tr:.2e}, {t_transient:.2} s"
     );
 
     println!(
@@ -99,9 +93,13 @@ fn main() {
         let Some((secs, s)) = run_hb(h) else { continue };
         let a = probe_amplitude(&s);
         let err = (a - a_ref).abs() / a_ref;
-        let st = &s["stage_seconds"];
-        let total = st["total"].as_f64().unwrap_or(f64::NAN);
-        let share = |k: &str| 100.0 * st[k].as_f64().unwrap_or(0.0) / total;
+        let st = &s.stage_seconds;
+        let share = |k: &str| 100.0 * st.get(k) / st.total();
+        let iterations = s
+            .contact
+            .as_ref()
+            .and_then(|c| c.solver.as_ref())
+            .map_or(0, |c| c.newton_iterations);
         println!(
             "{h:>4} {a:>10.4e} {err:>10.2e} {secs:>9.3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8} {:>14.1}",
             share("factor"),
@@ -109,7 +107,7 @@ fn main() {
             share("newton"),
             share("recover"),
             share("write"),
-            s["contact"]["newton_iterations"],
+            iterations,
             t_transient / secs
         );
         if matched.is_none() && err <= e_tr {

@@ -9,8 +9,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use faer::c64;
+use hbcontact::fem::DofMap;
 use hbcontact::fem::{self, MassKind, Material, PlaneModel};
-use hbcontact::hbm::{self, DofMap, HarmonicInput, HbSettings, System};
+use hbcontact::hbm::{self, HarmonicInput, HbSettings, System};
 use hbcontact::mesh::gmsh::{mesh_geometry, MeshRequest};
 use hbcontact::mesh::msh::read_msh;
 use hbcontact::output::{write_pvd, write_vtu, Field};
@@ -154,7 +155,7 @@ fn main() {
             t_factor = t_factor.min(t.elapsed().as_secs_f64());
             drop(lu);
             let t = Instant::now();
-            match hbm::solve(&system, None, &settings, &|_| {}) {
+            match hbm::solve(&system, None, &settings, &hbcontact::Silent) {
                 Ok(s) => solution = Some(s),
                 Err(e) => {
                     eprintln!("{e}");

@@ -25,6 +25,15 @@ pub enum Error {
     #[error("{0}")]
     NotConverged(String),
 
+    /// An error from one stage of a pipeline run: says which pipeline and which stage.
+    #[error("{} (stage `{stage}`): {source}", pipeline.display())]
+    InStage {
+        pipeline: PathBuf,
+        stage: String,
+        #[source]
+        source: Box<Error>,
+    },
+
     /// Writing results failed.
     #[error("{path}: {source}")]
     Io {
@@ -37,6 +46,28 @@ pub enum Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// The error with the pipeline and stage it came from (an error that already names the
+    /// pipeline file is left as it is).
+    pub fn in_stage(self, pipeline: &std::path::Path, stage: &str) -> Self {
+        match &self {
+            Error::InStage { .. } => self,
+            Error::Config { path, .. } if path == pipeline => self,
+            _ => Error::InStage {
+                pipeline: pipeline.to_path_buf(),
+                stage: stage.to_string(),
+                source: Box::new(self),
+            },
+        }
+    }
+
+    /// The error beneath any stage context: its variant is the error's class.
+    pub fn root(&self) -> &Error {
+        match self {
+            Error::InStage { source, .. } => source.root(),
+            e => e,
+        }
+    }
+
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),

@@ -18,6 +18,8 @@ pub mod linalg;
 pub mod mesh;
 pub mod output;
 pub mod pipeline;
+pub mod progress;
 pub mod transient;
 
 pub use error::{Error, Result};
+pub use progress::{Reporter, Silent};

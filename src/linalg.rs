@@ -50,12 +50,17 @@ impl Triplets {
     }
 
     /// The block A[rows, cols] with rows and columns renumbered by the maps
-    /// (`usize::MAX` = not in the block).
-    pub fn block(&self, row_map: &[usize], col_map: &[usize], nrows: usize, ncols: usize) -> Csc {
+    /// (`None` = not in the block).
+    pub fn block(
+        &self,
+        row_map: &[Option<usize>],
+        col_map: &[Option<usize>],
+        nrows: usize,
+        ncols: usize,
+    ) -> Csc {
         let mut entries = Vec::new();
         for &(i, j, v) in &self.entries {
-            let (r, c) = (row_map[i], col_map[j]);
-            if r != usize::MAX && c != usize::MAX {
+            if let (Some(r), Some(c)) = (row_map[i], col_map[j]) {
                 entries.push((r, c, v));
             }
         }
@@ -290,6 +295,95 @@ pub fn solve_real(a: &Csc, b: &[f64]) -> Result<Vec<f64>> {
     let lu = SparseLu::factor_real(&pattern, a)?;
     let rhs: Vec<c64> = b.iter().map(|&v| c64::new(v, 0.0)).collect();
     Ok(lu.solve(&rhs).into_iter().map(|z| z.re).collect())
+}
+
+/// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,
+/// Alg. 9.5) with modified Gram–Schmidt and Givens rotations. Returns the solution when the
+/// relative residual reaches 1e-2 or better (callers that guard the step, like a line search,
+/// accept a loose solve), else why it stalled.
+pub fn gmres(
+    apply: &dyn Fn(&[f64]) -> Vec<f64>,
+    precondition: &dyn Fn(&[f64]) -> Vec<f64>,
+    b: &[f64],
+    tolerance: f64,
+    restart: usize,
+    max_restarts: usize,
+) -> std::result::Result<Vec<f64>, String> {
+    let n = b.len();
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let b_norm = norm(b);
+    let mut x = vec![0.0; n];
+    if b_norm == 0.0 {
+        return Ok(x);
+    }
+    let mut last = f64::INFINITY;
+    for _ in 0..max_restarts {
+        let ax = apply(&precondition(&x));
+        let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
+        let beta = norm(&r);
+        last = beta / b_norm;
+        if last <= tolerance {
+            return Ok(precondition(&x));
+        }
+        let mut v: Vec<Vec<f64>> = vec![r.iter().map(|a| a / beta).collect()];
+        let mut h = vec![vec![0.0; restart]; restart + 1];
+        let (mut cs, mut sn) = (vec![0.0; restart], vec![0.0; restart]);
+        let mut g = vec![0.0; restart + 1];
+        g[0] = beta;
+        let mut used = 0;
+        for j in 0..restart {
+            let mut w = apply(&precondition(&v[j]));
+            for (i, vi) in v.iter().enumerate() {
+                let hij: f64 = w.iter().zip(vi).map(|(a, b)| a * b).sum();
+                h[i][j] = hij;
+                for (wk, vk) in w.iter_mut().zip(vi) {
+                    *wk -= hij * vk;
+                }
+            }
+            let wn = norm(&w);
+            h[j + 1][j] = wn;
+            for i in 0..j {
+                let t = cs[i] * h[i][j] + sn[i] * h[i + 1][j];
+                h[i + 1][j] = -sn[i] * h[i][j] + cs[i] * h[i + 1][j];
+                h[i][j] = t;
+            }
+            let d = (h[j][j] * h[j][j] + h[j + 1][j] * h[j + 1][j]).sqrt();
+            if d == 0.0 {
+                break;
+            }
+            cs[j] = h[j][j] / d;
+            sn[j] = h[j + 1][j] / d;
+            h[j][j] = d;
+            h[j + 1][j] = 0.0;
+            g[j + 1] = -sn[j] * g[j];
+            g[j] *= cs[j];
+            used = j + 1;
+            if g[j + 1].abs() / b_norm <= tolerance || wn == 0.0 {
+                break;
+            }
+            v.push(w.iter().map(|a| a / wn).collect());
+        }
+        // Back substitution for y, then x += V y.
+        let mut y = vec![0.0; used];
+        for i in (0..used).rev() {
+            let s: f64 = ((i + 1)..used).map(|k| h[i][k] * y[k]).sum();
+            y[i] = (g[i] - s) / h[i][i];
+        }
+        for (k, yk) in y.iter().enumerate() {
+            for (xi, vi) in x.iter_mut().zip(&v[k]) {
+                *xi += yk * vi;
+            }
+        }
+    }
+    let ax = apply(&precondition(&x));
+    let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
+    let rel = norm(&r) / b_norm;
+    if rel <= 1e-2 {
+        // Loose but still a descent direction for the line search.
+        Ok(precondition(&x))
+    } else {
+        Err(format!("the Krylov solve of the Newton step stalled at relative residual {rel:.2e} (was {last:.2e})"))
+    }
 }
 
 #[cfg(test)]

@@ -5,10 +5,12 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+mod cli;
+
+use clap::{Parser, Subcommand, ValueEnum};
 use hbcontact::config::load_pipeline;
 use hbcontact::pipeline::{self, RunOptions};
-use hbcontact::Error;
+use hbcontact::{Error, Reporter, Silent};
 
 #[derive(Parser)]
 #[command(
@@ -31,7 +33,7 @@ struct Common {
     /// Write results here instead of `output.directory`.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Print nothing but errors.
+    /// Print nothing but errors (and, for `accuracy`, not its table either).
     #[arg(long, short)]
     quiet: bool,
 }
@@ -55,29 +57,41 @@ enum Command {
         #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
         ladders: Vec<String>,
     },
+    /// Print the JSON Schema of a file hbcontact writes (`summary`: summary.json).
+    Schema {
+        #[arg(value_enum)]
+        which: SchemaKind,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SchemaKind {
+    /// summary.json
+    Summary,
 }
 
 fn exit_code(e: &Error) -> u8 {
-    match e {
+    match e.root() {
         Error::Config { .. } | Error::Gmsh(_) | Error::Mesh { .. } => 2,
         Error::Model(_) => 3,
         Error::NotConverged(_) => 4,
         Error::Io { .. } => 5,
+        Error::InStage { .. } => unreachable!("root() looks through stage context"),
     }
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let (common, result) = match &cli.command {
-        Command::Run(c) => (c, run(c, Mode::Run)),
-        Command::Transient(c) => (c, run(c, Mode::Transient)),
-        Command::Check(c) => (c, run(c, Mode::Check)),
-        Command::Accuracy { common, ladders } => (common, accuracy(common, ladders)),
+    let result = match &cli.command {
+        Command::Run(c) => run(c, Mode::Run),
+        Command::Transient(c) => run(c, Mode::Transient),
+        Command::Check(c) => run(c, Mode::Check),
+        Command::Accuracy { common, ladders } => accuracy(common, ladders),
+        Command::Schema { which } => schema(*which),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let _ = common;
             eprintln!("error: {e}");
             ExitCode::from(exit_code(&e))
         }
@@ -91,30 +105,50 @@ enum Mode {
     Check,
 }
 
+/// The reporter a subcommand uses: nothing with `--quiet`, bars or lines otherwise.
+fn reporter(quiet: bool) -> Box<dyn Reporter> {
+    if quiet {
+        Box::new(Silent)
+    } else {
+        Box::new(cli::reporter::Cli::new())
+    }
+}
+
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions {
-        out: c.out.clone(),
-        quiet: c.quiet,
-    };
+    let options = RunOptions { out: c.out.clone() };
+    let reporter = reporter(c.quiet);
     match mode {
-        Mode::Run => {
-            pipeline::run(&pipeline, &options)?;
-        }
-        Mode::Transient => {
-            pipeline::run_transient(&pipeline, &options)?;
+        Mode::Run | Mode::Transient => {
+            let result = match mode {
+                Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
+                _ => pipeline::run_transient(&pipeline, &options, &*reporter)?,
+            };
+            if !c.quiet {
+                cli::show_run(&result);
+            }
         }
         Mode::Check => {
-            let report = pipeline::check(&pipeline, &options)?;
+            let report = pipeline::check(&pipeline, &options, &*reporter)?;
             if !c.quiet {
-                println!(
-                    "{}",
-                    serde_json::to_string_pretty(&report).unwrap_or_default()
-                );
+                println!("{}", to_json(&report)?);
                 println!("ok: {} is valid", c.pipeline.display());
             }
         }
     }
+    Ok(())
+}
+
+fn to_json<T: serde::Serialize>(value: &T) -> hbcontact::Result<String> {
+    serde_json::to_string_pretty(value).map_err(|e| Error::Model(format!("internal: JSON: {e}")))
+}
+
+/// `hbcontact schema summary`: the JSON Schema of `summary.json`.
+fn schema(which: SchemaKind) -> hbcontact::Result<()> {
+    let schema = match which {
+        SchemaKind::Summary => schemars::schema_for!(hbcontact::pipeline::Summary),
+    };
+    println!("{}", to_json(&schema)?);
     Ok(())
 }
 
@@ -160,9 +194,9 @@ fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
         d.push("-accuracy");
         PathBuf::from(d)
     });
-    let rungs = study(&c.pipeline, &c.set, &parsed, &out)?;
-    println!("{}", table(&rungs));
+    let rungs = study(&c.pipeline, &c.set, &parsed, &out, &*reporter(c.quiet))?;
     if !c.quiet {
+        println!("{}", table(&rungs));
         eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
     }
     Ok(())

@@ -3,15 +3,15 @@
 
 mod common;
 
-use faer::c64;
 use hbcontact::hbm::{self, fourier};
 use hbcontact::pipeline::{Model, Purpose};
-use hbcontact::transient::{self, ContactRows, TransientProblem, TransientSettings};
+use hbcontact::transient::setup::Marching;
+use hbcontact::transient::{self, TransientSettings};
 
 /// Mean x displacement (the strip's axial motion) of the probe nodes over one period.
 fn probe_series(model: &Model, solution: &hbm::Solution, samples: usize) -> Vec<f64> {
     let nodes = &model.probes[0].1;
-    let period = 2.0 * std::f64::consts::PI / solution.omega;
+    let period = solution.period();
     (0..samples)
         .map(|j| {
             let u = solution.field_at(&model.system.dofs, j as f64 * period / samples as f64, 0);
@@ -35,16 +35,11 @@ fn mean_and_first(v: &[f64]) -> (f64, f64) {
 
 /// The total pressing contact force −Σλ over a period at `samples` instants.
 fn total_force_series(solution: &hbm::Solution, samples: usize) -> Vec<f64> {
-    let c = solution.contact.as_ref().expect("contact solution");
-    let m = 2 * c.harmonics + 1;
-    let period = 2.0 * std::f64::consts::PI / solution.omega;
+    let period = solution.period();
     (0..samples)
         .map(|j| {
-            let t = j as f64 * period / samples as f64;
-            -c.multipliers
-                .chunks(m)
-                .map(|k| fourier::evaluate(k, solution.omega, t)[0])
-                .sum::<f64>()
+            let lambda = solution.multipliers_at(j as f64 * period / samples as f64);
+            -lambda.expect("contact solution").iter().sum::<f64>()
         })
         .collect()
 }
@@ -132,7 +127,13 @@ fn unreachable_wall_gives_exactly_the_linear_result() {
     );
     let model = common::model(&p, Purpose::HarmonicBalance);
     let with = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
-    let without = hbm::solve(&model.system, None, &common::settings(&p), &|_| {}).unwrap();
+    let without = hbm::solve(
+        &model.system,
+        None,
+        &common::settings(&p),
+        &hbcontact::Silent,
+    )
+    .unwrap();
     let c = with.contact.as_ref().unwrap();
     assert_eq!(c.newton.iterations, 0);
     assert!(c.multipliers.iter().all(|&l| l == 0.0));
@@ -189,7 +190,13 @@ fn closed_contact_equals_the_constrained_linear_solve() {
     let q = common::scene("cantilever", &constrained);
     // Purpose::Transient: the same HRZ-lumped mass as the contact scene with `mass: lumped`.
     let linear_model = common::model(&q, Purpose::Transient);
-    let linear = hbm::solve(&linear_model.system, None, &common::settings(&q), &|_| {}).unwrap();
+    let linear = hbm::solve(
+        &linear_model.system,
+        None,
+        &common::settings(&q),
+        &hbcontact::Silent,
+    )
+    .unwrap();
     let period = 2.0 * std::f64::consts::PI / solution.omega;
     for j in 0..5 {
         let t = j as f64 * period / 5.0;
@@ -335,46 +342,21 @@ fn strip_agrees_with_time_marching() {
     let coarse = "geometry.parameters.lc=0.0025";
     let p = common::scene("strip_wall", &[coarse]);
     let model = common::model(&p, Purpose::Transient);
-    let system = &model.system;
-    let dofs = &system.dofs;
-    let diag = model.mass_diagonal.as_ref().unwrap();
-    let mass: Vec<f64> = dofs.free.iter().map(|&d| diag[d]).collect();
-    let omega = system.omega;
-    let period = 2.0 * std::f64::consts::PI / omega;
-    let loads: Vec<(usize, Vec<c64>)> =
-        system.inputs.keys().map(|&k| (k, system.load(k))).collect();
-    let force = move |t: f64, f: &mut [f64]| {
-        f.iter_mut().for_each(|v| *v = 0.0);
-        for (k, z) in &loads {
-            let rot = c64::from_polar(1.0, *k as f64 * omega * t);
-            for (fi, zi) in f.iter_mut().zip(z) {
-                *fi += (zi * rot).re;
-            }
-        }
-    };
     let op = &model.contact.as_ref().unwrap().operator;
     let probe_node = model.probes[0].1[0];
-    let probe_dof = dofs.free_of[2 * probe_node];
-    let problem = TransientProblem {
-        stiffness: &system.k_ff,
-        mass: &mass,
-        rayleigh: system.rayleigh,
-        force: &force,
-        contact: Some(ContactRows {
-            b: &op.b_free,
-            g0: &op.g0,
-        }),
-        period,
-        probes: vec![probe_dof],
-    };
+    let diag = model.mass_diagonal.as_ref().unwrap();
+    // The probe node's x dof is the first recorded one.
+    let marching = Marching::new(&model.system, diag, Some(op), &[probe_node])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let problem = marching.problem();
     let settings = TransientSettings {
         courant: 0.8,
         periodic_tolerance: 1e-8,
         max_periods: 400,
         samples_per_period: 64,
     };
-    let tr =
-        transient::run_to_periodic(&problem, &settings, None).unwrap_or_else(|e| panic!("{e}"));
+    let tr = transient::run_to_periodic(&problem, &settings, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
     assert!(tr.converged, "time marching did not reach a periodic state");
     let (_, amp_tr) = mean_and_first(&tr.probe_history[0]);
     let totals: Vec<f64> = tr.total_contact_history.iter().map(|v| -v).collect();

@@ -143,12 +143,12 @@ fn solve_with_dirichlet(
         u[2 * n] = v[0];
         u[2 * n + 1] = v[1];
     }
-    let mut free_of = vec![usize::MAX; ndof];
+    let mut free_of = vec![None; ndof];
     let mut free = Vec::new();
     for &n in &body {
         for c in 0..2 {
             if !is_held[2 * n + c] {
-                free_of[2 * n + c] = free.len();
+                free_of[2 * n + c] = Some(free.len());
                 free.push(2 * n + c);
             }
         }
@@ -339,13 +339,13 @@ fn bending_frequencies(mesh: &Mesh2d, mat: &Material) -> [f64; 2] {
     let k = fem::assemble_stiffness(mesh, mat).unwrap();
     let m = fem::assemble_mass(mesh, mat, MassKind::Consistent).unwrap();
     let ndof = 2 * mesh.nodes.len();
-    let mut free_of = vec![usize::MAX; ndof];
+    let mut free_of = vec![None; ndof];
     let mut free = Vec::new();
     let clamp = &mesh.node_groups["clamp"];
     for n in mesh.body_nodes() {
         if clamp.binary_search(&n).is_err() {
             for c in 0..2 {
-                free_of[2 * n + c] = free.len();
+                free_of[2 * n + c] = Some(free.len());
                 free.push(2 * n + c);
             }
         }

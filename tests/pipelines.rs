@@ -304,7 +304,6 @@ fn accuracy_study_reports_error_against_cost() {
     let result = common::hbcontact(&[
         "accuracy",
         "pipelines/strip_wall.yaml",
-        "--quiet",
         "--ladder",
         "harmonic_balance.harmonics=5,10,20,40",
         "--ladder",
@@ -369,4 +368,53 @@ fn transient_mode_writes_a_readable_series() {
     assert!(s["contact"]["mean_contact_force"].as_f64().unwrap() > 0.0);
     meshio_check(&out, true);
     assert!(out.join("contact.csv").exists() && out.join("probes.csv").exists());
+}
+
+/// TEST GOAL: `--quiet` prints nothing but errors, in every subcommand: a run, a check and an
+/// accuracy study print nothing on stdout or stderr, and a failing run still prints its error.
+#[test]
+fn quiet_prints_nothing_but_errors() {
+    let out = common::temp_out("quiet");
+    let out_s = out.to_str().unwrap();
+    for args in [
+        vec![
+            "run",
+            "pipelines/quickstart.yaml",
+            "--quiet",
+            "--out",
+            out_s,
+        ],
+        vec!["check", "pipelines/strip_wall.yaml", "--quiet"],
+        vec![
+            "accuracy",
+            "pipelines/quickstart.yaml",
+            "--quiet",
+            "--ladder",
+            "harmonic_balance.frequency=400,500",
+            "--out",
+            out_s,
+        ],
+    ] {
+        let r = common::hbcontact(&args);
+        assert!(
+            r.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        assert!(
+            r.stdout.is_empty() && r.stderr.is_empty(),
+            "{args:?} printed: {}{}",
+            String::from_utf8_lossy(&r.stdout),
+            String::from_utf8_lossy(&r.stderr)
+        );
+    }
+    let r = common::hbcontact(&[
+        "run",
+        "pipelines/quickstart.yaml",
+        "--quiet",
+        "--set",
+        "harmonic_balance.frequency=-1",
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("harmonic_balance.frequency"));
 }

@@ -1,11 +1,12 @@
 //! Finite elements for 2-D linear elasticity: shape functions and Gauss rules (`shapes`),
-//! element matrices (`elasticity`), global assembly (`assembly`), edge loads (`loads`) and
-//! stress recovery (`stress`).
+//! element matrices (`elasticity`), global assembly (`assembly`), the free/prescribed dof
+//! numbering (`dofs`), edge loads (`loads`), modes (`modes`) and stress recovery (`stress`).
 //!
 //! Degrees of freedom are numbered node-major over *all* mesh nodes: dof `2*node + component`
 //! (component 0 = x, 1 = y). Nodes without cells simply have empty rows.
 
 pub mod assembly;
+pub mod dofs;
 pub mod elasticity;
 pub mod loads;
 pub mod modes;
@@ -13,6 +14,7 @@ pub mod shapes;
 pub mod stress;
 
 pub use assembly::{assemble_mass, assemble_stiffness, MassKind};
+pub use dofs::DofMap;
 pub use loads::{body_force_load, edge_traction_load, point_force_load};
 pub use stress::{cell_stresses, CellStress};
 

@@ -1,14 +1,76 @@
-//! Truncated Fourier series of a T-periodic scalar and its samples: the P (coefficients →
-//! samples) and Q (samples → coefficients) maps of the alternating frequency–time scheme.
+//! The Fourier convention of the whole crate, in one place, and the truncated series' samples:
+//! the P (coefficients → samples) and Q (samples → coefficients) maps of the alternating
+//! frequency–time scheme (docs/method.md, (21)–(23)).
 //!
-//! Coefficients are stored `[a0, a1, b1, a2, b2, …, aH, bH]` for
-//! x(t) = a0 + Σ_k a_k cos(kωt) + b_k sin(kωt), sampled at t_n = nT/N, n = 0..N−1.
-//! With N > 2H, Q P = I exactly (discrete orthogonality), which the Newton relies on.
+//! - Real coefficients are stored `[a0, a1, b1, a2, b2, …, aH, bH]` (M = 2H + 1 of them) for
+//!   x(t) = a0 + Σ_k a_k cos(kωt) + b_k sin(kωt): `cos_index(k)` and `sin_index(k)`.
+//! - The complex amplitude of harmonic k is z_k = a_k − i b_k, so x(t) = Re Σ_k z_k e^{ikωt}
+//!   (z_0 = a_0): `phasor`, `set_phasor`, `from_cos_sin`, `cos_sin`.
+//! - A derivative of order d at time t is Re(z_k (ikω)^d e^{ikωt}): `rotor`.
+//! - Samples sit at t_n = nT/N, n = 0..N−1; with N > 2H, Q P = I exactly (discrete
+//!   orthogonality), which the Newton relies on.
 
 use std::sync::Arc;
 
 use num_complex::Complex64;
+
+use faer::c64;
 use rustfft::{Fft, FftPlanner};
+
+/// Position of harmonic k's cos coefficient (k = 0: the mean).
+pub fn cos_index(k: usize) -> usize {
+    if k == 0 {
+        0
+    } else {
+        2 * k - 1
+    }
+}
+
+/// Position of harmonic k's sin coefficient (k ≥ 1).
+pub fn sin_index(k: usize) -> usize {
+    2 * k
+}
+
+/// The harmonic a coefficient position belongs to.
+pub fn harmonic_of(index: usize) -> usize {
+    index.div_ceil(2)
+}
+
+/// z = a − i b for a cos + b sin.
+pub fn from_cos_sin(a: f64, b: f64) -> c64 {
+    c64::new(a, -b)
+}
+
+/// (a, b) of a cos + b sin from z = a − i b.
+pub fn cos_sin(z: c64) -> (f64, f64) {
+    (z.re, -z.im)
+}
+
+/// The complex amplitude z_k of harmonic k from the real coefficients (z_0 = a_0).
+pub fn phasor(coeffs: &[f64], k: usize) -> c64 {
+    if k == 0 {
+        c64::new(coeffs[0], 0.0)
+    } else {
+        from_cos_sin(coeffs[cos_index(k)], coeffs[sin_index(k)])
+    }
+}
+
+/// Store z_k as real coefficients (k = 0 keeps the real part only).
+pub fn set_phasor(coeffs: &mut [f64], k: usize, z: c64) {
+    if k == 0 {
+        coeffs[0] = z.re;
+    } else {
+        let (a, b) = cos_sin(z);
+        coeffs[cos_index(k)] = a;
+        coeffs[sin_index(k)] = b;
+    }
+}
+
+/// (ikω)^d e^{ikωt}: the d-th time derivative at t of harmonic k is Re(z_k · rotor).
+pub fn rotor(k: usize, omega: f64, t: f64, derivative: u32) -> c64 {
+    let kw = k as f64 * omega;
+    c64::from_polar(1.0, kw * t) * c64::new(0.0, kw).powu(derivative)
+}
 
 /// FFT plans and dense P, Q for one (H, N).
 pub struct Sampler {
@@ -43,7 +105,7 @@ impl Sampler {
         let mut spectrum = vec![Complex64::new(0.0, 0.0); n];
         spectrum[0] = Complex64::new(coeffs[0], 0.0);
         for k in 1..=self.harmonics {
-            let half = Complex64::new(coeffs[2 * k - 1], -coeffs[2 * k]) * 0.5;
+            let half = phasor(coeffs, k) * 0.5;
             spectrum[k] += half;
             spectrum[n - k] += half.conj();
         }
@@ -61,9 +123,8 @@ impl Sampler {
         self.forward.process(&mut spectrum);
         let scale = 1.0 / n as f64;
         out[0] = spectrum[0].re * scale;
-        for k in 1..=self.harmonics {
-            out[2 * k - 1] = 2.0 * spectrum[k].re * scale;
-            out[2 * k] = -2.0 * spectrum[k].im * scale;
+        for (k, &z) in spectrum.iter().enumerate().take(self.harmonics + 1).skip(1) {
+            set_phasor(out, k, z * (2.0 * scale));
         }
     }
 
@@ -76,8 +137,8 @@ impl Sampler {
             p[s * m] = 1.0;
             for k in 1..=self.harmonics {
                 let (sin, cos) = (k as f64 * phase).sin_cos();
-                p[s * m + 2 * k - 1] = cos;
-                p[s * m + 2 * k] = sin;
+                p[s * m + cos_index(k)] = cos;
+                p[s * m + sin_index(k)] = sin;
             }
         }
         p
@@ -100,15 +161,13 @@ impl Sampler {
 
 /// Evaluate the series (and its first two time derivatives) at time `t`.
 pub fn evaluate(coeffs: &[f64], omega: f64, t: f64) -> [f64; 3] {
-    let mut out = [coeffs[0], 0.0, 0.0];
     let harmonics = (coeffs.len() - 1) / 2;
-    for k in 1..=harmonics {
-        let w = k as f64 * omega;
-        let (s, c) = (w * t).sin_cos();
-        let (a, b) = (coeffs[2 * k - 1], coeffs[2 * k]);
-        out[0] += a * c + b * s;
-        out[1] += w * (-a * s + b * c);
-        out[2] += -w * w * (a * c + b * s);
+    let mut out = [0.0; 3];
+    for k in 0..=harmonics {
+        let z = phasor(coeffs, k);
+        for (d, o) in out.iter_mut().enumerate() {
+            *o += (z * rotor(k, omega, t, d as u32)).re;
+        }
     }
     out
 }

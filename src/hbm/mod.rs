@@ -15,7 +15,9 @@
 //! the contact reduction runs only when there is an obstacle.
 
 pub mod fourier;
+mod globalize;
 pub mod reduced;
+pub mod solution;
 pub mod system;
 
 use std::collections::BTreeMap;
@@ -23,27 +25,13 @@ use std::time::Instant;
 
 use faer::c64;
 
-use crate::linalg::Csc;
+use crate::contact::ContactOperator;
+use crate::linalg::{Csc, SparseLu};
+use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
-pub use system::{DofMap, HarmonicInput, System};
-
-/// The contact operator on the reduced dofs.
-#[derive(Clone, Debug)]
-pub struct ContactOperator {
-    /// B restricted to the free dofs (nc × free).
-    pub b_free: Csc,
-    /// B restricted to the prescribed dofs (nc × prescribed): prescribed motion moves gaps.
-    pub b_prescribed: Csc,
-    /// Initial gaps along the normals.
-    pub g0: Vec<f64>,
-}
-
-impl ContactOperator {
-    pub fn nodes(&self) -> usize {
-        self.g0.len()
-    }
-}
+pub use solution::{Complementarity, ContactSolution, Snapshot, Solution, Timings};
+pub use system::{HarmonicInput, System};
 
 #[derive(Clone, Debug)]
 pub struct HbSettings {
@@ -67,130 +55,84 @@ impl HbSettings {
     }
 }
 
-/// Wall time per stage of the solve.
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct Timings {
-    pub factor: f64,
-    pub linear_solve: f64,
-    pub reduce: f64,
-    pub newton: f64,
-    pub recover: f64,
-}
-
-/// How far the Fourier-series λ and g miss complementarity at the samples, each relative to
-/// its own scale (the peak contact force, the linear gap range).
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct Complementarity {
-    /// max(0, g) / gap scale: sampled penetration.
-    pub penetration: f64,
-    /// max(0, λ) / force scale: sampled adhesion (pulling) force.
-    pub adhesion: f64,
-    /// max |λ g| / (force scale · gap scale).
-    pub product: f64,
-    /// The largest of the three.
-    pub violation: f64,
-    /// Absolute sampled penetration (length).
-    pub max_penetration: f64,
-    pub force_scale: f64,
-    pub gap_scale: f64,
-}
-
-/// The contact part of a solution.
-#[derive(Clone, Debug)]
-pub struct ContactSolution {
-    pub harmonics: usize,
-    pub samples: usize,
-    pub c: f64,
-    /// λ coefficients, node-major, 2H+1 per node.
-    pub multipliers: Vec<f64>,
-    /// Gap coefficients g = B u − g0, node-major.
-    pub gaps: Vec<f64>,
-    pub newton: NewtonOutcome,
-    /// The harmonic ladder actually climbed (just [H] when the direct solve converged).
-    pub ladder: Vec<usize>,
-    pub complementarity: Complementarity,
-}
-
-/// A periodic steady state.
-pub struct Solution {
-    pub omega: f64,
-    /// Harmonic index → complex amplitude on the free dofs.
-    pub free: BTreeMap<usize, Vec<c64>>,
-    /// Harmonic index → prescribed motion amplitudes.
-    pub motion: BTreeMap<usize, Vec<c64>>,
-    pub contact: Option<ContactSolution>,
-    /// Relative residual of each harmonic's linear solve.
-    pub residuals: BTreeMap<usize, f64>,
-    /// "real" or "complex" factorizations.
-    pub complex_arithmetic: bool,
-    pub timings: Timings,
-    /// Things the user should know although the solve succeeded (near resonance, …).
-    pub warnings: Vec<String>,
-}
-
-impl Solution {
-    pub fn harmonics(&self) -> Vec<usize> {
-        self.free.keys().copied().collect()
-    }
-
-    /// Displacement (derivative 0), velocity (1) or acceleration (2) at time t on all dofs.
-    pub fn field_at(&self, dofs: &DofMap, t: f64, derivative: u32) -> Vec<f64> {
-        let mut u = vec![0.0; dofs.total()];
-        let factor = |k: usize| -> c64 {
-            let kw = k as f64 * self.omega;
-            let rot = c64::from_polar(1.0, kw * t);
-            let d = c64::new(0.0, kw).powu(derivative);
-            rot * d
-        };
-        for (&k, z) in &self.free {
-            let f = factor(k);
-            for (i, &d) in dofs.free.iter().enumerate() {
-                u[d] += (z[i] * f).re;
-            }
-        }
-        for (&k, z) in &self.motion {
-            let f = factor(k);
-            for (i, &d) in dofs.prescribed.iter().enumerate() {
-                u[d] += (z[i] * f).re;
-            }
-        }
-        u
-    }
-
-    /// The complex amplitude of harmonic k on all dofs.
-    pub fn amplitude(&self, dofs: &DofMap, k: usize) -> Vec<c64> {
-        let mut z = vec![c64::new(0.0, 0.0); dofs.total()];
-        if let Some(zf) = self.free.get(&k) {
-            for (i, &d) in dofs.free.iter().enumerate() {
-                z[d] = zf[i];
-            }
-        }
-        if let Some(zp) = self.motion.get(&k) {
-            for (i, &d) in dofs.prescribed.iter().enumerate() {
-                z[d] = zp[i];
-            }
-        }
-        z
-    }
-}
-
 fn is_zero(v: &[c64]) -> bool {
     v.iter().all(|z| z.re == 0.0 && z.im == 0.0)
 }
 
-fn to_coefficients(z: c64) -> (f64, f64) {
-    (z.re, -z.im)
+/// Run `f`, adding its wall time to `slot`.
+fn timed<T>(slot: &mut f64, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let out = f();
+    *slot += start.elapsed().as_secs_f64();
+    out
 }
 
-/// Solve for the periodic steady state. `progress` receives short status lines.
+/// Solve for the periodic steady state: factor Z_k per harmonic, solve the linear response,
+/// reduce to the contact nodes (19)–(20), solve the contact problem (23), recover (24).
 pub fn solve(
     system: &System,
     contact: Option<&ContactOperator>,
     settings: &HbSettings,
-    progress: &dyn Fn(&str),
+    reporter: &dyn Reporter,
 ) -> Result<Solution> {
-    let nf = system.free_count();
+    let harmonics = harmonics_to_compute(system, contact, settings)?;
     let mut timings = Timings::default();
+    let mut linear = LinearResponse::default();
+    let bt_columns: Vec<Vec<c64>> = contact
+        .map(|op| transpose_rows(&op.b_free))
+        .unwrap_or_default();
+    for (i, &k) in harmonics.iter().enumerate() {
+        let total = Some(harmonics.len() as u64);
+        reporter.progress("factor", i as u64, total, &format!("harmonic {k}"));
+        let lu = timed(&mut timings.factor, || system.factor(k))?;
+        timed(&mut timings.linear_solve, || linear.solve(system, k, &lu))?;
+        if let Some(op) = contact {
+            timed(&mut timings.reduce, || {
+                linear.reduce(system, op, k, &lu, &bt_columns)
+            })?;
+        }
+    }
+    reporter.task_done("factor");
+    let contact_solution = match contact {
+        None => None,
+        Some(op) => {
+            let problem = timed(&mut timings.reduce, || ReducedProblem {
+                nodes: op.nodes(),
+                harmonics: settings.harmonics,
+                linear_gap: globalize::linear_gap(
+                    op,
+                    settings.harmonics,
+                    &linear.free,
+                    &linear.motion,
+                ),
+                compliance: std::mem::take(&mut linear.compliance),
+            });
+            let solution = timed(&mut timings.newton, || {
+                globalize::solve_contact(system, &problem, settings, reporter)
+            })?;
+            timed(&mut timings.recover, || linear.recover(&solution));
+            Some(solution)
+        }
+    };
+    Ok(Solution {
+        omega: system.omega,
+        free: linear.free,
+        motion: linear.motion,
+        contact: contact_solution,
+        residuals: linear.residuals,
+        complex_arithmetic: system.rayleigh.is_some() && harmonics.iter().any(|&k| k > 0),
+        timings,
+        warnings: linear.warnings,
+    })
+}
+
+/// Contact scenes compute every harmonic up to H (contact couples them); linear scenes only
+/// the harmonics their loads excite.
+fn harmonics_to_compute(
+    system: &System,
+    contact: Option<&ContactOperator>,
+    settings: &HbSettings,
+) -> Result<Vec<usize>> {
     let harmonics: Vec<usize> = match contact {
         Some(_) => (0..=settings.harmonics).collect(),
         None => system
@@ -200,39 +142,36 @@ pub fn solve(
             .map(|(&k, _)| k)
             .collect(),
     };
-    let complex_arithmetic = system.rayleigh.is_some() && harmonics.iter().any(|&k| k > 0);
-    if contact.is_some() {
-        let excited_max = system.inputs.keys().copied().max().unwrap_or(0);
-        if excited_max > settings.harmonics {
-            return Err(Error::Model(format!(
-                "the loads excite harmonic {excited_max} but harmonic_balance.harmonics = {}: raise it to at least {excited_max} (contact couples all harmonics up to H, and a load above H would be dropped)",
-                settings.harmonics
-            )));
-        }
+    let excited_max = system.inputs.keys().copied().max().unwrap_or(0);
+    if contact.is_some() && excited_max > settings.harmonics {
+        return Err(Error::Model(format!(
+            "the loads excite harmonic {excited_max} but harmonic_balance.harmonics = {}: raise it to at least {excited_max} (contact couples all harmonics up to H, and a load above H would be dropped)",
+            settings.harmonics
+        )));
     }
-
-    let mut free = BTreeMap::new();
-    let mut motion = BTreeMap::new();
-    let mut residuals = BTreeMap::new();
-    let mut warnings = Vec::new();
-    // Z_k⁻¹ Bᵀ per harmonic, kept for the recovery (24).
-    let mut compliance_columns: BTreeMap<usize, Vec<Vec<c64>>> = BTreeMap::new();
-    let mut compliance = Vec::new();
-    let bt_columns: Vec<Vec<c64>> = contact
-        .map(|op| transpose_rows(&op.b_free))
-        .unwrap_or_default();
-
     if harmonics.first() == Some(&0) && system.dofs.prescribed.is_empty() {
         // Nothing holds the body against rigid motion: K is singular by construction.
         return Err(singular_diagnosis(system, 0));
     }
-    for &k in &harmonics {
-        progress(&format!("harmonic {k}: factor"));
-        let start = Instant::now();
-        let lu = system.factor(k)?;
-        timings.factor += start.elapsed().as_secs_f64();
+    Ok(harmonics)
+}
 
-        let start = Instant::now();
+/// The linear response per harmonic and, for contact, what the reduction keeps.
+#[derive(Default)]
+struct LinearResponse {
+    free: BTreeMap<usize, Vec<c64>>,
+    motion: BTreeMap<usize, Vec<c64>>,
+    residuals: BTreeMap<usize, f64>,
+    warnings: Vec<String>,
+    /// Z_k⁻¹ Bᵀ per harmonic, kept for the recovery (24).
+    columns: BTreeMap<usize, Vec<Vec<c64>>>,
+    /// G_k = B Z_k⁻¹ Bᵀ per harmonic (row-major nc × nc).
+    compliance: Vec<Vec<c64>>,
+}
+
+impl LinearResponse {
+    /// z_k = Z_k⁻¹ (f_k − Z_k,fp u_p,k), refined iteratively and checked for singularity.
+    fn solve(&mut self, system: &System, k: usize, lu: &SparseLu) -> Result<()> {
         let rhs = system.load(k);
         let mut z = if is_zero(&rhs) {
             rhs.clone()
@@ -248,94 +187,68 @@ pub fn solve(
             }
             let zz = system.apply(k, &z);
             let r: Vec<c64> = rhs.iter().zip(&zz).map(|(b, a)| b - a).collect();
-            let dz = lu.solve(&r);
-            for (zi, di) in z.iter_mut().zip(&dz) {
+            for (zi, di) in z.iter_mut().zip(&lu.solve(&r)) {
                 *zi += di;
             }
             res = system::relative_residual(system, k, &z, &rhs);
         }
         check_solve(system, k, res, system::amplification(system, &z, &rhs), &z)?;
-        if let Some(w) = resonance_warning(system, k, &z, &rhs) {
-            warnings.push(w);
-        }
-        residuals.insert(k, res);
-        timings.linear_solve += start.elapsed().as_secs_f64();
-
-        if let Some(op) = contact {
-            let start = Instant::now();
-            let cols = lu.solve_many(&bt_columns);
-            for col in &cols {
-                if col.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
-                    return Err(singular_diagnosis(system, k));
-                }
-            }
-            let nc = op.nodes();
-            let mut gk = vec![c64::new(0.0, 0.0); nc * nc];
-            for (j, col) in cols.iter().enumerate() {
-                let (re, im): (Vec<f64>, Vec<f64>) = col.iter().map(|z| (z.re, z.im)).unzip();
-                let (bre, bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
-                for i in 0..nc {
-                    gk[i * nc + j] = c64::new(bre[i], bim[i]);
-                }
-            }
-            compliance.push(gk);
-            compliance_columns.insert(k, cols);
-            timings.reduce += start.elapsed().as_secs_f64();
-        }
-        free.insert(k, z);
-        motion.insert(k, system.motion(k));
+        self.warnings.extend(resonance_warning(system, k, &z, &rhs));
+        self.residuals.insert(k, res);
+        self.free.insert(k, z);
+        self.motion.insert(k, system.motion(k));
+        Ok(())
     }
-    debug_assert_eq!(free.values().next().map_or(nf, Vec::len), nf);
 
-    let contact_solution = match contact {
-        None => None,
-        Some(op) => {
-            let solution = solve_contact(
-                system,
-                op,
-                settings,
-                &free,
-                &motion,
-                compliance,
-                &mut timings,
-                progress,
-            )?;
-            // Recovery (24): z_k = Z_k⁻¹(f_k + Bᵀλ_k) = z_lin,k + (Z_k⁻¹Bᵀ) λ_k.
-            let start = Instant::now();
-            let m = 2 * settings.harmonics + 1;
-            for (&k, cols) in &compliance_columns {
-                let Some(z) = free.get_mut(&k) else { continue };
-                for (j, col) in cols.iter().enumerate() {
-                    let lam = if k == 0 {
-                        c64::new(solution.multipliers[j * m], 0.0)
-                    } else {
-                        c64::new(
-                            solution.multipliers[j * m + 2 * k - 1],
-                            -solution.multipliers[j * m + 2 * k],
-                        )
-                    };
-                    if lam.norm() == 0.0 {
-                        continue;
-                    }
-                    for (zi, ci) in z.iter_mut().zip(col) {
-                        *zi += ci * lam;
-                    }
+    /// G_k = B (Z_k⁻¹ Bᵀ), (19)–(20).
+    fn reduce(
+        &mut self,
+        system: &System,
+        op: &ContactOperator,
+        k: usize,
+        lu: &SparseLu,
+        bt_columns: &[Vec<c64>],
+    ) -> Result<()> {
+        let cols = lu.solve_many(bt_columns);
+        if cols
+            .iter()
+            .flatten()
+            .any(|z| !z.re.is_finite() || !z.im.is_finite())
+        {
+            return Err(singular_diagnosis(system, k));
+        }
+        let nc = op.nodes();
+        let mut gk = vec![c64::new(0.0, 0.0); nc * nc];
+        for (j, col) in cols.iter().enumerate() {
+            let (re, im): (Vec<f64>, Vec<f64>) = col.iter().map(|z| (z.re, z.im)).unzip();
+            let (bre, bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
+            for i in 0..nc {
+                gk[i * nc + j] = c64::new(bre[i], bim[i]);
+            }
+        }
+        self.compliance.push(gk);
+        self.columns.insert(k, cols);
+        Ok(())
+    }
+
+    /// Recovery (24): z_k = Z_k⁻¹(f_k + Bᵀλ_k) = z_lin,k + (Z_k⁻¹Bᵀ) λ_k.
+    fn recover(&mut self, contact: &ContactSolution) {
+        let m = contact.coefficients();
+        for (&k, cols) in &self.columns {
+            let Some(z) = self.free.get_mut(&k) else {
+                continue;
+            };
+            for (j, col) in cols.iter().enumerate() {
+                let lam = fourier::phasor(&contact.multipliers[j * m..(j + 1) * m], k);
+                if lam.norm() == 0.0 {
+                    continue;
+                }
+                for (zi, ci) in z.iter_mut().zip(col) {
+                    *zi += ci * lam;
                 }
             }
-            timings.recover += start.elapsed().as_secs_f64();
-            Some(solution)
         }
-    };
-    Ok(Solution {
-        omega: system.omega,
-        free,
-        motion,
-        contact: contact_solution,
-        residuals,
-        complex_arithmetic,
-        timings,
-        warnings,
-    })
+    }
 }
 
 /// Columns of Bᵀ (= rows of B) as dense complex vectors.
@@ -415,210 +328,6 @@ fn singular_diagnosis(system: &System, k: usize) -> Error {
              harmonic_balance.frequency away from it"
         ))
     }
-}
-
-#[allow(clippy::too_many_arguments)]
-fn solve_contact(
-    system: &System,
-    op: &ContactOperator,
-    settings: &HbSettings,
-    free: &BTreeMap<usize, Vec<c64>>,
-    motion: &BTreeMap<usize, Vec<c64>>,
-    compliance: Vec<Vec<c64>>,
-    timings: &mut Timings,
-    progress: &dyn Fn(&str),
-) -> Result<ContactSolution> {
-    let start = Instant::now();
-    let (nc, h) = (op.nodes(), settings.harmonics);
-    let m = 2 * h + 1;
-    // The linear gap r = B z_lin + B_p u_p − g0 δ_k0, as real coefficients.
-    let mut r = vec![0.0; nc * m];
-    for k in 0..=h {
-        let z = &free[&k];
-        let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
-        let (mut bre, mut bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
-        if op.b_prescribed.ncols > 0 {
-            let up = &motion[&k];
-            let (pre, pim): (Vec<f64>, Vec<f64>) = up.iter().map(|v| (v.re, v.im)).unzip();
-            for (a, b) in bre.iter_mut().zip(op.b_prescribed.mul_vec(&pre)) {
-                *a += b;
-            }
-            for (a, b) in bim.iter_mut().zip(op.b_prescribed.mul_vec(&pim)) {
-                *a += b;
-            }
-        }
-        for i in 0..nc {
-            if k == 0 {
-                r[i * m] = bre[i] - op.g0[i];
-            } else {
-                let (a, b) = to_coefficients(c64::new(bre[i], bim[i]));
-                r[i * m + 2 * k - 1] = a;
-                r[i * m + 2 * k] = b;
-            }
-        }
-    }
-    let problem = ReducedProblem {
-        nodes: nc,
-        harmonics: h,
-        compliance,
-        linear_gap: r,
-    };
-    let mean_compliance = (0..nc)
-        .map(|i| problem.compliance[0][i * nc + i].re.abs())
-        .sum::<f64>()
-        / nc as f64;
-    if !(mean_compliance.is_finite() && mean_compliance > 0.0) {
-        return Err(Error::Model(
-            "the contact nodes' static compliance B K⁻¹ Bᵀ is zero or not finite: are the contact \
-             nodes held by boundaries.fixed? Contact on held nodes does nothing"
-                .into(),
-        ));
-    }
-    let c = settings.c_scale / mean_compliance;
-    timings.reduce += start.elapsed().as_secs_f64();
-
-    let start = Instant::now();
-    let newton_settings = |hh: usize, c: f64| NewtonSettings {
-        samples: if hh == h {
-            settings.samples
-        } else {
-            // Keep the same oversampling ratio on the lower rungs.
-            (settings.samples * hh).div_ceil(h.max(1)).max(2 * hh + 1)
-        },
-        c,
-        tolerance: settings.tolerance,
-        max_iterations: settings.max_iterations,
-        dense_limit: reduced::DENSE_LIMIT,
-    };
-    // Globalization, cheapest first: the plain Newton; then climbing the harmonic ladder from
-    // a low H (each rung warm-starting the next: the low harmonics of an impact response are
-    // found first); then both again with c ten times smaller (a softer penalty on the gap,
-    // method.md: the c that converges is a band).
-    let attempt = |c: f64,
-                   total: &mut usize,
-                   log: &mut Vec<IterationLog>,
-                   reasons: &mut Vec<String>|
-     -> Option<(NewtonOutcome, Vec<usize>)> {
-        progress(&format!(
-            "contact Newton: H = {h}, N = {}, {nc} nodes, c = {c:.3e}",
-            settings.samples
-        ));
-        let o = reduced::newton(&problem, &newton_settings(h, c), &vec![0.0; nc * m]);
-        *total += o.iterations;
-        log.extend(o.log.iter().cloned());
-        if o.converged {
-            return Some((o, vec![h]));
-        }
-        reasons.push(format!("direct at c = {c:.3e}: {}", o.reason));
-        if h < 2 {
-            return None;
-        }
-        let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2]
-            .into_iter()
-            .filter(|&r| r >= 1)
-            .collect();
-        rungs.dedup();
-        rungs.push(h);
-        progress(&format!("contact Newton: climbing H = {rungs:?}"));
-        let mut x = vec![0.0; nc * 3];
-        let mut prev = 1;
-        for &rung in &rungs {
-            let start_x = reduced::pad(&x, nc, prev, rung);
-            let o = reduced::newton(&problem.truncate(rung), &newton_settings(rung, c), &start_x);
-            *total += o.iterations;
-            log.extend(o.log.iter().cloned());
-            if !o.converged {
-                reasons.push(format!(
-                    "ladder at c = {c:.3e} failed at H = {rung}: {}",
-                    o.reason
-                ));
-                return None;
-            }
-            x = o.multipliers.clone();
-            prev = rung;
-            if rung == h {
-                return Some((o, rungs));
-            }
-        }
-        None
-    };
-    let (mut total, mut log, mut reasons) = (0usize, Vec::new(), Vec::new());
-    let mut found = None;
-    for c_try in [c, 0.1 * c] {
-        if let Some((o, ladder)) = attempt(c_try, &mut total, &mut log, &mut reasons) {
-            found = Some((o, ladder, c_try));
-            break;
-        }
-    }
-    timings.newton += start.elapsed().as_secs_f64();
-    let Some((mut outcome, ladder, c)) = found else {
-        let last = log.last().cloned();
-        let failed = NewtonOutcome {
-            multipliers: Vec::new(),
-            converged: false,
-            iterations: total,
-            relative_residual: last.as_ref().map_or(f64::NAN, |l| l.residual),
-            log,
-            reason: reasons.join("; "),
-        };
-        return Err(stall_diagnosis(system, settings, &failed));
-    };
-    outcome.iterations = total;
-    outcome.log = log;
-    let gaps = problem.gap(&outcome.multipliers);
-    let complementarity =
-        measure_complementarity(&problem, &outcome.multipliers, &gaps, settings.samples);
-    Ok(ContactSolution {
-        harmonics: h,
-        samples: settings.samples,
-        c,
-        multipliers: outcome.multipliers.clone(),
-        gaps,
-        newton: outcome,
-        ladder,
-        complementarity,
-    })
-}
-
-fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutcome) -> Error {
-    let mut advice = Vec::new();
-    let h = settings.harmonics;
-    if settings.samples < 16 * h {
-        advice.push(format!(
-            "raise harmonic_balance.samples (now {}; 16·H = {} converges reliably)",
-            settings.samples,
-            16 * h
-        ));
-    }
-    advice.push(
-        "make sure contact.mass is `redistributed` (contact nodes with inertia make impacts that \
-         no truncated Fourier series resolves)"
-            .to_string(),
-    );
-    if settings.c_scale >= 1.0 {
-        advice.push(format!(
-            "lower harmonic_balance.solver.c_scale (now {}; try 0.3 or 0.1)",
-            settings.c_scale
-        ));
-    }
-    match system.rayleigh {
-        None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
-        Some((_, 0.0)) => advice.push(
-            "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
-        ),
-        _ => {}
-    }
-    advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
-    let last = outcome.log.last();
-    Error::NotConverged(format!(
-        "the contact Newton stalled after {} iterations: {}; relative residual {:.3e}, {} active \
-         samples. To fix: {}",
-        outcome.iterations,
-        outcome.reason,
-        outcome.relative_residual,
-        last.map_or(0, |l| l.active_samples),
-        advice.join("; ")
-    ))
 }
 
 /// Violation of λ ≤ 0, g ≤ 0, λg = 0 by the Fourier series at the N samples.

@@ -8,7 +8,10 @@
 use faer::c64;
 use nalgebra::DMatrix;
 
-use super::fourier::Sampler;
+use crate::linalg::gmres;
+use crate::progress::Reporter;
+
+use super::fourier::{harmonic_of, phasor, set_phasor, Sampler};
 
 /// G (per harmonic, complex, nc × nc row-major) and r (node-major coefficients).
 #[derive(Clone, Debug)]
@@ -47,22 +50,11 @@ impl ReducedProblem {
         let (nc, m) = (self.nodes, self.coefficients());
         let mut g = self.linear_gap.clone();
         for (k, gk) in self.compliance.iter().enumerate() {
+            let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
             for i in 0..nc {
-                let mut y = c64::new(0.0, 0.0);
-                for j in 0..nc {
-                    let lam = if k == 0 {
-                        c64::new(x[j * m], 0.0)
-                    } else {
-                        c64::new(x[j * m + 2 * k - 1], -x[j * m + 2 * k])
-                    };
-                    y += gk[i * nc + j] * lam;
-                }
-                if k == 0 {
-                    g[i * m] += y.re;
-                } else {
-                    g[i * m + 2 * k - 1] += y.re;
-                    g[i * m + 2 * k] -= y.im;
-                }
+                let y: c64 = (0..nc).map(|j| gk[i * nc + j] * lam[j]).sum();
+                let gi = &mut g[i * m..(i + 1) * m];
+                set_phasor(gi, k, phasor(gi, k) + y);
             }
         }
         g
@@ -71,8 +63,7 @@ impl ReducedProblem {
     /// Real-form entry of G between coefficient `a` of node i and coefficient `b` of node j
     /// (zero unless both belong to the same harmonic).
     fn real_entry(&self, i: usize, a: usize, j: usize, b: usize) -> f64 {
-        let harmonic = |c: usize| c.div_ceil(2);
-        let (ka, kb) = (harmonic(a), harmonic(b));
+        let (ka, kb) = (harmonic_of(a), harmonic_of(b));
         if ka != kb {
             return 0.0;
         }
@@ -98,9 +89,6 @@ pub struct NewtonSettings {
     pub dense_limit: usize,
 }
 
-/// A rejected line-search trial: (‖R‖, step, λ, R, force peak, active samples).
-type Trial = (f64, f64, Vec<f64>, Vec<f64>, f64, Vec<bool>);
-
 /// Residual norms the non-monotone line search looks back over.
 const NONMONOTONE_WINDOW: usize = 8;
 /// Steps taken without sufficient decrease before the Newton gives up.
@@ -112,7 +100,7 @@ const MAX_FORCED_STEPS: usize = 10;
 pub const DENSE_LIMIT: usize = 800;
 
 /// One Newton iteration's record (the log the user sees with `--verbose`).
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, schemars::JsonSchema)]
 pub struct IterationLog {
     pub residual: f64,
     pub active_samples: usize,
@@ -131,180 +119,216 @@ pub struct NewtonOutcome {
     pub reason: String,
 }
 
-/// Semi-smooth Newton with backtracking on ‖R‖₂.
-pub fn newton(problem: &ReducedProblem, settings: &NewtonSettings, start: &[f64]) -> NewtonOutcome {
-    let sampler = Sampler::new(problem.harmonics, settings.samples);
-    let (nc, m, ns) = (problem.nodes, problem.coefficients(), settings.samples);
-    let p = sampler.p_matrix();
-    let q = sampler.q_matrix();
-    let c = settings.c;
-    let mut x = start.to_vec();
-    let mut log = Vec::new();
+/// The complementarity residual (23) at one λ, with what the Jacobian and the scale need.
+#[derive(Clone)]
+struct Evaluation {
+    x: Vec<f64>,
+    residual: Vec<f64>,
+    /// Peak |λ| over the samples.
+    peak: f64,
+    /// Per node and sample: c g − λ > 0 (the max(0, ·) is active).
+    active: Vec<bool>,
+}
 
-    // The force scale: the contact force the linear solution's penetration implies, or the
-    // multipliers themselves; tolerances are relative to it so units do not matter.
-    let mut penetration: f64 = 0.0;
-    let mut samples = vec![0.0; ns];
-    for i in 0..nc {
-        sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut samples);
-        penetration = samples.iter().fold(penetration, |a, &v| a.max(v));
-    }
-    let linear_force = c * penetration.max(0.0);
+/// R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)) and its pieces.
+struct Residual<'a> {
+    problem: &'a ReducedProblem,
+    sampler: Sampler,
+    c: f64,
+    /// The force the linear solution's sampled penetration implies (c · max r): with the
+    /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
+    linear_force: f64,
+}
 
-    let evaluate = |x: &[f64], active: &mut Vec<bool>| -> (Vec<f64>, f64) {
-        let g = problem.gap(x);
-        let mut residual = x.to_vec();
-        let mut w = vec![0.0; ns];
-        let mut coeffs = vec![0.0; m];
-        let mut force_peak: f64 = 0.0;
-        active.clear();
+impl<'a> Residual<'a> {
+    fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
+        let sampler = Sampler::new(problem.harmonics, settings.samples);
+        let (nc, m) = (problem.nodes, problem.coefficients());
+        let mut samples = vec![0.0; settings.samples];
+        let mut penetration: f64 = 0.0;
         for i in 0..nc {
-            let arg: Vec<f64> = (0..m).map(|a| c * g[i * m + a] - x[i * m + a]).collect();
-            sampler.to_samples(&arg, &mut w);
-            let mut lam = vec![0.0; ns];
-            sampler.to_samples(&x[i * m..(i + 1) * m], &mut lam);
-            force_peak = lam.iter().fold(force_peak, |a, &v| a.max(v.abs()));
+            sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut samples);
+            penetration = samples.iter().fold(penetration, |a, &v| a.max(v));
+        }
+        Residual {
+            problem,
+            sampler,
+            c: settings.c,
+            linear_force: settings.c * penetration.max(0.0),
+        }
+    }
+
+    fn evaluate(&self, x: Vec<f64>) -> Evaluation {
+        let (nc, m, ns) = (
+            self.problem.nodes,
+            self.problem.coefficients(),
+            self.sampler.samples,
+        );
+        let g = self.problem.gap(&x);
+        let mut residual = x.clone();
+        let (mut w, mut lam, mut coeffs) = (vec![0.0; ns], vec![0.0; ns], vec![0.0; m]);
+        let mut peak: f64 = 0.0;
+        let mut active = Vec::with_capacity(nc * ns);
+        for i in 0..nc {
+            let arg: Vec<f64> = (0..m)
+                .map(|a| self.c * g[i * m + a] - x[i * m + a])
+                .collect();
+            self.sampler.to_samples(&arg, &mut w);
+            self.sampler.to_samples(&x[i * m..(i + 1) * m], &mut lam);
+            peak = lam.iter().fold(peak, |a, &v| a.max(v.abs()));
             for v in w.iter_mut() {
                 active.push(*v > 0.0);
                 *v = v.max(0.0);
             }
-            sampler.to_coefficients(&w, &mut coeffs);
+            self.sampler.to_coefficients(&w, &mut coeffs);
             for a in 0..m {
                 residual[i * m + a] += coeffs[a];
             }
         }
-        (residual, force_peak)
-    };
-    let norm2 = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
-    let norm_inf = |v: &[f64]| v.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-
-    let mut active = Vec::new();
-    let (mut residual, mut peak) = evaluate(&x, &mut active);
-    let scale = |peak: f64| linear_force.max(peak).max(f64::MIN_POSITIVE);
-    let mut reason = String::new();
-    let mut iterations = 0;
-    let mut history: Vec<f64> = Vec::new();
-    let mut stalls = 0;
-    loop {
-        let rel = norm_inf(&residual) / scale(peak);
-        let count = active.iter().filter(|&&a| a).count();
-        if log.is_empty() {
-            log.push(IterationLog {
-                residual: rel,
-                active_samples: count,
-                step: 0.0,
-            });
+        Evaluation {
+            x,
+            residual,
+            peak,
+            active,
         }
+    }
+
+    /// ‖R‖∞ over the force scale.
+    fn relative(&self, e: &Evaluation) -> f64 {
+        let scale = self.linear_force.max(e.peak).max(f64::MIN_POSITIVE);
+        e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
+    }
+
+    /// The Newton direction: dense LU or matrix-free GMRES by size.
+    fn direction(&self, e: &Evaluation, settings: &NewtonSettings) -> Result<Vec<f64>, String> {
+        if e.x.len() <= settings.dense_limit {
+            let (p, q) = (self.sampler.p_matrix(), self.sampler.q_matrix());
+            dense_step(
+                self.problem,
+                &p,
+                &q,
+                self.sampler.samples,
+                self.c,
+                &e.active,
+                &e.residual,
+            )
+            .ok_or_else(|| "the Newton matrix is singular".to_string())
+        } else {
+            krylov_step(self.problem, &self.sampler, self.c, &e.active, &e.residual)
+        }
+    }
+}
+
+fn norm2(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+/// Non-monotone Armijo backtracking (Grippo, Lampariello, Lucidi 1986) against `reference`,
+/// the worst of the last few ‖R‖₂: semi-smooth Newton steps cross kinks of max(0, ·) and a
+/// strictly monotone search stalls on them. Returns the accepted step length and evaluation,
+/// or the best trial when none decreased enough.
+fn line_search(
+    residual: &Residual,
+    current: &Evaluation,
+    step: &[f64],
+    reference: f64,
+) -> Result<(f64, Evaluation), (f64, Evaluation)> {
+    let mut alpha = 1.0;
+    let mut best: Option<(f64, f64, Evaluation)> = None;
+    while alpha >= 1.0 / 1024.0 {
+        let trial: Vec<f64> = current
+            .x
+            .iter()
+            .zip(step)
+            .map(|(x, d)| x + alpha * d)
+            .collect();
+        let e = residual.evaluate(trial);
+        let norm = norm2(&e.residual);
+        if norm <= (1.0 - 1e-4 * alpha) * reference {
+            return Ok((alpha, e));
+        }
+        if best.as_ref().is_none_or(|b| norm < b.0) {
+            best = Some((norm, alpha, e));
+        }
+        alpha *= 0.5;
+    }
+    let (_, a, e) = best.expect("at least one trial step");
+    Err((a, e))
+}
+
+/// Semi-smooth Newton on R(λ) = 0 from `start`, globalized by the non-monotone line search
+/// with a bounded number of forced steps; progress goes to `reporter` every iteration.
+pub fn newton(
+    problem: &ReducedProblem,
+    settings: &NewtonSettings,
+    start: &[f64],
+    reporter: &dyn Reporter,
+) -> NewtonOutcome {
+    let residual = Residual::new(problem, settings);
+    let mut current = residual.evaluate(start.to_vec());
+    let mut log = vec![IterationLog {
+        residual: residual.relative(&current),
+        active_samples: current.active.iter().filter(|&&a| a).count(),
+        step: 0.0,
+    }];
+    let (mut iterations, mut stalls) = (0, 0);
+    let mut history: Vec<f64> = Vec::new();
+    let reason = loop {
+        let rel = residual.relative(&current);
         if rel <= settings.tolerance {
-            return NewtonOutcome {
-                multipliers: x,
-                converged: true,
-                iterations,
-                relative_residual: rel,
-                log,
-                reason,
-            };
+            break None;
         }
         if !rel.is_finite() {
-            reason = "the residual became non-finite".into();
-            break;
+            break Some("the residual became non-finite".to_string());
         }
         if iterations >= settings.max_iterations {
-            reason = format!("reached max_iterations = {}", settings.max_iterations);
-            break;
+            break Some(format!(
+                "reached max_iterations = {}",
+                settings.max_iterations
+            ));
         }
         iterations += 1;
-
-        let dim = nc * m;
-        let step: Vec<f64> = if dim <= settings.dense_limit {
-            match dense_step(problem, &p, &q, ns, c, &active, &residual) {
-                Some(step) => step,
-                None => {
-                    reason = "the Newton matrix is singular".into();
-                    break;
-                }
-            }
-        } else {
-            match krylov_step(problem, &sampler, c, &active, &residual) {
-                Ok(step) => step,
-                Err(msg) => {
-                    reason = msg;
-                    break;
-                }
-            }
+        let status = format!("H = {}, residual {rel:.2e}", problem.harmonics);
+        reporter.progress("contact Newton", iterations as u64, None, &status);
+        let step = match residual.direction(&current, settings) {
+            Ok(step) => step,
+            Err(why) => break Some(why),
         };
-        // Non-monotone Armijo test against the worst of the last few residuals (Grippo,
-        // Lampariello, Lucidi 1986): semi-smooth Newton steps cross kinks of max(0, ·) and
-        // a strictly monotone search stalls on them.
-        let r0 = norm2(&residual);
-        history.push(r0);
+        history.push(norm2(&current.residual));
         let reference = history
             .iter()
             .rev()
             .take(NONMONOTONE_WINDOW)
             .fold(0.0f64, |a, &b| a.max(b));
-        let mut alpha = 1.0;
-        let mut accepted = false;
-        let mut trial = x.clone();
-        let mut trial_active = Vec::new();
-        let mut best: Option<Trial> = None;
-        while alpha >= 1.0 / 1024.0 {
-            for a in 0..dim {
-                trial[a] = x[a] + alpha * step[a];
-            }
-            let (r_trial, p_trial) = evaluate(&trial, &mut trial_active);
-            let norm = norm2(&r_trial);
-            if norm <= (1.0 - 1e-4 * alpha) * reference {
-                x.copy_from_slice(&trial);
-                residual = r_trial;
-                peak = p_trial;
-                std::mem::swap(&mut active, &mut trial_active);
-                accepted = true;
-                break;
-            }
-            if best.as_ref().is_none_or(|b| norm < b.0) {
-                best = Some((
-                    norm,
-                    alpha,
-                    trial.clone(),
-                    r_trial,
-                    p_trial,
-                    trial_active.clone(),
-                ));
-            }
-            alpha *= 0.5;
-        }
-        if !accepted && stalls < MAX_FORCED_STEPS {
+        let (alpha, accepted) = match line_search(&residual, &current, &step, reference) {
+            Ok((alpha, e)) => (alpha, Some(e)),
             // Take the best trial anyway, a bounded number of times, to leave a kink.
-            if let Some((_, a, t, r, pk, act)) = best {
+            Err((alpha, e)) if stalls < MAX_FORCED_STEPS => {
                 stalls += 1;
-                alpha = a;
-                x = t;
-                residual = r;
-                peak = pk;
-                active = act;
-                accepted = true;
+                (alpha, Some(e))
             }
+            Err(_) => (0.0, None),
+        };
+        let stalled = accepted.is_none();
+        if let Some(e) = accepted {
+            current = e;
         }
-        let rel = norm_inf(&residual) / scale(peak);
         log.push(IterationLog {
-            residual: rel,
-            active_samples: active.iter().filter(|&&a| a).count(),
-            step: if accepted { alpha } else { 0.0 },
+            residual: residual.relative(&current),
+            active_samples: current.active.iter().filter(|&&a| a).count(),
+            step: alpha,
         });
-        if !accepted {
-            reason = "the line search found no decrease of ‖R‖ (stalled)".into();
-            break;
+        if stalled {
+            break Some("the line search found no decrease of ‖R‖ (stalled)".into());
         }
-    }
-    let rel = norm_inf(&residual) / scale(peak);
+    };
     NewtonOutcome {
-        multipliers: x,
-        converged: false,
+        relative_residual: residual.relative(&current),
+        multipliers: current.x,
+        converged: reason.is_none(),
         iterations,
-        relative_residual: rel,
         log,
-        reason,
+        reason: reason.unwrap_or_default(),
     }
 }
 
@@ -350,7 +374,7 @@ fn dense_step(
                 if aval == 0.0 {
                     continue;
                 }
-                let kk = bb.div_ceil(2);
+                let kk = harmonic_of(bb);
                 let cols: &[usize] = if kk == 0 { &[0] } else { &[2 * kk - 1, 2 * kk] };
                 for j in 0..nc {
                     for &b in cols {
@@ -439,93 +463,6 @@ fn krylov_step(
     gmres(&apply_j, &precondition, &rhs, 1e-6, 60, 20)
 }
 
-/// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,
-/// Alg. 9.5) with modified Gram–Schmidt and Givens rotations.
-fn gmres(
-    apply: &dyn Fn(&[f64]) -> Vec<f64>,
-    precondition: &dyn Fn(&[f64]) -> Vec<f64>,
-    b: &[f64],
-    tolerance: f64,
-    restart: usize,
-    max_restarts: usize,
-) -> Result<Vec<f64>, String> {
-    let n = b.len();
-    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
-    let b_norm = norm(b);
-    let mut x = vec![0.0; n];
-    if b_norm == 0.0 {
-        return Ok(x);
-    }
-    let mut last = f64::INFINITY;
-    for _ in 0..max_restarts {
-        let ax = apply(&precondition(&x));
-        let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
-        let beta = norm(&r);
-        last = beta / b_norm;
-        if last <= tolerance {
-            return Ok(precondition(&x));
-        }
-        let mut v: Vec<Vec<f64>> = vec![r.iter().map(|a| a / beta).collect()];
-        let mut h = vec![vec![0.0; restart]; restart + 1];
-        let (mut cs, mut sn) = (vec![0.0; restart], vec![0.0; restart]);
-        let mut g = vec![0.0; restart + 1];
-        g[0] = beta;
-        let mut used = 0;
-        for j in 0..restart {
-            let mut w = apply(&precondition(&v[j]));
-            for (i, vi) in v.iter().enumerate() {
-                let hij: f64 = w.iter().zip(vi).map(|(a, b)| a * b).sum();
-                h[i][j] = hij;
-                for (wk, vk) in w.iter_mut().zip(vi) {
-                    *wk -= hij * vk;
-                }
-            }
-            let wn = norm(&w);
-            h[j + 1][j] = wn;
-            for i in 0..j {
-                let t = cs[i] * h[i][j] + sn[i] * h[i + 1][j];
-                h[i + 1][j] = -sn[i] * h[i][j] + cs[i] * h[i + 1][j];
-                h[i][j] = t;
-            }
-            let d = (h[j][j] * h[j][j] + h[j + 1][j] * h[j + 1][j]).sqrt();
-            if d == 0.0 {
-                break;
-            }
-            cs[j] = h[j][j] / d;
-            sn[j] = h[j + 1][j] / d;
-            h[j][j] = d;
-            h[j + 1][j] = 0.0;
-            g[j + 1] = -sn[j] * g[j];
-            g[j] *= cs[j];
-            used = j + 1;
-            if g[j + 1].abs() / b_norm <= tolerance || wn == 0.0 {
-                break;
-            }
-            v.push(w.iter().map(|a| a / wn).collect());
-        }
-        // Back substitution for y, then x += V y.
-        let mut y = vec![0.0; used];
-        for i in (0..used).rev() {
-            let s: f64 = ((i + 1)..used).map(|k| h[i][k] * y[k]).sum();
-            y[i] = (g[i] - s) / h[i][i];
-        }
-        for (k, yk) in y.iter().enumerate() {
-            for (xi, vi) in x.iter_mut().zip(&v[k]) {
-                *xi += yk * vi;
-            }
-        }
-    }
-    let ax = apply(&precondition(&x));
-    let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
-    let rel = norm(&r) / b_norm;
-    if rel <= 1e-2 {
-        // Loose but still a descent direction for the line search.
-        Ok(precondition(&x))
-    } else {
-        Err(format!("the Krylov solve of the Newton step stalled at relative residual {rel:.2e} (was {last:.2e})"))
-    }
-}
-
 /// Pad node-major coefficients from `from_h` harmonics to `to_h` (zeros for the new ones).
 pub fn pad(x: &[f64], nodes: usize, from_h: usize, to_h: usize) -> Vec<f64> {
     let (mf, mt) = (2 * from_h + 1, 2 * to_h + 1);
@@ -561,7 +498,7 @@ mod tests {
             max_iterations: 20,
             dense_limit: DENSE_LIMIT,
         };
-        let out = newton(&problem, &settings, &[0.0]);
+        let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
         assert!((out.multipliers[0] + (f - k * g0)).abs() < 1e-12);
     }
@@ -612,7 +549,7 @@ mod tests {
                 max_iterations: 50,
                 dense_limit: DENSE_LIMIT,
             };
-            let out = newton(&problem, &settings, &vec![0.0; m]);
+            let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
             let err = (out.multipliers[0] - exact(0)).abs() + (out.multipliers[1] - exact(1)).abs();
             errors.push(err);
@@ -653,9 +590,9 @@ mod tests {
             max_iterations: 60,
             dense_limit: DENSE_LIMIT,
         };
-        let dense = newton(&problem, &settings, &vec![0.0; 2 * m]);
+        let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
         settings.dense_limit = 0;
-        let krylov = newton(&problem, &settings, &vec![0.0; 2 * m]);
+        let krylov = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
         assert!(
             dense.converged && krylov.converged,
             "{} / {}",

@@ -6,52 +6,9 @@ use std::collections::BTreeMap;
 
 use faer::c64;
 
+use crate::fem::DofMap;
 use crate::linalg::{Csc, LuPattern, SparseLu, Triplets};
 use crate::{Error, Result};
-
-/// Free and prescribed dofs among all 2·nodes dofs; dofs of nodes without cells are neither.
-#[derive(Clone, Debug)]
-pub struct DofMap {
-    /// global dof → free index, or `usize::MAX`.
-    pub free_of: Vec<usize>,
-    /// free index → global dof.
-    pub free: Vec<usize>,
-    /// global dof → prescribed index, or `usize::MAX`.
-    pub prescribed_of: Vec<usize>,
-    /// prescribed index → global dof.
-    pub prescribed: Vec<usize>,
-}
-
-impl DofMap {
-    /// `active[d]`: the dof belongs to a cell; `prescribed[d]`: held (zero or a given motion).
-    pub fn new(active: &[bool], held: &[bool]) -> Self {
-        let n = active.len();
-        let (mut free_of, mut prescribed_of) = (vec![usize::MAX; n], vec![usize::MAX; n]);
-        let (mut free, mut prescribed) = (Vec::new(), Vec::new());
-        for d in 0..n {
-            if !active[d] {
-                continue;
-            }
-            if held[d] {
-                prescribed_of[d] = prescribed.len();
-                prescribed.push(d);
-            } else {
-                free_of[d] = free.len();
-                free.push(d);
-            }
-        }
-        DofMap {
-            free_of,
-            free,
-            prescribed_of,
-            prescribed,
-        }
-    }
-
-    pub fn total(&self) -> usize {
-        self.free_of.len()
-    }
-}
 
 /// Complex amplitudes of one harmonic: x(t) = Re(X e^{ikωt}), X = a − i b for a cos + b sin.
 #[derive(Clone, Debug)]
@@ -91,15 +48,15 @@ impl System {
                 "every degree of freedom is held: nothing to solve (check boundaries.fixed)".into(),
             ));
         }
-        let k = stiffness.block(&dofs.free_of, &dofs.free_of, nf, nf);
-        let m = mass.block(&dofs.free_of, &dofs.free_of, nf, nf);
+        let k = stiffness.block(dofs.free_map(), dofs.free_map(), nf, nf);
+        let m = mass.block(dofs.free_map(), dofs.free_map(), nf, nf);
         let mut common = Csc::on_common_pattern(&[&k, &m]).into_iter();
         let (k_ff, m_ff) = match (common.next(), common.next()) {
             (Some(k), Some(m)) => (k, m),
             _ => return Err(Error::Model("internal: common pattern".into())),
         };
-        let k_fp = stiffness.block(&dofs.free_of, &dofs.prescribed_of, nf, np);
-        let m_fp = mass.block(&dofs.free_of, &dofs.prescribed_of, nf, np);
+        let k_fp = stiffness.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
+        let m_fp = mass.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
         let pattern = LuPattern::analyse(&k_ff)?;
         Ok(System {
             dofs,

@@ -28,7 +28,7 @@ pub fn write_csv(path: &Path, header: &[String], rows: &[Vec<f64>]) -> Result<()
     write_atomic(path, &s)
 }
 
-pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
+pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)
         .map_err(|e| Error::Model(format!("internal: JSON: {e}")))?;
     write_atomic(path, &(text + "\n"))

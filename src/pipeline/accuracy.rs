@@ -6,11 +6,10 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use serde_json::Value;
-
-use super::{run, RunOptions};
+use super::{run, RunOptions, Summary};
 use crate::config::{load_pipeline, Pipeline};
 use crate::output::tables::write_csv;
+use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
 
 /// One axis of the study: a pipeline key and the values to try (cheapest first).
@@ -32,21 +31,22 @@ pub struct Rung {
     pub dofs: u64,
 }
 
-fn probe_amplitude(summary: &Value) -> f64 {
-    // The first probe's larger first-harmonic amplitude: smooth in the settings, unlike a
-    // peak value that follows the Gibbs ripples of a truncated series.
-    summary["probes"]
-        .as_object()
-        .and_then(|m| m.values().next())
-        .map(|p| {
-            let x = p["first_harmonic_x"].as_f64().unwrap_or(0.0);
-            let y = p["first_harmonic_y"].as_f64().unwrap_or(0.0);
-            x.max(y)
-        })
-        .unwrap_or(f64::NAN)
+/// The error measure: the first probe's larger first-harmonic amplitude, smooth in the
+/// settings, unlike a peak value that follows the Gibbs ripples of a truncated series.
+fn probe_amplitude(p: &Pipeline, summary: &Summary) -> f64 {
+    p.output
+        .probes
+        .first()
+        .and_then(|name| summary.probes.get(name))
+        .map_or(f64::NAN, |a| a.first_harmonic())
 }
 
-fn run_one(path: &Path, overrides: &[String], out: PathBuf) -> Result<(f64, Value)> {
+fn run_one(
+    path: &Path,
+    overrides: &[String],
+    out: PathBuf,
+    reporter: &dyn Reporter,
+) -> Result<(f64, f64, Summary)> {
     let p: Pipeline = load_pipeline(path, overrides)?;
     if p.output.probes.is_empty() {
         return Err(Error::Config {
@@ -56,25 +56,27 @@ fn run_one(path: &Path, overrides: &[String], out: PathBuf) -> Result<(f64, Valu
                     .into(),
         });
     }
-    let options = RunOptions {
-        out: Some(out),
-        quiet: true,
-    };
-    let dir = run(&p, &options)?;
-    let text = std::fs::read_to_string(dir.join("summary.json"))
-        .map_err(|e| Error::io(dir.join("summary.json"), e))?;
-    let summary: Value =
-        serde_json::from_str(&text).map_err(|e| Error::Model(format!("summary.json: {e}")))?;
+    let options = RunOptions { out: Some(out) };
+    let summary = run(&p, &options, reporter)?.summary;
     // What the setting costs: every stage but meshing, which a study's cache makes free.
-    let st = &summary["stage_seconds"];
-    let secs = st["total"].as_f64().unwrap_or(f64::NAN) - st["mesh"].as_f64().unwrap_or(0.0);
-    Ok((secs, summary))
+    let st = &summary.stage_seconds;
+    let secs = st.total() - st.get("mesh");
+    Ok((secs, probe_amplitude(&p, &summary), summary))
 }
 
 /// Run every ladder (each varying one key, the others at the pipeline's values) and compare
-/// each rung with that ladder's last (most expensive) rung.
-pub fn study(path: &Path, base: &[String], ladders: &[Ladder], out: &Path) -> Result<Vec<Rung>> {
+/// each rung with that ladder's last (most expensive) rung. The runs themselves report to
+/// `Silent`; `reporter` sees one step per rung.
+pub fn study(
+    path: &Path,
+    base: &[String],
+    ladders: &[Ladder],
+    out: &Path,
+    reporter: &dyn Reporter,
+) -> Result<Vec<Rung>> {
     let mut rungs = Vec::new();
+    let total = ladders.iter().map(|l| l.values.len()).sum::<usize>() as u64;
+    let mut done = 0;
     for ladder in ladders {
         let mut rows = Vec::new();
         for value in &ladder.values {
@@ -85,28 +87,35 @@ pub fn study(path: &Path, base: &[String], ladders: &[Ladder], out: &Path) -> Re
                 ladder.key.replace('.', "_"),
                 value.replace(['/', ' '], "_")
             );
-            eprintln!("[accuracy] {} = {value}", ladder.key);
-            let (secs, summary) = run_one(path, &overrides, out.join("runs").join(tag))?;
-            rows.push((value.clone(), secs, summary));
+            reporter.progress(
+                "accuracy",
+                done,
+                Some(total),
+                &format!("{} = {value}", ladder.key),
+            );
+            let row = run_one(path, &overrides, out.join("runs").join(tag), &Silent)?;
+            done += 1;
+            rows.push((value.clone(), row));
         }
-        let Some((_, _, reference)) = rows.last() else {
+        let Some((_, (_, a_ref, _))) = rows.last() else {
             continue;
         };
-        let a_ref = probe_amplitude(reference);
-        for (value, secs, s) in &rows {
-            let a = probe_amplitude(s);
+        let a_ref = *a_ref;
+        for (value, (secs, a, s)) in &rows {
+            let contact = s.contact.as_ref().and_then(|c| c.solver.as_ref());
             rungs.push(Rung {
                 key: ladder.key.clone(),
                 value: value.clone(),
                 seconds: *secs,
-                probe_amplitude: a,
+                probe_amplitude: *a,
                 error: ((a - a_ref) / a_ref).abs(),
-                complementarity: s["contact"]["complementarity"]["violation"].as_f64(),
-                newton_iterations: s["contact"]["newton_iterations"].as_u64(),
-                dofs: s["sizes"]["free_dofs"].as_u64().unwrap_or(0),
+                complementarity: contact.map(|c| c.complementarity.violation),
+                newton_iterations: contact.map(|c| c.newton_iterations as u64),
+                dofs: s.sizes.free_dofs as u64,
             });
         }
     }
+    reporter.task_done("accuracy");
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let header: Vec<String> = [
         "ladder_value",

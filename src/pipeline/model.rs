@@ -5,19 +5,22 @@
 use std::collections::BTreeMap;
 
 use faer::c64;
+use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{ContactMass, LoadKind, ObstacleSpec, Pipeline, PlaneModelSpec, Signal};
 use crate::contact::geometry::{build_contact_set, ContactSet};
 use crate::contact::mass::{redistribute_mass, Redistribution};
+use crate::contact::{contact_operator, ContactOperator};
+use crate::fem::DofMap;
 use crate::fem::{self, MassKind, Material, PlaneModel};
-use crate::hbm::{ContactOperator, DofMap, HarmonicInput, System};
-use crate::linalg::{Csc, Triplets};
+use crate::hbm::{HarmonicInput, System};
+use crate::linalg::Triplets;
 use crate::mesh::Mesh2d;
 use crate::{Error, Result};
 
 /// Which mass the run uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum MassModel {
     /// Consistent mass: the accurate choice for linear harmonic balance.
@@ -29,7 +32,7 @@ pub enum MassModel {
 }
 
 /// What the scene simulates (and so what the run pays for).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct Effects {
     pub static_load: bool,
     /// Harmonics excited by loads or prescribed motion.
@@ -265,8 +268,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         let mut add_motion = |k: usize, value: c64| {
             let input = inputs.entry(k).or_insert_with(zero_input);
             for &n in nodes {
-                let d = dofs.prescribed_of[2 * n + pr.component];
-                if d != usize::MAX {
+                if let Some(d) = dofs.prescribed_index(2 * n + pr.component) {
                     input.motion[d] = value;
                 }
             }
@@ -345,25 +347,4 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         effects,
         probes,
     })
-}
-
-/// B split into free and prescribed columns, from the contact set's normals.
-pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
-    let (mut free, mut held) = (Vec::new(), Vec::new());
-    for (i, (&n, normal)) in set.nodes.iter().zip(&set.normals).enumerate() {
-        for (c, &component) in normal.iter().enumerate() {
-            let d = 2 * n + c;
-            if dofs.free_of[d] != usize::MAX {
-                free.push((i, dofs.free_of[d], component));
-            } else if dofs.prescribed_of[d] != usize::MAX {
-                held.push((i, dofs.prescribed_of[d], component));
-            }
-        }
-    }
-    let nc = set.nodes.len();
-    ContactOperator {
-        b_free: Csc::from_entries(nc, dofs.free.len(), &free),
-        b_prescribed: Csc::from_entries(nc, dofs.prescribed.len(), &held),
-        g0: set.gaps.clone(),
-    }
 }

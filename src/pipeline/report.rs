@@ -1,25 +1,140 @@
 //! Turning a periodic solution into files: the VTU snapshot series and its `.pvd`, the
-//! per-harmonic amplitudes, CSV time histories of probes and contact nodes.
+//! per-harmonic amplitudes, CSV time histories of probes and contact nodes. `Sampled` is what
+//! gets written, from either solver.
 
 use std::path::Path;
-
-use faer::c64;
 
 use super::model::Model;
 use crate::config::FieldName;
 use crate::fem;
+use crate::hbm::{fourier, Snapshot, Solution};
 use crate::output::tables::write_csv;
 use crate::output::{write_pvd, write_vtu, Field};
+use crate::transient::setup::Marching;
+use crate::transient::TransientResult;
 use crate::Result;
 
-/// The state at one instant of the period, on all dofs.
-pub struct Snapshot {
-    pub time: f64,
-    pub displacement: Vec<f64>,
-    pub velocity: Vec<f64>,
-    pub acceleration: Vec<f64>,
-    /// Contact multipliers λ_i (≤ 0 when pressing), one per contact node.
-    pub contact_force: Option<Vec<f64>>,
+/// One period as written: snapshots at the output frames and finer time histories.
+pub struct Sampled {
+    pub frames: Vec<Snapshot>,
+    pub history: History,
+}
+
+/// Time histories over one period.
+pub struct History {
+    pub times: Vec<f64>,
+    /// Displacement on all dofs at each time.
+    pub displacement: Vec<Vec<f64>>,
+    /// Per time, each contact node's gap B u − g0 (empty without contact).
+    pub gaps: Vec<Vec<f64>>,
+    /// Per time, each contact node's multiplier λ (≤ 0 pressing; empty without contact).
+    pub forces: Vec<Vec<f64>>,
+}
+
+impl History {
+    /// The total pressing force −Σλ at each time.
+    pub fn total_force(&self) -> Vec<f64> {
+        self.forces.iter().map(|f| -f.iter().sum::<f64>()).collect()
+    }
+
+    /// The largest gap over the history (0 when never penetrating).
+    pub fn max_penetration(&self) -> f64 {
+        self.gaps.iter().flatten().cloned().fold(0.0, f64::max)
+    }
+}
+
+impl Sampled {
+    /// `frames` snapshots, and histories at the solver's samples (at least 4 per frame and
+    /// 64 per period) for accurate amplitudes and force statistics.
+    pub fn harmonic_balance(
+        model: &Model,
+        solution: &Solution,
+        frame_count: usize,
+        samples: usize,
+    ) -> Self {
+        let dofs = &model.system.dofs;
+        let period = solution.period();
+        let at = |j: usize, n: usize| j as f64 * period / n as f64;
+        let frames = (0..frame_count)
+            .map(|j| solution.snapshot(dofs, at(j, frame_count)))
+            .collect();
+        let n = samples.max(4 * frame_count).max(64);
+        let times: Vec<f64> = (0..n).map(|j| at(j, n)).collect();
+        let displacement: Vec<Vec<f64>> = times
+            .iter()
+            .map(|&t| solution.field_at(dofs, t, 0))
+            .collect();
+        let history = History {
+            gaps: displacement
+                .iter()
+                .map(|u| contact_gaps(model, u))
+                .collect(),
+            forces: times
+                .iter()
+                .filter_map(|&t| solution.multipliers_at(t))
+                .collect(),
+            times,
+            displacement,
+        };
+        Sampled { frames, history }
+    }
+
+    /// The last marched period: snapshots at the frames, histories at the same instants.
+    pub fn transient(model: &Model, marching: &Marching, result: &TransientResult) -> Self {
+        let frames: Vec<Snapshot> = result
+            .times
+            .iter()
+            .enumerate()
+            .map(|(j, &t)| Snapshot {
+                time: t,
+                displacement: marching.to_global(&result.displacement[j], t, 0),
+                velocity: marching.to_global(&result.velocity[j], t, 1),
+                acceleration: marching.to_global(&result.acceleration[j], t, 2),
+                contact_force: model
+                    .contact
+                    .as_ref()
+                    .map(|_| result.contact_force[j].clone()),
+            })
+            .collect();
+        let displacement: Vec<Vec<f64>> = frames.iter().map(|s| s.displacement.clone()).collect();
+        let contact = model.contact.is_some();
+        let history = History {
+            times: result.times.clone(),
+            gaps: if contact {
+                displacement
+                    .iter()
+                    .map(|u| contact_gaps(model, u))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            forces: if contact {
+                result.contact_force.clone()
+            } else {
+                Vec::new()
+            },
+            displacement,
+        };
+        Sampled { frames, history }
+    }
+
+    /// Every file of the run but the summary: the VTU series and its `.pvd`, `probes.csv`,
+    /// `contact.csv` (contact scenes).
+    pub fn write(&self, dir: &Path, model: &Model, fields: &[FieldName]) -> Result<()> {
+        write_series(dir, model, &self.frames, fields)?;
+        let h = &self.history;
+        write_probes(&dir.join("probes.csv"), model, &h.times, &h.displacement)?;
+        if model.contact.is_some() {
+            write_contact_history(
+                &dir.join("contact.csv"),
+                model,
+                &h.times,
+                &h.gaps,
+                &h.forces,
+            )?;
+        }
+        Ok(())
+    }
 }
 
 fn vector3(u: &[f64]) -> Vec<f64> {
@@ -135,17 +250,15 @@ pub fn write_series(
     Ok(files)
 }
 
-/// Per-harmonic cos/sin amplitude fields in one VTU.
-pub fn write_amplitudes(
-    path: &Path,
-    model: &Model,
-    amplitudes: &[(usize, Vec<c64>)],
-) -> Result<()> {
+/// `amplitudes.vtu`: the cos/sin amplitude field of every computed harmonic (`static` for
+/// the mean).
+pub fn write_amplitudes(dir: &Path, model: &Model, solution: &Solution) -> Result<()> {
+    let dofs = &model.system.dofs;
     let mut points = Vec::new();
-    for (k, z) in amplitudes {
-        let cos: Vec<f64> = z.iter().map(|v| v.re).collect();
-        let sin: Vec<f64> = z.iter().map(|v| -v.im).collect();
-        if *k == 0 {
+    for k in solution.harmonics() {
+        let z = solution.amplitude(dofs, k);
+        let (cos, sin): (Vec<f64>, Vec<f64>) = z.iter().map(|&v| fourier::cos_sin(v)).unzip();
+        if k == 0 {
             points.push(Field {
                 name: "static".into(),
                 components: 3,
@@ -164,7 +277,7 @@ pub fn write_amplitudes(
             });
         }
     }
-    write_vtu(path, &model.mesh, &points, &[])
+    write_vtu(&dir.join("amplitudes.vtu"), &model.mesh, &points, &[])
 }
 
 /// `probes.csv`: time and each probe's mean displacement (x, y) over its nodes.

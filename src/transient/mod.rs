@@ -14,11 +14,14 @@
 //! Both give an LCP: find p = −λ ≥ 0 with w = W p − q ≥ 0, p·w = 0 (q: the predicted
 //! penetration), solved by a primal–dual active set method warm-started from the last step.
 
+pub mod setup;
+
 use std::time::{Duration, Instant};
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use crate::linalg::Csc;
+use crate::progress::Reporter;
 use crate::{Error, Result};
 
 pub struct TransientProblem<'a> {
@@ -197,7 +200,7 @@ struct Condensation {
 pub fn run_to_periodic(
     problem: &TransientProblem,
     settings: &TransientSettings,
-    progress: Option<&dyn Fn(usize, f64)>,
+    reporter: &dyn Reporter,
 ) -> Result<TransientResult> {
     let start = Instant::now();
     let k = problem.stiffness;
@@ -472,9 +475,12 @@ pub fn run_to_periodic(
                 .sqrt()
                 .max(f64::MIN_POSITIVE);
             change = diff / norm;
-            if let Some(cb) = progress {
-                cb(periods, change);
-            }
+            reporter.progress(
+                "periods",
+                periods as u64,
+                Some(settings.max_periods as u64),
+                &format!("change {change:.2e}"),
+            );
             if change < settings.periodic_tolerance {
                 converged = true;
                 break;

@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 
 use hbcontact::config::{load_pipeline, Pipeline};
 use hbcontact::hbm::{self, HbSettings, Solution};
-use hbcontact::pipeline::{self, Model, Purpose, StageTimes};
+use hbcontact::pipeline::{self, Model, Purpose, Stages};
 
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -44,9 +44,8 @@ pub fn scene(name: &str, overrides: &[&str]) -> Pipeline {
 /// Mesh and build a scene's model (meshes cached under output/.mesh-cache).
 pub fn model(p: &Pipeline, purpose: Purpose) -> Model {
     let out = root().join("output").join("test-scenes").join(&p.name);
-    let mut times = StageTimes::default();
-    let (mesh, _) =
-        pipeline::mesh_stage(p, &out, &mut times, true).unwrap_or_else(|e| panic!("{e}"));
+    let mut stages = Stages::new(p, &hbcontact::Silent);
+    let (mesh, _) = pipeline::stages::mesh(p, &out, &mut stages).unwrap_or_else(|e| panic!("{e}"));
     pipeline::build(p, mesh, purpose).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -59,7 +58,7 @@ pub fn solve(model: &Model, p: &Pipeline) -> hbcontact::Result<Solution> {
         &model.system,
         model.contact.as_ref().map(|c| &c.operator),
         &settings(p),
-        &|_| {},
+        &hbcontact::Silent,
     )
 }
 

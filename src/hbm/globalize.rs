@@ -1,0 +1,235 @@
+//! The contact solve around the semi-smooth Newton of `reduced`: the linear gap r of (20),
+//! the automatic complementarity parameter c, and the globalization that makes the Newton
+//! converge on hard cases (docs/method.md, "Globalization"), cheapest first:
+//! 1. the plain Newton from λ = 0;
+//! 2. the harmonic ladder H/8, H/4, H/2, H, each rung warm-starting the next (the low
+//!    harmonics of an impact response are found first);
+//! 3. both again with c ten times smaller (a softer penalty on the gap: the c that converges
+//!    is a band).
+//!
+//! If all fail, the error says what to change.
+
+use std::collections::BTreeMap;
+
+use faer::c64;
+
+use super::fourier;
+use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
+use super::{measure_complementarity, ContactSolution, HbSettings, System};
+use crate::contact::ContactOperator;
+use crate::progress::Reporter;
+use crate::{Error, Result};
+
+/// The linear gap r = B z_lin + B_p u_p − g0 δ_k0 as real coefficients, node-major.
+pub(super) fn linear_gap(
+    op: &ContactOperator,
+    harmonics: usize,
+    free: &BTreeMap<usize, Vec<c64>>,
+    motion: &BTreeMap<usize, Vec<c64>>,
+) -> Vec<f64> {
+    let (nc, m) = (op.nodes(), 2 * harmonics + 1);
+    let mut r = vec![0.0; nc * m];
+    let split = |z: &[c64]| -> (Vec<f64>, Vec<f64>) { z.iter().map(|v| (v.re, v.im)).unzip() };
+    for k in 0..=harmonics {
+        let (re, im) = split(&free[&k]);
+        let (mut bre, mut bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
+        if op.b_prescribed.ncols > 0 {
+            let (pre, pim) = split(&motion[&k]);
+            for (a, b) in bre.iter_mut().zip(op.b_prescribed.mul_vec(&pre)) {
+                *a += b;
+            }
+            for (a, b) in bim.iter_mut().zip(op.b_prescribed.mul_vec(&pim)) {
+                *a += b;
+            }
+        }
+        for i in 0..nc {
+            let g0 = if k == 0 { op.g0[i] } else { 0.0 };
+            fourier::set_phasor(&mut r[i * m..(i + 1) * m], k, c64::new(bre[i] - g0, bim[i]));
+        }
+    }
+    r
+}
+
+/// c = c_scale / mean|G_0,ii|: a stiffness of the order of the contact nodes' own.
+fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Result<f64> {
+    let nc = problem.nodes;
+    let mean_compliance = (0..nc)
+        .map(|i| problem.compliance[0][i * nc + i].re.abs())
+        .sum::<f64>()
+        / nc as f64;
+    if !(mean_compliance.is_finite() && mean_compliance > 0.0) {
+        return Err(Error::Model(
+            "the contact nodes' static compliance B K⁻¹ Bᵀ is zero or not finite: are the contact \
+             nodes held by boundaries.fixed? Contact on held nodes does nothing"
+                .into(),
+        ));
+    }
+    Ok(settings.c_scale / mean_compliance)
+}
+
+/// Every Newton run of one contact solve: iterations, log and why each attempt failed.
+struct Attempts<'a> {
+    problem: &'a ReducedProblem,
+    settings: &'a HbSettings,
+    reporter: &'a dyn Reporter,
+    iterations: usize,
+    log: Vec<IterationLog>,
+    reasons: Vec<String>,
+}
+
+impl Attempts<'_> {
+    /// Newton settings for rung `h` of the ladder (the same oversampling ratio as at H).
+    fn newton_settings(&self, h: usize, c: f64) -> NewtonSettings {
+        let (top, samples) = (self.settings.harmonics, self.settings.samples);
+        NewtonSettings {
+            samples: if h == top {
+                samples
+            } else {
+                (samples * h).div_ceil(top.max(1)).max(2 * h + 1)
+            },
+            c,
+            tolerance: self.settings.tolerance,
+            max_iterations: self.settings.max_iterations,
+            dense_limit: reduced::DENSE_LIMIT,
+        }
+    }
+
+    fn newton(&mut self, h: usize, c: f64, start: &[f64]) -> NewtonOutcome {
+        let truncated;
+        let problem = if h == self.problem.harmonics {
+            self.problem
+        } else {
+            truncated = self.problem.truncate(h);
+            &truncated
+        };
+        let o = reduced::newton(problem, &self.newton_settings(h, c), start, self.reporter);
+        self.iterations += o.iterations;
+        self.log.extend(o.log.iter().cloned());
+        o
+    }
+
+    /// The plain Newton, then the harmonic ladder, at one c.
+    fn at(&mut self, c: f64) -> Option<(NewtonOutcome, Vec<usize>)> {
+        let (h, nc) = (self.problem.harmonics, self.problem.nodes);
+        let o = self.newton(h, c, &vec![0.0; nc * (2 * h + 1)]);
+        if o.converged {
+            return Some((o, vec![h]));
+        }
+        self.reasons
+            .push(format!("direct at c = {c:.3e}: {}", o.reason));
+        if h < 2 {
+            return None;
+        }
+        let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2]
+            .into_iter()
+            .filter(|&r| r >= 1)
+            .collect();
+        rungs.dedup();
+        rungs.push(h);
+        let (mut x, mut prev) = (vec![0.0; nc * 3], 1);
+        for &rung in &rungs {
+            let o = self.newton(rung, c, &reduced::pad(&x, nc, prev, rung));
+            if !o.converged {
+                self.reasons.push(format!(
+                    "ladder at c = {c:.3e} failed at H = {rung}: {}",
+                    o.reason
+                ));
+                return None;
+            }
+            if rung == h {
+                return Some((o, rungs));
+            }
+            (x, prev) = (o.multipliers, rung);
+        }
+        None
+    }
+}
+
+/// Solve the reduced contact problem (23) with the globalization above.
+pub(super) fn solve_contact(
+    system: &System,
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    reporter: &dyn Reporter,
+) -> Result<ContactSolution> {
+    let c = automatic_c(problem, settings)?;
+    let mut attempts = Attempts {
+        problem,
+        settings,
+        reporter,
+        iterations: 0,
+        log: Vec::new(),
+        reasons: Vec::new(),
+    };
+    let found = [c, 0.1 * c]
+        .into_iter()
+        .find_map(|c_try| attempts.at(c_try).map(|(o, ladder)| (o, ladder, c_try)));
+    reporter.task_done("contact Newton");
+    let Some((mut outcome, ladder, c)) = found else {
+        let failed = NewtonOutcome {
+            multipliers: Vec::new(),
+            converged: false,
+            iterations: attempts.iterations,
+            relative_residual: attempts.log.last().map_or(f64::NAN, |l| l.residual),
+            log: attempts.log,
+            reason: attempts.reasons.join("; "),
+        };
+        return Err(stall_diagnosis(system, settings, &failed));
+    };
+    outcome.iterations = attempts.iterations;
+    outcome.log = attempts.log;
+    let gaps = problem.gap(&outcome.multipliers);
+    let complementarity =
+        measure_complementarity(problem, &outcome.multipliers, &gaps, settings.samples);
+    Ok(ContactSolution {
+        harmonics: settings.harmonics,
+        samples: settings.samples,
+        c,
+        multipliers: outcome.multipliers.clone(),
+        gaps,
+        newton: outcome,
+        ladder,
+        complementarity,
+    })
+}
+
+fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutcome) -> Error {
+    let mut advice = Vec::new();
+    let h = settings.harmonics;
+    if settings.samples < 16 * h {
+        advice.push(format!(
+            "raise harmonic_balance.samples (now {}; 16·H = {} converges reliably)",
+            settings.samples,
+            16 * h
+        ));
+    }
+    advice.push(
+        "make sure contact.mass is `redistributed` (contact nodes with inertia make impacts that \
+         no truncated Fourier series resolves)"
+            .to_string(),
+    );
+    if settings.c_scale >= 1.0 {
+        advice.push(format!(
+            "lower harmonic_balance.solver.c_scale (now {}; try 0.3 or 0.1)",
+            settings.c_scale
+        ));
+    }
+    match system.rayleigh {
+        None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
+        Some((_, 0.0)) => advice.push(
+            "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
+        ),
+        _ => {}
+    }
+    advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
+    let last = outcome.log.last();
+    Error::NotConverged(format!(
+        "the contact Newton stalled after {} iterations: {}; relative residual {:.3e}, {} active \
+         samples. To fix: {}",
+        outcome.iterations,
+        outcome.reason,
+        outcome.relative_residual,
+        last.map_or(0, |l| l.active_samples),
+        advice.join("; ")
+    ))
+}

@@ -1,0 +1,155 @@
+//! What a harmonic-balance solve returns: the per-harmonic amplitudes of the whole field, the
+//! contact multipliers, and how well complementarity holds; evaluated at any instant by
+//! `field_at`, `multipliers_at` and `snapshot` (the Fourier convention is `fourier`'s).
+
+use std::collections::BTreeMap;
+
+use faer::c64;
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use super::fourier;
+use super::reduced::NewtonOutcome;
+use crate::fem::DofMap;
+
+/// Wall time per stage of the solve, in seconds.
+#[derive(Clone, Debug, Default, Serialize, JsonSchema)]
+pub struct Timings {
+    pub factor: f64,
+    pub linear_solve: f64,
+    pub reduce: f64,
+    pub newton: f64,
+    pub recover: f64,
+}
+
+/// How far the Fourier-series λ and g miss complementarity at the samples, each relative to
+/// its own scale (the peak contact force, the linear gap range).
+#[derive(Clone, Debug, Default, Serialize, JsonSchema)]
+pub struct Complementarity {
+    /// max(0, g) / gap scale: sampled penetration.
+    pub penetration: f64,
+    /// max(0, λ) / force scale: sampled adhesion (pulling) force.
+    pub adhesion: f64,
+    /// max |λ g| / (force scale · gap scale).
+    pub product: f64,
+    /// The largest of the three.
+    pub violation: f64,
+    /// Absolute sampled penetration (length).
+    pub max_penetration: f64,
+    /// The peak sampled |λ| (force).
+    pub force_scale: f64,
+    /// The peak sampled |r|, the linear gap (length).
+    pub gap_scale: f64,
+}
+
+/// The contact part of a solution.
+#[derive(Clone, Debug)]
+pub struct ContactSolution {
+    pub harmonics: usize,
+    pub samples: usize,
+    pub c: f64,
+    /// λ coefficients, node-major, 2H+1 per node (`fourier` layout).
+    pub multipliers: Vec<f64>,
+    /// Gap coefficients g = B u − g0, node-major.
+    pub gaps: Vec<f64>,
+    pub newton: NewtonOutcome,
+    /// The harmonic ladder actually climbed (just [H] when the direct solve converged).
+    pub ladder: Vec<usize>,
+    pub complementarity: Complementarity,
+}
+
+impl ContactSolution {
+    /// Coefficients per node, M = 2H + 1.
+    pub fn coefficients(&self) -> usize {
+        2 * self.harmonics + 1
+    }
+}
+
+/// The state at one instant of the period, on all dofs.
+#[derive(Clone, Debug)]
+pub struct Snapshot {
+    pub time: f64,
+    pub displacement: Vec<f64>,
+    pub velocity: Vec<f64>,
+    pub acceleration: Vec<f64>,
+    /// Contact multipliers λ_i (≤ 0 when pressing), one per contact node.
+    pub contact_force: Option<Vec<f64>>,
+}
+
+/// A periodic steady state.
+pub struct Solution {
+    pub omega: f64,
+    /// Harmonic index → complex amplitude on the free dofs.
+    pub free: BTreeMap<usize, Vec<c64>>,
+    /// Harmonic index → prescribed motion amplitudes.
+    pub motion: BTreeMap<usize, Vec<c64>>,
+    pub contact: Option<ContactSolution>,
+    /// Relative residual of each harmonic's linear solve.
+    pub residuals: BTreeMap<usize, f64>,
+    /// "real" or "complex" factorizations.
+    pub complex_arithmetic: bool,
+    pub timings: Timings,
+    /// Things the user should know although the solve succeeded (near resonance, …).
+    pub warnings: Vec<String>,
+}
+
+impl Solution {
+    pub fn harmonics(&self) -> Vec<usize> {
+        self.free.keys().copied().collect()
+    }
+
+    /// The period T = 2π/ω.
+    pub fn period(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.omega
+    }
+
+    /// Displacement (derivative 0), velocity (1) or acceleration (2) at time t on all dofs.
+    pub fn field_at(&self, dofs: &DofMap, t: f64, derivative: u32) -> Vec<f64> {
+        let mut u = vec![0.0; dofs.total()];
+        for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
+            for (&k, z) in map {
+                let f = fourier::rotor(k, self.omega, t, derivative);
+                for (i, &d) in targets.iter().enumerate() {
+                    u[d] += (z[i] * f).re;
+                }
+            }
+        }
+        u
+    }
+
+    /// The complex amplitude of harmonic k on all dofs.
+    pub fn amplitude(&self, dofs: &DofMap, k: usize) -> Vec<c64> {
+        let mut z = vec![c64::new(0.0, 0.0); dofs.total()];
+        for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
+            if let Some(zk) = map.get(&k) {
+                for (i, &d) in targets.iter().enumerate() {
+                    z[d] = zk[i];
+                }
+            }
+        }
+        z
+    }
+
+    /// The contact multipliers λ_i(t) (≤ 0 when pressing), one per contact node; `None`
+    /// without contact.
+    pub fn multipliers_at(&self, t: f64) -> Option<Vec<f64>> {
+        let c = self.contact.as_ref()?;
+        Some(
+            c.multipliers
+                .chunks(c.coefficients())
+                .map(|coeffs| fourier::evaluate(coeffs, self.omega, t)[0])
+                .collect(),
+        )
+    }
+
+    /// Displacement, velocity, acceleration and contact multipliers at time t.
+    pub fn snapshot(&self, dofs: &DofMap, t: f64) -> Snapshot {
+        Snapshot {
+            time: t,
+            displacement: self.field_at(dofs, t, 0),
+            velocity: self.field_at(dofs, t, 1),
+            acceleration: self.field_at(dofs, t, 2),
+            contact_force: self.multipliers_at(t),
+        }
+    }
+}

@@ -1,0 +1,210 @@
+//! The stages `run`, `run_transient` and `check` string together, each timed into
+//! `StageTimes` and announced to the `Reporter`: meshing, solving by harmonic balance or by
+//! time marching, and committing the staged output with its summary.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use schemars::JsonSchema;
+use serde::{Serialize, Serializer};
+
+use super::model::Model;
+use super::summary::{MeshInfo, Summary};
+use crate::config::Pipeline;
+use crate::hbm::{self, HbSettings, Solution};
+use crate::mesh::{self, Mesh2d};
+use crate::output::tables::write_json;
+use crate::output::StagedDir;
+use crate::progress::Reporter;
+use crate::transient::setup::Marching;
+use crate::transient::{self, TransientResult, TransientSettings};
+use crate::{Error, Result};
+
+/// Per-stage wall times in seconds, in run order; serialized as a map with their `total`.
+#[derive(Clone, Debug, Default, JsonSchema)]
+#[schemars(with = "std::collections::BTreeMap<String, f64>")]
+pub struct StageTimes(Vec<(String, f64)>);
+
+impl StageTimes {
+    /// Run stage `name`, timing it and telling the reporter.
+    pub fn time<T>(
+        &mut self,
+        name: &str,
+        reporter: &dyn Reporter,
+        f: impl FnOnce() -> Result<T>,
+    ) -> Result<T> {
+        reporter.stage(name);
+        let start = Instant::now();
+        let out = f();
+        let secs = start.elapsed().as_secs_f64();
+        reporter.stage_done(name, secs);
+        self.0.push((name.to_string(), secs));
+        out
+    }
+
+    pub fn push(&mut self, name: &str, secs: f64) {
+        self.0.push((name.to_string(), secs));
+    }
+
+    /// The time of stage `name` (summed if it ran several times; 0 if it never ran).
+    pub fn get(&self, name: &str) -> f64 {
+        self.0
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, v)| v)
+            .sum()
+    }
+
+    pub fn total(&self) -> f64 {
+        self.0.iter().map(|(_, v)| v).sum()
+    }
+}
+
+impl Serialize for StageTimes {
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = serializer.serialize_map(Some(self.0.len() + 1))?;
+        for (k, v) in &self.0 {
+            map.serialize_entry(k, v)?;
+        }
+        map.serialize_entry("total", &self.total())?;
+        map.end()
+    }
+}
+
+/// The run's bookkeeping: which pipeline, the reporter, and the stage times so far. Every
+/// stage runs through it, so each is timed, announced, and its error names pipeline and stage.
+pub struct Stages<'a> {
+    pipeline: &'a Path,
+    pub reporter: &'a dyn Reporter,
+    pub times: StageTimes,
+}
+
+impl<'a> Stages<'a> {
+    pub fn new(p: &'a Pipeline, reporter: &'a dyn Reporter) -> Self {
+        Stages {
+            pipeline: &p.source,
+            reporter,
+            times: StageTimes::default(),
+        }
+    }
+
+    /// Run stage `name`: timed, announced, its error in context.
+    pub fn run<T>(&mut self, name: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+        let pipeline = self.pipeline;
+        self.times
+            .time(name, self.reporter, f)
+            .map_err(|e| e.in_stage(pipeline, name))
+    }
+
+    /// `e` in the context of stage `name`.
+    pub fn context(&self, name: &str, e: Error) -> Error {
+        e.in_stage(self.pipeline, name)
+    }
+}
+
+/// Mesh the geometry (or reuse the cache under the output's parent) and read it.
+pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, MeshInfo)> {
+    let cache_dir = out
+        .parent()
+        .map(|d| d.join(".mesh-cache"))
+        .unwrap_or_else(|| PathBuf::from(".mesh-cache"));
+    let request = mesh::gmsh::MeshRequest {
+        geo: p.geometry.file.clone(),
+        parameters: p.geometry.parameters.clone(),
+        mesh_size: p.geometry.mesh_size,
+        order: p.geometry.order,
+        quads: p.geometry.quads,
+        gmsh: p.geometry.gmsh.clone(),
+    };
+    let meshed = stages.run("mesh", || mesh::gmsh::mesh_geometry(&request, &cache_dir))?;
+    let mesh = stages.run("read", || mesh::msh::read_msh(&meshed.msh))?;
+    let info = MeshInfo {
+        geometry: p.geometry.file.clone(),
+        parameters: p.geometry.parameters.clone(),
+        mesh_size: p.geometry.mesh_size,
+        order: p.geometry.order,
+        msh: meshed.msh,
+        cache_hit: meshed.cache_hit,
+        gmsh_version: meshed.gmsh_version,
+        nodes: mesh.nodes.len(),
+        cells: mesh.cells.len(),
+        min_edge_length: mesh.min_edge_length(),
+    };
+    Ok((mesh, info))
+}
+
+/// The solver settings a pipeline asks for (N defaults to 16H).
+pub fn hb_settings(p: &Pipeline) -> HbSettings {
+    let hb = &p.harmonic_balance;
+    HbSettings {
+        harmonics: hb.harmonics,
+        samples: hb
+            .samples
+            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        c_scale: hb.solver.c_scale,
+        tolerance: hb.solver.tolerance,
+        max_iterations: hb.solver.max_iterations,
+    }
+}
+
+/// Harmonic balance on the model; the solver's own phases go into the stage times.
+pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solution> {
+    stages.reporter.stage("solve");
+    let contact = model.contact.as_ref().map(|c| &c.operator);
+    let solution = hbm::solve(&model.system, contact, &hb_settings(p), stages.reporter)
+        .map_err(|e| stages.context("solve", e))?;
+    let t = &solution.timings;
+    for (name, secs) in [
+        ("factor", t.factor),
+        ("linear_solve", t.linear_solve),
+        ("reduce", t.reduce),
+        ("newton", t.newton),
+        ("recover", t.recover),
+    ] {
+        stages.times.push(name, secs);
+    }
+    Ok(solution)
+}
+
+/// Time marching from rest to the periodic state.
+pub fn march<'m>(
+    p: &Pipeline,
+    model: &'m Model,
+    stages: &mut Stages,
+) -> Result<(Marching<'m>, TransientResult)> {
+    let Some(diag) = &model.mass_diagonal else {
+        return Err(Error::Model(
+            "internal: transient needs a diagonal mass".into(),
+        ));
+    };
+    let probe_nodes: Vec<usize> = model.probes.iter().flat_map(|(_, n)| n.clone()).collect();
+    let contact = model.contact.as_ref().map(|c| &c.operator);
+    let marching = Marching::new(&model.system, diag, contact, &probe_nodes)
+        .map_err(|e| stages.context("march", e))?;
+    let settings = TransientSettings {
+        courant: p.transient.courant,
+        periodic_tolerance: p.transient.periodic_tolerance,
+        max_periods: p.transient.max_periods,
+        samples_per_period: p.output.frames,
+    };
+    let reporter = stages.reporter;
+    let result = stages.run("march", || {
+        transient::run_to_periodic(&marching.problem(), &settings, reporter)
+    })?;
+    reporter.task_done("periods");
+    Ok((marching, result))
+}
+
+/// Write `summary.json` (with the stage times so far) into the staged directory and commit it.
+pub fn commit(staged: StagedDir, summary: &Summary) -> Result<PathBuf> {
+    write_json(&staged.path().join("summary.json"), summary)?;
+    staged.commit()
+}
+
+/// The mesh the run used, next to its results (`mesh.msh`), so the output stands alone.
+pub fn copy_mesh(info: &MeshInfo, dir: &Path) -> Result<()> {
+    let target = dir.join("mesh.msh");
+    std::fs::copy(&info.msh, &target).map_err(|e| Error::io(&target, e))?;
+    Ok(())
+}

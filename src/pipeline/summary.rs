@@ -1,0 +1,406 @@
+//! The run summary: one typed value per run, returned by `run`/`run_transient` and written as
+//! `summary.json` (its JSON Schema is `docs/summary.schema.json`). It says what was simulated,
+//! how big it was, how accurate, and what each stage cost. Studies and benchmarks read these
+//! fields, never the file.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use super::model::{Effects, Model};
+use super::report::Sampled;
+use super::stages::StageTimes;
+use crate::config::Pipeline;
+use crate::hbm::{Complementarity, IterationLog, Solution};
+use crate::transient::TransientResult;
+
+/// Which solver produced the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RunMode {
+    HarmonicBalance,
+    Transient,
+}
+
+/// Everything a run reports.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct Summary {
+    /// The pipeline's `name`.
+    pub name: String,
+    pub mode: RunMode,
+    /// The pipeline file.
+    pub pipeline: PathBuf,
+    /// Fundamental frequency f [Hz].
+    pub frequency_hz: f64,
+    /// Period T = 1/f [s].
+    pub period_s: f64,
+    pub mesh: MeshInfo,
+    /// What the run simulated, and so what it paid for.
+    pub effects: EffectsSummary,
+    pub sizes: Sizes,
+    /// Contact candidates and mass model; null without contact.
+    pub contact_setup: Option<ContactSetup>,
+    /// Normwise backward error of each harmonic's linear solve (harmonic balance only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linear_residuals: Option<BTreeMap<usize, f64>>,
+    /// The contact result; null without contact.
+    pub contact: Option<ContactSummary>,
+    /// Per probe group: amplitudes of its mean displacement over one period [m].
+    pub probes: BTreeMap<String, ProbeAmplitudes>,
+    /// Things the user should know although the run succeeded.
+    pub warnings: Vec<String>,
+    /// VTU frames written over one period.
+    pub frames: usize,
+    /// Time-marching details (transient only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transient: Option<TransientInfo>,
+    /// Half peak-to-peak of every recorded probe dof over every step of the last period
+    /// (transient only) [m].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probe_dof_amplitudes: Option<BTreeMap<String, f64>>,
+    /// Wall time per stage [s], in run order, with their `total`.
+    pub stage_seconds: StageTimes,
+}
+
+/// The mesh the run used.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct MeshInfo {
+    /// The `.geo` (or `.msh`) file.
+    pub geometry: PathBuf,
+    /// The gmsh parameters passed with `-setnumber`.
+    pub parameters: BTreeMap<String, f64>,
+    /// `geometry.mesh_size`, if given [m].
+    pub mesh_size: Option<f64>,
+    /// Element order (1 or 2).
+    pub order: u8,
+    /// The mesh file read (in the cache).
+    pub msh: PathBuf,
+    /// Whether the mesh came from the cache.
+    pub cache_hit: bool,
+    pub gmsh_version: String,
+    pub nodes: usize,
+    pub cells: usize,
+    /// Shortest element edge [m].
+    pub min_edge_length: f64,
+}
+
+/// `Effects` plus what the harmonic-balance solve computed.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct EffectsSummary {
+    #[serde(flatten)]
+    pub effects: Effects,
+    /// Harmonics factored and solved (harmonic balance only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonics_computed: Option<Vec<usize>>,
+    /// `real` (undamped) or `complex` factorizations (harmonic balance only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub arithmetic: Option<String>,
+}
+
+/// Problem sizes.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct Sizes {
+    pub nodes: usize,
+    pub cells: usize,
+    pub dofs: usize,
+    pub free_dofs: usize,
+    pub prescribed_dofs: usize,
+    pub stiffness_nonzeros: usize,
+}
+
+/// Which boundary nodes became contact nodes, and the mass model's effect.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct ContactSetup {
+    /// Nodes of the contact boundary group.
+    pub candidates: usize,
+    /// Contact nodes kept.
+    pub kept: usize,
+    pub dropped_off_obstacle: usize,
+    pub dropped_beyond_search: usize,
+    /// Smallest initial gap g0 [m] (negative: initial penetration).
+    pub min_initial_gap: f64,
+    /// Largest initial gap g0 [m].
+    pub max_initial_gap: f64,
+    /// Mass moved off the contact nodes over the total (redistributed mass only).
+    pub mass_moved_fraction: Option<f64>,
+    /// Relative change of the polar moment of inertia (redistributed mass only).
+    pub inertia_change: Option<f64>,
+}
+
+/// The contact result.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct ContactSummary {
+    /// Peak over the period of the total pressing contact force −Σλ [N].
+    pub peak_contact_force: f64,
+    /// Mean over the period of the total pressing contact force [N].
+    pub mean_contact_force: f64,
+    /// Largest sampled penetration B u − g0 > 0 over the output history [m].
+    pub max_sampled_penetration: f64,
+    /// The harmonic-balance contact solve (harmonic balance only).
+    #[serde(flatten)]
+    pub solver: Option<ContactSolve>,
+}
+
+/// How the harmonic-balance contact solve went.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct ContactSolve {
+    /// H of the contact solve.
+    pub harmonics: usize,
+    /// Time samples N per period.
+    pub samples: usize,
+    /// The complementarity parameter c used [N/m].
+    pub c: f64,
+    /// Newton iterations over every attempt.
+    pub newton_iterations: usize,
+    /// ‖R‖∞ over the force scale at the end.
+    pub relative_residual: f64,
+    /// The harmonic ladder climbed ([H] when the direct solve converged).
+    pub ladder: Vec<usize>,
+    pub complementarity: Complementarity,
+    /// Largest penetration on the output history [m].
+    pub max_penetration_on_history: f64,
+    /// One entry per Newton iteration.
+    pub newton_log: Vec<IterationLog>,
+}
+
+/// Amplitudes of a probe group's mean displacement over one period [m].
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct ProbeAmplitudes {
+    /// Half the peak-to-peak range of u_x (what a gauge shows).
+    pub half_peak_to_peak_x: f64,
+    /// Amplitude of u_x's first harmonic (smooth in H: the accuracy studies' measure).
+    pub first_harmonic_x: f64,
+    pub half_peak_to_peak_y: f64,
+    pub first_harmonic_y: f64,
+}
+
+impl ProbeAmplitudes {
+    /// The larger first-harmonic amplitude of the two components.
+    pub fn first_harmonic(&self) -> f64 {
+        self.first_harmonic_x.max(self.first_harmonic_y)
+    }
+}
+
+/// Time-marching details.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct TransientInfo {
+    /// Time step [s].
+    pub dt: f64,
+    pub steps_per_period: usize,
+    /// Periods marched.
+    pub periods: usize,
+    /// Whether two successive periods agreed within `transient.periodic_tolerance`.
+    pub converged: bool,
+    /// Relative change between the last two periods.
+    pub periodicity_error: f64,
+}
+
+pub fn sizes(model: &Model) -> Sizes {
+    Sizes {
+        nodes: model.mesh.nodes.len(),
+        cells: model.mesh.cells.len(),
+        dofs: model.system.dofs.total(),
+        free_dofs: model.system.free_count(),
+        prescribed_dofs: model.system.dofs.prescribed.len(),
+        stiffness_nonzeros: model.system.k_ff.nnz(),
+    }
+}
+
+pub fn contact_setup(model: &Model) -> Option<ContactSetup> {
+    let c = model.contact.as_ref()?;
+    let gaps = &c.set.gaps;
+    Some(ContactSetup {
+        candidates: c.set.candidates,
+        kept: c.set.nodes.len(),
+        dropped_off_obstacle: c.set.dropped_off_obstacle,
+        dropped_beyond_search: c.set.dropped_beyond_search,
+        min_initial_gap: gaps.iter().cloned().fold(f64::INFINITY, f64::min),
+        max_initial_gap: gaps.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        mass_moved_fraction: c.redistribution.as_ref().map(|r| r.moved_fraction),
+        inertia_change: c.redistribution.as_ref().map(|r| r.inertia_change),
+    })
+}
+
+/// Effects with the harmonic-balance solve's harmonics and arithmetic.
+pub fn effects(model: &Model, solution: Option<&Solution>) -> EffectsSummary {
+    EffectsSummary {
+        effects: model.effects.clone(),
+        harmonics_computed: solution.map(Solution::harmonics),
+        arithmetic: solution.map(|s| {
+            if s.complex_arithmetic {
+                "complex"
+            } else {
+                "real"
+            }
+            .to_string()
+        }),
+    }
+}
+
+/// Peak and mean over samples of the total pressing force −Σλ.
+pub fn force_stats(totals: &[f64]) -> (f64, f64) {
+    let peak = totals.iter().cloned().fold(0.0, f64::max);
+    let mean = totals.iter().sum::<f64>() / totals.len().max(1) as f64;
+    (peak, mean)
+}
+
+/// Over evenly spaced samples of one period, per probe: half the peak-to-peak range and the
+/// first-harmonic amplitude of each component of the probe's mean displacement.
+pub fn probe_amplitudes(
+    model: &Model,
+    displacements: &[Vec<f64>],
+) -> BTreeMap<String, ProbeAmplitudes> {
+    let count = displacements.len().max(1) as f64;
+    let measure = |series: &[f64]| -> (f64, f64) {
+        let max = series.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let min = series.iter().cloned().fold(f64::INFINITY, f64::min);
+        let (mut a, mut b) = (0.0, 0.0);
+        for (j, s) in series.iter().enumerate() {
+            let phase = 2.0 * std::f64::consts::PI * j as f64 / count;
+            a += s * phase.cos();
+            b += s * phase.sin();
+        }
+        (0.5 * (max - min), 2.0 * (a * a + b * b).sqrt() / count)
+    };
+    model
+        .probes
+        .iter()
+        .map(|(name, nodes)| {
+            let n = nodes.len().max(1) as f64;
+            let component = |c: usize| -> Vec<f64> {
+                displacements
+                    .iter()
+                    .map(|u| nodes.iter().map(|&i| u[2 * i + c]).sum::<f64>() / n)
+                    .collect()
+            };
+            let (px, fx) = measure(&component(0));
+            let (py, fy) = measure(&component(1));
+            let amplitudes = ProbeAmplitudes {
+                half_peak_to_peak_x: px,
+                first_harmonic_x: fx,
+                half_peak_to_peak_y: py,
+                first_harmonic_y: fy,
+            };
+            (name.clone(), amplitudes)
+        })
+        .collect()
+}
+
+/// The summary of a harmonic-balance run (stage times are filled in at the end).
+pub fn harmonic_balance(
+    p: &Pipeline,
+    mesh: MeshInfo,
+    model: &Model,
+    solution: &Solution,
+    sampled: &Sampled,
+) -> Summary {
+    let history = &sampled.history;
+    let contact = solution.contact.as_ref().map(|c| {
+        let (peak, mean) = force_stats(&history.total_force());
+        ContactSummary {
+            peak_contact_force: peak,
+            mean_contact_force: mean,
+            max_sampled_penetration: c.complementarity.max_penetration,
+            solver: Some(ContactSolve {
+                harmonics: c.harmonics,
+                samples: c.samples,
+                c: c.c,
+                newton_iterations: c.newton.iterations,
+                relative_residual: c.newton.relative_residual,
+                ladder: c.ladder.clone(),
+                complementarity: c.complementarity.clone(),
+                max_penetration_on_history: history.max_penetration(),
+                newton_log: c.newton.log.clone(),
+            }),
+        }
+    });
+    Summary {
+        linear_residuals: Some(solution.residuals.clone()),
+        contact,
+        probes: probe_amplitudes(model, &history.displacement),
+        warnings: solution.warnings.clone(),
+        ..common(p, RunMode::HarmonicBalance, mesh, model, Some(solution))
+    }
+}
+
+/// The summary of a time-marching run.
+pub fn transient(
+    p: &Pipeline,
+    mesh: MeshInfo,
+    model: &Model,
+    result: &TransientResult,
+    sampled: &Sampled,
+) -> Summary {
+    let contact = model.contact.as_ref().map(|_| {
+        let totals: Vec<f64> = result.total_contact_history.iter().map(|v| -v).collect();
+        let (peak, mean) = force_stats(&totals);
+        ContactSummary {
+            peak_contact_force: peak,
+            mean_contact_force: mean,
+            max_sampled_penetration: sampled.history.max_penetration(),
+            solver: None,
+        }
+    });
+    let mut warnings = Vec::new();
+    if !result.converged {
+        warnings.push(format!(
+            "not periodic after {} periods (change {:.3e} > {:.1e}); raise transient.max_periods or add damping",
+            result.periods, result.periodicity_error, p.transient.periodic_tolerance
+        ));
+    }
+    let dof_amplitudes = result
+        .probe_history
+        .iter()
+        .enumerate()
+        .map(|(j, h)| {
+            let max = h.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let min = h.iter().cloned().fold(f64::INFINITY, f64::min);
+            (format!("probe_dof_{j}"), 0.5 * (max - min))
+        })
+        .collect();
+    Summary {
+        contact,
+        probes: probe_amplitudes(model, &sampled.history.displacement),
+        warnings,
+        transient: Some(TransientInfo {
+            dt: result.dt,
+            steps_per_period: result.steps_per_period,
+            periods: result.periods,
+            converged: result.converged,
+            periodicity_error: result.periodicity_error,
+        }),
+        probe_dof_amplitudes: Some(dof_amplitudes),
+        ..common(p, RunMode::Transient, mesh, model, None)
+    }
+}
+
+/// The parts every run reports.
+fn common(
+    p: &Pipeline,
+    mode: RunMode,
+    mesh: MeshInfo,
+    model: &Model,
+    solution: Option<&Solution>,
+) -> Summary {
+    Summary {
+        name: p.name.clone(),
+        mode,
+        pipeline: p.source.clone(),
+        frequency_hz: p.harmonic_balance.frequency,
+        period_s: 1.0 / p.harmonic_balance.frequency,
+        mesh,
+        effects: effects(model, solution),
+        sizes: sizes(model),
+        contact_setup: contact_setup(model),
+        linear_residuals: None,
+        contact: None,
+        probes: BTreeMap::new(),
+        warnings: Vec::new(),
+        frames: p.output.frames,
+        transient: None,
+        probe_dof_amplitudes: None,
+        stage_seconds: StageTimes::default(),
+    }
+}
