@@ -2,237 +2,402 @@
 //!
 //! serde_yaml (deprecated upstream, still working) stays behind this file so that a move to a
 //! maintained fork is a one-line change.
+//!
+//! The `///` comments on the raw types are the descriptions of the pipeline's JSON Schema
+//! (`docs/pipeline.schema.json`, see `super::schema`): keep them to meaning, unit and default.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 use serde_yaml::Value;
 
 use super::*;
 use crate::{Error, Result};
 
-#[derive(Deserialize)]
+/// An hbcontact pipeline: one scene (geometry, material, supports, loads, contact) and how to
+/// solve and write it. Lengths, forces and times are in one consistent unit system of your
+/// choice (SI: m, N, s, Pa, kg/m³; or mm, N, s, MPa, t/mm³); frequencies are in Hz.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Pipeline", title = "hbcontact pipeline")]
 struct RawPipeline {
+    /// The scene's name: letters, digits, `_` and `-` only. It names the default output
+    /// directory `output/<name>`. Required.
     name: String,
+    /// The gmsh geometry and how to mesh it. Required.
     geometry: RawGeometry,
+    /// The linear-elastic, isotropic material. Required.
     material: RawMaterial,
+    /// Supports, prescribed motion and loads, on gmsh physical groups. Default: none.
     #[serde(default)]
     boundaries: RawBoundaries,
+    /// Rayleigh damping D = alpha·M + beta·K. Default: none (undamped, real arithmetic).
     #[serde(default)]
     damping: Option<RawDamping>,
+    /// The periodic steady state sought: fundamental frequency, harmonics, samples, contact
+    /// solver. Required.
     harmonic_balance: RawHarmonicBalance,
+    /// Frictionless unilateral contact of a body boundary with a rigid obstacle. Default: none
+    /// (a linear scene).
     #[serde(default)]
     contact: Option<RawContact>,
+    /// Settings of `hbcontact transient` (explicit time marching to the periodic state).
+    /// Default: each key's default.
     #[serde(default)]
     transient: Option<RawTransient>,
+    /// What is written and where. Default: each key's default.
     #[serde(default)]
     output: Option<RawOutput>,
 }
 
-#[derive(Deserialize)]
+/// The gmsh geometry and how to mesh it.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Geometry")]
 struct RawGeometry {
+    /// The gmsh `.geo` file, or a ready `.msh` (then `parameters`, `mesh_size`, `order` and
+    /// `quads` are not used). Relative paths are looked up next to the pipeline file, then in
+    /// its parent directory. Required.
     file: PathBuf,
+    /// Numbers passed to gmsh as `-setnumber NAME VALUE` (the `.geo`'s `DefineConstant`s), in
+    /// the geometry's units. Default: none.
     #[serde(default)]
     parameters: BTreeMap<String, f64>,
+    /// Largest element size (gmsh `-clmax`), a length, > 0. Default: the sizes set in the
+    /// `.geo`.
     #[serde(default)]
     mesh_size: Option<f64>,
+    /// Element order: 1 (linear) or 2 (quadratic). Default: 1.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 2))]
     order: Option<u8>,
+    /// Ask for quadrilaterals: passes `-setnumber quads 1` to gmsh (the `.geo` decides what
+    /// to recombine). Default: false.
     #[serde(default)]
     quads: bool,
+    /// The gmsh executable (path as for `file`). Default: `.venv/bin/gmsh` (made by
+    /// `make venv`), then `gmsh` on PATH.
     #[serde(default)]
     gmsh: Option<PathBuf>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// The 2-D model of the out-of-plane direction.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "PlaneModel")]
 enum RawPlaneModel {
+    /// Plane strain (ε_zz = 0): a long body.
     PlaneStrain,
+    /// Plane stress (σ_zz = 0): a thin plate.
     PlaneStress,
 }
 
-#[derive(Deserialize)]
+/// The linear-elastic, isotropic material.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Material")]
 struct RawMaterial {
+    /// Young's modulus E, a stress (Pa in SI, MPa in mm–N–s), > 0. Required.
     youngs_modulus: f64,
+    /// Poisson's ratio ν (dimensionless), in (−1, 0.5). Required.
     poisson_ratio: f64,
+    /// Mass density ρ (kg/m³ in SI, t/mm³ in mm–N–s), > 0. Required.
     density: f64,
+    /// `plane_strain` or `plane_stress`. Required.
     model: RawPlaneModel,
+    /// Out-of-plane thickness, a length, > 0: multiplies stiffness, mass and tractions.
+    /// Default: 1.
     #[serde(default)]
     thickness: Option<f64>,
 }
 
-#[derive(Deserialize, Default)]
+/// Supports, prescribed motion and loads, on gmsh physical groups.
+#[derive(Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Boundaries")]
 struct RawBoundaries {
+    /// Groups whose nodes have both displacement components held at zero. Default: none.
     #[serde(default)]
     fixed: Vec<String>,
+    /// Groups whose nodes have one displacement component moved by a given periodic signal.
+    /// Default: none.
     #[serde(default)]
     prescribed: Vec<RawPrescribed>,
+    /// External loads on groups: static part plus harmonics. Default: none.
     #[serde(default)]
     loads: Vec<RawLoad>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// A displacement component.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "Component")]
 enum RawComponent {
+    /// The x component.
     X,
+    /// The y component.
     Y,
 }
 
-#[derive(Deserialize)]
+/// One harmonic of a scalar signal: cos·cos(kωt) + sin·sin(kωt).
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "ScalarHarmonic")]
 struct RawHarmonic1 {
+    /// The harmonic index k ≥ 1 (frequency k·f); each k at most once. Required.
+    #[schemars(range(min = 1))]
     k: usize,
+    /// Amplitude of cos(kωt), a length. Default: 0.
     #[serde(default)]
     cos: f64,
+    /// Amplitude of sin(kωt), a length. Default: 0.
     #[serde(default)]
     sin: f64,
 }
 
-#[derive(Deserialize)]
+/// A prescribed periodic motion of one displacement component of a group's nodes.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Prescribed")]
 struct RawPrescribed {
+    /// The gmsh physical group (curve or point) whose nodes move. Required.
     group: String,
+    /// The component held: `x` or `y`. Required.
     component: RawComponent,
+    /// The constant part of the motion, a length. Default: 0.
     #[serde(default, rename = "static")]
     static_part: f64,
+    /// The harmonic part of the motion. Default: none.
     #[serde(default)]
     harmonics: Vec<RawHarmonic1>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// How a load's value is applied to its group.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "LoadType")]
 enum RawLoadKind {
+    /// A force per unit area on the edges of a curve group (times the thickness).
     Traction,
+    /// A total force shared equally by the nodes of the group.
     Force,
 }
 
-#[derive(Deserialize)]
+/// One harmonic of a vector signal: cos·cos(kωt) + sin·sin(kωt), as [x, y].
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "VectorHarmonic")]
 struct RawHarmonic2 {
+    /// The harmonic index k ≥ 1 (frequency k·f); each k at most once. Required.
+    #[schemars(range(min = 1))]
     k: usize,
+    /// Amplitude [x, y] of cos(kωt), a traction or a force. Default: [0, 0].
     #[serde(default)]
     cos: [f64; 2],
+    /// Amplitude [x, y] of sin(kωt), a traction or a force. Default: [0, 0].
     #[serde(default)]
     sin: [f64; 2],
 }
 
-#[derive(Deserialize)]
+/// An external periodic load on a group: static part plus harmonics.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Load")]
 struct RawLoad {
+    /// The gmsh physical group loaded (a curve for `traction`). Required.
     group: String,
+    /// `traction` (force per area on edges) or `force` (total force over the nodes). Required.
     #[serde(rename = "type")]
     kind: RawLoadKind,
+    /// The constant part [x, y], a traction or a force. Default: none; give `static`,
+    /// `harmonics` or both.
     #[serde(default, rename = "static")]
     static_part: Option<[f64; 2]>,
+    /// The harmonic part. Default: none; give `static`, `harmonics` or both.
     #[serde(default)]
     harmonics: Vec<RawHarmonic2>,
 }
 
-#[derive(Deserialize)]
+/// Rayleigh damping D = alpha·M + beta·K.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Damping")]
 struct RawDamping {
+    /// Mass-proportional coefficient α, in 1/s, ≥ 0. Default: 0.
     #[serde(default)]
     alpha: f64,
+    /// Stiffness-proportional coefficient β, in s, ≥ 0. Default: 0.
     #[serde(default)]
     beta: f64,
 }
 
-#[derive(Deserialize)]
+/// The contact solver (semi-smooth Newton on the sampled complementarity residual).
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Solver")]
 struct RawSolver {
+    /// Relative tolerance on the complementarity residual (‖R‖∞ over the force scale), > 0.
+    /// Default: 1e-8.
     #[serde(default)]
     tolerance: Option<f64>,
+    /// Iteration limit of each Newton run (direct, each ladder rung, each c). Default: 200.
     #[serde(default)]
     max_iterations: Option<usize>,
+    /// The complementarity parameter c as a multiple of 1/mean|G_0,ii| (the inverse of the
+    /// contact nodes' mean static compliance), > 0. Default: 1.
     #[serde(default)]
     c_scale: Option<f64>,
 }
 
-#[derive(Deserialize)]
+/// The periodic steady state sought.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "HarmonicBalance")]
 struct RawHarmonicBalance {
+    /// The fundamental frequency f, in Hz (ω = 2πf, period 1/f), > 0. Required.
     frequency: f64,
+    /// The highest harmonic H of the contact solve (≥ every harmonic the loads excite).
+    /// Linear scenes solve the harmonics their loads excite. Required.
     harmonics: usize,
+    /// Time samples N per period for the contact terms, > 2·harmonics. Default: 16·H, at
+    /// least 64 (1 for H = 0).
     #[serde(default)]
     samples: Option<usize>,
+    /// The contact solver's settings. Default: each key's default.
     #[serde(default)]
     solver: Option<RawSolver>,
 }
 
-#[derive(Deserialize)]
+/// A rigid obstacle, written as a one-key mapping: `{curve: NAME}`,
+/// `{line: {point, normal}}` or `{circle: {center, radius, body_inside}}`.
+#[derive(Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(rename = "Obstacle")]
 enum RawObstacle {
+    /// A curve of the geometry: a gmsh physical group meshed as line elements only, sharing
+    /// no node with the body.
     Curve(String),
+    /// The half-plane behind a straight line.
     Line {
+        /// A point [x, y] of the line (lengths). Required.
         point: [f64; 2],
+        /// The line's normal [x, y], pointing out of the obstacle toward the body; non-zero,
+        /// normalized by the code. Required.
         normal: [f64; 2],
     },
+    /// A circle.
     Circle {
+        /// The centre [x, y] (lengths). Required.
         center: [f64; 2],
+        /// The radius, a length, > 0. Required.
         radius: f64,
+        /// true: the body lies inside the circle (a casing); false: outside (a cylinder).
+        /// Default: false.
         #[serde(default)]
         body_inside: bool,
     },
 }
 
-#[derive(Deserialize, Default, Clone, Copy)]
+/// The mass model of a contact scene.
+#[derive(Deserialize, JsonSchema, Default, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "ContactMass")]
 enum RawMass {
+    /// Lumped mass with the contact nodes' mass moved to their neighbours (total mass and
+    /// centre of mass kept): the default.
     #[default]
     Redistributed,
+    /// Plain lumped mass: contact nodes keep their inertia (impacts; shows why redistribution
+    /// is needed).
     Lumped,
 }
 
-#[derive(Deserialize)]
+/// Frictionless unilateral contact of a body boundary with a rigid obstacle.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Contact")]
 struct RawContact {
+    /// The body's boundary curve group whose nodes may touch the obstacle. Required.
     boundary: String,
+    /// The rigid obstacle: `{curve: NAME}`, `{line: {point: [x, y], normal: [x, y]}}` or
+    /// `{circle: {center: [x, y], radius: R, body_inside: BOOL}}`. Required.
     #[serde(with = "serde_yaml::with::singleton_map")]
+    #[schemars(with = "RawObstacle")]
     obstacle: RawObstacle,
+    /// Drop candidate nodes whose initial gap exceeds this length, > 0. Default: keep all.
     #[serde(default)]
     search_distance: Option<f64>,
+    /// `redistributed` (contact nodes carry no inertia) or `lumped`. Default: `redistributed`.
     #[serde(default)]
     mass: RawMass,
 }
 
-#[derive(Deserialize)]
+/// Settings of `hbcontact transient`.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Transient")]
 struct RawTransient {
+    /// Stop when the state at the start of two successive periods differs by less than this
+    /// (relative), > 0. Default: 1e-6.
     #[serde(default)]
     periodic_tolerance: Option<f64>,
+    /// The most periods marched (0 counts as 1). Default: 2000.
     #[serde(default)]
     max_periods: Option<usize>,
+    /// Fraction of the stable time step used, in (0, 1]. Default: 0.8.
     #[serde(default)]
     courant: Option<f64>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// A field written to the VTU snapshots.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "Field")]
 enum RawField {
+    /// Point data `displacement`.
     Displacement,
+    /// Point data `velocity`.
     Velocity,
+    /// Point data `acceleration`.
     Acceleration,
+    /// Cell data `stress` (xx, yy, zz, xy, yz, xz).
     Stress,
+    /// Cell data `von_mises`.
     VonMises,
+    /// Point data `contact_gap`, `contact_force`, `contact_pressure`, `contact_status`
+    /// (contact scenes).
     Contact,
 }
 
-#[derive(Deserialize)]
+/// What is written and where.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Output")]
 struct RawOutput {
+    /// The results directory (relative to the working directory); `--out` overrides it.
+    /// Default: `output/<name>`.
     #[serde(default)]
     directory: Option<PathBuf>,
+    /// Snapshots written over one period (also the transient's samples per period), ≥ 1.
+    /// Default: 24.
     #[serde(default)]
+    #[schemars(range(min = 1))]
     frames: Option<usize>,
+    /// The fields written to the snapshots. Default: all six.
     #[serde(default)]
     fields: Option<Vec<RawField>>,
+    /// Node groups whose displacement histories go to `probes.csv`. Default: none.
     #[serde(default)]
     probes: Vec<String>,
+}
+
+/// The JSON Schema (draft 07) of the pipeline YAML, generated from the types above.
+pub(super) fn raw_schema() -> schemars::Schema {
+    schemars::generate::SchemaSettings::draft07()
+        .into_generator()
+        .into_root_schema_for::<RawPipeline>()
 }
 
 fn config_error(path: &Path, message: impl Into<String>) -> Error {
