@@ -574,24 +574,55 @@ fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
     ))
 }
 
+/// Check the raw pipeline block by block, in file order (the first error wins), and build the
+/// validated `Pipeline`.
 fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
-    let bad = |m: String| config_error(path, m);
-    if raw.name.is_empty()
-        || !raw
-            .name
+    validate_name(path, &raw.name)?;
+    let geometry = validate_geometry(path, raw.geometry)?;
+    let material = validate_material(path, raw.material)?;
+    let boundaries = validate_boundaries(path, raw.boundaries)?;
+    let damping = validate_damping(path, raw.damping)?;
+    let harmonic_balance = validate_harmonic_balance(path, raw.harmonic_balance)?;
+    let contact = validate_contact(path, raw.contact)?;
+    let transient = validate_transient(path, raw.transient)?;
+    let output = validate_output(path, raw.output, &raw.name)?;
+    Ok(Pipeline {
+        name: raw.name,
+        source: path.to_path_buf(),
+        geometry,
+        material,
+        boundaries,
+        damping,
+        harmonic_balance,
+        contact,
+        transient,
+        output,
+    })
+}
+
+fn validate_name(path: &Path, name: &str) -> Result<()> {
+    if name.is_empty()
+        || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
     {
-        return Err(bad(format!(
-            "name = {:?}: use letters, digits, `_` and `-` only (it names the output directory)",
-            raw.name
-        )));
+        return Err(config_error(
+            path,
+            format!(
+                "name = {name:?}: use letters, digits, `_` and `-` only (it names the output directory)"
+            ),
+        ));
     }
-    // Geometry.
-    let g = raw.geometry;
+    Ok(())
+}
+
+fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
     let order = g.order.unwrap_or(1);
     if !(1..=2).contains(&order) {
-        return Err(bad(format!("geometry.order = {order}: must be 1 or 2")));
+        return Err(config_error(
+            path,
+            format!("geometry.order = {order}: must be 1 or 2"),
+        ));
     }
     if let Some(h) = g.mesh_size {
         positive(path, "geometry.mesh_size", h)?;
@@ -606,29 +637,56 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         })?),
         None => None,
     };
-    // Material.
-    let m = raw.material;
+    Ok(Geometry {
+        file,
+        parameters: g.parameters,
+        mesh_size: g.mesh_size,
+        order,
+        quads: g.quads,
+        gmsh,
+    })
+}
+
+fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
     positive(path, "material.youngs_modulus", m.youngs_modulus)?;
     positive(path, "material.density", m.density)?;
     if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
-        return Err(bad(format!(
-            "material.poisson_ratio = {} must lie in (−1, 0.5)",
-            m.poisson_ratio
-        )));
+        return Err(config_error(
+            path,
+            format!(
+                "material.poisson_ratio = {} must lie in (−1, 0.5)",
+                m.poisson_ratio
+            ),
+        ));
     }
     let thickness = positive(path, "material.thickness", m.thickness.unwrap_or(1.0))?;
-    // Boundaries.
-    let mut prescribed = Vec::new();
-    for (i, p) in raw.boundaries.prescribed.into_iter().enumerate() {
-        let mut seen = Vec::new();
-        let mut harmonics = Vec::new();
-        for h in p.harmonics {
-            if h.k == 0 || seen.contains(&h.k) {
-                return Err(bad(format!("boundaries.prescribed[{i}].harmonics: k = {} must be ≥ 1 and appear once (put the constant part in `static`)", h.k)));
-            }
-            seen.push(h.k);
-            harmonics.push((h.k, [h.cos], [h.sin]));
+    Ok(MaterialSpec {
+        youngs_modulus: m.youngs_modulus,
+        poisson_ratio: m.poisson_ratio,
+        density: m.density,
+        model: match m.model {
+            RawPlaneModel::PlaneStrain => PlaneModelSpec::PlaneStrain,
+            RawPlaneModel::PlaneStress => PlaneModelSpec::PlaneStress,
+        },
+        thickness,
+    })
+}
+
+/// Harmonic indices of one signal: each k ≥ 1 and at most once; `field` names the entry.
+fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> {
+    for (j, &k) in ks.iter().enumerate() {
+        if k == 0 || ks[..j].contains(&k) {
+            return Err(config_error(path, format!("{field}.harmonics: k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
         }
+    }
+    Ok(())
+}
+
+fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
+    let mut prescribed = Vec::new();
+    for (i, p) in b.prescribed.into_iter().enumerate() {
+        let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
+        check_harmonic_indices(path, &format!("boundaries.prescribed[{i}]"), &ks)?;
         prescribed.push(PrescribedSpec {
             group: p.group,
             component: match p.component {
@@ -637,26 +695,26 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             },
             signal: Signal {
                 static_part: [p.static_part],
-                harmonics,
+                harmonics: p
+                    .harmonics
+                    .iter()
+                    .map(|h| (h.k, [h.cos], [h.sin]))
+                    .collect(),
             },
         });
     }
     let mut loads = Vec::new();
-    for (i, l) in raw.boundaries.loads.into_iter().enumerate() {
-        let mut seen = Vec::new();
-        let mut harmonics = Vec::new();
-        for h in l.harmonics {
-            if h.k == 0 || seen.contains(&h.k) {
-                return Err(bad(format!("boundaries.loads[{i}].harmonics: k = {} must be ≥ 1 and appear once (put the constant part in `static`)", h.k)));
-            }
-            seen.push(h.k);
-            harmonics.push((h.k, h.cos, h.sin));
-        }
-        if l.static_part.is_none() && harmonics.is_empty() {
-            return Err(bad(format!(
-                "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
-                l.group
-            )));
+    for (i, l) in b.loads.into_iter().enumerate() {
+        let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
+        check_harmonic_indices(path, &format!("boundaries.loads[{i}]"), &ks)?;
+        if l.static_part.is_none() && l.harmonics.is_empty() {
+            return Err(config_error(
+                path,
+                format!(
+                    "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
+                    l.group
+                ),
+            ));
         }
         loads.push(LoadSpec {
             group: l.group,
@@ -666,31 +724,41 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             },
             signal: Signal {
                 static_part: l.static_part.unwrap_or([0.0; 2]),
-                harmonics,
+                harmonics: l.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
             },
         });
     }
-    let damping = match raw.damping {
-        Some(d) => {
-            if !(d.alpha >= 0.0 && d.beta >= 0.0) {
-                return Err(bad(format!(
-                    "damping: alpha = {} and beta = {} must be ≥ 0",
-                    d.alpha, d.beta
-                )));
-            }
-            Some(Rayleigh {
-                alpha: d.alpha,
-                beta: d.beta,
-            })
-        }
-        None => None,
+    Ok(Boundaries {
+        fixed: b.fixed,
+        prescribed,
+        loads,
+    })
+}
+
+fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<Rayleigh>> {
+    let Some(d) = damping else {
+        return Ok(None);
     };
-    // Harmonic balance.
-    let hb = raw.harmonic_balance;
+    if !(d.alpha >= 0.0 && d.beta >= 0.0) {
+        return Err(config_error(
+            path,
+            format!(
+                "damping: alpha = {} and beta = {} must be ≥ 0",
+                d.alpha, d.beta
+            ),
+        ));
+    }
+    Ok(Some(Rayleigh {
+        alpha: d.alpha,
+        beta: d.beta,
+    }))
+}
+
+fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<HarmonicBalance> {
     positive(path, "harmonic_balance.frequency", hb.frequency)?;
     if let Some(n) = hb.samples {
         if n <= 2 * hb.harmonics {
-            return Err(bad(format!(
+            return Err(config_error(path, format!(
                 "harmonic_balance.samples = {n} must exceed 2·harmonics = {}: use at least {} (16·H = {} converges reliably)",
                 2 * hb.harmonics,
                 2 * hb.harmonics + 1,
@@ -710,136 +778,115 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             solver.c_scale = positive(path, "harmonic_balance.solver.c_scale", c)?;
         }
     }
-    // Contact.
-    let contact = match raw.contact {
-        None => None,
-        Some(c) => {
-            let obstacle = match c.obstacle {
-                RawObstacle::Curve(group) => ObstacleSpec::Curve { group },
-                RawObstacle::Line { point, normal } => {
-                    let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
-                    if !(len > 0.0) || !len.is_finite() {
-                        return Err(bad("contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)".into()));
-                    }
-                    ObstacleSpec::Line {
-                        point,
-                        normal: [normal[0] / len, normal[1] / len],
-                    }
-                }
-                RawObstacle::Circle {
-                    center,
-                    radius,
-                    body_inside,
-                } => ObstacleSpec::Circle {
-                    center,
-                    radius: positive(path, "contact.obstacle.circle.radius", radius)?,
-                    body_inside,
-                },
-            };
-            if let Some(d) = c.search_distance {
-                positive(path, "contact.search_distance", d)?;
-            }
-            Some(ContactSpec {
-                boundary: c.boundary,
-                obstacle,
-                search_distance: c.search_distance,
-                mass: match c.mass {
-                    RawMass::Redistributed => ContactMass::Redistributed,
-                    RawMass::Lumped => ContactMass::Lumped,
-                },
-            })
-        }
+    Ok(HarmonicBalance {
+        frequency: hb.frequency,
+        harmonics: hb.harmonics,
+        samples: hb.samples,
+        solver,
+    })
+}
+
+fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
+    let Some(c) = contact else {
+        return Ok(None);
     };
-    let mut transient = TransientSpec::default();
-    if let Some(t) = raw.transient {
-        if let Some(v) = t.periodic_tolerance {
-            transient.periodic_tolerance = positive(path, "transient.periodic_tolerance", v)?;
-        }
-        if let Some(v) = t.max_periods {
-            transient.max_periods = v.max(1);
-        }
-        if let Some(v) = t.courant {
-            if !(v > 0.0 && v <= 1.0) {
-                return Err(bad(format!("transient.courant = {v} must lie in (0, 1]")));
+    let obstacle = match c.obstacle {
+        RawObstacle::Curve(group) => ObstacleSpec::Curve { group },
+        RawObstacle::Line { point, normal } => {
+            let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
+            if !(len > 0.0) || !len.is_finite() {
+                return Err(config_error(path, "contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)"));
             }
-            transient.courant = v;
+            ObstacleSpec::Line {
+                point,
+                normal: [normal[0] / len, normal[1] / len],
+            }
         }
+        RawObstacle::Circle {
+            center,
+            radius,
+            body_inside,
+        } => ObstacleSpec::Circle {
+            center,
+            radius: positive(path, "contact.obstacle.circle.radius", radius)?,
+            body_inside,
+        },
+    };
+    if let Some(d) = c.search_distance {
+        positive(path, "contact.search_distance", d)?;
     }
-    let out = raw.output;
-    let frames = out.as_ref().and_then(|o| o.frames).unwrap_or(24);
+    Ok(Some(ContactSpec {
+        boundary: c.boundary,
+        obstacle,
+        search_distance: c.search_distance,
+        mass: match c.mass {
+            RawMass::Redistributed => ContactMass::Redistributed,
+            RawMass::Lumped => ContactMass::Lumped,
+        },
+    }))
+}
+
+fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<TransientSpec> {
+    let mut spec = TransientSpec::default();
+    let Some(t) = transient else {
+        return Ok(spec);
+    };
+    if let Some(v) = t.periodic_tolerance {
+        spec.periodic_tolerance = positive(path, "transient.periodic_tolerance", v)?;
+    }
+    if let Some(v) = t.max_periods {
+        spec.max_periods = v.max(1);
+    }
+    if let Some(v) = t.courant {
+        if !(v > 0.0 && v <= 1.0) {
+            return Err(config_error(
+                path,
+                format!("transient.courant = {v} must lie in (0, 1]"),
+            ));
+        }
+        spec.courant = v;
+    }
+    Ok(spec)
+}
+
+fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result<OutputSpec> {
+    let out = output.unwrap_or(RawOutput {
+        directory: None,
+        frames: None,
+        fields: None,
+        probes: Vec::new(),
+    });
+    let frames = out.frames.unwrap_or(24);
     if frames == 0 {
-        return Err(bad("output.frames must be at least 1".into()));
+        return Err(config_error(path, "output.frames must be at least 1"));
     }
-    let fields = out
-        .as_ref()
-        .and_then(|o| o.fields.clone())
-        .map(|f| {
-            f.into_iter()
-                .map(|x| match x {
-                    RawField::Displacement => FieldName::Displacement,
-                    RawField::Velocity => FieldName::Velocity,
-                    RawField::Acceleration => FieldName::Acceleration,
-                    RawField::Stress => FieldName::Stress,
-                    RawField::VonMises => FieldName::VonMises,
-                    RawField::Contact => FieldName::Contact,
-                })
-                .collect()
-        })
-        .unwrap_or_else(|| {
-            vec![
-                FieldName::Displacement,
-                FieldName::Velocity,
-                FieldName::Acceleration,
-                FieldName::Stress,
-                FieldName::VonMises,
-                FieldName::Contact,
-            ]
-        });
-    let directory = out
-        .as_ref()
-        .and_then(|o| o.directory.clone())
-        .unwrap_or_else(|| PathBuf::from("output").join(&raw.name));
-    let probes = out.map(|o| o.probes).unwrap_or_default();
-    Ok(Pipeline {
-        name: raw.name,
-        source: path.to_path_buf(),
-        geometry: Geometry {
-            file,
-            parameters: g.parameters,
-            mesh_size: g.mesh_size,
-            order,
-            quads: g.quads,
-            gmsh,
-        },
-        material: MaterialSpec {
-            youngs_modulus: m.youngs_modulus,
-            poisson_ratio: m.poisson_ratio,
-            density: m.density,
-            model: match m.model {
-                RawPlaneModel::PlaneStrain => PlaneModelSpec::PlaneStrain,
-                RawPlaneModel::PlaneStress => PlaneModelSpec::PlaneStress,
-            },
-            thickness,
-        },
-        boundaries: Boundaries {
-            fixed: raw.boundaries.fixed,
-            prescribed,
-            loads,
-        },
-        damping,
-        harmonic_balance: HarmonicBalance {
-            frequency: hb.frequency,
-            harmonics: hb.harmonics,
-            samples: hb.samples,
-            solver,
-        },
-        contact,
-        transient,
-        output: OutputSpec {
-            directory,
-            frames,
-            fields,
-            probes,
-        },
+    let fields = match out.fields {
+        Some(f) => f
+            .into_iter()
+            .map(|x| match x {
+                RawField::Displacement => FieldName::Displacement,
+                RawField::Velocity => FieldName::Velocity,
+                RawField::Acceleration => FieldName::Acceleration,
+                RawField::Stress => FieldName::Stress,
+                RawField::VonMises => FieldName::VonMises,
+                RawField::Contact => FieldName::Contact,
+            })
+            .collect(),
+        None => vec![
+            FieldName::Displacement,
+            FieldName::Velocity,
+            FieldName::Acceleration,
+            FieldName::Stress,
+            FieldName::VonMises,
+            FieldName::Contact,
+        ],
+    };
+    Ok(OutputSpec {
+        directory: out
+            .directory
+            .unwrap_or_else(|| PathBuf::from("output").join(name)),
+        frames,
+        fields,
+        probes: out.probes,
     })
 }
