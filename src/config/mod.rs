@@ -3,11 +3,13 @@
 //! construction: positive material constants, N > 2H, existing geometry file, and so on.
 
 pub mod raw;
+pub mod schema;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 pub use raw::load_pipeline;
+pub use schema::pipeline_schema;
 
 /// A validated pipeline.
 #[derive(Clone, Debug)]

@@ -2,237 +2,402 @@
 //!
 //! serde_yaml (deprecated upstream, still working) stays behind this file so that a move to a
 //! maintained fork is a one-line change.
+//!
+//! The `///` comments on the raw types are the descriptions of the pipeline's JSON Schema
+//! (`docs/pipeline.schema.json`, see `super::schema`): keep them to meaning, unit and default.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 use serde_yaml::Value;
 
 use super::*;
 use crate::{Error, Result};
 
-#[derive(Deserialize)]
+/// An hbcontact pipeline: one scene (geometry, material, supports, loads, contact) and how to
+/// solve and write it. Lengths, forces and times are in one consistent unit system of your
+/// choice (SI: m, N, s, Pa, kg/m³; or mm, N, s, MPa, t/mm³); frequencies are in Hz.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Pipeline", title = "hbcontact pipeline")]
 struct RawPipeline {
+    /// The scene's name: letters, digits, `_` and `-` only. It names the default output
+    /// directory `output/<name>`. Required.
     name: String,
+    /// The gmsh geometry and how to mesh it. Required.
     geometry: RawGeometry,
+    /// The linear-elastic, isotropic material. Required.
     material: RawMaterial,
+    /// Supports, prescribed motion and loads, on gmsh physical groups. Default: none.
     #[serde(default)]
     boundaries: RawBoundaries,
+    /// Rayleigh damping D = alpha·M + beta·K. Default: none (undamped, real arithmetic).
     #[serde(default)]
     damping: Option<RawDamping>,
+    /// The periodic steady state sought: fundamental frequency, harmonics, samples, contact
+    /// solver. Required.
     harmonic_balance: RawHarmonicBalance,
+    /// Frictionless unilateral contact of a body boundary with a rigid obstacle. Default: none
+    /// (a linear scene).
     #[serde(default)]
     contact: Option<RawContact>,
+    /// Settings of `hbcontact transient` (explicit time marching to the periodic state).
+    /// Default: each key's default.
     #[serde(default)]
     transient: Option<RawTransient>,
+    /// What is written and where. Default: each key's default.
     #[serde(default)]
     output: Option<RawOutput>,
 }
 
-#[derive(Deserialize)]
+/// The gmsh geometry and how to mesh it.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Geometry")]
 struct RawGeometry {
+    /// The gmsh `.geo` file, or a ready `.msh` (then `parameters`, `mesh_size`, `order` and
+    /// `quads` are not used). Relative paths are looked up next to the pipeline file, then in
+    /// its parent directory. Required.
     file: PathBuf,
+    /// Numbers passed to gmsh as `-setnumber NAME VALUE` (the `.geo`'s `DefineConstant`s), in
+    /// the geometry's units. Default: none.
     #[serde(default)]
     parameters: BTreeMap<String, f64>,
+    /// Largest element size (gmsh `-clmax`), a length, > 0. Default: the sizes set in the
+    /// `.geo`.
     #[serde(default)]
     mesh_size: Option<f64>,
+    /// Element order: 1 (linear) or 2 (quadratic). Default: 1.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 2))]
     order: Option<u8>,
+    /// Ask for quadrilaterals: passes `-setnumber quads 1` to gmsh (the `.geo` decides what
+    /// to recombine). Default: false.
     #[serde(default)]
     quads: bool,
+    /// The gmsh executable (path as for `file`). Default: `.venv/bin/gmsh` (made by
+    /// `make venv`), then `gmsh` on PATH.
     #[serde(default)]
     gmsh: Option<PathBuf>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// The 2-D model of the out-of-plane direction.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "PlaneModel")]
 enum RawPlaneModel {
+    /// Plane strain (ε_zz = 0): a long body.
     PlaneStrain,
+    /// Plane stress (σ_zz = 0): a thin plate.
     PlaneStress,
 }
 
-#[derive(Deserialize)]
+/// The linear-elastic, isotropic material.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Material")]
 struct RawMaterial {
+    /// Young's modulus E, a stress (Pa in SI, MPa in mm–N–s), > 0. Required.
     youngs_modulus: f64,
+    /// Poisson's ratio ν (dimensionless), in (−1, 0.5). Required.
     poisson_ratio: f64,
+    /// Mass density ρ (kg/m³ in SI, t/mm³ in mm–N–s), > 0. Required.
     density: f64,
+    /// `plane_strain` or `plane_stress`. Required.
     model: RawPlaneModel,
+    /// Out-of-plane thickness, a length, > 0: multiplies stiffness, mass and tractions.
+    /// Default: 1.
     #[serde(default)]
     thickness: Option<f64>,
 }
 
-#[derive(Deserialize, Default)]
+/// Supports, prescribed motion and loads, on gmsh physical groups.
+#[derive(Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Boundaries")]
 struct RawBoundaries {
+    /// Groups whose nodes have both displacement components held at zero. Default: none.
     #[serde(default)]
     fixed: Vec<String>,
+    /// Groups whose nodes have one displacement component moved by a given periodic signal.
+    /// Default: none.
     #[serde(default)]
     prescribed: Vec<RawPrescribed>,
+    /// External loads on groups: static part plus harmonics. Default: none.
     #[serde(default)]
     loads: Vec<RawLoad>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// A displacement component.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "Component")]
 enum RawComponent {
+    /// The x component.
     X,
+    /// The y component.
     Y,
 }
 
-#[derive(Deserialize)]
+/// One harmonic of a scalar signal: cos·cos(kωt) + sin·sin(kωt).
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "ScalarHarmonic")]
 struct RawHarmonic1 {
+    /// The harmonic index k ≥ 1 (frequency k·f); each k at most once. Required.
+    #[schemars(range(min = 1))]
     k: usize,
+    /// Amplitude of cos(kωt), a length. Default: 0.
     #[serde(default)]
     cos: f64,
+    /// Amplitude of sin(kωt), a length. Default: 0.
     #[serde(default)]
     sin: f64,
 }
 
-#[derive(Deserialize)]
+/// A prescribed periodic motion of one displacement component of a group's nodes.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Prescribed")]
 struct RawPrescribed {
+    /// The gmsh physical group (curve or point) whose nodes move. Required.
     group: String,
+    /// The component held: `x` or `y`. Required.
     component: RawComponent,
+    /// The constant part of the motion, a length. Default: 0.
     #[serde(default, rename = "static")]
     static_part: f64,
+    /// The harmonic part of the motion. Default: none.
     #[serde(default)]
     harmonics: Vec<RawHarmonic1>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// How a load's value is applied to its group.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "LoadType")]
 enum RawLoadKind {
+    /// A force per unit area on the edges of a curve group (times the thickness).
     Traction,
+    /// A total force shared equally by the nodes of the group.
     Force,
 }
 
-#[derive(Deserialize)]
+/// One harmonic of a vector signal: cos·cos(kωt) + sin·sin(kωt), as [x, y].
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "VectorHarmonic")]
 struct RawHarmonic2 {
+    /// The harmonic index k ≥ 1 (frequency k·f); each k at most once. Required.
+    #[schemars(range(min = 1))]
     k: usize,
+    /// Amplitude [x, y] of cos(kωt), a traction or a force. Default: [0, 0].
     #[serde(default)]
     cos: [f64; 2],
+    /// Amplitude [x, y] of sin(kωt), a traction or a force. Default: [0, 0].
     #[serde(default)]
     sin: [f64; 2],
 }
 
-#[derive(Deserialize)]
+/// An external periodic load on a group: static part plus harmonics.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Load")]
 struct RawLoad {
+    /// The gmsh physical group loaded (a curve for `traction`). Required.
     group: String,
+    /// `traction` (force per area on edges) or `force` (total force over the nodes). Required.
     #[serde(rename = "type")]
     kind: RawLoadKind,
+    /// The constant part [x, y], a traction or a force. Default: none; give `static`,
+    /// `harmonics` or both.
     #[serde(default, rename = "static")]
     static_part: Option<[f64; 2]>,
+    /// The harmonic part. Default: none; give `static`, `harmonics` or both.
     #[serde(default)]
     harmonics: Vec<RawHarmonic2>,
 }
 
-#[derive(Deserialize)]
+/// Rayleigh damping D = alpha·M + beta·K.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Damping")]
 struct RawDamping {
+    /// Mass-proportional coefficient α, in 1/s, ≥ 0. Default: 0.
     #[serde(default)]
     alpha: f64,
+    /// Stiffness-proportional coefficient β, in s, ≥ 0. Default: 0.
     #[serde(default)]
     beta: f64,
 }
 
-#[derive(Deserialize)]
+/// The contact solver (semi-smooth Newton on the sampled complementarity residual).
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Solver")]
 struct RawSolver {
+    /// Relative tolerance on the complementarity residual (‖R‖∞ over the force scale), > 0.
+    /// Default: 1e-8.
     #[serde(default)]
     tolerance: Option<f64>,
+    /// Iteration limit of each Newton run (direct, each ladder rung, each c). Default: 200.
     #[serde(default)]
     max_iterations: Option<usize>,
+    /// The complementarity parameter c as a multiple of 1/mean|G_0,ii| (the inverse of the
+    /// contact nodes' mean static compliance), > 0. Default: 1.
     #[serde(default)]
     c_scale: Option<f64>,
 }
 
-#[derive(Deserialize)]
+/// The periodic steady state sought.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "HarmonicBalance")]
 struct RawHarmonicBalance {
+    /// The fundamental frequency f, in Hz (ω = 2πf, period 1/f), > 0. Required.
     frequency: f64,
+    /// The highest harmonic H of the contact solve (≥ every harmonic the loads excite).
+    /// Linear scenes solve the harmonics their loads excite. Required.
     harmonics: usize,
+    /// Time samples N per period for the contact terms, > 2·harmonics. Default: 16·H, at
+    /// least 64 (1 for H = 0).
     #[serde(default)]
     samples: Option<usize>,
+    /// The contact solver's settings. Default: each key's default.
     #[serde(default)]
     solver: Option<RawSolver>,
 }
 
-#[derive(Deserialize)]
+/// A rigid obstacle, written as a one-key mapping: `{curve: NAME}`,
+/// `{line: {point, normal}}` or `{circle: {center, radius, body_inside}}`.
+#[derive(Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(rename = "Obstacle")]
 enum RawObstacle {
+    /// A curve of the geometry: a gmsh physical group meshed as line elements only, sharing
+    /// no node with the body.
     Curve(String),
+    /// The half-plane behind a straight line.
     Line {
+        /// A point [x, y] of the line (lengths). Required.
         point: [f64; 2],
+        /// The line's normal [x, y], pointing out of the obstacle toward the body; non-zero,
+        /// normalized by the code. Required.
         normal: [f64; 2],
     },
+    /// A circle.
     Circle {
+        /// The centre [x, y] (lengths). Required.
         center: [f64; 2],
+        /// The radius, a length, > 0. Required.
         radius: f64,
+        /// true: the body lies inside the circle (a casing); false: outside (a cylinder).
+        /// Default: false.
         #[serde(default)]
         body_inside: bool,
     },
 }
 
-#[derive(Deserialize, Default, Clone, Copy)]
+/// The mass model of a contact scene.
+#[derive(Deserialize, JsonSchema, Default, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "ContactMass")]
 enum RawMass {
+    /// Lumped mass with the contact nodes' mass moved to their neighbours (total mass and
+    /// centre of mass kept): the default.
     #[default]
     Redistributed,
+    /// Plain lumped mass: contact nodes keep their inertia (impacts; shows why redistribution
+    /// is needed).
     Lumped,
 }
 
-#[derive(Deserialize)]
+/// Frictionless unilateral contact of a body boundary with a rigid obstacle.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Contact")]
 struct RawContact {
+    /// The body's boundary curve group whose nodes may touch the obstacle. Required.
     boundary: String,
+    /// The rigid obstacle: `{curve: NAME}`, `{line: {point: [x, y], normal: [x, y]}}` or
+    /// `{circle: {center: [x, y], radius: R, body_inside: BOOL}}`. Required.
     #[serde(with = "serde_yaml::with::singleton_map")]
+    #[schemars(with = "RawObstacle")]
     obstacle: RawObstacle,
+    /// Drop candidate nodes whose initial gap exceeds this length, > 0. Default: keep all.
     #[serde(default)]
     search_distance: Option<f64>,
+    /// `redistributed` (contact nodes carry no inertia) or `lumped`. Default: `redistributed`.
     #[serde(default)]
     mass: RawMass,
 }
 
-#[derive(Deserialize)]
+/// Settings of `hbcontact transient`.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Transient")]
 struct RawTransient {
+    /// Stop when the state at the start of two successive periods differs by less than this
+    /// (relative), > 0. Default: 1e-6.
     #[serde(default)]
     periodic_tolerance: Option<f64>,
+    /// The most periods marched (0 counts as 1). Default: 2000.
     #[serde(default)]
     max_periods: Option<usize>,
+    /// Fraction of the stable time step used, in (0, 1]. Default: 0.8.
     #[serde(default)]
     courant: Option<f64>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+/// A field written to the VTU snapshots.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
 #[serde(rename_all = "snake_case")]
+#[schemars(rename = "Field")]
 enum RawField {
+    /// Point data `displacement`.
     Displacement,
+    /// Point data `velocity`.
     Velocity,
+    /// Point data `acceleration`.
     Acceleration,
+    /// Cell data `stress` (xx, yy, zz, xy, yz, xz).
     Stress,
+    /// Cell data `von_mises`.
     VonMises,
+    /// Point data `contact_gap`, `contact_force`, `contact_pressure`, `contact_status`
+    /// (contact scenes).
     Contact,
 }
 
-#[derive(Deserialize)]
+/// What is written and where.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Output")]
 struct RawOutput {
+    /// The results directory (relative to the working directory); `--out` overrides it.
+    /// Default: `output/<name>`.
     #[serde(default)]
     directory: Option<PathBuf>,
+    /// Snapshots written over one period (also the transient's samples per period), ≥ 1.
+    /// Default: 24.
     #[serde(default)]
+    #[schemars(range(min = 1))]
     frames: Option<usize>,
+    /// The fields written to the snapshots. Default: all six.
     #[serde(default)]
     fields: Option<Vec<RawField>>,
+    /// Node groups whose displacement histories go to `probes.csv`. Default: none.
     #[serde(default)]
     probes: Vec<String>,
+}
+
+/// The JSON Schema (draft 07) of the pipeline YAML, generated from the types above.
+pub(super) fn raw_schema() -> schemars::Schema {
+    schemars::generate::SchemaSettings::draft07()
+        .into_generator()
+        .into_root_schema_for::<RawPipeline>()
 }
 
 fn config_error(path: &Path, message: impl Into<String>) -> Error {
@@ -409,24 +574,55 @@ fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
     ))
 }
 
+/// Check the raw pipeline block by block, in file order (the first error wins), and build the
+/// validated `Pipeline`.
 fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
-    let bad = |m: String| config_error(path, m);
-    if raw.name.is_empty()
-        || !raw
-            .name
+    validate_name(path, &raw.name)?;
+    let geometry = validate_geometry(path, raw.geometry)?;
+    let material = validate_material(path, raw.material)?;
+    let boundaries = validate_boundaries(path, raw.boundaries)?;
+    let damping = validate_damping(path, raw.damping)?;
+    let harmonic_balance = validate_harmonic_balance(path, raw.harmonic_balance)?;
+    let contact = validate_contact(path, raw.contact)?;
+    let transient = validate_transient(path, raw.transient)?;
+    let output = validate_output(path, raw.output, &raw.name)?;
+    Ok(Pipeline {
+        name: raw.name,
+        source: path.to_path_buf(),
+        geometry,
+        material,
+        boundaries,
+        damping,
+        harmonic_balance,
+        contact,
+        transient,
+        output,
+    })
+}
+
+fn validate_name(path: &Path, name: &str) -> Result<()> {
+    if name.is_empty()
+        || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
     {
-        return Err(bad(format!(
-            "name = {:?}: use letters, digits, `_` and `-` only (it names the output directory)",
-            raw.name
-        )));
+        return Err(config_error(
+            path,
+            format!(
+                "name = {name:?}: use letters, digits, `_` and `-` only (it names the output directory)"
+            ),
+        ));
     }
-    // Geometry.
-    let g = raw.geometry;
+    Ok(())
+}
+
+fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
     let order = g.order.unwrap_or(1);
     if !(1..=2).contains(&order) {
-        return Err(bad(format!("geometry.order = {order}: must be 1 or 2")));
+        return Err(config_error(
+            path,
+            format!("geometry.order = {order}: must be 1 or 2"),
+        ));
     }
     if let Some(h) = g.mesh_size {
         positive(path, "geometry.mesh_size", h)?;
@@ -441,29 +637,56 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         })?),
         None => None,
     };
-    // Material.
-    let m = raw.material;
+    Ok(Geometry {
+        file,
+        parameters: g.parameters,
+        mesh_size: g.mesh_size,
+        order,
+        quads: g.quads,
+        gmsh,
+    })
+}
+
+fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
     positive(path, "material.youngs_modulus", m.youngs_modulus)?;
     positive(path, "material.density", m.density)?;
     if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
-        return Err(bad(format!(
-            "material.poisson_ratio = {} must lie in (−1, 0.5)",
-            m.poisson_ratio
-        )));
+        return Err(config_error(
+            path,
+            format!(
+                "material.poisson_ratio = {} must lie in (−1, 0.5)",
+                m.poisson_ratio
+            ),
+        ));
     }
     let thickness = positive(path, "material.thickness", m.thickness.unwrap_or(1.0))?;
-    // Boundaries.
-    let mut prescribed = Vec::new();
-    for (i, p) in raw.boundaries.prescribed.into_iter().enumerate() {
-        let mut seen = Vec::new();
-        let mut harmonics = Vec::new();
-        for h in p.harmonics {
-            if h.k == 0 || seen.contains(&h.k) {
-                return Err(bad(format!("boundaries.prescribed[{i}].harmonics: k = {} must be ≥ 1 and appear once (put the constant part in `static`)", h.k)));
-            }
-            seen.push(h.k);
-            harmonics.push((h.k, [h.cos], [h.sin]));
+    Ok(MaterialSpec {
+        youngs_modulus: m.youngs_modulus,
+        poisson_ratio: m.poisson_ratio,
+        density: m.density,
+        model: match m.model {
+            RawPlaneModel::PlaneStrain => PlaneModelSpec::PlaneStrain,
+            RawPlaneModel::PlaneStress => PlaneModelSpec::PlaneStress,
+        },
+        thickness,
+    })
+}
+
+/// Harmonic indices of one signal: each k ≥ 1 and at most once; `field` names the entry.
+fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> {
+    for (j, &k) in ks.iter().enumerate() {
+        if k == 0 || ks[..j].contains(&k) {
+            return Err(config_error(path, format!("{field}.harmonics: k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
         }
+    }
+    Ok(())
+}
+
+fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
+    let mut prescribed = Vec::new();
+    for (i, p) in b.prescribed.into_iter().enumerate() {
+        let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
+        check_harmonic_indices(path, &format!("boundaries.prescribed[{i}]"), &ks)?;
         prescribed.push(PrescribedSpec {
             group: p.group,
             component: match p.component {
@@ -472,26 +695,26 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             },
             signal: Signal {
                 static_part: [p.static_part],
-                harmonics,
+                harmonics: p
+                    .harmonics
+                    .iter()
+                    .map(|h| (h.k, [h.cos], [h.sin]))
+                    .collect(),
             },
         });
     }
     let mut loads = Vec::new();
-    for (i, l) in raw.boundaries.loads.into_iter().enumerate() {
-        let mut seen = Vec::new();
-        let mut harmonics = Vec::new();
-        for h in l.harmonics {
-            if h.k == 0 || seen.contains(&h.k) {
-                return Err(bad(format!("boundaries.loads[{i}].harmonics: k = {} must be ≥ 1 and appear once (put the constant part in `static`)", h.k)));
-            }
-            seen.push(h.k);
-            harmonics.push((h.k, h.cos, h.sin));
-        }
-        if l.static_part.is_none() && harmonics.is_empty() {
-            return Err(bad(format!(
-                "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
-                l.group
-            )));
+    for (i, l) in b.loads.into_iter().enumerate() {
+        let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
+        check_harmonic_indices(path, &format!("boundaries.loads[{i}]"), &ks)?;
+        if l.static_part.is_none() && l.harmonics.is_empty() {
+            return Err(config_error(
+                path,
+                format!(
+                    "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
+                    l.group
+                ),
+            ));
         }
         loads.push(LoadSpec {
             group: l.group,
@@ -501,31 +724,41 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             },
             signal: Signal {
                 static_part: l.static_part.unwrap_or([0.0; 2]),
-                harmonics,
+                harmonics: l.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
             },
         });
     }
-    let damping = match raw.damping {
-        Some(d) => {
-            if !(d.alpha >= 0.0 && d.beta >= 0.0) {
-                return Err(bad(format!(
-                    "damping: alpha = {} and beta = {} must be ≥ 0",
-                    d.alpha, d.beta
-                )));
-            }
-            Some(Rayleigh {
-                alpha: d.alpha,
-                beta: d.beta,
-            })
-        }
-        None => None,
+    Ok(Boundaries {
+        fixed: b.fixed,
+        prescribed,
+        loads,
+    })
+}
+
+fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<Rayleigh>> {
+    let Some(d) = damping else {
+        return Ok(None);
     };
-    // Harmonic balance.
-    let hb = raw.harmonic_balance;
+    if !(d.alpha >= 0.0 && d.beta >= 0.0) {
+        return Err(config_error(
+            path,
+            format!(
+                "damping: alpha = {} and beta = {} must be ≥ 0",
+                d.alpha, d.beta
+            ),
+        ));
+    }
+    Ok(Some(Rayleigh {
+        alpha: d.alpha,
+        beta: d.beta,
+    }))
+}
+
+fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<HarmonicBalance> {
     positive(path, "harmonic_balance.frequency", hb.frequency)?;
     if let Some(n) = hb.samples {
         if n <= 2 * hb.harmonics {
-            return Err(bad(format!(
+            return Err(config_error(path, format!(
                 "harmonic_balance.samples = {n} must exceed 2·harmonics = {}: use at least {} (16·H = {} converges reliably)",
                 2 * hb.harmonics,
                 2 * hb.harmonics + 1,
@@ -545,136 +778,115 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
             solver.c_scale = positive(path, "harmonic_balance.solver.c_scale", c)?;
         }
     }
-    // Contact.
-    let contact = match raw.contact {
-        None => None,
-        Some(c) => {
-            let obstacle = match c.obstacle {
-                RawObstacle::Curve(group) => ObstacleSpec::Curve { group },
-                RawObstacle::Line { point, normal } => {
-                    let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
-                    if !(len > 0.0) || !len.is_finite() {
-                        return Err(bad("contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)".into()));
-                    }
-                    ObstacleSpec::Line {
-                        point,
-                        normal: [normal[0] / len, normal[1] / len],
-                    }
-                }
-                RawObstacle::Circle {
-                    center,
-                    radius,
-                    body_inside,
-                } => ObstacleSpec::Circle {
-                    center,
-                    radius: positive(path, "contact.obstacle.circle.radius", radius)?,
-                    body_inside,
-                },
-            };
-            if let Some(d) = c.search_distance {
-                positive(path, "contact.search_distance", d)?;
-            }
-            Some(ContactSpec {
-                boundary: c.boundary,
-                obstacle,
-                search_distance: c.search_distance,
-                mass: match c.mass {
-                    RawMass::Redistributed => ContactMass::Redistributed,
-                    RawMass::Lumped => ContactMass::Lumped,
-                },
-            })
-        }
+    Ok(HarmonicBalance {
+        frequency: hb.frequency,
+        harmonics: hb.harmonics,
+        samples: hb.samples,
+        solver,
+    })
+}
+
+fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
+    let Some(c) = contact else {
+        return Ok(None);
     };
-    let mut transient = TransientSpec::default();
-    if let Some(t) = raw.transient {
-        if let Some(v) = t.periodic_tolerance {
-            transient.periodic_tolerance = positive(path, "transient.periodic_tolerance", v)?;
-        }
-        if let Some(v) = t.max_periods {
-            transient.max_periods = v.max(1);
-        }
-        if let Some(v) = t.courant {
-            if !(v > 0.0 && v <= 1.0) {
-                return Err(bad(format!("transient.courant = {v} must lie in (0, 1]")));
+    let obstacle = match c.obstacle {
+        RawObstacle::Curve(group) => ObstacleSpec::Curve { group },
+        RawObstacle::Line { point, normal } => {
+            let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
+            if !(len > 0.0) || !len.is_finite() {
+                return Err(config_error(path, "contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)"));
             }
-            transient.courant = v;
+            ObstacleSpec::Line {
+                point,
+                normal: [normal[0] / len, normal[1] / len],
+            }
         }
+        RawObstacle::Circle {
+            center,
+            radius,
+            body_inside,
+        } => ObstacleSpec::Circle {
+            center,
+            radius: positive(path, "contact.obstacle.circle.radius", radius)?,
+            body_inside,
+        },
+    };
+    if let Some(d) = c.search_distance {
+        positive(path, "contact.search_distance", d)?;
     }
-    let out = raw.output;
-    let frames = out.as_ref().and_then(|o| o.frames).unwrap_or(24);
+    Ok(Some(ContactSpec {
+        boundary: c.boundary,
+        obstacle,
+        search_distance: c.search_distance,
+        mass: match c.mass {
+            RawMass::Redistributed => ContactMass::Redistributed,
+            RawMass::Lumped => ContactMass::Lumped,
+        },
+    }))
+}
+
+fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<TransientSpec> {
+    let mut spec = TransientSpec::default();
+    let Some(t) = transient else {
+        return Ok(spec);
+    };
+    if let Some(v) = t.periodic_tolerance {
+        spec.periodic_tolerance = positive(path, "transient.periodic_tolerance", v)?;
+    }
+    if let Some(v) = t.max_periods {
+        spec.max_periods = v.max(1);
+    }
+    if let Some(v) = t.courant {
+        if !(v > 0.0 && v <= 1.0) {
+            return Err(config_error(
+                path,
+                format!("transient.courant = {v} must lie in (0, 1]"),
+            ));
+        }
+        spec.courant = v;
+    }
+    Ok(spec)
+}
+
+fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result<OutputSpec> {
+    let out = output.unwrap_or(RawOutput {
+        directory: None,
+        frames: None,
+        fields: None,
+        probes: Vec::new(),
+    });
+    let frames = out.frames.unwrap_or(24);
     if frames == 0 {
-        return Err(bad("output.frames must be at least 1".into()));
+        return Err(config_error(path, "output.frames must be at least 1"));
     }
-    let fields = out
-        .as_ref()
-        .and_then(|o| o.fields.clone())
-        .map(|f| {
-            f.into_iter()
-                .map(|x| match x {
-                    RawField::Displacement => FieldName::Displacement,
-                    RawField::Velocity => FieldName::Velocity,
-                    RawField::Acceleration => FieldName::Acceleration,
-                    RawField::Stress => FieldName::Stress,
-                    RawField::VonMises => FieldName::VonMises,
-                    RawField::Contact => FieldName::Contact,
-                })
-                .collect()
-        })
-        .unwrap_or_else(|| {
-            vec![
-                FieldName::Displacement,
-                FieldName::Velocity,
-                FieldName::Acceleration,
-                FieldName::Stress,
-                FieldName::VonMises,
-                FieldName::Contact,
-            ]
-        });
-    let directory = out
-        .as_ref()
-        .and_then(|o| o.directory.clone())
-        .unwrap_or_else(|| PathBuf::from("output").join(&raw.name));
-    let probes = out.map(|o| o.probes).unwrap_or_default();
-    Ok(Pipeline {
-        name: raw.name,
-        source: path.to_path_buf(),
-        geometry: Geometry {
-            file,
-            parameters: g.parameters,
-            mesh_size: g.mesh_size,
-            order,
-            quads: g.quads,
-            gmsh,
-        },
-        material: MaterialSpec {
-            youngs_modulus: m.youngs_modulus,
-            poisson_ratio: m.poisson_ratio,
-            density: m.density,
-            model: match m.model {
-                RawPlaneModel::PlaneStrain => PlaneModelSpec::PlaneStrain,
-                RawPlaneModel::PlaneStress => PlaneModelSpec::PlaneStress,
-            },
-            thickness,
-        },
-        boundaries: Boundaries {
-            fixed: raw.boundaries.fixed,
-            prescribed,
-            loads,
-        },
-        damping,
-        harmonic_balance: HarmonicBalance {
-            frequency: hb.frequency,
-            harmonics: hb.harmonics,
-            samples: hb.samples,
-            solver,
-        },
-        contact,
-        transient,
-        output: OutputSpec {
-            directory,
-            frames,
-            fields,
-            probes,
-        },
+    let fields = match out.fields {
+        Some(f) => f
+            .into_iter()
+            .map(|x| match x {
+                RawField::Displacement => FieldName::Displacement,
+                RawField::Velocity => FieldName::Velocity,
+                RawField::Acceleration => FieldName::Acceleration,
+                RawField::Stress => FieldName::Stress,
+                RawField::VonMises => FieldName::VonMises,
+                RawField::Contact => FieldName::Contact,
+            })
+            .collect(),
+        None => vec![
+            FieldName::Displacement,
+            FieldName::Velocity,
+            FieldName::Acceleration,
+            FieldName::Stress,
+            FieldName::VonMises,
+            FieldName::Contact,
+        ],
+    };
+    Ok(OutputSpec {
+        directory: out
+            .directory
+            .unwrap_or_else(|| PathBuf::from("output").join(name)),
+        frames,
+        fields,
+        probes: out.probes,
     })
 }
