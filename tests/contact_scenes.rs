@@ -262,11 +262,13 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
     for w in errors.windows(2) {
         assert!(w[1] < w[0], "error must fall with H: {errors:?}");
     }
-    assert!(errors[3] < 1e-3, "{errors:?}");
+    // Measured 4.1e-4 at H = 40.
+    assert!(errors[3] < 7e-4, "{errors:?}");
     assert!(
         violations[3] < violations[1],
         "violation must shrink with H: {violations:?}"
     );
+    // Measured at most 9.6e-2 (H = 10).
     assert!(
         violations.iter().all(|&v| v < 0.15),
         "violation bound 0.15: {violations:?}"
@@ -431,14 +433,18 @@ fn strip_agrees_with_time_marching() {
         println!("H = {h:>2}: amplitude error {e_amp:.3e}, mean force error {e_mean:.3e}, first-harmonic force error {e_first:.3e}");
         amp_errors.push(e_amp);
         if h == 40 {
-            assert!(e_amp < 2e-3, "amplitude within 0.2% at H = 40: {e_amp:e}");
+            // Measured 1.06e-3, 8.3e-4, 3.6e-4.
             assert!(
-                e_mean < 5e-3,
-                "mean contact force within 0.5% at H = 40: {e_mean:e}"
+                e_amp < 1.6e-3,
+                "amplitude within 1.6e-3 at H = 40: {e_amp:e}"
             );
             assert!(
-                e_first < 5e-3,
-                "first harmonic of the contact force within 0.5% at H = 40: {e_first:e}"
+                e_mean < 1.3e-3,
+                "mean contact force within 1.3e-3 at H = 40: {e_mean:e}"
+            );
+            assert!(
+                e_first < 6e-4,
+                "first harmonic of the contact force within 6e-4 at H = 40: {e_first:e}"
             );
         }
     }
@@ -466,7 +472,9 @@ fn loads_above_h_are_refused() {
 
 /// TEST GOAL: hard cases converge: from an initial penetration (a preload, g0 < 0) through
 /// contact to grazing (the gap equal to the free amplitude) and beyond, the solver converges
-/// at every gap, and the mean contact force falls monotonically to zero.
+/// at every gap, and the mean contact force falls monotonically to zero. The complementarity
+/// violation grows toward grazing (measured 5.9e-2 at g0 = −5e-8 up to 0.179 at 2.5e-7, where
+/// the contact lasts a small part of the period) and is held to 0.27.
 #[test]
 fn penetration_to_grazing_converges_and_the_mean_force_falls_to_zero() {
     let mut previous = f64::INFINITY;
@@ -487,7 +495,7 @@ fn penetration_to_grazing_converges_and_the_mean_force_falls_to_zero() {
             "gap {gap:>9.2e}: mean force {mean:.4e}, {} iterations, violation {:.3e}",
             c.newton.iterations, c.complementarity.violation
         );
-        assert!(mean.is_finite() && c.complementarity.violation < 0.25);
+        assert!(mean.is_finite() && c.complementarity.violation < 0.27);
         assert!(
             mean < previous || (mean == 0.0 && previous == 0.0),
             "mean force must fall with the gap: {mean} after {previous}"
