@@ -157,7 +157,7 @@ fn run_ok(args: &[&str]) -> String {
 /// value (strip_wall 0.075, half_disc 0.0072, blade_casing 0.066); other scenes: 0.15.
 fn complementarity_bound(name: &str) -> f64 {
     match name {
-        "half_disc" => 0.015,
+        "half_disc" => 0.014,
         "blade_casing" => 0.12,
         _ => 0.15,
     }
