@@ -44,73 +44,104 @@ fn total_force_series(solution: &hbm::Solution, samples: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The nodal contact pressure −λ_i / tributary_i, interpolated linearly in x to `x0` (exact
+/// where a node sits at `x0`).
+fn pressure_at(model: &Model, lambda: &[f64], x0: f64) -> f64 {
+    let set = &model.contact.as_ref().unwrap().set;
+    let mut profile: Vec<(f64, f64)> = set
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| (model.mesh.nodes[n][0], -lambda[i] / set.tributary[i]))
+        .collect();
+    profile.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let j = profile.partition_point(|q| q.0 < x0);
+    let (l, r) = (profile[j - 1], profile[j]);
+    if (r.0 - x0).abs() < 1e-12 {
+        return r.1;
+    }
+    l.1 + (r.1 - l.1) * (x0 - l.0) / (r.0 - l.0)
+}
+
 /// TEST GOAL: 2-D Hertz line contact (Johnson, Contact Mechanics, §4.3): a cylinder of radius
 /// R pressed on a rigid plane by a force P per unit length has a contact half-width
-/// a = sqrt(4PR/(πE*)) and a peak pressure p0 = 2P/(πa), E* = E/(1−ν²) in plane strain.
+/// a = sqrt(4PR/(πE*)) and a centre pressure p0 = 2P/(πa), E* = E/(1−ν²) in plane strain.
 ///
 /// ```text
 ///        top: u_x = 0, u_y = −δ
 ///   ┌──────────────────────┐
-///    ╲                    ╱     half-disc, R = 1, refined (h = 2 mm) near the bottom
-///      ╲______________╱
+///    ╲                    ╱     half-disc, R = 1, far size lc = 0.02, refined to
+///      ╲______________╱         h = lc_contact near the bottom (a ≈ 0.021 ≈ 10–20 h)
 ///   ═══════════════════════     rigid plane y = 0 (analytic line obstacle)
+///              x = 0: p0 read here
 /// ```
 /// P is measured (the sum of the contact forces), a and p0 follow from it. Pressure is the
-/// nodal force over its tributary length (linear elements, where that is exact for a smooth
-/// pressure to second order).
+/// nodal force over its tributary length, read at the centre node (x = 0, a point of the
+/// geometry), not as the maximum over nodes: the nodal pressures of an unstructured mesh
+/// scatter by 0.1–0.3% from node to node, and the maximum picks up that scatter. The far size
+/// matters: at the .geo's lc = 0.1 the centre is +0.26% (maximum +0.94%) and at lc = 0.05
+/// +0.32%; from lc = 0.03 down the error is node-to-node scatter of either sign
+/// (−0.08% at lc = 0.03, +0.04% at 0.02, +0.14% at 0.015, +0.23% at 0.01, h = 1.5e-3).
+/// Three contact sizes at lc = 0.02 measured −0.23%, +0.04%, +0.17% (h = 2, 1.5, 1 mm,
+/// 4.5 s together); each is held to 0.3%.
 #[test]
 fn half_disc_matches_hertz_line_contact() {
-    let p = common::scene(
-        "half_disc",
-        &[
-            "harmonic_balance.harmonics=0",
-            "damping=null",
-            "geometry.parameters.lc_contact=0.0015",
-            "boundaries.prescribed=[{group: top, component: x, static: 0.0}, {group: top, component: y, static: -1.0e-3}]",
-        ],
-    );
-    let model = common::model(&p, Purpose::HarmonicBalance);
-    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
-    let contact = solution.contact.as_ref().unwrap();
-    let set = &model.contact.as_ref().unwrap().set;
-    let lambda = &contact.multipliers; // M = 1: one coefficient per node
-    let load: f64 = -lambda.iter().sum::<f64>();
-    let e_star = p.material.youngs_modulus / (1.0 - p.material.poisson_ratio.powi(2));
-    let radius = 1.0;
-    let a = (4.0 * load * radius / (std::f64::consts::PI * e_star)).sqrt();
-    let p0 = 2.0 * load / (std::f64::consts::PI * a);
-    let mut peak: f64 = 0.0;
-    let mut half_width: f64 = 0.0;
-    for (i, &n) in set.nodes.iter().enumerate() {
-        let pressure = -lambda[i] / set.tributary[i];
-        peak = peak.max(pressure);
-        if -lambda[i] > 1e-9 * load {
-            half_width = half_width.max(model.mesh.nodes[n][0].abs());
+    for h in [0.002, 0.0015, 0.001] {
+        let started = std::time::Instant::now();
+        let p = common::scene(
+            "half_disc",
+            &[
+                "harmonic_balance.harmonics=0",
+                "damping=null",
+                "geometry.parameters.lc=0.02",
+                &format!("geometry.parameters.lc_contact={h}"),
+                "boundaries.prescribed=[{group: top, component: x, static: 0.0}, {group: top, component: y, static: -1.0e-3}]",
+            ],
+        );
+        let model = common::model(&p, Purpose::HarmonicBalance);
+        let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+        let contact = solution.contact.as_ref().unwrap();
+        let set = &model.contact.as_ref().unwrap().set;
+        let lambda = &contact.multipliers; // M = 1: one coefficient per node
+        let load: f64 = -lambda.iter().sum::<f64>();
+        let e_star = p.material.youngs_modulus / (1.0 - p.material.poisson_ratio.powi(2));
+        let radius = 1.0;
+        let a = (4.0 * load * radius / (std::f64::consts::PI * e_star)).sqrt();
+        let p0 = 2.0 * load / (std::f64::consts::PI * a);
+        let centre = pressure_at(&model, lambda, 0.0);
+        let mut half_width: f64 = 0.0;
+        for (i, &n) in set.nodes.iter().enumerate() {
+            if -lambda[i] > 1e-9 * load {
+                half_width = half_width.max(model.mesh.nodes[n][0].abs());
+            }
         }
+        let closed = lambda.iter().filter(|&&l| -l > 1e-9 * load).count();
+        let error = (centre - p0) / p0;
+        println!(
+            "Hertz, lc = 0.02, h = {h}: {} nodes, P = {load:.4e} N/m, a = {a:.5e} m (FE {half_width:.5e}, {closed} closed nodes), p0 = {p0:.5e} Pa (FE centre {centre:.5e}, {:+.3}%), {:.2} s",
+            model.mesh.nodes.len(),
+            100.0 * error,
+            started.elapsed().as_secs_f64()
+        );
+        assert!(
+            closed >= 15,
+            "h = {h}: the contact zone must be resolved by ~20 elements, got {closed} nodes"
+        );
+        assert!(
+            error.abs() < 3e-3,
+            "h = {h}: centre pressure {centre:e} vs Hertz {p0:e} ({:+.3}%)",
+            100.0 * error
+        );
+        // The last closed node lies within one element of the Hertz edge.
+        assert!(
+            (half_width - a).abs() <= h,
+            "half-width {half_width:e} vs Hertz {a:e} (h = {h})"
+        );
+        assert!(
+            contact.complementarity.violation < 1e-8,
+            "static: exact complementarity"
+        );
     }
-    let h = p.geometry.parameters["lc_contact"];
-    let closed = lambda.iter().filter(|&&l| -l > 1e-9 * load).count();
-    println!(
-        "Hertz: P = {load:.4e} N/m, a = {a:.5e} m (FE {half_width:.5e}, {closed} closed nodes, h = {h}), p0 = {p0:.5e} Pa (FE {peak:.5e}, {:+.3}%)",
-        100.0 * (peak - p0) / p0
-    );
-    assert!(
-        closed >= 15,
-        "the contact zone must be resolved by ~20 elements, got {closed} nodes"
-    );
-    assert!(
-        (peak - p0).abs() / p0 < 0.01,
-        "peak pressure {peak:e} vs Hertz {p0:e}"
-    );
-    // The last closed node lies within one element of the Hertz edge.
-    assert!(
-        (half_width - a).abs() <= h,
-        "half-width {half_width:e} vs Hertz {a:e} (h = {h})"
-    );
-    assert!(
-        contact.complementarity.violation < 1e-8,
-        "static: exact complementarity"
-    );
 }
 
 /// TEST GOAL: when the obstacle is out of reach, the contact solve returns the linear
@@ -238,11 +269,13 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
     for w in errors.windows(2) {
         assert!(w[1] < w[0], "error must fall with H: {errors:?}");
     }
-    assert!(errors[3] < 1e-3, "{errors:?}");
+    // Measured 4.1e-4 at H = 40.
+    assert!(errors[3] < 7e-4, "{errors:?}");
     assert!(
         violations[3] < violations[1],
         "violation must shrink with H: {violations:?}"
     );
+    // Measured at most 9.6e-2 (H = 10).
     assert!(
         violations.iter().all(|&v| v < 0.15),
         "violation bound 0.15: {violations:?}"
@@ -382,14 +415,18 @@ fn strip_agrees_with_time_marching() {
         println!("H = {h:>2}: amplitude error {e_amp:.3e}, mean force error {e_mean:.3e}, first-harmonic force error {e_first:.3e}");
         amp_errors.push(e_amp);
         if h == 40 {
-            assert!(e_amp < 2e-3, "amplitude within 0.2% at H = 40: {e_amp:e}");
+            // Measured 1.06e-3, 8.3e-4, 3.6e-4.
             assert!(
-                e_mean < 5e-3,
-                "mean contact force within 0.5% at H = 40: {e_mean:e}"
+                e_amp < 1.6e-3,
+                "amplitude within 1.6e-3 at H = 40: {e_amp:e}"
             );
             assert!(
-                e_first < 5e-3,
-                "first harmonic of the contact force within 0.5% at H = 40: {e_first:e}"
+                e_mean < 1.3e-3,
+                "mean contact force within 1.3e-3 at H = 40: {e_mean:e}"
+            );
+            assert!(
+                e_first < 6e-4,
+                "first harmonic of the contact force within 6e-4 at H = 40: {e_first:e}"
             );
         }
     }
@@ -417,7 +454,9 @@ fn loads_above_h_are_refused() {
 
 /// TEST GOAL: hard cases converge: from an initial penetration (a preload, g0 < 0) through
 /// contact to grazing (the gap equal to the free amplitude) and beyond, the solver converges
-/// at every gap, and the mean contact force falls monotonically to zero.
+/// at every gap, and the mean contact force falls monotonically to zero. The complementarity
+/// violation grows toward grazing (measured 5.9e-2 at g0 = −5e-8 up to 0.179 at 2.5e-7, where
+/// the contact lasts a small part of the period) and is held to 0.27.
 #[test]
 fn penetration_to_grazing_converges_and_the_mean_force_falls_to_zero() {
     let mut previous = f64::INFINITY;
@@ -438,7 +477,7 @@ fn penetration_to_grazing_converges_and_the_mean_force_falls_to_zero() {
             "gap {gap:>9.2e}: mean force {mean:.4e}, {} iterations, violation {:.3e}",
             c.newton.iterations, c.complementarity.violation
         );
-        assert!(mean.is_finite() && c.complementarity.violation < 0.25);
+        assert!(mean.is_finite() && c.complementarity.violation < 0.27);
         assert!(
             mean < previous || (mean == 0.0 && previous == 0.0),
             "mean force must fall with the gap: {mean} after {previous}"

@@ -403,10 +403,12 @@ fn slender_cantilever_matches_euler_bernoulli() {
         100.0 * err[0],
         100.0 * err[1]
     );
-    assert!(err[0].abs() < 0.01 && err[1].abs() < 0.01, "{err:?}");
+    // Measured +0.034% and −0.164%.
+    assert!(err[0].abs() < 6e-4 && err[1].abs() < 3e-3, "{err:?}");
 
     let mut previous = f64::INFINITY;
-    for size in [0.01, 0.005, 0.0025] {
+    // Measured +22.96%, +3.99%, +1.11%: each held within 30% of that.
+    for (size, measured) in [(0.01, 0.2296), (0.005, 0.0399), (0.0025, 0.0111)] {
         let lin = bending_frequencies(&cantilever(1, size), &mat);
         let e1 = (lin[0] - exact[0]) / exact[0];
         println!(
@@ -415,6 +417,10 @@ fn slender_cantilever_matches_euler_bernoulli() {
             100.0 * e1
         );
         assert!(e1 > 0.0, "linear triangles are too stiff, never too soft");
+        assert!(
+            (e1 - measured).abs() < 0.3 * measured,
+            "Tri3, h = {size}: {e1:+.4} vs measured {measured:+.4}"
+        );
         assert!(
             e1 < previous,
             "Tri3 must converge toward the beam frequency"

@@ -1,11 +1,14 @@
 """Independent reader check of an hbcontact output directory with meshio.
 
-usage: meshio_check.py OUTPUT_DIR [--expect EXPECT.json]
+usage: meshio_check.py OUTPUT_DIR [--expect EXPECT.json] [--probe NAME=I,J,... ...]
 
 Every *.vtu must read, with points and cells; every array named in EXPECT.json
 ({"point": {name: components}, "cell": {name: components}}) must be present in every
 frame_*.vtu with that many components, one tuple per point/cell, and finite. Every *.pvd
 must reference existing files (each read by meshio) with strictly increasing times.
+Each --probe prints, for every frame of the first .pvd in time order, the mean displacement of
+the listed points (0-based point indices, = mesh node indices) as
+"meshio_check: probe NAME TIME UX UY", for the caller to compare with its own records.
 """
 import json
 import math
@@ -34,6 +37,11 @@ def main():
     expect = {"point": {}, "cell": {}}
     if "--expect" in args:
         expect = json.loads(Path(args[args.index("--expect") + 1]).read_text())
+    probes = []
+    for i, a in enumerate(args):
+        if a == "--probe":
+            name, ids = args[i + 1].split("=", 1)
+            probes.append((name, [int(v) for v in ids.split(",")]))
     vtus = sorted(out.glob("*.vtu"))
     if not vtus:
         fail(f"no .vtu files in {out}")
@@ -70,8 +78,13 @@ def main():
             f = out / ds.attrib["file"]
             if not f.exists():
                 fail(f"{pvd.name} references missing {f.name}")
-            meshio.read(f)
+            m = meshio.read(f)
             times.append(float(ds.attrib["timestep"]))
+            if pvd == pvds[0]:
+                for name, ids in probes:
+                    u = np.asarray(m.point_data["displacement"])[ids]
+                    ux, uy = u[:, 0].mean(), u[:, 1].mean()
+                    print(f"meshio_check: probe {name} {times[-1]!r} {float(ux)!r} {float(uy)!r}")
         if not times or any(b <= a for a, b in zip(times, times[1:])) or not all(math.isfinite(t) for t in times):
             fail(f"{pvd.name}: times not strictly increasing: {times[:5]}...")
         print(f"meshio_check: {pvd.name}: {len(times)} steps, t in [{times[0]:.6g}, {times[-1]:.6g}]")
