@@ -9,6 +9,11 @@ pub enum Error {
     #[error("{path}: {message}")]
     Config { path: PathBuf, message: String },
 
+    /// Bad input that is not tied to one file's line: a group or value the pipeline names does
+    /// not fit the mesh (the message names the pipeline field). Exit code 2, like `Config`.
+    #[error("{0}")]
+    Input(String),
+
     /// gmsh could not be found or failed.
     #[error("gmsh: {0}")]
     Gmsh(String),

@@ -72,7 +72,7 @@ enum SchemaKind {
 
 fn exit_code(e: &Error) -> u8 {
     match e.root() {
-        Error::Config { .. } | Error::Gmsh(_) | Error::Mesh { .. } => 2,
+        Error::Config { .. } | Error::Input(_) | Error::Gmsh(_) | Error::Mesh { .. } => 2,
         Error::Model(_) => 3,
         Error::NotConverged(_) => 4,
         Error::Io { .. } => 5,

@@ -520,18 +520,17 @@ fn bad_contact_input_is_refused_naming_the_group() {
     assert!(msg.contains("no edges") && msg.contains("curve"), "{msg}");
 }
 
-/// TEST GOAL: bad contact input is a configuration error (Error::Config, exit code 2), like
-/// every other mistake in the pipeline file, not a model failure.
+/// TEST GOAL: bad contact input is bad input (Error::Input, exit code 2), like every other
+/// mistake in the pipeline file, not a model failure (exit code 3).
 #[test]
-#[ignore = "error class fixed by the lead"]
-fn bad_contact_input_is_a_config_error() {
+fn bad_contact_input_is_bad_input() {
     let mesh = strip(&[[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]], 1.0);
     for (what, spec, group) in bad_inputs() {
         match build_contact_set(&mesh, &spec) {
-            Err(hbcontact::Error::Config { message, .. }) => {
+            Err(hbcontact::Error::Input(message)) => {
                 assert!(message.contains(group), "{what}: {message}")
             }
-            Err(e) => panic!("{what}: expected Error::Config, got {e:?}"),
+            Err(e) => panic!("{what}: expected Error::Input, got {e:?}"),
             Ok(_) => panic!("{what}: accepted"),
         }
     }

@@ -418,6 +418,16 @@ fn bad_input_fails_cleanly() {
             &["element"],
             2,
         ),
+        (
+            "contact obstacle is a surface",
+            &["--set", "contact={boundary: hole, obstacle: {curve: body}}"],
+            &[
+                "quickstart.yaml",
+                "contact.obstacle.curve",
+                "`body` has 2-D cells",
+            ],
+            2,
+        ),
     ];
     for (what, args, needles, code) in cases {
         let out = common::temp_out(&format!("bad-{}", what.replace(' ', "-")));

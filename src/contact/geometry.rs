@@ -3,7 +3,9 @@
 //! the initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload).
 
 use crate::config::{ContactSpec, ObstacleSpec};
-use crate::mesh::Mesh2d;
+use std::collections::HashMap;
+
+use crate::mesh::{Edge, Mesh2d};
 use crate::{Error, Result};
 
 #[derive(Clone, Debug)]
@@ -35,8 +37,7 @@ fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 /// Outward unit normals of the body boundary at each candidate, averaged over its edges.
-fn outward_normals(mesh: &Mesh2d, group: &str) -> std::collections::HashMap<usize, [f64; 2]> {
-    use std::collections::HashMap;
+fn outward_normals(mesh: &Mesh2d, group: &str) -> HashMap<usize, [f64; 2]> {
     // Which cell owns each boundary edge: the cell containing both end nodes.
     let mut cells_of: HashMap<usize, Vec<usize>> = HashMap::new();
     for (i, c) in mesh.cells.iter().enumerate() {
@@ -82,100 +83,192 @@ fn outward_normals(mesh: &Mesh2d, group: &str) -> std::collections::HashMap<usiz
     normals
 }
 
-/// Build the candidates' normals and gaps.
-pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet> {
+/// The obstacle curve as straight segments (3-node edges as two), with its free ends.
+struct Polyline {
+    segments: Vec<([f64; 2], [f64; 2])>,
+    /// End points used by one segment only: a closest point there is "off the obstacle".
+    ends: Vec<[f64; 2]>,
+}
+
+fn same_point(a: [f64; 2], b: [f64; 2]) -> bool {
+    (a[0] - b[0]).abs() < 1e-14 && (a[1] - b[1]).abs() < 1e-14
+}
+
+impl Polyline {
+    fn from_curve(mesh: &Mesh2d, group: &str, body: &[usize]) -> Result<Self> {
+        if mesh.cell_groups.contains_key(group) {
+            return Err(Error::Input(format!("contact.obstacle.curve: `{group}` has 2-D cells; an obstacle must be a curve meshed as line elements only")));
+        }
+        let Some(edges) = mesh.edge_groups.get(group) else {
+            return Err(Error::Input(format!(
+                "contact.obstacle.curve: no curve group `{group}` in the mesh.{}",
+                mesh.group_hint(group)
+            )));
+        };
+        if let Some(n) = mesh
+            .node_groups
+            .get(group)
+            .and_then(|g| g.iter().find(|n| body.binary_search(n).is_ok()))
+        {
+            return Err(Error::Input(format!("contact.obstacle.curve: `{group}` shares node {n} with the body; draw the obstacle as a separate curve")));
+        }
+        let mut segments = Vec::new();
+        for e in edges {
+            let p: Vec<[f64; 2]> = e.nodes.iter().map(|&n| mesh.nodes[n]).collect();
+            if p.len() == 3 {
+                segments.extend([(p[0], p[2]), (p[2], p[1])]);
+            } else {
+                segments.push((p[0], p[1]));
+            }
+        }
+        let mut count: Vec<([f64; 2], usize)> = Vec::new();
+        for p in segments.iter().flat_map(|(a, b)| [*a, *b]) {
+            match count.iter_mut().find(|(q, _)| same_point(*q, p)) {
+                Some(e) => e.1 += 1,
+                None => count.push((p, 1)),
+            }
+        }
+        let ends = count
+            .into_iter()
+            .filter(|(_, c)| *c == 1)
+            .map(|(p, _)| p)
+            .collect();
+        Ok(Polyline { segments, ends })
+    }
+
+    /// The closest point to x, the unit normal there oriented along `outward` (into the
+    /// obstacle), or `None` when x is off the obstacle (its closest point is a free end and x
+    /// does not lie straight across from it).
+    fn project(&self, x: [f64; 2], outward: Option<[f64; 2]>) -> Option<([f64; 2], [f64; 2])> {
+        let mut best = (f64::INFINITY, [0.0; 2], [0.0; 2]);
+        for (a, b) in &self.segments {
+            let t = sub(*b, *a);
+            let l2 = dot(t, t);
+            let s = if l2 > 0.0 {
+                (dot(sub(x, *a), t) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let c = [a[0] + s * t[0], a[1] + s * t[1]];
+            let d = dot(sub(x, c), sub(x, c));
+            if d < best.0 {
+                let l = l2.sqrt().max(1e-300);
+                best = (d, c, [t[1] / l, -t[0] / l]);
+            }
+        }
+        let (_, c, mut nrm) = best;
+        if dot(nrm, outward.unwrap_or(sub(c, x))) < 0.0 {
+            nrm = [-nrm[0], -nrm[1]];
+        }
+        let v = sub(c, x);
+        let vl = dot(v, v).sqrt();
+        let at_end = self.ends.iter().any(|e| same_point(*e, c));
+        if at_end && vl > 0.0 && (dot(v, nrm) / vl).abs() < 1.0 - 1e-9 {
+            return None;
+        }
+        Some((c, nrm))
+    }
+}
+
+/// Boundary length attributed to each node of the edges (see `ContactSet::tributary`).
+fn tributary_lengths(mesh: &Mesh2d, edges: &[Edge]) -> HashMap<usize, f64> {
+    let mut tributary = HashMap::new();
+    for e in edges {
+        let (pa, pb) = (mesh.nodes[e.nodes[0]], mesh.nodes[e.nodes[1]]);
+        let length = |p: [f64; 2], q: [f64; 2]| dot(sub(q, p), sub(q, p)).sqrt();
+        let (len, weights): (f64, &[f64]) = if e.nodes.len() == 3 {
+            let pm = mesh.nodes[e.nodes[2]];
+            (
+                length(pa, pm) + length(pm, pb),
+                &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+            )
+        } else {
+            (length(pa, pb), &[0.5, 0.5])
+        };
+        for (&n, w) in e.nodes.iter().zip(weights) {
+            *tributary.entry(n).or_insert(0.0) += w * len;
+        }
+    }
+    tributary
+}
+
+/// The contact boundary's nodes and edges, checked to be a curve of the body.
+fn boundary<'m>(
+    mesh: &'m Mesh2d,
+    spec: &ContactSpec,
+    body: &[usize],
+) -> Result<(&'m [usize], &'m [Edge])> {
     let Some(candidates) = mesh.node_groups.get(&spec.boundary) else {
-        return Err(Error::Model(format!(
+        return Err(Error::Input(format!(
             "contact.boundary: no group `{}` in the mesh.{}",
             spec.boundary,
             mesh.group_hint(&spec.boundary)
         )));
     };
     let Some(edges) = mesh.edge_groups.get(&spec.boundary) else {
-        return Err(Error::Model(format!(
+        return Err(Error::Input(format!(
             "contact.boundary: `{}` has no edges: it must be a curve of the body's boundary",
             spec.boundary
         )));
     };
-    let body = mesh.body_nodes();
     if candidates.iter().any(|n| body.binary_search(n).is_err()) {
-        return Err(Error::Model(format!(
+        return Err(Error::Input(format!(
             "contact.boundary: `{}` has nodes outside the body (is it the obstacle curve?)",
             spec.boundary
         )));
     }
-    // Tributary lengths.
-    let mut tributary = std::collections::HashMap::new();
-    for e in edges {
-        let (pa, pb) = (mesh.nodes[e.nodes[0]], mesh.nodes[e.nodes[1]]);
-        let len = if e.nodes.len() == 3 {
-            let pm = mesh.nodes[e.nodes[2]];
-            dot(sub(pm, pa), sub(pm, pa)).sqrt() + dot(sub(pb, pm), sub(pb, pm)).sqrt()
-        } else {
-            dot(sub(pb, pa), sub(pb, pa)).sqrt()
-        };
-        let weights: &[f64] = if e.nodes.len() == 3 {
-            &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0]
-        } else {
-            &[0.5, 0.5]
-        };
-        for (&n, w) in e.nodes.iter().zip(weights) {
-            *tributary.entry(n).or_insert(0.0) += w * len;
-        }
-    }
-    // The obstacle as a polyline of segments, for curves.
-    let segments: Vec<([f64; 2], [f64; 2])> = match &spec.obstacle {
-        ObstacleSpec::Curve { group } => {
-            if mesh.cell_groups.contains_key(group) {
-                return Err(Error::Model(format!("contact.obstacle.curve: `{group}` has 2-D cells; an obstacle must be a curve meshed as line elements only")));
-            }
-            let Some(obstacle_edges) = mesh.edge_groups.get(group) else {
-                return Err(Error::Model(format!(
-                    "contact.obstacle.curve: no curve group `{group}` in the mesh.{}",
-                    mesh.group_hint(group)
-                )));
-            };
-            if let Some(n) = mesh
-                .node_groups
-                .get(group)
-                .and_then(|g| g.iter().find(|n| body.binary_search(n).is_ok()))
-            {
-                return Err(Error::Model(format!("contact.obstacle.curve: `{group}` shares node {n} with the body; draw the obstacle as a separate curve")));
-            }
-            let mut segs = Vec::new();
-            for e in obstacle_edges {
-                let p: Vec<[f64; 2]> = e.nodes.iter().map(|&n| mesh.nodes[n]).collect();
-                if p.len() == 3 {
-                    segs.push((p[0], p[2]));
-                    segs.push((p[2], p[1]));
-                } else {
-                    segs.push((p[0], p[1]));
-                }
-            }
-            segs
-        }
-        _ => Vec::new(),
-    };
-    // Curve end points: a closest point there is "off the obstacle".
-    let mut endpoint_count: Vec<([f64; 2], usize)> = Vec::new();
-    for (a, b) in &segments {
-        for p in [a, b] {
-            match endpoint_count
-                .iter_mut()
-                .find(|(q, _)| (q[0] - p[0]).abs() < 1e-14 && (q[1] - p[1]).abs() < 1e-14)
-            {
-                Some(e) => e.1 += 1,
-                None => endpoint_count.push((*p, 1)),
-            }
-        }
-    }
-    let ends: Vec<[f64; 2]> = endpoint_count
-        .into_iter()
-        .filter(|(_, c)| *c == 1)
-        .map(|(p, _)| p)
-        .collect();
-    let outward = outward_normals(mesh, &spec.boundary);
+    Ok((candidates, edges))
+}
 
+/// The closest obstacle point and the normal into the obstacle for node `n` at x; `None` when
+/// off a curve obstacle.
+fn closest_point(
+    spec: &ObstacleSpec,
+    polyline: Option<&Polyline>,
+    n: usize,
+    x: [f64; 2],
+    outward: Option<[f64; 2]>,
+) -> Result<Option<([f64; 2], [f64; 2])>> {
+    Ok(match (spec, polyline) {
+        (ObstacleSpec::Line { point, normal }, _) => {
+            let d = dot(sub(x, *point), *normal);
+            Some((
+                [x[0] - d * normal[0], x[1] - d * normal[1]],
+                [-normal[0], -normal[1]],
+            ))
+        }
+        (
+            ObstacleSpec::Circle {
+                center,
+                radius,
+                body_inside,
+            },
+            _,
+        ) => {
+            let r = sub(x, *center);
+            let len = dot(r, r).sqrt();
+            if len < 1e-300 {
+                return Err(Error::Input(format!("contact.obstacle.circle: node {n} sits at the centre of the circle obstacle; its normal is undefined")));
+            }
+            let u = [r[0] / len, r[1] / len];
+            let c = [center[0] + radius * u[0], center[1] + radius * u[1]];
+            Some((c, if *body_inside { u } else { [-u[0], -u[1]] }))
+        }
+        (ObstacleSpec::Curve { .. }, Some(polyline)) => polyline.project(x, outward),
+        (ObstacleSpec::Curve { .. }, None) => None,
+    })
+}
+
+/// Build the candidates' normals and gaps.
+pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet> {
+    let body = mesh.body_nodes();
+    let (candidates, edges) = boundary(mesh, spec, &body)?;
+    let tributary = tributary_lengths(mesh, edges);
+    let polyline = match &spec.obstacle {
+        ObstacleSpec::Curve { group } => Some(Polyline::from_curve(mesh, group, &body)?),
+        _ => None,
+    };
+    let outward = outward_normals(mesh, &spec.boundary);
     let mut set = ContactSet {
         nodes: Vec::new(),
         normals: Vec::new(),
@@ -189,71 +282,22 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
     let mut smallest_gap = f64::INFINITY;
     for &n in candidates {
         let x = mesh.nodes[n];
-        let (closest, normal) = match &spec.obstacle {
-            ObstacleSpec::Line { point, normal } => {
-                let d = dot(sub(x, *point), *normal);
-                (
-                    [x[0] - d * normal[0], x[1] - d * normal[1]],
-                    [-normal[0], -normal[1]],
-                )
-            }
-            ObstacleSpec::Circle {
-                center,
-                radius,
-                body_inside,
-            } => {
-                let r = sub(x, *center);
-                let len = dot(r, r).sqrt();
-                if len < 1e-300 {
-                    return Err(Error::Model(format!("contact: node {n} sits at the centre of the circle obstacle; its normal is undefined")));
-                }
-                let u = [r[0] / len, r[1] / len];
-                let c = [center[0] + radius * u[0], center[1] + radius * u[1]];
-                (c, if *body_inside { u } else { [-u[0], -u[1]] })
-            }
-            ObstacleSpec::Curve { .. } => {
-                let mut best = (f64::INFINITY, [0.0; 2], [0.0; 2]);
-                for (a, b) in &segments {
-                    let t = sub(*b, *a);
-                    let l2 = dot(t, t);
-                    let s = if l2 > 0.0 {
-                        (dot(sub(x, *a), t) / l2).clamp(0.0, 1.0)
-                    } else {
-                        0.0
-                    };
-                    let c = [a[0] + s * t[0], a[1] + s * t[1]];
-                    let d = dot(sub(x, c), sub(x, c));
-                    if d < best.0 {
-                        let l = l2.sqrt().max(1e-300);
-                        best = (d, c, [t[1] / l, -t[0] / l]);
-                    }
-                }
-                let (_, c, mut nrm) = best;
-                // Orient into the obstacle: along the body's outward normal.
-                let out = outward.get(&n).copied().unwrap_or(sub(c, x));
-                if dot(nrm, out) < 0.0 {
-                    nrm = [-nrm[0], -nrm[1]];
-                }
-                // Off the obstacle: the closest point is a free end and x is not straight across.
-                let at_end = ends
-                    .iter()
-                    .any(|e| (e[0] - c[0]).abs() < 1e-14 && (e[1] - c[1]).abs() < 1e-14);
-                let v = sub(c, x);
-                let vl = dot(v, v).sqrt();
-                if at_end && vl > 0.0 && (dot(v, nrm) / vl).abs() < 1.0 - 1e-9 {
-                    set.dropped_off_obstacle += 1;
-                    continue;
-                }
-                (c, nrm)
-            }
+        let found = closest_point(
+            &spec.obstacle,
+            polyline.as_ref(),
+            n,
+            x,
+            outward.get(&n).copied(),
+        )?;
+        let Some((closest, normal)) = found else {
+            set.dropped_off_obstacle += 1;
+            continue;
         };
         let gap = dot(sub(closest, x), normal);
         smallest_gap = smallest_gap.min(gap);
-        if let Some(limit) = spec.search_distance {
-            if gap > limit {
-                set.dropped_beyond_search += 1;
-                continue;
-            }
+        if spec.search_distance.is_some_and(|limit| gap > limit) {
+            set.dropped_beyond_search += 1;
+            continue;
         }
         set.nodes.push(n);
         set.normals.push(normal);
@@ -263,7 +307,7 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
             .push(tributary.get(&n).copied().unwrap_or(0.0));
     }
     if set.nodes.is_empty() {
-        return Err(Error::Model(format!(
+        return Err(Error::Input(format!(
             "contact: none of the {} nodes of `{}` faces the obstacle ({} off the obstacle, {} farther than search_distance; smallest gap {smallest_gap:e}): extend the obstacle, raise contact.search_distance, or check the geometry",
             set.candidates, spec.boundary, set.dropped_off_obstacle, set.dropped_beyond_search
         )));
