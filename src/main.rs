@@ -57,7 +57,7 @@ enum Command {
         #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
         ladders: Vec<String>,
     },
-    /// Print the JSON Schema of a file hbcontact writes (`summary`: summary.json).
+    /// Print the JSON Schema of a pipeline YAML (`pipeline`) or of summary.json (`summary`).
     Schema {
         #[arg(value_enum)]
         which: SchemaKind,
@@ -66,7 +66,9 @@ enum Command {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SchemaKind {
-    /// summary.json
+    /// A pipeline YAML (docs/pipeline.schema.json).
+    Pipeline,
+    /// summary.json (docs/summary.schema.json)
     Summary,
 }
 
@@ -143,10 +145,12 @@ fn to_json<T: serde::Serialize>(value: &T) -> hbcontact::Result<String> {
     serde_json::to_string_pretty(value).map_err(|e| Error::Model(format!("internal: JSON: {e}")))
 }
 
-/// `hbcontact schema summary`: the JSON Schema of `summary.json`.
+/// `hbcontact schema pipeline|summary`: the JSON Schema of a pipeline YAML or of
+/// `summary.json` (the files in docs/).
 fn schema(which: SchemaKind) -> hbcontact::Result<()> {
     let schema = match which {
-        SchemaKind::Summary => schemars::schema_for!(hbcontact::pipeline::Summary),
+        SchemaKind::Pipeline => hbcontact::config::pipeline_schema(),
+        SchemaKind::Summary => pipeline::summary_schema(),
     };
     println!("{}", to_json(&schema)?);
     Ok(())

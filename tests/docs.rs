@@ -15,14 +15,12 @@ fn read(path: &Path) -> String {
 }
 
 const REGENERATE: &str = "regenerate it with `cargo run --release --example write_schemas` \
-                          and commit docs/pipeline.schema.json";
+                          and commit docs/*.schema.json";
 
-#[test]
-fn committed_pipeline_schema_is_the_generated_one() {
-    let path = root().join("docs/pipeline.schema.json");
-    let generated = serde_json::to_string_pretty(&hbcontact::config::pipeline_schema())
-        .expect("a schema serializes")
-        + "\n";
+/// The committed schema file equals the one the code generates.
+fn assert_committed(file: &str, generated: &Value) {
+    let path = root().join("docs").join(file);
+    let generated = serde_json::to_string_pretty(generated).expect("a schema serializes") + "\n";
     let committed = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}; {REGENERATE}", path.display()));
     if committed != generated {
@@ -34,10 +32,26 @@ fn committed_pipeline_schema_is_the_generated_one() {
                 || "a missing or extra line at the end".to_string(),
                 |i| format!("line {}", i + 1),
             );
-        panic!(
-            "docs/pipeline.schema.json differs from pipeline_schema() (first at {line}): {REGENERATE}"
-        );
+        panic!("docs/{file} differs from the code's schema (first at {line}): {REGENERATE}");
     }
+}
+
+#[test]
+fn committed_pipeline_schema_is_the_generated_one() {
+    assert_committed(
+        "pipeline.schema.json",
+        &hbcontact::config::pipeline_schema(),
+    );
+}
+
+/// TEST GOAL: the summary's schema in docs/ is the one `hbcontact schema summary` prints and
+/// the typed `Summary` serializes to, so scripts reading summary.json can rely on it.
+#[test]
+fn committed_summary_schema_is_the_generated_one() {
+    assert_committed(
+        "summary.schema.json",
+        &hbcontact::pipeline::summary_schema(),
+    );
 }
 
 /// Every key path of the schema (`a.b.c`; list items add no segment), following `$ref`,

@@ -1,7 +1,7 @@
 //! Harmonic balance: the periodic steady state of M ü + D u̇ + K u = Bᵀλ + f(t) with
 //! unilateral contact B u − g0 ≤ 0, λ ≤ 0, λ·(B u − g0) = 0.
 //!
-//! Glossary (as in `../shared/design/method.md`):
+//! The formulation and its equation numbers (n) are those of `docs/method.md`. Glossary:
 //! - ω = 2πf the fundamental angular frequency, T = 2π/ω the period;
 //! - H the highest harmonic kept, M = 2H + 1 Fourier coefficients per scalar;
 //! - N time samples per period for the contact terms (N > 2H; default 16H);
@@ -45,7 +45,7 @@ pub struct HbSettings {
 }
 
 impl HbSettings {
-    /// N = 16H converged where 2H+1 and 4H did not (method.md); static needs one sample.
+    /// N = 16H converged where 2H+1 and 4H did not (docs/method.md §6); static needs one sample.
     pub fn default_samples(harmonics: usize) -> usize {
         if harmonics == 0 {
             1

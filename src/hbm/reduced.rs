@@ -1,5 +1,5 @@
 //! The contact problem reduced to the contact nodes' multipliers, solved by a semi-smooth
-//! Newton method on the complementarity residual (23):
+//! Newton method on the complementarity residual (23) of docs/method.md:
 //!
 //! R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)),   J = I + Q S P (cG − I).
 //!

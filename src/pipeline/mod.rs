@@ -23,7 +23,7 @@ pub use model::{build, Model, Purpose};
 use report::Sampled;
 pub use stages::{hb_settings, StageTimes, Stages};
 use summary::MeshInfo;
-pub use summary::Summary;
+pub use summary::{summary_schema, Summary};
 
 /// Options from the command line.
 #[derive(Clone, Debug, Default)]

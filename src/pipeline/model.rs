@@ -2,19 +2,21 @@
 //! harmonic loads, contact operator and mass model. Everything here is decided by what the
 //! scene contains, and recorded in `Effects` for the run summary.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use faer::c64;
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::config::{ContactMass, LoadKind, ObstacleSpec, Pipeline, PlaneModelSpec, Signal};
+use crate::config::{
+    ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline, PlaneModelSpec,
+};
 use crate::contact::geometry::{build_contact_set, ContactSet};
 use crate::contact::mass::{redistribute_mass, Redistribution};
 use crate::contact::{contact_operator, ContactOperator};
 use crate::fem::DofMap;
 use crate::fem::{self, MassKind, Material, PlaneModel};
-use crate::hbm::{HarmonicInput, System};
+use crate::hbm::{fourier, HarmonicInput, System};
 use crate::linalg::Triplets;
 use crate::mesh::Mesh2d;
 use crate::{Error, Result};
@@ -143,147 +145,19 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
     Ok(())
 }
 
-fn has_content<const C: usize>(s: &Signal<C>) -> bool {
-    s.static_part.iter().any(|&v| v != 0.0) || !s.harmonics.is_empty()
-}
-
-/// Build the discrete model.
+/// Build the discrete model: stiffness, held dofs, contact set, mass model, harmonic inputs,
+/// the per-harmonic system, the contact operator, probes and what the scene simulates.
 pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     check_groups(p, &mesh)?;
     let material = material(p);
-    let ndof = 2 * mesh.nodes.len();
     let stiffness = fem::assemble_stiffness(&mesh, &material)?;
-
-    // Held dofs.
-    let mut active = vec![false; ndof];
-    for n in mesh.body_nodes() {
-        active[2 * n] = true;
-        active[2 * n + 1] = true;
-    }
-    let mut held = vec![false; ndof];
-    for g in &p.boundaries.fixed {
-        for &n in node_group(p, &mesh, "boundaries.fixed", g)? {
-            held[2 * n] = true;
-            held[2 * n + 1] = true;
-        }
-    }
-    for pr in &p.boundaries.prescribed {
-        for &n in node_group(p, &mesh, "boundaries.prescribed.group", &pr.group)? {
-            held[2 * n + pr.component] = true;
-        }
-    }
-    let dofs = DofMap::new(&active, &held);
-
-    // Contact candidates and the mass model.
+    let dofs = dof_map(p, &mesh)?;
     let contact_set = match &p.contact {
         Some(spec) => Some(build_contact_set(&mesh, spec)?),
         None => None,
     };
-    let mass_model = match (&p.contact, purpose) {
-        (Some(spec), _) if spec.mass == ContactMass::Redistributed => MassModel::Redistributed,
-        (Some(_), _) => MassModel::Lumped,
-        (None, Purpose::Transient) => MassModel::Lumped,
-        (None, Purpose::HarmonicBalance) => MassModel::Consistent,
-    };
-    let mut redistribution = None;
-    let (mass, mass_diagonal) = match mass_model {
-        MassModel::Consistent => (
-            fem::assemble_mass(&mesh, &material, MassKind::Consistent)?,
-            None,
-        ),
-        MassModel::Lumped | MassModel::Redistributed => {
-            let lumped = fem::assemble_mass(&mesh, &material, MassKind::Lumped)?.diagonal();
-            let diag = if let (MassModel::Redistributed, Some(set)) = (mass_model, &contact_set) {
-                let r = redistribute_mass(&mesh, &lumped, &set.nodes)?;
-                let d = r.mass.clone();
-                redistribution = Some(r);
-                d
-            } else {
-                lumped
-            };
-            let mut t = Triplets::new(ndof);
-            for (i, &m) in diag.iter().enumerate() {
-                if active[i] {
-                    t.push(i, i, m);
-                }
-            }
-            (t, Some(diag))
-        }
-    };
-
-    // Harmonic loads and motions.
-    let (nf, np) = (dofs.free.len(), dofs.prescribed.len());
-    let mut inputs: BTreeMap<usize, HarmonicInput> = BTreeMap::new();
-    let zero_input = || HarmonicInput {
-        force: vec![c64::new(0.0, 0.0); nf],
-        motion: vec![c64::new(0.0, 0.0); np],
-    };
-    let nodal = |kind: LoadKind, group: &str, value: [f64; 2]| -> Vec<f64> {
-        match kind {
-            LoadKind::Traction => {
-                let edges = mesh
-                    .edge_groups
-                    .get(group)
-                    .map(Vec::as_slice)
-                    .unwrap_or(&[]);
-                fem::edge_traction_load(&mesh, edges, value, material.thickness)
-            }
-            LoadKind::Force => {
-                let nodes = mesh
-                    .node_groups
-                    .get(group)
-                    .map(Vec::as_slice)
-                    .unwrap_or(&[]);
-                fem::point_force_load(&mesh, nodes, value)
-            }
-        }
-    };
-    let mut add_force = |k: usize, v: &[f64], imaginary: bool| {
-        let input = inputs.entry(k).or_insert_with(zero_input);
-        for (i, &d) in dofs.free.iter().enumerate() {
-            // z = a − i b for a cos + b sin.
-            if imaginary {
-                input.force[i] -= c64::new(0.0, v[d]);
-            } else {
-                input.force[i] += c64::new(v[d], 0.0);
-            }
-        }
-    };
-    for l in &p.boundaries.loads {
-        if l.signal.static_part.iter().any(|&v| v != 0.0) {
-            add_force(0, &nodal(l.kind, &l.group, l.signal.static_part), false);
-        }
-        for &(k, cos, sin) in &l.signal.harmonics {
-            if cos.iter().any(|&v| v != 0.0) {
-                add_force(k, &nodal(l.kind, &l.group, cos), false);
-            }
-            if sin.iter().any(|&v| v != 0.0) {
-                add_force(k, &nodal(l.kind, &l.group, sin), true);
-            }
-        }
-    }
-    let mut prescribed_motion = false;
-    for pr in &p.boundaries.prescribed {
-        let nodes = node_group(p, &mesh, "boundaries.prescribed.group", &pr.group)?;
-        let mut add_motion = |k: usize, value: c64| {
-            let input = inputs.entry(k).or_insert_with(zero_input);
-            for &n in nodes {
-                if let Some(d) = dofs.prescribed_index(2 * n + pr.component) {
-                    input.motion[d] = value;
-                }
-            }
-        };
-        if pr.signal.static_part[0] != 0.0 {
-            add_motion(0, c64::new(pr.signal.static_part[0], 0.0));
-            prescribed_motion = true;
-        }
-        for &(k, cos, sin) in &pr.signal.harmonics {
-            add_motion(k, c64::new(cos[0], -sin[0]));
-            prescribed_motion = true;
-        }
-    }
-    let _ = has_content::<2>;
-
+    let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
+    let (inputs, prescribed_motion) = harmonic_inputs(p, &mesh, &material, &dofs)?;
     let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
     let rayleigh = p
         .damping
@@ -294,57 +168,206 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
         .map(|(&k, _)| k)
         .collect();
-    let static_load = excited.first() == Some(&0);
-    let system = System::new(dofs, &stiffness, &mass, rayleigh, omega, inputs)?;
-
-    let contact = match (contact_set, &p.contact) {
-        (Some(set), Some(spec)) => {
-            let operator = contact_operator(&set, &system.dofs);
-            let _ = spec;
-            Some(ContactModel {
-                set,
-                operator,
-                redistribution,
-            })
-        }
-        _ => None,
-    };
-
+    let system = System::new(dofs, &stiffness, &mass.matrix, rayleigh, omega, inputs)?;
+    let contact = contact_set.map(|set| ContactModel {
+        operator: contact_operator(&set, &system.dofs),
+        set,
+        redistribution: mass.redistribution,
+    });
     let probes = p
         .output
         .probes
         .iter()
         .map(|g| Ok((g.clone(), node_group(p, &mesh, "output.probes", g)?.clone())))
         .collect::<Result<Vec<_>>>()?;
-
     let effects = Effects {
-        static_load,
+        static_load: excited.first() == Some(&0),
         excited_harmonics: excited.into_iter().filter(|&k| k > 0).collect(),
         prescribed_motion,
         damping: rayleigh.map(|(a, b)| format!("Rayleigh: alpha = {a:e} 1/s, beta = {b:e} s")),
-        contact: p.contact.as_ref().map(|c| match &c.obstacle {
-            ObstacleSpec::Curve { group } => format!(
-                "unilateral, `{}` against the rigid curve `{group}`",
-                c.boundary
-            ),
-            ObstacleSpec::Line { .. } => {
-                format!("unilateral, `{}` against a rigid line", c.boundary)
-            }
-            ObstacleSpec::Circle { body_inside, .. } => format!(
-                "unilateral, `{}` against a rigid circle (body {})",
-                c.boundary,
-                if *body_inside { "inside" } else { "outside" }
-            ),
-        }),
-        mass: mass_model,
+        contact: p.contact.as_ref().map(describe_contact),
+        mass: mass.model,
     };
     Ok(Model {
         mesh,
         material,
         system,
         contact,
-        mass_diagonal,
+        mass_diagonal: mass.diagonal,
         effects,
         probes,
     })
+}
+
+/// Free and prescribed dofs: every dof of a cell's node is free unless `boundaries.fixed` or
+/// `boundaries.prescribed` holds it.
+fn dof_map(p: &Pipeline, mesh: &Mesh2d) -> Result<DofMap> {
+    let ndof = 2 * mesh.nodes.len();
+    let mut active = vec![false; ndof];
+    for n in mesh.body_nodes() {
+        active[2 * n] = true;
+        active[2 * n + 1] = true;
+    }
+    let mut held = vec![false; ndof];
+    for g in &p.boundaries.fixed {
+        for &n in node_group(p, mesh, "boundaries.fixed", g)? {
+            held[2 * n] = true;
+            held[2 * n + 1] = true;
+        }
+    }
+    for pr in &p.boundaries.prescribed {
+        for &n in node_group(p, mesh, "boundaries.prescribed.group", &pr.group)? {
+            held[2 * n + pr.component] = true;
+        }
+    }
+    Ok(DofMap::new(&active, &held))
+}
+
+/// The mass the run uses, as a matrix and (when diagonal) its diagonal.
+struct Mass {
+    model: MassModel,
+    matrix: Triplets,
+    diagonal: Option<Vec<f64>>,
+    redistribution: Option<Redistribution>,
+}
+
+/// Consistent mass for linear harmonic balance; lumped for time marching; lumped with the
+/// contact nodes' mass redistributed for contact (unless `contact.mass: lumped`).
+fn mass(
+    p: &Pipeline,
+    mesh: &Mesh2d,
+    material: &Material,
+    purpose: Purpose,
+    contact_set: Option<&ContactSet>,
+) -> Result<Mass> {
+    let model = match (&p.contact, purpose) {
+        (Some(spec), _) if spec.mass == ContactMass::Redistributed => MassModel::Redistributed,
+        (Some(_), _) | (None, Purpose::Transient) => MassModel::Lumped,
+        (None, Purpose::HarmonicBalance) => MassModel::Consistent,
+    };
+    if model == MassModel::Consistent {
+        return Ok(Mass {
+            model,
+            matrix: fem::assemble_mass(mesh, material, MassKind::Consistent)?,
+            diagonal: None,
+            redistribution: None,
+        });
+    }
+    let lumped = fem::assemble_mass(mesh, material, MassKind::Lumped)?.diagonal();
+    let redistribution = match (model, contact_set) {
+        (MassModel::Redistributed, Some(set)) => {
+            Some(redistribute_mass(mesh, &lumped, &set.nodes)?)
+        }
+        _ => None,
+    };
+    let diagonal = redistribution.as_ref().map_or(lumped, |r| r.mass.clone());
+    let active: BTreeSet<usize> = mesh.body_nodes().into_iter().collect();
+    let mut matrix = Triplets::new(diagonal.len());
+    for (i, &m) in diagonal.iter().enumerate() {
+        if active.contains(&(i / 2)) {
+            matrix.push(i, i, m);
+        }
+    }
+    Ok(Mass {
+        model,
+        matrix,
+        diagonal: Some(diagonal),
+        redistribution,
+    })
+}
+
+/// The loads' and prescribed motions' complex amplitudes per harmonic (z = a − i b for
+/// a cos + b sin), and whether any motion is prescribed.
+fn harmonic_inputs(
+    p: &Pipeline,
+    mesh: &Mesh2d,
+    material: &Material,
+    dofs: &DofMap,
+) -> Result<(BTreeMap<usize, HarmonicInput>, bool)> {
+    let (nf, np) = (dofs.free.len(), dofs.prescribed.len());
+    let mut inputs: BTreeMap<usize, HarmonicInput> = BTreeMap::new();
+    let zero = HarmonicInput {
+        force: vec![c64::new(0.0, 0.0); nf],
+        motion: vec![c64::new(0.0, 0.0); np],
+    };
+    for l in &p.boundaries.loads {
+        let mut add = |k: usize, cos: [f64; 2], sin: [f64; 2]| {
+            let (fc, fs) = (
+                nodal_load(mesh, material, l, cos),
+                nodal_load(mesh, material, l, sin),
+            );
+            let target = &mut inputs.entry(k).or_insert_with(|| zero.clone()).force;
+            for (i, &d) in dofs.free.iter().enumerate() {
+                target[i] += fourier::from_cos_sin(fc[d], fs[d]);
+            }
+        };
+        if l.signal.static_part.iter().any(|&v| v != 0.0) {
+            add(0, l.signal.static_part, [0.0; 2]);
+        }
+        for &(k, cos, sin) in &l.signal.harmonics {
+            if cos.iter().chain(&sin).any(|&v| v != 0.0) {
+                add(k, cos, sin);
+            }
+        }
+    }
+    let mut prescribed_motion = false;
+    for pr in &p.boundaries.prescribed {
+        let nodes = node_group(p, mesh, "boundaries.prescribed.group", &pr.group)?;
+        let mut set = |k: usize, value: c64| {
+            let target = &mut inputs.entry(k).or_insert_with(|| zero.clone()).motion;
+            for &n in nodes {
+                if let Some(d) = dofs.prescribed_index(2 * n + pr.component) {
+                    target[d] = value;
+                }
+            }
+        };
+        if pr.signal.static_part[0] != 0.0 {
+            set(0, c64::new(pr.signal.static_part[0], 0.0));
+            prescribed_motion = true;
+        }
+        for &(k, cos, sin) in &pr.signal.harmonics {
+            set(k, fourier::from_cos_sin(cos[0], sin[0]));
+            prescribed_motion = true;
+        }
+    }
+    Ok((inputs, prescribed_motion))
+}
+
+/// The nodal force vector (all dofs) of one load with the value `value` (traction per area or
+/// total force); zero for a zero value.
+fn nodal_load(mesh: &Mesh2d, material: &Material, load: &LoadSpec, value: [f64; 2]) -> Vec<f64> {
+    if value == [0.0; 2] {
+        return vec![0.0; 2 * mesh.nodes.len()];
+    }
+    let empty = Vec::new();
+    match load.kind {
+        LoadKind::Traction => {
+            let edges = mesh.edge_groups.get(&load.group).unwrap_or(&empty);
+            fem::edge_traction_load(mesh, edges, value, material.thickness)
+        }
+        LoadKind::Force => {
+            let nodes = mesh
+                .node_groups
+                .get(&load.group)
+                .map(Vec::as_slice)
+                .unwrap_or(&[]);
+            fem::point_force_load(mesh, nodes, value)
+        }
+    }
+}
+
+/// How the summary names the scene's contact.
+fn describe_contact(c: &ContactSpec) -> String {
+    match &c.obstacle {
+        ObstacleSpec::Curve { group } => format!(
+            "unilateral, `{}` against the rigid curve `{group}`",
+            c.boundary
+        ),
+        ObstacleSpec::Line { .. } => format!("unilateral, `{}` against a rigid line", c.boundary),
+        ObstacleSpec::Circle { body_inside, .. } => format!(
+            "unilateral, `{}` against a rigid circle (body {})",
+            c.boundary,
+            if *body_inside { "inside" } else { "outside" }
+        ),
+    }
 }

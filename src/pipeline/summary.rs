@@ -16,6 +16,14 @@ use crate::config::Pipeline;
 use crate::hbm::{Complementarity, IterationLog, Solution};
 use crate::transient::TransientResult;
 
+/// The JSON Schema (draft 07) of `summary.json` (`docs/summary.schema.json`).
+pub fn summary_schema() -> serde_json::Value {
+    let schema = schemars::generate::SchemaSettings::draft07()
+        .into_generator()
+        .into_root_schema_for::<Summary>();
+    serde_json::Value::from(schema)
+}
+
 /// Which solver produced the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
