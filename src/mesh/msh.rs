@@ -109,196 +109,262 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
             format!("cannot parse as MSH 4.1 (write it with gmsh `-format msh41`): {short}"),
         )
     })?;
-    let names = physical_names(&bytes);
-
-    // Entity (dim, tag) → physical tags.
-    let mut entity_physicals: HashMap<(i32, i32), Vec<i32>> = HashMap::new();
-    if let Some(entities) = &msh.data.entities {
-        for p in &entities.points {
-            entity_physicals.insert((0, p.tag), p.physical_tags.clone());
-        }
-        for c in &entities.curves {
-            entity_physicals.insert((1, c.tag), c.physical_tags.clone());
-        }
-        for s in &entities.surfaces {
-            entity_physicals.insert((2, s.tag), s.physical_tags.clone());
-        }
-        for v in &entities.volumes {
-            entity_physicals.insert((3, v.tag), v.physical_tags.clone());
-        }
-    }
-    let group_name = |dim: i32, tag: i32| {
-        names
-            .get(&(dim, tag))
-            .cloned()
-            .unwrap_or_else(|| format!("{dim}D-{tag}"))
-    };
-
-    // Nodes, with a tag → index map (tags need not be consecutive).
     let Some(node_data) = &msh.data.nodes else {
         return Err(err(path, "the file has no $Nodes section"));
     };
-    let mut nodes = Vec::new();
-    let mut node_z = Vec::new();
-    let mut index_of: HashMap<u64, usize> = HashMap::new();
-    let mut next_tag = node_data.min_node_tag;
-    for block in &node_data.node_blocks {
-        let mut tags: Vec<(u64, usize)> = match &block.node_tags {
-            Some(map) => map.iter().map(|(&t, &i)| (t, i)).collect(),
-            // mshio drops contiguous tags: they run on from the previous block.
-            None => (0..block.nodes.len())
-                .map(|i| (next_tag + i as u64, i))
-                .collect(),
-        };
-        tags.sort_by_key(|&(_, i)| i);
-        next_tag += block.nodes.len() as u64;
-        for (tag, i) in tags {
-            let n = &block.nodes[i];
-            index_of.insert(tag, nodes.len());
-            node_z.push((tag, n.z, n.x.abs().max(n.y.abs())));
-            nodes.push([n.x, n.y]);
-        }
-    }
-    let node_index = |tag: u64| -> Result<usize> {
-        index_of.get(&tag).copied().ok_or_else(|| {
-            err(
-                path,
-                format!("an element refers to node {tag}, which is not in $Nodes"),
-            )
-        })
-    };
-
     let Some(elements) = &msh.data.elements else {
         return Err(err(path, "the file has no $Elements section"));
     };
-    let any_physical_2d = elements.element_blocks.iter().any(|b| {
-        b.entity_dim == 2
-            && entity_physicals
-                .get(&(2, b.entity_tag))
-                .is_some_and(|p| !p.is_empty())
-    });
-    let mut mesh = Mesh2d {
+    let nodes = NodeTable::read(node_data);
+    let mut reader = Reader {
+        path,
+        names: physical_names(&bytes),
+        entity_physicals: entity_physicals(&msh),
+        mesh: Mesh2d {
+            nodes: nodes.positions.clone(),
+            ..Default::default()
+        },
         nodes,
-        ..Default::default()
+        node_sets: BTreeMap::new(),
+        seen_cells: HashMap::new(),
     };
-    let mut node_sets: BTreeMap<String, BTreeSet<usize>> = BTreeMap::new();
-    let mut seen_cells: HashMap<u64, usize> = HashMap::new();
+    let any_physical_2d = elements
+        .element_blocks
+        .iter()
+        .any(|b| b.entity_dim == 2 && !reader.physicals(2, b.entity_tag).is_empty());
     for block in &elements.element_blocks {
-        let physicals = entity_physicals
-            .get(&(block.entity_dim, block.entity_tag))
-            .cloned()
-            .unwrap_or_default();
-        let groups: Vec<String> = physicals
-            .iter()
-            .map(|&t| group_name(block.entity_dim, t))
-            .collect();
-        match block.entity_dim {
-            2 => {
-                let Some(kind) = cell_kind(block.element_type) else {
-                    return Err(err(
-                        path,
-                        format!(
-                            "unsupported 2-D element type {:?} (gmsh type {}); supported: 3- and 6-node triangles, 4-, 8- and 9-node quadrilaterals (mesh with -order 1 or 2)",
-                            block.element_type, block.element_type as u8
-                        ),
-                    ));
-                };
-                if physicals.is_empty() && any_physical_2d {
-                    continue; // gmsh would not save these either
-                }
-                for e in &block.elements {
-                    let index = match seen_cells.get(&e.element_tag) {
-                        Some(&i) => i,
-                        None => {
-                            let cell_nodes = e
-                                .nodes
-                                .iter()
-                                .map(|&t| node_index(t))
-                                .collect::<Result<Vec<_>>>()?;
-                            if cell_nodes.len() != kind.nodes_per_cell() {
-                                return Err(err(
-                                    path,
-                                    format!(
-                                        "element {} has {} nodes, expected {}",
-                                        e.element_tag,
-                                        cell_nodes.len(),
-                                        kind.nodes_per_cell()
-                                    ),
-                                ));
-                            }
-                            mesh.cells.push(Cell {
-                                kind,
-                                nodes: cell_nodes,
-                            });
-                            seen_cells.insert(e.element_tag, mesh.cells.len() - 1);
-                            mesh.cells.len() - 1
-                        }
-                    };
-                    for g in &groups {
-                        mesh.cell_groups.entry(g.clone()).or_default().push(index);
-                        node_sets
-                            .entry(g.clone())
-                            .or_default()
-                            .extend(mesh.cells[index].nodes.iter().copied());
-                    }
-                }
-            }
-            1 => {
-                if !matches!(block.element_type, ElementType::Lin2 | ElementType::Lin3) {
-                    return Err(err(
-                        path,
-                        format!(
-                            "unsupported 1-D element type {:?}: expected 2- or 3-node lines",
-                            block.element_type
-                        ),
-                    ));
-                }
-                for e in &block.elements {
-                    let edge_nodes = e
-                        .nodes
-                        .iter()
-                        .map(|&t| node_index(t))
-                        .collect::<Result<Vec<_>>>()?;
-                    for g in &groups {
-                        add_nodes(&mut node_sets, g, &edge_nodes);
-                        mesh.edge_groups.entry(g.clone()).or_default().push(Edge {
-                            nodes: edge_nodes.clone(),
-                        });
-                    }
-                }
-            }
-            0 => {
-                for e in &block.elements {
-                    let point_nodes = e
-                        .nodes
-                        .iter()
-                        .map(|&t| node_index(t))
-                        .collect::<Result<Vec<_>>>()?;
-                    for g in &groups {
-                        add_nodes(&mut node_sets, g, &point_nodes);
-                    }
-                }
-            }
-            d => {
-                return Err(err(
-                    path,
-                    format!(
-                        "the mesh has {d}-D elements ({:?}); hbcontact reads 2-D meshes: mesh with gmsh -2 and keep the geometry planar",
-                        block.element_type
-                    ),
-                ));
-            }
+        reader.add_block(block, any_physical_2d)?;
+    }
+    reader.finish()
+}
+
+/// Entity (dim, tag) → its physical tags.
+fn entity_physicals(msh: &mshio::MshFile<u64, i32, f64>) -> HashMap<(i32, i32), Vec<i32>> {
+    let mut map = HashMap::new();
+    if let Some(entities) = &msh.data.entities {
+        for p in &entities.points {
+            map.insert((0, p.tag), p.physical_tags.clone());
+        }
+        for c in &entities.curves {
+            map.insert((1, c.tag), c.physical_tags.clone());
+        }
+        for s in &entities.surfaces {
+            map.insert((2, s.tag), s.physical_tags.clone());
+        }
+        for v in &entities.volumes {
+            map.insert((3, v.tag), v.physical_tags.clone());
         }
     }
-    if mesh.cells.is_empty() {
-        return Err(err(
-            path,
-            "the mesh has no 2-D cells: is the surface meshed (gmsh -2) and in a physical group?",
-        ));
+    map
+}
+
+/// The nodes in file order with a tag → index map (tags need not be consecutive).
+struct NodeTable {
+    positions: Vec<[f64; 2]>,
+    /// Per node: (tag, z, max(|x|, |y|)) for the planarity check.
+    z: Vec<(u64, f64, f64)>,
+    index_of: HashMap<u64, usize>,
+}
+
+impl NodeTable {
+    fn read(data: &mshio::Nodes<u64, i32, f64>) -> Self {
+        let mut table = NodeTable {
+            positions: Vec::new(),
+            z: Vec::new(),
+            index_of: HashMap::new(),
+        };
+        let mut next_tag = data.min_node_tag;
+        for block in &data.node_blocks {
+            let mut tags: Vec<(u64, usize)> = match &block.node_tags {
+                Some(map) => map.iter().map(|(&t, &i)| (t, i)).collect(),
+                // mshio drops contiguous tags: they run on from the previous block.
+                None => (0..block.nodes.len())
+                    .map(|i| (next_tag + i as u64, i))
+                    .collect(),
+            };
+            tags.sort_by_key(|&(_, i)| i);
+            next_tag += block.nodes.len() as u64;
+            for (tag, i) in tags {
+                let n = &block.nodes[i];
+                table.index_of.insert(tag, table.positions.len());
+                table.z.push((tag, n.z, n.x.abs().max(n.y.abs())));
+                table.positions.push([n.x, n.y]);
+            }
+        }
+        table
     }
-    for c in &mesh.cells {
-        for &n in &c.nodes {
-            let (tag, z, scale) = node_z[n];
+}
+
+/// The mesh being assembled from the element blocks.
+struct Reader<'a> {
+    path: &'a Path,
+    names: BTreeMap<(i32, i32), String>,
+    entity_physicals: HashMap<(i32, i32), Vec<i32>>,
+    nodes: NodeTable,
+    mesh: Mesh2d,
+    node_sets: BTreeMap<String, BTreeSet<usize>>,
+    /// Element tag → cell index (a cell in several physical groups is listed once per group).
+    seen_cells: HashMap<u64, usize>,
+}
+
+impl Reader<'_> {
+    fn physicals(&self, dim: i32, tag: i32) -> &[i32] {
+        self.entity_physicals
+            .get(&(dim, tag))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    fn node_indices(&self, tags: &[u64]) -> Result<Vec<usize>> {
+        tags.iter()
+            .map(|tag| {
+                self.nodes.index_of.get(tag).copied().ok_or_else(|| {
+                    err(
+                        self.path,
+                        format!("an element refers to node {tag}, which is not in $Nodes"),
+                    )
+                })
+            })
+            .collect()
+    }
+
+    fn add_block(
+        &mut self,
+        block: &mshio::ElementBlock<u64, i32>,
+        any_physical_2d: bool,
+    ) -> Result<()> {
+        let physicals = self.physicals(block.entity_dim, block.entity_tag).to_vec();
+        let groups: Vec<String> = physicals
+            .iter()
+            .map(|&t| {
+                self.names
+                    .get(&(block.entity_dim, t))
+                    .cloned()
+                    .unwrap_or_else(|| format!("{}D-{t}", block.entity_dim))
+            })
+            .collect();
+        match block.entity_dim {
+            // gmsh would not save unnamed surfaces either when some are named.
+            2 => self.add_cells(block, &groups, physicals.is_empty() && any_physical_2d),
+            1 => self.add_edges(block, &groups),
+            0 => {
+                for e in &block.elements {
+                    let point_nodes = self.node_indices(&e.nodes)?;
+                    for g in &groups {
+                        add_nodes(&mut self.node_sets, g, &point_nodes);
+                    }
+                }
+                Ok(())
+            }
+            d => Err(err(
+                self.path,
+                format!(
+                    "the mesh has {d}-D elements ({:?}); hbcontact reads 2-D meshes: mesh with gmsh -2 and keep the geometry planar",
+                    block.element_type
+                ),
+            )),
+        }
+    }
+
+    fn add_cells(
+        &mut self,
+        block: &mshio::ElementBlock<u64, i32>,
+        groups: &[String],
+        skip: bool,
+    ) -> Result<()> {
+        let Some(kind) = cell_kind(block.element_type) else {
+            return Err(err(
+                self.path,
+                format!(
+                    "unsupported 2-D element type {:?} (gmsh type {}); supported: 3- and 6-node triangles, 4-, 8- and 9-node quadrilaterals (mesh with -order 1 or 2)",
+                    block.element_type, block.element_type as u8
+                ),
+            ));
+        };
+        if skip {
+            return Ok(());
+        }
+        for e in &block.elements {
+            let index = match self.seen_cells.get(&e.element_tag) {
+                Some(&i) => i,
+                None => {
+                    let cell_nodes = self.node_indices(&e.nodes)?;
+                    if cell_nodes.len() != kind.nodes_per_cell() {
+                        return Err(err(
+                            self.path,
+                            format!(
+                                "element {} has {} nodes, expected {}",
+                                e.element_tag,
+                                cell_nodes.len(),
+                                kind.nodes_per_cell()
+                            ),
+                        ));
+                    }
+                    self.mesh.cells.push(Cell {
+                        kind,
+                        nodes: cell_nodes,
+                    });
+                    self.seen_cells
+                        .insert(e.element_tag, self.mesh.cells.len() - 1);
+                    self.mesh.cells.len() - 1
+                }
+            };
+            for g in groups {
+                self.mesh
+                    .cell_groups
+                    .entry(g.clone())
+                    .or_default()
+                    .push(index);
+                self.node_sets
+                    .entry(g.clone())
+                    .or_default()
+                    .extend(self.mesh.cells[index].nodes.iter().copied());
+            }
+        }
+        Ok(())
+    }
+
+    fn add_edges(
+        &mut self,
+        block: &mshio::ElementBlock<u64, i32>,
+        groups: &[String],
+    ) -> Result<()> {
+        if !matches!(block.element_type, ElementType::Lin2 | ElementType::Lin3) {
+            return Err(err(
+                self.path,
+                format!(
+                    "unsupported 1-D element type {:?}: expected 2- or 3-node lines",
+                    block.element_type
+                ),
+            ));
+        }
+        for e in &block.elements {
+            let edge_nodes = self.node_indices(&e.nodes)?;
+            for g in groups {
+                add_nodes(&mut self.node_sets, g, &edge_nodes);
+                self.mesh
+                    .edge_groups
+                    .entry(g.clone())
+                    .or_default()
+                    .push(Edge {
+                        nodes: edge_nodes.clone(),
+                    });
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks (cells exist, planar, none degenerate), counter-clockwise orientation, and the
+    /// node groups.
+    fn finish(mut self) -> Result<Mesh2d> {
+        let path = self.path;
+        if self.mesh.cells.is_empty() {
+            return Err(err(
+                path,
+                "the mesh has no 2-D cells: is the surface meshed (gmsh -2) and in a physical group?",
+            ));
+        }
+        for &n in self.mesh.cells.iter().flat_map(|c| &c.nodes) {
+            let (tag, z, scale) = self.nodes.z[n];
             if z.abs() > 1e-12 * (1.0 + scale) {
                 return Err(err(
                     path,
@@ -306,13 +372,17 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
                 ));
             }
         }
+        self.mesh.node_groups = std::mem::take(&mut self.node_sets)
+            .into_iter()
+            .map(|(k, v)| (k, v.into_iter().collect()))
+            .collect();
+        orient_cells(path, &mut self.mesh)?;
+        Ok(self.mesh)
     }
-    mesh.node_groups = node_sets
-        .into_iter()
-        .map(|(k, v)| (k, v.into_iter().collect()))
-        .collect();
+}
 
-    // Orientation: counter-clockwise; degenerate cells are an error.
+/// Make every cell counter-clockwise; degenerate (zero-area) cells are an error.
+fn orient_cells(path: &Path, mesh: &mut Mesh2d) -> Result<()> {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in &mesh.nodes {
         for c in 0..2 {
@@ -334,5 +404,5 @@ pub fn read_msh(path: &Path) -> Result<Mesh2d> {
             reverse(cell);
         }
     }
-    Ok(mesh)
+    Ok(())
 }
