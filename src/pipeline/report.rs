@@ -42,8 +42,9 @@ pub struct ContactState {
     /// g = B u − g0 [m]: the solver's sign (> 0 penetrating); the output writes −g.
     pub gap: Vec<f64>,
     /// The pressing force the contact law gives at this instant [N], ≥ 0: harmonic balance
-    /// max(0, c g − λ) from the series λ(t) and g(t) (the projection of the complementarity
-    /// function, = −λ at a solution's samples); time marching the step's LCP force −λ.
+    /// max(0, c g − λ) from the series λ(t) and g(t) (the projection in the complementarity
+    /// function; at a solution λ's coefficients are Q of these samples); time marching the
+    /// step's LCP force −λ.
     pub force: Vec<f64>,
     /// −λ(t) [N]: harmonic balance the truncated Fourier series of the multipliers (may be
     /// negative, tension, near impacts); time marching the same as `force`.
