@@ -30,7 +30,8 @@ struct Common {
     /// Override a pipeline value, e.g. `--set harmonic_balance.harmonics=20` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Write results here instead of `output.directory`.
+    /// Write results here instead of `output.directory` (`transient`: instead of
+    /// `<output.directory>-transient`).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print nothing but errors (and, for `accuracy`, not its table either).
@@ -42,7 +43,8 @@ struct Common {
 enum Command {
     /// Compute the periodic steady state by harmonic balance and write the results.
     Run(Common),
-    /// March in time from rest to the periodic state (the cross-check) and write the results.
+    /// March in time from rest to the periodic state (the cross-check) and write the results
+    /// to `<output.directory>-transient` (or `--out`), beside the harmonic-balance result.
     Transient(Common),
     /// Validate the pipeline and the geometry's groups without solving.
     Check(Common),

@@ -14,10 +14,11 @@ fn expect_json(dir: &Path, contact: bool) -> std::path::PathBuf {
     let mut point = serde_json::json!({"displacement": 3, "velocity": 3, "acceleration": 3});
     if contact {
         for k in [
-            "contact_gap",
+            "contact_opening",
             "contact_force",
             "contact_pressure",
             "contact_status",
+            "contact_force_series",
         ] {
             point[k] = serde_json::json!(1);
         }
@@ -28,19 +29,35 @@ fn expect_json(dir: &Path, contact: bool) -> std::path::PathBuf {
     path
 }
 
-/// Check the output directory with meshio; for each (probe name, point indices), return the
-/// (time, mean u_x, mean u_y) meshio reads at those points in every frame of the series.
+/// What meshio read back from an output directory.
+#[derive(Default)]
+struct MeshioRead {
+    /// Per probe: (time, mean u_x, mean u_y) at its points in every frame of the series.
+    probes: BTreeMap<String, Vec<[f64; 3]>>,
+    /// Contact scenes: closed node-frames, contact node-frames, the smallest series force, the
+    /// largest opening of a closed node, the smallest opening of an open one.
+    contact: Option<[f64; 5]>,
+    /// The points of obstacle.vtu (contact scenes).
+    obstacle: Vec<[f64; 2]>,
+}
+
+/// Check the output directory with meshio (with `--contact TOLERANCE` for contact scenes:
+/// non-negative force and pressure, status exactly where the force is positive and the opening
+/// within the tolerance, obstacle.vtu of line cells); return what it read.
 fn meshio_check(
     dir: &Path,
-    contact: bool,
+    closed_tolerance: Option<f64>,
     probes: &[(String, Vec<usize>)],
-) -> BTreeMap<String, Vec<[f64; 3]>> {
-    let expect = expect_json(dir, contact);
+) -> MeshioRead {
+    let expect = expect_json(dir, closed_tolerance.is_some());
     let mut cmd = Command::new(common::venv_python());
     cmd.arg(common::root().join("tests/scripts/meshio_check.py"))
         .arg(dir)
         .arg("--expect")
         .arg(&expect);
+    if let Some(t) = closed_tolerance {
+        cmd.arg("--contact").arg(format!("{t:e}"));
+    }
     for (name, ids) in probes {
         let ids: Vec<String> = ids.iter().map(|i| i.to_string()).collect();
         cmd.arg("--probe").arg(format!("{name}={}", ids.join(",")));
@@ -53,20 +70,32 @@ fn meshio_check(
         dir.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-    let mut read = BTreeMap::new();
+    let numbers = |rest: &str| -> Vec<f64> {
+        rest.split_whitespace()
+            .map(|s| s.parse().unwrap())
+            .collect()
+    };
+    let mut read = MeshioRead::default();
     for line in stdout.lines() {
         if let Some(rest) = line.strip_prefix("meshio_check: probe ") {
-            let v: Vec<&str> = rest.split_whitespace().collect();
-            let x: Vec<f64> = v[1..].iter().map(|s| s.parse().unwrap()).collect();
-            read.entry(v[0].to_string())
+            let (name, rest) = rest.split_once(' ').unwrap();
+            let x = numbers(rest);
+            read.probes
+                .entry(name.to_string())
                 .or_insert_with(Vec::new)
                 .push([x[0], x[1], x[2]]);
+        } else if let Some(rest) = line.strip_prefix("meshio_check: contact ") {
+            let x = numbers(rest);
+            read.contact = Some([x[0], x[1], x[2], x[3], x[4]]);
+        } else if let Some(rest) = line.strip_prefix("meshio_check: obstacle_point ") {
+            let x = numbers(rest);
+            read.obstacle.push([x[0], x[1]]);
         }
     }
     read
 }
 
-/// probes.csv as columns: time, then `<probe>_ux`, `<probe>_uy` per probe.
+/// A CSV file (probes.csv, contact.csv, contact_steps.csv) as columns by header name.
 fn read_csv(path: &Path) -> BTreeMap<String, Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
@@ -98,16 +127,17 @@ fn first_harmonic(v: &[f64]) -> f64 {
 /// The values a run reports agree with each other: meshio's displacement at the probe points
 /// in every frame equals probes.csv at that time, and summary.json's first-harmonic probe
 /// amplitudes equal those of the probes.csv samples.
-fn check_probe_values(name: &str, out: &Path, summary: &serde_json::Value, contact: bool) {
+fn check_probe_values(name: &str, out: &Path, summary: &serde_json::Value) -> MeshioRead {
     let probes = summary["probes"].as_object().cloned().unwrap_or_default();
     let mesh = hbcontact::mesh::msh::read_msh(&out.join("mesh.msh")).unwrap();
     let groups: Vec<(String, Vec<usize>)> = probes
         .keys()
         .map(|p| (p.clone(), mesh.node_groups[p].clone()))
         .collect();
-    let read = meshio_check(out, contact, &groups);
+    let tolerance = summary["contact"]["closed_opening_tolerance"].as_f64();
+    let read = meshio_check(out, tolerance, &groups);
     if probes.is_empty() {
-        return;
+        return read;
     }
     let csv = read_csv(&out.join("probes.csv"));
     let times = &csv["time"];
@@ -115,7 +145,7 @@ fn check_probe_values(name: &str, out: &Path, summary: &serde_json::Value, conta
     for (probe, amplitudes) in &probes {
         let (ux, uy) = (&csv[&format!("{probe}_ux")], &csv[&format!("{probe}_uy")]);
         let scale = ux.iter().chain(uy).map(|v| v.abs()).fold(0.0, f64::max);
-        let frames = &read[probe];
+        let frames = &read.probes[probe];
         assert_eq!(frames.len(), summary["frames"].as_u64().unwrap() as usize);
         for [t, x, y] in frames {
             let j = times
@@ -144,6 +174,7 @@ fn check_probe_values(name: &str, out: &Path, summary: &serde_json::Value, conta
             frames.len()
         );
     }
+    read
 }
 
 fn run_ok(args: &[&str]) -> String {
@@ -185,7 +216,7 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
         let contact = !summary["contact"].is_null();
         assert!(summary["stage_seconds"]["total"].as_f64().unwrap() > 0.0);
         assert!(summary["effects"]["harmonics_computed"].is_array());
-        check_probe_values(&name, &out, &summary, contact);
+        check_probe_values(&name, &out, &summary);
         assert!(
             out.join("mesh.msh").exists(),
             "{name}: the mesh travels with the results"
@@ -201,7 +232,13 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
                     .is_some_and(|x| x == "vtu")
             })
             .count();
-        assert_eq!(vtus, frames + 1, "{name}: frames plus amplitudes.vtu");
+        let obstacle = usize::from(contact);
+        assert_eq!(
+            vtus,
+            frames + 1 + obstacle,
+            "{name}: frames plus amplitudes.vtu (and obstacle.vtu)"
+        );
+        assert_eq!(out.join("obstacle.vtu").exists(), contact);
         if contact {
             let c = &summary["contact"];
             for key in [
@@ -227,6 +264,197 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
             );
         }
     }
+}
+
+/// Distance from `x` to the segment [a, b].
+fn segment_distance(x: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let t = [b[0] - a[0], b[1] - a[1]];
+    let l2 = t[0] * t[0] + t[1] * t[1];
+    let s = (((x[0] - a[0]) * t[0] + (x[1] - a[1]) * t[1]) / l2).clamp(0.0, 1.0);
+    (x[0] - a[0] - s * t[0]).hypot(x[1] - a[1] - s * t[1])
+}
+
+/// Distance from `p` to the obstacle of a shipped contact scene: strip_wall's wall x = L + gap,
+/// half_disc's plane y = 0, blade_casing's casing |x| = R0 + Lb + clearance.
+fn obstacle_distance(scene: &str, p: [f64; 2]) -> f64 {
+    match scene {
+        "strip_wall" => (p[0] - (0.2 + 1e-7)).abs(),
+        "half_disc" => p[1].abs(),
+        "blade_casing" => (p[0].hypot(p[1]) - 0.2001).abs(),
+        _ => panic!("no obstacle known for {scene}"),
+    }
+}
+
+/// The contact node ids of contact.csv (`node<N>_opening` columns).
+fn contact_nodes(csv: &BTreeMap<String, Vec<f64>>) -> Vec<usize> {
+    csv.keys()
+        .filter_map(|k| {
+            k.strip_prefix("node")?
+                .strip_suffix("_opening")?
+                .parse()
+                .ok()
+        })
+        .collect()
+}
+
+/// Bound on |law mean − series mean| / mean of the total contact force: both are sampled at
+/// the solver's instants, where the mean of the law's samples is the series' mean coefficient,
+/// so they agree to round-off at a converged Newton (measured at most 3.1e-15, blade_casing).
+const MEAN_AGREEMENT: f64 = 1e-14;
+
+/// TEST GOAL: the contact output obeys the contact law (docs/method.md (23): at a solution
+/// λ = −Q max(0, P(c g − λ)), so the sampled projection max(0, c g − λ) is the law's pressing
+/// force) and shows the obstacle. For every shipped contact scene, read back by meshio and from
+/// contact.csv: contact_force, contact_pressure and every contact.csv force column are ≥ 0 in
+/// every frame and sample; contact_status is 1 exactly where the law force is positive and the
+/// opening within summary.contact.closed_opening_tolerance (meshio_check.py); the raw series'
+/// tension indicators in summary.json equal those of contact.csv's series columns; the law's
+/// mean total force equals the series' mean (round-off); obstacle.vtu holds line cells whose
+/// points lie on the obstacle (strip_wall: the wall curve x = L + gap; blade_casing: the casing
+/// arc |x| = R0 + Lb + clearance; half_disc: the line y = 0, spanning every contact node).
+///
+/// ```text
+///   strip_wall     ▐▀▀▀▀▀▀▀▀▀▀▀▀▌ |wall      half_disc   ╲____╱      blade_casing  ╭──casing──╮
+///                  ▐▄▄▄▄▄▄▄▄▄▄▄▄▌ |                     ═══════ y=0                  ▐▌
+/// ```
+#[test]
+fn contact_output_obeys_the_contact_law_and_draws_the_obstacle() {
+    // (scene, a length scale of its obstacle)
+    let scenes = [
+        ("strip_wall", 0.2),
+        ("half_disc", 1.0),
+        ("blade_casing", 0.2),
+    ];
+    for (name, scale) in scenes {
+        let distance = |p: [f64; 2]| obstacle_distance(name, p);
+        let out = common::temp_out(&format!("{name}-law"));
+        let pipeline = format!("pipelines/{name}.yaml");
+        run_ok(&["run", &pipeline, "--quiet", "--out", out.to_str().unwrap()]);
+        let summary = common::read_json(&out.join("summary.json"));
+        let c = &summary["contact"];
+        let tolerance = c["closed_opening_tolerance"].as_f64().unwrap();
+        let read = meshio_check(&out, Some(tolerance), &[]);
+        let [closed, node_frames, min_series, max_closed, min_open] = read.contact.unwrap();
+        println!(
+            "{name}: {closed} of {node_frames} node-frames closed (tolerance {tolerance:.3e} m): \
+             closed openings ≤ {max_closed:.3e} m, open ones ≥ {min_open:.3e} m; \
+             smallest nodal series force in a frame {min_series:.4e} N"
+        );
+        assert!(closed > 0.0, "{name}: the scene touches in some frame");
+        assert!(max_closed <= tolerance);
+
+        let csv = read_csv(&out.join("contact.csv"));
+        let nodes = contact_nodes(&csv);
+        assert_eq!(
+            nodes.len(),
+            summary["contact_setup"]["kept"].as_u64().unwrap() as usize
+        );
+        let mut columns = vec!["total_force".to_string()];
+        columns.extend(nodes.iter().map(|n| format!("node{n}_force")));
+        for col in &columns {
+            let min = csv[col].iter().cloned().fold(f64::INFINITY, f64::min);
+            assert!(min >= 0.0, "{name}: contact.csv {col} pulls: {min:e}");
+        }
+        let series = &csv["total_force_series"];
+        let peak = series.iter().cloned().fold(0.0, f64::max);
+        let tension = series.iter().fold(0.0f64, |a, &v| a.max(-v));
+        let ratio = c["force_series_tension_ratio"].as_f64().unwrap();
+        let (mut node_peak, mut node_tension) = (0.0f64, 0.0f64);
+        for n in &nodes {
+            for &v in &csv[&format!("node{n}_force_series")] {
+                node_peak = node_peak.max(v);
+                node_tension = node_tension.max(-v);
+            }
+        }
+        let node_ratio = c["force_series_node_tension_ratio"].as_f64().unwrap();
+        let (law_mean, series_mean) = (
+            c["mean_contact_force"].as_f64().unwrap(),
+            c["mean_contact_force_series"].as_f64().unwrap(),
+        );
+        let agreement = (law_mean - series_mean).abs() / law_mean;
+        println!(
+            "{name}: raw series total tension {tension:.4e} N of peak {peak:.4e} N (ratio {ratio:.4}), \
+             nodal {node_tension:.4e} of {node_peak:.4e} N (ratio {node_ratio:.4}); law peak {:.4e} N; \
+             mean force law {law_mean:.6e} N, series {series_mean:.6e} N (relative difference {agreement:.1e})",
+            c["peak_contact_force"].as_f64().unwrap()
+        );
+        assert!(
+            (ratio - tension / peak).abs() <= 1e-12,
+            "{name}: {ratio} vs {}",
+            tension / peak
+        );
+        assert!((node_ratio - node_tension / node_peak).abs() <= 1e-12);
+        assert!(
+            agreement <= MEAN_AGREEMENT,
+            "{name}: law and series means differ by {agreement:e}"
+        );
+
+        assert!(read.obstacle.len() >= 2, "{name}: obstacle points");
+        let off = read
+            .obstacle
+            .iter()
+            .map(|&p| distance(p))
+            .fold(0.0, f64::max);
+        println!(
+            "{name}: obstacle.vtu: {} points, farthest {off:.1e} m from the obstacle",
+            read.obstacle.len()
+        );
+        assert!(
+            off <= 1e-15 * scale,
+            "{name}: obstacle point {off:e} m off the obstacle"
+        );
+        if name == "half_disc" {
+            // The line is drawn as one segment over the contact region: every contact node is
+            // as near to it as to the infinite line.
+            let mesh = hbcontact::mesh::msh::read_msh(&out.join("mesh.msh")).unwrap();
+            let (a, b) = (read.obstacle[0], read.obstacle[1]);
+            for n in &nodes {
+                let x = mesh.nodes[*n];
+                assert!((segment_distance(x, a, b) - distance(x)).abs() <= 1e-15);
+            }
+        }
+    }
+}
+
+/// TEST GOAL: an analytic circle obstacle is written as an arc of 64 line cells on the circle
+/// (|x − centre| = radius to round-off) covering the contact nodes' angular extent: the blade
+/// tip against the casing given as `{circle: ...}` instead of the meshed arc.
+#[test]
+fn analytic_circle_obstacle_is_written_as_an_arc_on_the_circle() {
+    let out = common::temp_out("blade-circle");
+    run_ok(&[
+        "run",
+        "pipelines/blade_casing.yaml",
+        "--quiet",
+        "--set",
+        "contact.obstacle={circle: {center: [0.0, 0.0], radius: 0.2001, body_inside: true}}",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let summary = common::read_json(&out.join("summary.json"));
+    let tolerance = summary["contact"]["closed_opening_tolerance"].as_f64();
+    let read = meshio_check(&out, tolerance, &[]);
+    assert_eq!(read.obstacle.len(), 65, "an open arc of 64 segments");
+    let off = read
+        .obstacle
+        .iter()
+        .map(|p| (p[0].hypot(p[1]) - 0.2001).abs())
+        .fold(0.0, f64::max);
+    println!("circle: farthest obstacle point {off:.1e} m off the circle");
+    assert!(off <= 1e-16 * 0.2001 * 4.0);
+    let angle = |p: [f64; 2]| p[1].atan2(p[0]);
+    let (lo, hi) = (angle(read.obstacle[64]), angle(read.obstacle[0]));
+    let (lo, hi) = (lo.min(hi), lo.max(hi));
+    let csv = read_csv(&out.join("contact.csv"));
+    let mesh = hbcontact::mesh::msh::read_msh(&out.join("mesh.msh")).unwrap();
+    for n in contact_nodes(&csv) {
+        let a = angle(mesh.nodes[n]);
+        assert!(
+            lo < a && a < hi,
+            "node {n} at {a} rad outside the arc [{lo}, {hi}]"
+        );
+    }
+    println!("circle: arc over [{lo:.4}, {hi:.4}] rad covers every contact node");
 }
 
 /// TEST GOAL: the binary reports what the library computes: the quickstart's first-harmonic
@@ -312,7 +540,8 @@ fn summary_lists_the_effects_and_harmonics_computed() {
 }
 
 /// ParaView as a real client: pvbatch opens the series, finds the time steps and arrays,
-/// warps by displacement and saves a PNG.
+/// warps by displacement and saves a PNG; for a contact scene (strip_wall) it also opens
+/// obstacle.pvd (line cells) and shows it in the same view.
 #[test]
 fn paraview_opens_warps_and_renders_the_series() {
     let have = |cmd: &str| {
@@ -332,10 +561,10 @@ fn paraview_opens_warps_and_renders_the_series() {
         );
         return;
     }
-    let out = common::temp_out("quickstart-paraview");
+    let out = common::temp_out("strip-paraview");
     run_ok(&[
         "run",
-        "pipelines/quickstart.yaml",
+        "pipelines/strip_wall.yaml",
         "--quiet",
         "--out",
         out.to_str().unwrap(),
@@ -350,7 +579,8 @@ fn paraview_opens_warps_and_renders_the_series() {
             .arg(out.join("series.pvd"))
             .arg(&png)
             .arg("displacement")
-            .arg("24")
+            .arg("32")
+            .arg(out.join("obstacle.pvd"))
             .output()
             .unwrap();
         let ok = s.status.success();
@@ -526,27 +756,67 @@ fn accuracy_study_reports_error_against_cost() {
     );
 }
 
-/// `hbcontact transient` writes the same kind of output as `run`, readable by meshio, with
-/// its own summary of the time marching.
+/// TEST GOAL: `hbcontact transient` writes beside the harmonic-balance result, never over it:
+/// with the default directories (here `output.directory` moved under output/test-runs), `run`
+/// then `transient` of strip_wall leave `<dir>` (mode harmonic_balance) and `<dir>-transient`
+/// (mode transient) side by side. The transient output has the same contact arrays, obeying
+/// the same checks (meshio_check.py --contact), and its summary's peak contact force is the
+/// largest total force of contact_steps.csv (every time step), at least the largest of
+/// contact.csv (the frames), which can miss impact peaks between frames.
 #[test]
-fn transient_mode_writes_a_readable_series() {
-    let out = common::temp_out("strip-transient");
-    run_ok(&[
-        "transient",
-        "pipelines/strip_wall.yaml",
-        "--quiet",
-        "--set",
-        "geometry.parameters.lc=0.0025",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let s = common::read_json(&out.join("summary.json"));
+fn transient_output_sits_beside_the_harmonic_balance_result_and_keeps_every_step_peak() {
+    let base = common::temp_out("coexist");
+    let dir = base.join("strip_wall");
+    let set_dir = format!("output.directory={}", dir.display());
+    for mode in ["run", "transient"] {
+        run_ok(&[
+            mode,
+            "pipelines/strip_wall.yaml",
+            "--quiet",
+            "--set",
+            "geometry.parameters.lc=0.0025",
+            "--set",
+            &set_dir,
+        ]);
+    }
+    let hb = common::read_json(&dir.join("summary.json"));
+    assert_eq!(
+        hb["mode"], "harmonic_balance",
+        "the transient run left the HB result alone"
+    );
+    let tr_dir = base.join("strip_wall-transient");
+    let s = common::read_json(&tr_dir.join("summary.json"));
     assert_eq!(s["mode"], "transient");
     assert_eq!(s["transient"]["converged"], true);
     assert!(s["transient"]["periods"].as_u64().unwrap() > 2);
     assert!(s["contact"]["mean_contact_force"].as_f64().unwrap() > 0.0);
-    meshio_check(&out, true, &[]);
-    assert!(out.join("contact.csv").exists() && out.join("probes.csv").exists());
+    let tolerance = s["contact"]["closed_opening_tolerance"].as_f64();
+    let read = meshio_check(&tr_dir, tolerance, &[]);
+    println!(
+        "transient: node-frames closed / total, …: {:?}",
+        read.contact
+    );
+    assert!(tr_dir.join("probes.csv").exists());
+    let steps = read_csv(&tr_dir.join("contact_steps.csv"));
+    let frames = read_csv(&tr_dir.join("contact.csv"));
+    let max = |v: &[f64]| v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let (step_peak, frame_peak) = (max(&steps["total_force"]), max(&frames["total_force"]));
+    let peak = s["contact"]["peak_contact_force"].as_f64().unwrap();
+    println!(
+        "transient: summary peak {peak:.6e} N, contact_steps.csv peak {step_peak:.6e} N over {} steps, \
+         contact.csv (frames) peak {frame_peak:.6e} N; HB peak {:.6e} N",
+        steps["time"].len(),
+        hb["contact"]["peak_contact_force"].as_f64().unwrap()
+    );
+    assert_eq!(
+        peak, step_peak,
+        "the summary's peak is the written per-step maximum"
+    );
+    assert!(frame_peak <= step_peak);
+    assert_eq!(
+        steps["time"].len(),
+        s["transient"]["steps_per_period"].as_u64().unwrap() as usize
+    );
 }
 
 /// TEST GOAL: `--quiet` prints nothing but errors, in every subcommand: a run, a check and an

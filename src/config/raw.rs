@@ -366,8 +366,8 @@ enum RawField {
     Stress,
     /// Cell data `von_mises`.
     VonMises,
-    /// Point data `contact_gap`, `contact_force`, `contact_pressure`, `contact_status`
-    /// (contact scenes).
+    /// Point data `contact_opening`, `contact_force`, `contact_pressure`, `contact_status`,
+    /// `contact_force_series` (contact scenes).
     Contact,
 }
 
@@ -376,8 +376,8 @@ enum RawField {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Output")]
 struct RawOutput {
-    /// The results directory (relative to the working directory); `--out` overrides it.
-    /// Default: `output/<name>`.
+    /// The results directory (relative to the working directory); `hbcontact transient`
+    /// appends `-transient`; `--out` overrides it. Default: `output/<name>`.
     #[serde(default)]
     directory: Option<PathBuf>,
     /// Snapshots written over one period (also the transient's samples per period), ≥ 1.

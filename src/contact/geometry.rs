@@ -314,3 +314,124 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
     }
     Ok(set)
 }
+
+/// Circle arcs and closed circles drawn with this many segments.
+pub const ARC_SEGMENTS: usize = 64;
+
+/// The obstacle as line segments for the output (`obstacle.vtu`): the points and the segments
+/// between them (indices into the points).
+#[derive(Clone, Debug, Default)]
+pub struct ObstacleOutline {
+    pub points: Vec<[f64; 2]>,
+    pub segments: Vec<[usize; 2]>,
+}
+
+/// What to draw of the obstacle: a line as the segment spanning the contact nodes' closest
+/// points plus a margin of a tenth of that span on each side (at least 1% of the mesh's size);
+/// a circle as the arc over the closest points' angular extent plus a tenth of it on each
+/// side (at least 1°), in `ARC_SEGMENTS` segments (the whole circle if the arc would close);
+/// a curve as its mesh edges (a 3-node edge as two segments through its middle node). Every
+/// point lies on the obstacle (a line or circle to round-off; a curve's are its mesh nodes).
+pub fn obstacle_outline(mesh: &Mesh2d, spec: &ContactSpec, set: &ContactSet) -> ObstacleOutline {
+    match &spec.obstacle {
+        ObstacleSpec::Line { point, normal } => {
+            let tangent = [-normal[1], normal[0]];
+            let s: Vec<f64> = set
+                .closest
+                .iter()
+                .map(|c| dot(sub(*c, *point), tangent))
+                .collect();
+            let lo = s.iter().cloned().fold(f64::INFINITY, f64::min);
+            let hi = s.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
+            let margin = (0.1 * (hi - lo)).max(0.01 * mesh_size(mesh));
+            let at = |s: f64| [point[0] + s * tangent[0], point[1] + s * tangent[1]];
+            ObstacleOutline {
+                points: vec![at(lo - margin), at(hi + margin)],
+                segments: vec![[0, 1]],
+            }
+        }
+        ObstacleSpec::Circle { center, radius, .. } => {
+            let mut angles: Vec<f64> = set
+                .closest
+                .iter()
+                .map(|c| (c[1] - center[1]).atan2(c[0] - center[0]))
+                .collect();
+            angles.sort_by(f64::total_cmp);
+            let tau = 2.0 * std::f64::consts::PI;
+            // The arc is the circle minus the largest empty gap between successive angles.
+            let (mut start, mut span) = (0.0, tau);
+            if let (Some(&first), Some(&last)) = (angles.first(), angles.last()) {
+                let mut gap = (first + tau - last, last);
+                for w in angles.windows(2) {
+                    if w[1] - w[0] > gap.0 {
+                        gap = (w[1] - w[0], w[0]);
+                    }
+                }
+                let extent = tau - gap.0;
+                let margin = (0.1 * extent).max(1f64.to_radians());
+                span = extent + 2.0 * margin;
+                start = gap.1 + gap.0 - margin;
+            }
+            let closed = span >= tau;
+            let span = span.min(tau);
+            let n = ARC_SEGMENTS;
+            let count = if closed { n } else { n + 1 };
+            let points = (0..count)
+                .map(|j| {
+                    let a = start + span * j as f64 / n as f64;
+                    [center[0] + radius * a.cos(), center[1] + radius * a.sin()]
+                })
+                .collect();
+            let segments = (0..n).map(|j| [j, (j + 1) % count]).collect();
+            ObstacleOutline { points, segments }
+        }
+        ObstacleSpec::Curve { group } => {
+            let mut index: HashMap<usize, usize> = HashMap::new();
+            let mut outline = ObstacleOutline::default();
+            let edges = mesh
+                .edge_groups
+                .get(group)
+                .map(Vec::as_slice)
+                .unwrap_or(&[]);
+            for e in edges {
+                let ids: Vec<usize> = e
+                    .nodes
+                    .iter()
+                    .map(|&n| {
+                        *index.entry(n).or_insert_with(|| {
+                            outline.points.push(mesh.nodes[n]);
+                            outline.points.len() - 1
+                        })
+                    })
+                    .collect();
+                if ids.len() == 3 {
+                    outline
+                        .segments
+                        .extend([[ids[0], ids[2]], [ids[2], ids[1]]]);
+                } else if ids.len() == 2 {
+                    outline.segments.push([ids[0], ids[1]]);
+                }
+            }
+            outline
+        }
+    }
+}
+
+/// The diagonal of the mesh's bounding box.
+fn mesh_size(mesh: &Mesh2d) -> f64 {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in &mesh.nodes {
+        for c in 0..2 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let d = sub(hi, lo);
+    if d[0].is_finite() {
+        dot(d, d).sqrt()
+    } else {
+        1.0
+    }
+}

@@ -7,4 +7,4 @@ pub mod tables;
 pub mod vtu;
 
 pub use staging::StagedDir;
-pub use vtu::{write_pvd, write_vtu, Field};
+pub use vtu::{write_lines_vtu, write_pvd, write_vtu, Field};

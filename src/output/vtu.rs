@@ -95,6 +95,32 @@ pub fn write_vtu(
         .map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
 }
 
+/// Write 2-node line cells between `points` (z = 0), without data: the obstacle outline.
+pub fn write_lines_vtu(path: &Path, points: &[[f64; 2]], segments: &[[usize; 2]]) -> Result<()> {
+    let coordinates: Vec<f64> = points.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
+    let connectivity: Vec<u64> = segments.iter().flatten().map(|&i| i as u64).collect();
+    let offsets: Vec<u64> = (1..=segments.len()).map(|i| 2 * i as u64).collect();
+    let vtk = Vtk {
+        version: Version { major: 1, minor: 0 },
+        title: String::new(),
+        byte_order: ByteOrder::LittleEndian,
+        file_path: None,
+        data: DataSet::inline(UnstructuredGridPiece {
+            points: coordinates.into(),
+            cells: Cells {
+                cell_verts: VertexNumbers::XML {
+                    connectivity,
+                    offsets,
+                },
+                types: vec![CellType::Line; segments.len()],
+            },
+            data: Attributes::new(),
+        }),
+    };
+    vtk.export(path)
+        .map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
+}
+
 /// A ParaView collection of (time, file relative to the .pvd) entries.
 pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<()> {
     let mut s = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");

@@ -58,7 +58,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut summary = stages.run("write", || {
         let samples = hb_settings(p).samples;
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
-        sampled.write(staged.path(), &model, &p.output.fields)?;
+        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
         report::write_amplitudes(staged.path(), &model, &solution)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
         Ok(summary::harmonic_balance(
@@ -70,13 +70,23 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     Ok(RunResult { dir, summary })
 }
 
+/// The directory time-marching results go to: `--out`, else `output.directory` with
+/// `-transient` appended (`output/<name>-transient`), never over the harmonic-balance result.
+pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
+    options.out.clone().unwrap_or_else(|| {
+        let mut d = p.output.directory.clone().into_os_string();
+        d.push("-transient");
+        PathBuf::from(d)
+    })
+}
+
 /// `hbcontact transient`: explicit time marching from rest to the periodic state.
 pub fn run_transient(
     p: &Pipeline,
     options: &RunOptions,
     reporter: &dyn Reporter,
 ) -> Result<RunResult> {
-    let out = output_dir(p, options);
+    let out = transient_output_dir(p, options);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
@@ -84,7 +94,7 @@ pub fn run_transient(
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
-        sampled.write(staged.path(), &model, &p.output.fields)?;
+        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
         Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
     })?;

@@ -5,11 +5,12 @@
 use std::path::Path;
 
 use super::model::Model;
-use crate::config::FieldName;
+use crate::config::{ContactSpec, FieldName};
+use crate::contact::geometry::obstacle_outline;
 use crate::fem;
 use crate::hbm::{fourier, Snapshot, Solution};
 use crate::output::tables::write_csv;
-use crate::output::{write_pvd, write_vtu, Field};
+use crate::output::{write_lines_vtu, write_pvd, write_vtu, Field};
 use crate::transient::setup::Marching;
 use crate::transient::TransientResult;
 use crate::Result;
@@ -17,7 +18,62 @@ use crate::Result;
 /// One period as written: snapshots at the output frames and finer time histories.
 pub struct Sampled {
     pub frames: Vec<Snapshot>,
+    /// The contact state at each frame (empty without contact).
+    pub frame_contact: Vec<ContactState>,
     pub history: History,
+    /// A node counts as closed when its law force is positive and its opening at most this
+    /// [m]: the larger of 1e-3 × the largest opening and the largest penetration over the
+    /// history (0 without contact).
+    pub closed_tolerance: f64,
+    /// The total pressing force at every time step of the last period (time marching only;
+    /// written as `contact_steps.csv`).
+    pub steps: Option<StepHistory>,
+}
+
+/// The total pressing contact force −Σλ at every time step of the marched period.
+pub struct StepHistory {
+    pub times: Vec<f64>,
+    pub total_force: Vec<f64>,
+}
+
+/// The contact state at one instant, per contact node (in `ContactSet::nodes` order).
+#[derive(Clone, Debug, Default)]
+pub struct ContactState {
+    /// g = B u − g0 [m]: the solver's sign (> 0 penetrating); the output writes −g.
+    pub gap: Vec<f64>,
+    /// The pressing force the contact law gives at this instant [N], ≥ 0: harmonic balance
+    /// max(0, c g − λ) from the series λ(t) and g(t) (the projection in the complementarity
+    /// function; at a solution λ's coefficients are Q of these samples); time marching the
+    /// step's LCP force −λ.
+    pub force: Vec<f64>,
+    /// −λ(t) [N]: harmonic balance the truncated Fourier series of the multipliers (may be
+    /// negative, tension, near impacts); time marching the same as `force`.
+    pub series: Vec<f64>,
+}
+
+impl ContactState {
+    /// From the multipliers λ (≤ 0 pressing) and the gaps, with the law's c (harmonic
+    /// balance) or without (time marching: the multipliers are the law's).
+    fn new(gap: Vec<f64>, lambda: &[f64], c: Option<f64>) -> Self {
+        let force = gap
+            .iter()
+            .zip(lambda)
+            .map(|(&g, &l)| match c {
+                Some(c) => (c * g - l).max(0.0),
+                None => (-l).max(0.0),
+            })
+            .collect();
+        ContactState {
+            gap,
+            force,
+            series: lambda.iter().map(|l| -l).collect(),
+        }
+    }
+
+    /// Whether node i is closed: a pressing law force and an opening −g within `tolerance`.
+    pub fn closed(&self, i: usize, tolerance: f64) -> bool {
+        self.force[i] > 0.0 && -self.gap[i] <= tolerance
+    }
 }
 
 /// Time histories over one period.
@@ -25,21 +81,41 @@ pub struct History {
     pub times: Vec<f64>,
     /// Displacement on all dofs at each time.
     pub displacement: Vec<Vec<f64>>,
-    /// Per time, each contact node's gap B u − g0 (empty without contact).
-    pub gaps: Vec<Vec<f64>>,
-    /// Per time, each contact node's multiplier λ (≤ 0 pressing; empty without contact).
-    pub forces: Vec<Vec<f64>>,
+    /// The contact state at each time (empty without contact).
+    pub contact: Vec<ContactState>,
 }
 
 impl History {
-    /// The total pressing force −Σλ at each time.
+    /// The total pressing force of the contact law at each time.
     pub fn total_force(&self) -> Vec<f64> {
-        self.forces.iter().map(|f| -f.iter().sum::<f64>()).collect()
+        self.contact.iter().map(|c| c.force.iter().sum()).collect()
+    }
+
+    /// The total pressing force of the multipliers' series −Σλ(t) at each time.
+    pub fn total_force_series(&self) -> Vec<f64> {
+        self.contact.iter().map(|c| c.series.iter().sum()).collect()
     }
 
     /// The largest gap over the history (0 when never penetrating).
     pub fn max_penetration(&self) -> f64 {
-        self.gaps.iter().flatten().cloned().fold(0.0, f64::max)
+        self.contact
+            .iter()
+            .flat_map(|c| &c.gap)
+            .cloned()
+            .fold(0.0, f64::max)
+    }
+
+    /// The largest opening −g over the history (0 when never open).
+    pub fn max_opening(&self) -> f64 {
+        self.contact
+            .iter()
+            .flat_map(|c| &c.gap)
+            .fold(0.0, |a: f64, &g| a.max(-g))
+    }
+
+    /// See `Sampled::closed_tolerance`.
+    fn closed_tolerance(&self) -> f64 {
+        (1e-3 * self.max_opening()).max(self.max_penetration())
     }
 }
 
@@ -55,7 +131,7 @@ impl Sampled {
         let dofs = &model.system.dofs;
         let period = solution.period();
         let at = |j: usize, n: usize| j as f64 * period / n as f64;
-        let frames = (0..frame_count)
+        let frames: Vec<Snapshot> = (0..frame_count)
             .map(|j| solution.snapshot(dofs, at(j, frame_count)))
             .collect();
         let n = samples.max(4 * frame_count).max(64);
@@ -64,22 +140,37 @@ impl Sampled {
             .iter()
             .map(|&t| solution.field_at(dofs, t, 0))
             .collect();
+        let c = solution.contact.as_ref().map(|c| c.c);
+        let state = |t: f64, u: &[f64]| {
+            solution
+                .multipliers_at(t)
+                .map(|lambda| ContactState::new(contact_gaps(model, u), &lambda, c))
+        };
+        let frame_contact = frames
+            .iter()
+            .filter_map(|s| state(s.time, &s.displacement))
+            .collect();
+        let contact = times
+            .iter()
+            .zip(&displacement)
+            .filter_map(|(&t, u)| state(t, u))
+            .collect();
         let history = History {
-            gaps: displacement
-                .iter()
-                .map(|u| contact_gaps(model, u))
-                .collect(),
-            forces: times
-                .iter()
-                .filter_map(|&t| solution.multipliers_at(t))
-                .collect(),
             times,
             displacement,
+            contact,
         };
-        Sampled { frames, history }
+        Sampled {
+            frames,
+            frame_contact,
+            closed_tolerance: history.closed_tolerance(),
+            history,
+            steps: None,
+        }
     }
 
-    /// The last marched period: snapshots at the frames, histories at the same instants.
+    /// The last marched period: snapshots at the frames, histories at the same instants, and
+    /// the total contact force at every step.
     pub fn transient(model: &Model, marching: &Marching, result: &TransientResult) -> Self {
         let frames: Vec<Snapshot> = result
             .times
@@ -97,41 +188,70 @@ impl Sampled {
             })
             .collect();
         let displacement: Vec<Vec<f64>> = frames.iter().map(|s| s.displacement.clone()).collect();
-        let contact = model.contact.is_some();
+        let contact: Vec<ContactState> = frames
+            .iter()
+            .filter_map(|s| {
+                let lambda = s.contact_force.as_ref()?;
+                Some(ContactState::new(
+                    contact_gaps(model, &s.displacement),
+                    lambda,
+                    None,
+                ))
+            })
+            .collect();
+        let steps = model.contact.as_ref().map(|_| {
+            let count = result.total_contact_history.len();
+            StepHistory {
+                times: (0..count).map(|i| i as f64 * result.dt).collect(),
+                total_force: result.total_contact_history.iter().map(|v| -v).collect(),
+            }
+        });
         let history = History {
             times: result.times.clone(),
-            gaps: if contact {
-                displacement
-                    .iter()
-                    .map(|u| contact_gaps(model, u))
-                    .collect()
-            } else {
-                Vec::new()
-            },
-            forces: if contact {
-                result.contact_force.clone()
-            } else {
-                Vec::new()
-            },
             displacement,
+            contact: contact.clone(),
         };
-        Sampled { frames, history }
+        Sampled {
+            frames,
+            frame_contact: contact,
+            closed_tolerance: history.closed_tolerance(),
+            history,
+            steps,
+        }
     }
 
     /// Every file of the run but the summary: the VTU series and its `.pvd`, `probes.csv`,
-    /// `contact.csv` (contact scenes).
-    pub fn write(&self, dir: &Path, model: &Model, fields: &[FieldName]) -> Result<()> {
-        write_series(dir, model, &self.frames, fields)?;
+    /// and for contact scenes `contact.csv`, `obstacle.vtu` + `obstacle.pvd` and (time
+    /// marching) `contact_steps.csv`.
+    pub fn write(
+        &self,
+        dir: &Path,
+        model: &Model,
+        spec: Option<&ContactSpec>,
+        fields: &[FieldName],
+    ) -> Result<()> {
+        write_series(dir, model, self, fields)?;
         let h = &self.history;
         write_probes(&dir.join("probes.csv"), model, &h.times, &h.displacement)?;
-        if model.contact.is_some() {
-            write_contact_history(
-                &dir.join("contact.csv"),
-                model,
-                &h.times,
-                &h.gaps,
-                &h.forces,
+        if let (Some(c), Some(spec)) = (&model.contact, spec) {
+            write_contact_history(&dir.join("contact.csv"), model, &h.times, &h.contact)?;
+            let outline = obstacle_outline(&model.mesh, spec, &c.set);
+            write_lines_vtu(
+                &dir.join("obstacle.vtu"),
+                &outline.points,
+                &outline.segments,
             )?;
+            write_pvd(&dir.join("obstacle.pvd"), &[(0.0, "obstacle.vtu".into())])?;
+        }
+        if let Some(steps) = &self.steps {
+            let rows: Vec<Vec<f64>> = steps
+                .times
+                .iter()
+                .zip(&steps.total_force)
+                .map(|(&t, &f)| vec![t, f])
+                .collect();
+            let header = ["time".to_string(), "total_force".to_string()];
+            write_csv(&dir.join("contact_steps.csv"), &header, &rows)?;
         }
         Ok(())
     }
@@ -159,14 +279,14 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
 pub fn write_series(
     dir: &Path,
     model: &Model,
-    snapshots: &[Snapshot],
+    sampled: &Sampled,
     fields: &[FieldName],
 ) -> Result<Vec<String>> {
     let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
     let want = |f: FieldName| fields.contains(&f);
-    for (j, s) in snapshots.iter().enumerate() {
+    for (j, s) in sampled.frames.iter().enumerate() {
         let mut points = Vec::new();
         if want(FieldName::Displacement) {
             points.push(Field {
@@ -189,29 +309,36 @@ pub fn write_series(
                 values: vector3(&s.acceleration),
             });
         }
-        if let (true, Some(c), Some(lambda)) =
-            (want(FieldName::Contact), &model.contact, &s.contact_force)
-        {
-            let gaps = contact_gaps(model, &s.displacement);
-            let (mut gap, mut force, mut pressure) = (vec![0.0; nn], vec![0.0; nn], vec![0.0; nn]);
+        if let (true, Some(c), Some(state)) = (
+            want(FieldName::Contact),
+            &model.contact,
+            sampled.frame_contact.get(j),
+        ) {
+            let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
+            let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
             let mut status = vec![-1.0; nn];
-            let scale = lambda.iter().fold(0.0f64, |a, &l| a.max(l.abs()));
             for (i, &n) in c.set.nodes.iter().enumerate() {
-                gap[n] = gaps[i];
-                force[n] = -lambda[i];
+                opening[n] = -state.gap[i];
+                force[n] = state.force[i];
+                series[n] = state.series[i];
                 let area = c.set.tributary[i] * model.material.thickness;
-                pressure[n] = if area > 0.0 { -lambda[i] / area } else { 0.0 };
-                status[n] = if -lambda[i] > 1e-6 * scale && scale > 0.0 {
+                pressure[n] = if area > 0.0 {
+                    state.force[i] / area
+                } else {
+                    0.0
+                };
+                status[n] = if state.closed(i, sampled.closed_tolerance) {
                     1.0
                 } else {
                     0.0
                 };
             }
             for (name, values) in [
-                ("contact_gap", gap),
+                ("contact_opening", opening),
                 ("contact_force", force),
                 ("contact_pressure", pressure),
                 ("contact_status", status),
+                ("contact_force_series", series),
             ] {
                 points.push(Field {
                     name: name.into(),
@@ -308,30 +435,34 @@ pub fn write_probes(
     write_csv(path, &header, &rows)
 }
 
-/// `contact.csv`: time, total contact force, then each contact node's gap and force.
+/// `contact.csv`: time, total pressing force of the contact law and of the multipliers'
+/// series, then each contact node's opening, law force and series force.
 pub fn write_contact_history(
     path: &Path,
     model: &Model,
     times: &[f64],
-    gaps: &[Vec<f64>],
-    forces: &[Vec<f64>],
+    states: &[ContactState],
 ) -> Result<()> {
     let Some(c) = &model.contact else {
         return Ok(());
     };
-    let mut header = vec!["time".to_string(), "total_force".to_string()];
+    let mut header = vec![
+        "time".to_string(),
+        "total_force".to_string(),
+        "total_force_series".to_string(),
+    ];
     for &n in &c.set.nodes {
-        header.push(format!("node{n}_gap"));
+        header.push(format!("node{n}_opening"));
         header.push(format!("node{n}_force"));
+        header.push(format!("node{n}_force_series"));
     }
     let rows: Vec<Vec<f64>> = times
         .iter()
-        .enumerate()
-        .map(|(j, &t)| {
-            let mut row = vec![t, -forces[j].iter().sum::<f64>()];
+        .zip(states)
+        .map(|(&t, s)| {
+            let mut row = vec![t, s.force.iter().sum(), s.series.iter().sum()];
             for i in 0..c.set.nodes.len() {
-                row.push(gaps[j][i]);
-                row.push(-forces[j][i]);
+                row.extend([-s.gap[i], s.force[i], s.series[i]]);
             }
             row
         })

@@ -137,13 +137,33 @@ pub struct ContactSetup {
     pub inertia_change: Option<f64>,
 }
 
-/// The contact result.
+/// The contact result. Forces are pressing positive, in N for the body's thickness (plane
+/// strain: per metre of thickness).
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct ContactSummary {
-    /// Peak over the period of the total pressing contact force −Σλ [N].
+    /// Peak over the period of the total pressing contact force of the contact law [N]:
+    /// harmonic balance over the output history's samples (`contact.csv`), time marching over
+    /// every time step (`contact_steps.csv`).
     pub peak_contact_force: f64,
-    /// Mean over the period of the total pressing contact force [N].
+    /// Mean over the period of the total pressing contact force of the contact law [N]
+    /// (samples as for the peak).
     pub mean_contact_force: f64,
+    /// Peak of the total −Σλ(t) of the multipliers' truncated Fourier series over the output
+    /// history [N] (time marching: of the frames' forces).
+    pub peak_contact_force_series: f64,
+    /// Mean of the total −Σλ(t) of the multipliers' series over the output history [N]; at a
+    /// converged solution sampled at the solver's instants it equals the law's mean.
+    pub mean_contact_force_series: f64,
+    /// Truncation indicator: the largest tension (negative total −Σλ(t)) of the multipliers'
+    /// series over its peak, over the output history (0: never pulls; time marching: 0).
+    pub force_series_tension_ratio: f64,
+    /// The same per node: the largest nodal tension of the series over its largest nodal
+    /// pressing force, over the output history.
+    pub force_series_node_tension_ratio: f64,
+    /// A contact node is written as closed (`contact_status` 1) when its law force is positive
+    /// and its opening is at most this [m]: the larger of 1e-3 × the largest opening and the
+    /// largest penetration over the output history.
+    pub closed_opening_tolerance: f64,
     /// Largest sampled penetration B u − g0 > 0 over the output history [m].
     pub max_sampled_penetration: f64,
     /// The harmonic-balance contact solve (harmonic balance only).
@@ -254,6 +274,32 @@ pub fn force_stats(totals: &[f64]) -> (f64, f64) {
     (peak, mean)
 }
 
+/// The series statistics and the closed tolerance of a contact summary; the law's peak,
+/// mean and penetration are zero here, for the caller to fill in.
+fn series_stats(sampled: &Sampled) -> ContactSummary {
+    let series = sampled.history.total_force_series();
+    let (peak, mean) = force_stats(&series);
+    let tension = series.iter().fold(0.0f64, |a, &v| a.max(-v));
+    let nodal = sampled.history.contact.iter().flat_map(|c| &c.series);
+    let (node_tension, node_peak) =
+        nodal.fold((0.0f64, 0.0f64), |(t, p), &v| (t.max(-v), p.max(v)));
+    ContactSummary {
+        peak_contact_force: 0.0,
+        mean_contact_force: 0.0,
+        peak_contact_force_series: peak,
+        mean_contact_force_series: mean,
+        force_series_tension_ratio: if peak > 0.0 { tension / peak } else { 0.0 },
+        force_series_node_tension_ratio: if node_peak > 0.0 {
+            node_tension / node_peak
+        } else {
+            0.0
+        },
+        closed_opening_tolerance: sampled.closed_tolerance,
+        max_sampled_penetration: 0.0,
+        solver: None,
+    }
+}
+
 /// Over evenly spaced samples of one period, per probe: half the peak-to-peak range and the
 /// first-harmonic amplitude of each component of the probe's mean displacement.
 pub fn probe_amplitudes(
@@ -322,6 +368,7 @@ pub fn harmonic_balance(
                 max_penetration_on_history: history.max_penetration(),
                 newton_log: c.newton.log.clone(),
             }),
+            ..series_stats(sampled)
         }
     });
     Summary {
@@ -349,6 +396,7 @@ pub fn transient(
             mean_contact_force: mean,
             max_sampled_penetration: sampled.history.max_penetration(),
             solver: None,
+            ..series_stats(sampled)
         }
     });
     let mut warnings = Vec::new();

@@ -1,6 +1,7 @@
 """Independent reader check of an hbcontact output directory with meshio.
 
 usage: meshio_check.py OUTPUT_DIR [--expect EXPECT.json] [--probe NAME=I,J,... ...]
+                        [--contact TOLERANCE]
 
 Every *.vtu must read, with points and cells; every array named in EXPECT.json
 ({"point": {name: components}, "cell": {name: components}}) must be present in every
@@ -9,6 +10,14 @@ must reference existing files (each read by meshio) with strictly increasing tim
 Each --probe prints, for every frame of the first .pvd in time order, the mean displacement of
 the listed points (0-based point indices, = mesh node indices) as
 "meshio_check: probe NAME TIME UX UY", for the caller to compare with its own records.
+Probes are read from series.pvd (else the first .pvd).
+
+--contact TOLERANCE (contact scenes): in every frame, contact_force and contact_pressure are
+>= 0; contact_status is 1 exactly where the force is > 0 and contact_opening <= TOLERANCE,
+0 elsewhere on the contact nodes, -1 off them (where every contact array is 0). Prints
+"meshio_check: contact CLOSED NODE_FRAMES MIN_SERIES MAX_CLOSED_OPENING MIN_OPEN_OPENING" and
+obstacle.vtu's points as "meshio_check: obstacle_point X Y"; obstacle.vtu must hold line cells
+only and obstacle.pvd must reference it.
 """
 import json
 import math
@@ -29,6 +38,46 @@ def components(a):
     return 1 if a.ndim == 1 else a.shape[1]
 
 
+def check_contact(out, tolerance):
+    closed, total, min_series = 0, 0, math.inf
+    max_closed_opening, min_open_opening = -math.inf, math.inf
+    for path in sorted(out.glob("frame_*.vtu")):
+        d = meshio.read(path).point_data
+        for name in ["contact_opening", "contact_force", "contact_pressure", "contact_status",
+                     "contact_force_series"]:
+            if name not in d:
+                fail(f"{path.name}: point array {name} missing (have {sorted(d)})")
+        opening, force = np.asarray(d["contact_opening"]), np.asarray(d["contact_force"])
+        pressure, status = np.asarray(d["contact_pressure"]), np.asarray(d["contact_status"])
+        series = np.asarray(d["contact_force_series"])
+        if np.any(force < 0) or np.any(pressure < 0):
+            fail(f"{path.name}: negative contact force {force.min()} or pressure {pressure.min()}")
+        node = status >= 0
+        off = ~node
+        if np.any(force[off] != 0) or np.any(opening[off] != 0) or np.any(series[off] != 0):
+            fail(f"{path.name}: contact arrays nonzero off the contact nodes")
+        should = node & (force > 0) & (opening <= tolerance)
+        if np.any((status == 1) != should) or np.any(~np.isin(status, [-1, 0, 1])):
+            bad = np.nonzero((status == 1) != should)[0][:5]
+            fail(f"{path.name}: status {status[bad]} at points {bad}: force {force[bad]}, opening {opening[bad]}, tolerance {tolerance}")
+        closed += int(np.sum(status == 1))
+        total += int(np.sum(node))
+        min_series = min(min_series, float(series[node].min()))
+        if np.any(status == 1):
+            max_closed_opening = max(max_closed_opening, float(opening[status == 1].max()))
+        if np.any(status == 0):
+            min_open_opening = min(min_open_opening, float(opening[status == 0].min()))
+    print(f"meshio_check: contact {closed} {total} {min_series!r} {max_closed_opening!r} {min_open_opening!r}")
+    m = meshio.read(out / "obstacle.vtu")
+    if not m.cells or any(c.type != "line" for c in m.cells):
+        fail(f"obstacle.vtu: cells {[c.type for c in m.cells]}, expected line cells only")
+    root = ET.parse(out / "obstacle.pvd").getroot()
+    if [ds.attrib["file"] for ds in root.iter("DataSet")] != ["obstacle.vtu"]:
+        fail("obstacle.pvd does not reference obstacle.vtu alone")
+    for x, y, _ in m.points:
+        print(f"meshio_check: obstacle_point {float(x)!r} {float(y)!r}")
+
+
 def main():
     args = sys.argv[1:]
     if not args:
@@ -42,6 +91,9 @@ def main():
         if a == "--probe":
             name, ids = args[i + 1].split("=", 1)
             probes.append((name, [int(v) for v in ids.split(",")]))
+    tolerance = None
+    if "--contact" in args:
+        tolerance = float(args[args.index("--contact") + 1])
     vtus = sorted(out.glob("*.vtu"))
     if not vtus:
         fail(f"no .vtu files in {out}")
@@ -68,7 +120,9 @@ def main():
                 fail(f"{path.name}: cell array {name} has shape {a.shape}, expected ({ncells}, {ncomp})")
             if not np.all(np.isfinite(a)):
                 fail(f"{path.name}: cell array {name} is not finite")
-    pvds = sorted(out.glob("*.pvd"))
+    if tolerance is not None:
+        check_contact(out, tolerance)
+    pvds = sorted(out.glob("*.pvd"), key=lambda p: (p.name != "series.pvd", p.name))
     if not pvds:
         fail(f"no .pvd in {out}")
     for pvd in pvds:

@@ -1,6 +1,8 @@
 """pvbatch script: open a .pvd, check its time steps and a point array, warp by it, save a PNG.
+With OBSTACLE.pvd, also open the obstacle (one time-independent step of line cells) and show
+it in the same view.
 
-usage: pvbatch paraview_check.py SERIES.pvd OUT.png ARRAY EXPECTED_STEPS
+usage: pvbatch paraview_check.py SERIES.pvd OUT.png ARRAY EXPECTED_STEPS [OBSTACLE.pvd]
 """
 import os
 import sys
@@ -26,6 +28,16 @@ view = GetActiveViewOrCreate("RenderView")
 view.ViewSize = [800, 600]
 display = Show(warp, view)
 ColorBy(display, ("POINTS", array, "Magnitude"))
+obstacle_cells = None
+if len(sys.argv) > 5:
+    obstacle = PVDReader(FileName=sys.argv[5])
+    UpdatePipeline(proxy=obstacle)
+    info = obstacle.GetDataInformation()
+    obstacle_cells = info.GetNumberOfCells()
+    if obstacle_cells < 1 or info.GetNumberOfPoints() < 2:
+        print(f"paraview_check: FAIL: obstacle has {obstacle_cells} cells")
+        sys.exit(1)
+    Show(obstacle, view)
 scene = GetAnimationScene()
 scene.UpdateAnimationUsingDataTimeSteps()
 scene.AnimationTime = times[len(times) // 4]
@@ -35,4 +47,4 @@ SaveScreenshot(png, view, ImageResolution=[800, 600])
 if not os.path.exists(png) or os.path.getsize(png) < 10000:
     print("paraview_check: FAIL: no screenshot")
     sys.exit(1)
-print(f"paraview_check: OK: {len(times)} steps, arrays {names}, screenshot {png}")
+print(f"paraview_check: OK: {len(times)} steps, arrays {names}, obstacle cells {obstacle_cells}, screenshot {png}")
