@@ -261,3 +261,216 @@ fn quadrilateral_meshes_come_through_gmsh() {
         assert!((area(&mesh) - 0.02).abs() < 1e-9, "{}", area(&mesh));
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Bounded meshing: the element estimate, the time limit, gmsh's process group.
+
+fn hbcontact(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(args)
+        .current_dir(common::root())
+        .output()
+        .expect("the hbcontact binary runs")
+}
+
+/// Processes whose command line contains `pattern` (pgrep -f), without the pgrep itself.
+fn processes_matching(pattern: &str) -> Vec<String> {
+    let out = std::process::Command::new("pgrep")
+        .args(["-af", pattern])
+        .output()
+        .expect("pgrep runs");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| !l.contains("pgrep"))
+        .map(str::to_string)
+        .collect()
+}
+
+fn wait_until(limit: std::time::Duration, mut ok: impl FnMut() -> bool) -> bool {
+    let start = std::time::Instant::now();
+    while start.elapsed() < limit {
+        if ok() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    ok()
+}
+
+/// TEST GOAL: `check` refuses an absurd mesh size (1e-9 m on a 0.2 m bracket) in seconds,
+/// with exit code 2 and a message giving the estimated element count, the limit's key and a
+/// size that fits, instead of letting gmsh grow until the OOM killer stops it.
+#[test]
+fn an_absurd_mesh_size_is_refused_by_check_within_seconds_naming_the_estimate() {
+    let out = "output/test-runs/absurd-size/quickstart";
+    let start = std::time::Instant::now();
+    let o = hbcontact(&[
+        "check",
+        "pipelines/quickstart.yaml",
+        "--set",
+        "geometry.mesh_size=1e-9",
+        "--out",
+        out,
+        "-q",
+    ]);
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(secs < 5.0, "took {secs} s");
+    assert!(
+        err.contains("would make about 2.")
+            && err.contains("e16 elements")
+            && err.contains("geometry.max_elements = 2000000")
+            && err.contains("geometry.mesh_size ≥"),
+        "{err}"
+    );
+    assert!(processes_matching("test-runs/absurd-size").is_empty());
+}
+
+/// TEST GOAL: the element estimate (made before meshing, from gmsh `-0` and a coarsened trial
+/// mesh) is never below half the elements gmsh then makes, and above 4000 elements (where the
+/// trial mesh is used rather than the bounding-box bound) never above twice, on every shipped
+/// geometry (graded fields, obstacle curves, quads) and at a mesh size below the .geo's.
+#[test]
+fn the_element_estimate_is_within_a_factor_of_two_of_the_mesh_for_every_shipped_geometry() {
+    use hbcontact::mesh::gmsh::{estimate_elements, find_gmsh, MeshLimits};
+    let scratch = common::root().join("output/test-mesh-cache-estimate");
+    std::fs::create_dir_all(&scratch).unwrap();
+    let geos = [
+        "quickstart.geo",
+        "cantilever.geo",
+        "strip_wall.geo",
+        "blade_casing.geo",
+        "half_disc.geo",
+    ];
+    for geo in geos {
+        // A size below the .geo's (the half-disc's far size is 0.1 m, its contact size 2 mm).
+        let finer = if geo == "half_disc.geo" { 0.03 } else { 0.003 };
+        for (mesh_size, quads) in [(None, false), (None, true), (Some(finer), false)] {
+            let mut r = request(geo, 1);
+            r.mesh_size = mesh_size;
+            r.quads = quads;
+            let cmd = find_gmsh(None, Some(&common::root())).unwrap();
+            let estimate = estimate_elements(
+                &cmd,
+                &r,
+                &scratch,
+                &MeshLimits::default(),
+                &hbcontact::Silent,
+            )
+            .unwrap_or_else(|e| panic!("{geo}: {e}"));
+            let mesh = read_msh(&mesh_geometry(&r, &cache()).unwrap().msh).unwrap();
+            let actual = mesh.cells.len() as f64;
+            println!(
+                "{geo} size {mesh_size:?} quads {quads}: estimate {estimate:.0}, actual {actual}"
+            );
+            assert!(
+                (estimate / actual < 2.0 || estimate <= 4000.0) && actual / estimate < 2.0,
+                "{geo} size {mesh_size:?} quads {quads}: estimate {estimate} vs {actual} elements"
+            );
+        }
+    }
+}
+
+/// TEST GOAL: with `geometry.gmsh_timeout` = 1 s on a mesh that takes gmsh longer, the run
+/// stops with exit code 2 in a few seconds, names the key, and no gmsh process is left.
+#[test]
+fn gmsh_beyond_its_time_limit_is_killed_and_leaves_no_process() {
+    let tag = "test-runs/gmsh-timeout";
+    let start = std::time::Instant::now();
+    let o = hbcontact(&[
+        "check",
+        "pipelines/quickstart.yaml",
+        "--set",
+        "geometry.mesh_size=1.5e-4",
+        "--set",
+        "geometry.gmsh_timeout=1",
+        "--out",
+        &format!("output/{tag}/quickstart"),
+        "-q",
+    ]);
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("geometry.gmsh_timeout = 1 s") && err.contains("killed"),
+        "{err}"
+    );
+    assert!(secs < 10.0, "took {secs} s");
+    assert!(
+        processes_matching(tag).is_empty(),
+        "{:?}",
+        processes_matching(tag)
+    );
+}
+
+/// TEST GOAL: gmsh dies with hbcontact: SIGTERM (a handler kills gmsh's process group) and
+/// SIGKILL (which no handler sees: gmsh's parent-death signal) both leave no gmsh running.
+#[test]
+fn gmsh_dies_when_hbcontact_is_terminated_or_killed() {
+    for signal in ["-TERM", "-KILL"] {
+        let tag = format!("test-runs/gmsh-orphan{signal}");
+        let out = format!("output/{tag}/quickstart");
+        let _ = std::fs::remove_dir_all(common::root().join("output").join(&tag));
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+            .args([
+                "check",
+                "pipelines/quickstart.yaml",
+                "--set",
+                "geometry.mesh_size=1.5e-4",
+                "--out",
+                &out,
+                "-q",
+            ])
+            .current_dir(common::root())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // Wait for the real meshing run (its temporary output is in the unique folder).
+        let meshing = wait_until(std::time::Duration::from_secs(30), || {
+            processes_matching(&tag)
+                .iter()
+                .any(|l| l.contains(" -2 ") && !l.contains("-clscale"))
+        });
+        assert!(meshing, "{signal}: gmsh never started meshing");
+        let status = std::process::Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let status = child.wait().unwrap();
+        assert!(!status.success(), "{signal}: {status:?}");
+        let gone = wait_until(std::time::Duration::from_secs(5), || {
+            processes_matching(&tag).is_empty()
+        });
+        assert!(gone, "{signal}: left {:?}", processes_matching(&tag));
+    }
+}
+
+/// TEST GOAL: when gmsh is killed by a signal and prints nothing (what the OOM killer does),
+/// the error says so: the signal, the likely cause and the remedy, not an empty message.
+#[test]
+fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
+    let dir = common::root().join("output/test-runs/killed-gmsh");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let fake = dir.join("fake-gmsh.sh");
+    std::fs::write(
+        &fake,
+        "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 4.15.2; exit 0; fi\nkill -9 $$\n",
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let mut r = request("quickstart.geo", 1);
+    r.gmsh = Some(fake);
+    let e = mesh_geometry(&r, &dir.join("cache"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("killed by signal 9")
+            && e.contains("out-of-memory")
+            && e.contains("element count"),
+        "{e}"
+    );
+}

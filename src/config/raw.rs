@@ -81,6 +81,15 @@ struct RawGeometry {
     /// `make venv`), then `gmsh` on PATH.
     #[serde(default)]
     gmsh: Option<PathBuf>,
+    /// Refuse to mesh when the estimated number of elements exceeds this (the estimate comes
+    /// from gmsh on a coarsened mesh, before the real one). Default: 2000000.
+    #[serde(default)]
+    #[schemars(range(min = 1))]
+    max_elements: Option<u64>,
+    /// Time limit of one gmsh run, in seconds, > 0: gmsh (with its process group) is killed
+    /// beyond it. Default: 600.
+    #[serde(default)]
+    gmsh_timeout: Option<f64>,
 }
 
 /// The 2-D model of the out-of-plane direction.
@@ -637,6 +646,27 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         })?),
         None => None,
     };
+    let max_elements = g
+        .max_elements
+        .unwrap_or(crate::mesh::gmsh::DEFAULT_MAX_ELEMENTS);
+    if max_elements == 0 {
+        return Err(config_error(
+            path,
+            "geometry.max_elements must be at least 1",
+        ));
+    }
+    let gmsh_timeout = positive(
+        path,
+        "geometry.gmsh_timeout",
+        g.gmsh_timeout
+            .unwrap_or(crate::mesh::gmsh::DEFAULT_GMSH_TIMEOUT),
+    )?;
+    if gmsh_timeout > 1e7 {
+        return Err(config_error(
+            path,
+            format!("geometry.gmsh_timeout = {gmsh_timeout} s: at most 1e7 s (about 4 months)"),
+        ));
+    }
     Ok(Geometry {
         file,
         parameters: g.parameters,
@@ -644,6 +674,8 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         order,
         quads: g.quads,
         gmsh,
+        max_elements,
+        gmsh_timeout,
     })
 }
 

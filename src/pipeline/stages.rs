@@ -117,7 +117,14 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
         quads: p.geometry.quads,
         gmsh: p.geometry.gmsh.clone(),
     };
-    let meshed = stages.run("mesh", || mesh::gmsh::mesh_geometry(&request, &cache_dir))?;
+    let limits = mesh::gmsh::MeshLimits {
+        max_elements: p.geometry.max_elements,
+        timeout: std::time::Duration::from_secs_f64(p.geometry.gmsh_timeout),
+    };
+    let reporter = stages.reporter;
+    let meshed = stages.run("mesh", || {
+        mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
+    })?;
     let mesh = stages.run("read", || mesh::msh::read_msh(&meshed.msh))?;
     let info = MeshInfo {
         geometry: p.geometry.file.clone(),
