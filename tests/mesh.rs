@@ -474,3 +474,124 @@ fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
         "{e}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// The verified mesh cache.
+
+/// Run quickstart into `output/test-runs/<tag>/quickstart` (its cache is
+/// `output/test-runs/<tag>/.mesh-cache`); exit code, stderr, probes.csv.
+fn run_quickstart(tag: &str) -> (Option<i32>, String, String) {
+    let out = format!("output/test-runs/{tag}/quickstart");
+    let o = hbcontact(&["run", "pipelines/quickstart.yaml", "--out", &out]);
+    let probes =
+        std::fs::read_to_string(common::root().join(&out).join("probes.csv")).unwrap_or_default();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        probes,
+    )
+}
+
+/// The one cached mesh of a test's cache directory.
+fn cached_mesh(tag: &str) -> PathBuf {
+    let dir = common::root().join(format!("output/test-runs/{tag}/.mesh-cache"));
+    let meshes: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "msh"))
+        .collect();
+    assert_eq!(meshes.len(), 1, "{meshes:?}");
+    assert!(
+        PathBuf::from(format!("{}.sha256", meshes[0].display())).is_file(),
+        "a cached mesh has its checksum beside it"
+    );
+    meshes[0].clone()
+}
+
+/// TEST GOAL: a cached mesh changed after gmsh wrote it (one node moved, the file still a
+/// valid mesh) is not used: the run warns that it fails its checksum, meshes again, and its
+/// results equal those of the untampered run.
+#[test]
+fn a_tampered_cached_mesh_is_detected_and_remeshed_with_the_untampered_result() {
+    let tag = "cache-tampered";
+    let _ = std::fs::remove_dir_all(common::root().join(format!("output/test-runs/{tag}")));
+    let (code, err, reference) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    let msh = cached_mesh(tag);
+    // Move node 1: the first coordinate line after the first node block's tag list.
+    let text = std::fs::read_to_string(&msh).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let nodes = lines.iter().position(|l| *l == "$Nodes").unwrap();
+    let block: Vec<usize> = lines[nodes + 2]
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let first_coordinates = nodes + 3 + block[3];
+    let moved = lines[first_coordinates]
+        .split_whitespace()
+        .enumerate()
+        .map(|(i, x)| {
+            let v: f64 = x.parse().unwrap();
+            if i == 1 { v + 1e-4 } else { v }.to_string()
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
+    let mut tampered: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    tampered[first_coordinates] = moved;
+    std::fs::write(&msh, tampered.join("\n") + "\n").unwrap();
+    read_msh(&msh).expect("the tampered mesh is still a valid mesh");
+
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("does not match its checksum") && err.contains("meshing again"),
+        "{err}"
+    );
+    assert!(!reference.is_empty());
+    assert_eq!(
+        again, reference,
+        "the remeshed run equals the untampered one"
+    );
+}
+
+/// TEST GOAL: a truncated cached mesh does not stop the run: it fails its checksum, is meshed
+/// again with a warning, and the run succeeds with the untampered result; so does a cached mesh
+/// whose checksum is missing, and one that matches its checksum but does not parse.
+#[test]
+fn a_truncated_cached_mesh_is_remeshed() {
+    let tag = "cache-truncated";
+    let _ = std::fs::remove_dir_all(common::root().join(format!("output/test-runs/{tag}")));
+    let (code, err, reference) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    let msh = cached_mesh(tag);
+    let bytes = std::fs::read(&msh).unwrap();
+    std::fs::write(&msh, &bytes[..bytes.len() / 2]).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("meshing again"), "{err}");
+    assert_eq!(again, reference);
+    std::fs::remove_file(format!("{}.sha256", msh.display())).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("has no checksum") && err.contains("meshing again"),
+        "{err}"
+    );
+    assert_eq!(again, reference);
+    // A damaged file whose checksum matches (a bad write) is caught by the reader instead.
+    let msh = cached_mesh(tag);
+    let garbage = b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\nbroken\n".to_vec();
+    let sum: String = {
+        use sha2::Digest;
+        sha2::Sha256::digest(&garbage)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    std::fs::write(&msh, &garbage).unwrap();
+    std::fs::write(format!("{}.sha256", msh.display()), sum).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("meshing again"), "{err}");
+    assert_eq!(again, reference);
+}

@@ -591,6 +591,39 @@ pub fn estimate_elements(
     Ok(estimate)
 }
 
+/// The SHA-256 of a cached mesh is kept beside it, in `<mesh>.msh.sha256`.
+fn checksum_path(msh: &Path) -> PathBuf {
+    let mut name = msh.as_os_str().to_owned();
+    name.push(".sha256");
+    PathBuf::from(name)
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Whether a cached mesh is the one gmsh wrote: its SHA-256 equals the one stored beside it.
+/// The error says why not (for the warning).
+fn verify_cached(msh: &Path) -> std::result::Result<(), String> {
+    let stored = std::fs::read_to_string(checksum_path(msh))
+        .map_err(|_| "has no checksum (written by an older hbcontact, or damaged)".to_string())?;
+    let bytes = std::fs::read(msh).map_err(|e| format!("cannot be read ({e})"))?;
+    if stored.trim() == sha256_hex(&bytes) {
+        Ok(())
+    } else {
+        Err("does not match its checksum (changed or damaged since gmsh wrote it)".into())
+    }
+}
+
+/// Remove a cached mesh and its checksum (so that it is made again).
+pub fn evict(msh: &Path) {
+    let _ = std::fs::remove_file(msh);
+    let _ = std::fs::remove_file(checksum_path(msh));
+}
+
 /// The refusal of a mesh estimated at `estimate` elements: the estimate, the limit, a size
 /// that fits and how to raise the limit.
 fn too_many_elements(request: &MeshRequest, limits: &MeshLimits, estimate: f64) -> Error {
@@ -665,11 +698,22 @@ pub fn mesh_geometry_with(
         cache_key(request, &contents, &version)
     ));
     if msh.is_file() {
-        return Ok(MeshedGeometry {
-            msh,
-            cache_hit: true,
-            gmsh_version: version,
-        });
+        match verify_cached(&msh) {
+            Ok(()) => {
+                return Ok(MeshedGeometry {
+                    msh,
+                    cache_hit: true,
+                    gmsh_version: version,
+                })
+            }
+            Err(why) => {
+                reporter.warning(&format!(
+                    "cached mesh {} {why}: meshing again",
+                    msh.display()
+                ));
+                evict(&msh);
+            }
+        }
     }
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
     let estimate = estimate_elements(&cmd, request, cache_dir, limits, reporter)?;
@@ -681,6 +725,11 @@ pub fn mesh_geometry_with(
     let tmp = cache_dir.join(format!("{stem}.tmp-{}-{unique}.msh", std::process::id()));
     let c = mesh_command(&cmd, request, &tmp, 1.0);
     run_checked(c, &cmd, request, &tmp, limits, reporter)?;
+    // The checksum goes first, so a mesh in the cache always has one (a crash in between
+    // leaves a checksum without its mesh, which is harmless).
+    let bytes = std::fs::read(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let sum = checksum_path(&msh);
+    std::fs::write(&sum, sha256_hex(&bytes)).map_err(|e| Error::io(&sum, e))?;
     std::fs::rename(&tmp, &msh).map_err(|e| Error::io(&msh, e))?;
     Ok(MeshedGeometry {
         msh,
