@@ -80,3 +80,51 @@ impl Error {
         }
     }
 }
+
+/// The longest piece of user input an error message quotes.
+pub const EXCERPT_CHARS: usize = 80;
+
+/// At most `EXCERPT_CHARS` characters of `s`, with "… (N characters)" when it is longer: an
+/// error names a bad value without echoing all of it.
+pub fn excerpt(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= EXCERPT_CHARS {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(EXCERPT_CHARS).collect();
+        format!("{head}… ({n} characters)")
+    }
+}
+
+/// `message` with every "…" or `…` quoted part longer than `EXCERPT_CHARS` cut to an excerpt
+/// (serde quotes the offending input), and the whole cut to a few thousand characters.
+pub fn shorten_quoted(message: &str) -> String {
+    let chars: Vec<char> = message.chars().collect();
+    let mut out = String::with_capacity(message.len().min(4096));
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        out.push(c);
+        i += 1;
+        if c == '"' || c == '`' {
+            if let Some(len) = chars[i..].iter().position(|&d| d == c) {
+                let inner: String = chars[i..i + len].iter().collect();
+                // Leave an excerpt (80 characters and its length note) as it is.
+                if len > EXCERPT_CHARS + 30 {
+                    out.push_str(&excerpt(&inner));
+                } else {
+                    out.push_str(&inner);
+                }
+                out.push(c);
+                i += len + 1;
+            }
+        }
+    }
+    let n = out.chars().count();
+    if n > 4000 {
+        let head: String = out.chars().take(4000).collect();
+        format!("{head}… (message cut, {n} characters)")
+    } else {
+        out
+    }
+}

@@ -84,8 +84,19 @@ fn exit_code(e: &Error) -> u8 {
     }
 }
 
+/// Exit code after SIGINT, SIGTERM or SIGHUP (128 + SIGINT, the shell's convention).
+const INTERRUPTED: i32 = 130;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // gmsh runs in its own process group (so that a timeout can kill all of it), which also
+    // keeps a terminal's Ctrl-C from reaching it: kill it here before going. A failure to
+    // install the handler leaves the parent-death signal, which still ends gmsh with us.
+    let _ = ctrlc::set_handler(|| {
+        hbcontact::mesh::gmsh::kill_running();
+        eprintln!("interrupted: gmsh stopped; no output written");
+        std::process::exit(INTERRUPTED);
+    });
     let result = match &cli.command {
         Command::Run(c) => run(c, Mode::Run),
         Command::Transient(c) => run(c, Mode::Transient),

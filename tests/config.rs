@@ -144,3 +144,148 @@ fn errors_name_line_field_and_fix() {
     let e = err("pipelines/nope.yaml", &[]);
     assert!(e.contains("nope.yaml") && e.contains("cannot read"), "{e}");
 }
+
+/// `check` on strip_wall with overrides: its exit code and stderr.
+fn check(overrides: &[&str]) -> (Option<i32>, String) {
+    let mut args = vec!["check", "pipelines/strip_wall.yaml", "-q"];
+    for o in overrides {
+        args.push("--set");
+        args.push(o);
+    }
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(&args)
+        .current_dir(root())
+        .output()
+        .expect("the hbcontact binary runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// TEST GOAL: non-finite or absurd numbers are bad input caught by `check` (exit code 2)
+/// with a message naming the field, not a "resonance" at exit 3 after meshing and solving:
+/// an infinite or NaN load amplitude, `frequency: 1e300`, an infinite geometry parameter, NaN
+/// damping, an infinite obstacle point.
+#[test]
+fn non_finite_and_absurd_numbers_are_refused_by_check_naming_the_field() {
+    let cases = [
+        (
+            "boundaries.loads.0.harmonics.0.cos=[.inf, 0]",
+            "boundaries.loads[0].harmonics (k = 1).cos[0] = inf",
+        ),
+        (
+            "boundaries.loads.0.static=[0, .nan]",
+            "boundaries.loads[0].static[1] = NaN",
+        ),
+        (
+            "harmonic_balance.frequency=1e300",
+            "harmonic_balance.frequency = 1e300 Hz is above 1e9 Hz",
+        ),
+        (
+            "harmonic_balance.frequency=.inf",
+            "harmonic_balance.frequency = inf",
+        ),
+        (
+            "geometry.parameters.gap=.inf",
+            "geometry.parameters.gap = inf",
+        ),
+        ("damping.alpha=.nan", "damping.alpha = NaN"),
+        (
+            "material.youngs_modulus=1e300",
+            "material.youngs_modulus = 1e300",
+        ),
+        (
+            "contact.obstacle={line: {point: [.inf, 0], normal: [1, 0]}}",
+            "contact.obstacle.line.point[0] = inf",
+        ),
+    ];
+    for (set, named) in cases {
+        let (code, err) = check(&[set]);
+        assert_eq!(code, Some(2), "{set}: {err}");
+        assert!(err.contains(named), "{set}: {err}");
+    }
+}
+
+/// TEST GOAL: the documented limits hold at `check` with exit code 2 and name the key:
+/// harmonics ≤ 1000, k ≤ 1000, samples ≤ 1e6, frames ≤ output.max_frames (which raises it),
+/// and a contact scene whose H is below a load's harmonic (H = 0 with a k = 1 load; it used to
+/// pass `check` and fail at exit 3).
+#[test]
+fn limits_and_contact_harmonics_are_checked_naming_the_key() {
+    let cases: [(&[&str], &str); 5] = [
+        (
+            &["harmonic_balance.harmonics=0"],
+            "harmonic_balance.harmonics = 0 is below harmonic k = 1 of boundaries.loads[0]",
+        ),
+        (
+            &["harmonic_balance.harmonics=1001"],
+            "harmonic_balance.harmonics = 1001 is above the limit of 1000",
+        ),
+        (
+            &["boundaries.loads.0.harmonics.0.k=5000"],
+            "k = 5000 is above the limit of 1000",
+        ),
+        (
+            &["harmonic_balance.samples=2000000"],
+            "harmonic_balance.samples = 2000000 is above the limit",
+        ),
+        (
+            &["output.frames=20000"],
+            "output.frames = 20000 is above output.max_frames = 10000",
+        ),
+    ];
+    for (sets, named) in cases {
+        let (code, err) = check(sets);
+        assert_eq!(code, Some(2), "{sets:?}: {err}");
+        assert!(err.contains(named), "{sets:?}: {err}");
+    }
+    let o = vec![
+        "output.frames=20000".to_string(),
+        "output.max_frames=20000".to_string(),
+    ];
+    let p = load_pipeline(&root().join("pipelines/strip_wall.yaml"), &o).unwrap();
+    assert_eq!(p.output.frames, 20000);
+}
+
+/// TEST GOAL: an error quotes at most an ~80-character excerpt of a bad input string (with its
+/// length), not all 100 kB of it: as a name, a group name, an enum value and a --set value.
+#[test]
+fn errors_quote_only_an_excerpt_of_long_input() {
+    let long = "a".repeat(100_000);
+    for set in [
+        format!("name={long}"),
+        format!("output.probes=[{long}]"),
+        format!("material.model={long}"),
+        format!("harmonic_balance.frequency={long}"),
+    ] {
+        let e = err("pipelines/strip_wall.yaml", &[set.as_str()]);
+        assert!(e.len() < 1000, "{} characters: {}", e.len(), &e[..300]);
+        assert!(e.contains("100000 characters"), "{e}");
+    }
+}
+
+/// TEST GOAL: `--set` addresses list entries by index (`boundaries.loads.0.static`), and an
+/// index past the end or into a value that is not a list is an error that says how many entries
+/// there are and how to replace the whole list.
+#[test]
+fn set_indexes_list_entries_and_says_how_to_replace_a_list() {
+    let o = vec![
+        "boundaries.loads.0.harmonics.0.cos=[2.0e5, 0.0]".to_string(),
+        "output.probes.0=tip".to_string(),
+    ];
+    let p = load_pipeline(&root().join("pipelines/strip_wall.yaml"), &o).unwrap();
+    assert_eq!(p.boundaries.loads[0].signal.harmonics[0].1, [2.0e5, 0.0]);
+    assert_eq!(p.output.probes, vec!["tip".to_string()]);
+    let e = err("pipelines/strip_wall.yaml", &["boundaries.loads.3.group=x"]);
+    assert!(
+        e.contains("boundaries.loads has 1 entries")
+            && e.contains("--set 'boundaries.loads=[...]'"),
+        "{e}"
+    );
+    let e = err("pipelines/strip_wall.yaml", &["harmonic_balance.0=x"]);
+    assert!(
+        e.contains("harmonic_balance is not a list") && e.contains("set the whole value"),
+        "{e}"
+    );
+}

@@ -437,10 +437,22 @@ fn strip_agrees_with_time_marching() {
 }
 
 /// TEST GOAL: a contact scene whose loads excite a harmonic above H is refused with the fix,
-/// instead of silently dropping the load.
+/// instead of silently dropping the load: by the pipeline check (a config error), and by the
+/// solver when a library caller sets such an H.
 #[test]
 fn loads_above_h_are_refused() {
-    let p = common::scene("strip_wall", &["harmonic_balance.harmonics=0"]);
+    // The pipeline check refuses it (bad input, exit code 2) …
+    let path = common::root().join("pipelines/strip_wall.yaml");
+    let e = hbcontact::config::load_pipeline(&path, &["harmonic_balance.harmonics=0".into()])
+        .expect_err("H = 0 below a k = 1 load must not pass the pipeline check");
+    assert!(
+        matches!(e, hbcontact::Error::Config { .. })
+            && e.to_string().contains("harmonic_balance.harmonics = 0"),
+        "{e}"
+    );
+    // … and the solver, given such settings through the library, still refuses them.
+    let mut p = common::scene("strip_wall", &[]);
+    p.harmonic_balance.harmonics = 0;
     let model = common::model(&p, Purpose::HarmonicBalance);
     match common::solve(&model, &p) {
         Err(hbcontact::Error::Model(msg)) => assert!(

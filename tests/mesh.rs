@@ -261,3 +261,337 @@ fn quadrilateral_meshes_come_through_gmsh() {
         assert!((area(&mesh) - 0.02).abs() < 1e-9, "{}", area(&mesh));
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Bounded meshing: the element estimate, the time limit, gmsh's process group.
+
+fn hbcontact(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(args)
+        .current_dir(common::root())
+        .output()
+        .expect("the hbcontact binary runs")
+}
+
+/// Processes whose command line contains `pattern` (pgrep -f), without the pgrep itself.
+fn processes_matching(pattern: &str) -> Vec<String> {
+    let out = std::process::Command::new("pgrep")
+        .args(["-af", pattern])
+        .output()
+        .expect("pgrep runs");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| !l.contains("pgrep"))
+        .map(str::to_string)
+        .collect()
+}
+
+fn wait_until(limit: std::time::Duration, mut ok: impl FnMut() -> bool) -> bool {
+    let start = std::time::Instant::now();
+    while start.elapsed() < limit {
+        if ok() {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    ok()
+}
+
+/// TEST GOAL: `check` refuses an absurd mesh size (1e-9 m on a 0.2 m bracket) in seconds,
+/// with exit code 2 and a message giving the estimated element count, the limit's key and a
+/// size that fits, instead of letting gmsh grow until the OOM killer stops it.
+#[test]
+fn an_absurd_mesh_size_is_refused_by_check_within_seconds_naming_the_estimate() {
+    let out = "output/test-runs/absurd-size/quickstart";
+    let start = std::time::Instant::now();
+    let o = hbcontact(&[
+        "check",
+        "pipelines/quickstart.yaml",
+        "--set",
+        "geometry.mesh_size=1e-9",
+        "--out",
+        out,
+        "-q",
+    ]);
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(secs < 5.0, "took {secs} s");
+    assert!(
+        err.contains("would make about 2.")
+            && err.contains("e16 elements")
+            && err.contains("geometry.max_elements = 2000000")
+            && err.contains("geometry.mesh_size ≥"),
+        "{err}"
+    );
+    assert!(processes_matching("test-runs/absurd-size").is_empty());
+}
+
+/// TEST GOAL: the element estimate (made before meshing, from gmsh `-0` and a coarsened trial
+/// mesh) is never below half the elements gmsh then makes, and above 4000 elements (where the
+/// trial mesh is used rather than the bounding-box bound) never above twice, on every shipped
+/// geometry (graded fields, obstacle curves, quads) and at a mesh size below the .geo's.
+#[test]
+fn the_element_estimate_is_within_a_factor_of_two_of_the_mesh_for_every_shipped_geometry() {
+    use hbcontact::mesh::gmsh::{estimate_elements, find_gmsh, MeshLimits};
+    let scratch = common::root().join("output/test-mesh-cache-estimate");
+    std::fs::create_dir_all(&scratch).unwrap();
+    let geos = [
+        "quickstart.geo",
+        "cantilever.geo",
+        "strip_wall.geo",
+        "blade_casing.geo",
+        "half_disc.geo",
+    ];
+    for geo in geos {
+        // A size below the .geo's (the half-disc's far size is 0.1 m, its contact size 2 mm).
+        let finer = if geo == "half_disc.geo" { 0.03 } else { 0.003 };
+        for (mesh_size, quads) in [(None, false), (None, true), (Some(finer), false)] {
+            let mut r = request(geo, 1);
+            r.mesh_size = mesh_size;
+            r.quads = quads;
+            let cmd = find_gmsh(None, Some(&common::root())).unwrap();
+            let estimate = estimate_elements(
+                &cmd,
+                &r,
+                &scratch,
+                &MeshLimits::default(),
+                &hbcontact::Silent,
+            )
+            .unwrap_or_else(|e| panic!("{geo}: {e}"));
+            let mesh = read_msh(&mesh_geometry(&r, &cache()).unwrap().msh).unwrap();
+            let actual = mesh.cells.len() as f64;
+            println!(
+                "{geo} size {mesh_size:?} quads {quads}: estimate {estimate:.0}, actual {actual}"
+            );
+            assert!(
+                (estimate / actual < 2.0 || estimate <= 4000.0) && actual / estimate < 2.0,
+                "{geo} size {mesh_size:?} quads {quads}: estimate {estimate} vs {actual} elements"
+            );
+        }
+    }
+}
+
+/// TEST GOAL: with `geometry.gmsh_timeout` = 1 s on a mesh that takes gmsh longer, the run
+/// stops with exit code 2 in a few seconds, names the key, and no gmsh process is left.
+#[test]
+fn gmsh_beyond_its_time_limit_is_killed_and_leaves_no_process() {
+    let tag = "test-runs/gmsh-timeout";
+    let start = std::time::Instant::now();
+    let o = hbcontact(&[
+        "check",
+        "pipelines/quickstart.yaml",
+        "--set",
+        "geometry.mesh_size=1.5e-4",
+        "--set",
+        "geometry.gmsh_timeout=1",
+        "--out",
+        &format!("output/{tag}/quickstart"),
+        "-q",
+    ]);
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("geometry.gmsh_timeout = 1 s") && err.contains("killed"),
+        "{err}"
+    );
+    assert!(secs < 10.0, "took {secs} s");
+    assert!(
+        processes_matching(tag).is_empty(),
+        "{:?}",
+        processes_matching(tag)
+    );
+}
+
+/// TEST GOAL: gmsh dies with hbcontact: SIGTERM (a handler kills gmsh's process group) and
+/// SIGKILL (which no handler sees: gmsh's parent-death signal) both leave no gmsh running.
+#[test]
+fn gmsh_dies_when_hbcontact_is_terminated_or_killed() {
+    for signal in ["-TERM", "-KILL"] {
+        let tag = format!("test-runs/gmsh-orphan{signal}");
+        let out = format!("output/{tag}/quickstart");
+        let _ = std::fs::remove_dir_all(common::root().join("output").join(&tag));
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+            .args([
+                "check",
+                "pipelines/quickstart.yaml",
+                "--set",
+                "geometry.mesh_size=1.5e-4",
+                "--out",
+                &out,
+                "-q",
+            ])
+            .current_dir(common::root())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // Wait for the real meshing run (its temporary output is in the unique folder).
+        let meshing = wait_until(std::time::Duration::from_secs(30), || {
+            processes_matching(&tag)
+                .iter()
+                .any(|l| l.contains(" -2 ") && !l.contains("-clscale"))
+        });
+        assert!(meshing, "{signal}: gmsh never started meshing");
+        let status = std::process::Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let status = child.wait().unwrap();
+        assert!(!status.success(), "{signal}: {status:?}");
+        let gone = wait_until(std::time::Duration::from_secs(5), || {
+            processes_matching(&tag).is_empty()
+        });
+        assert!(gone, "{signal}: left {:?}", processes_matching(&tag));
+    }
+}
+
+/// TEST GOAL: when gmsh is killed by a signal and prints nothing (what the OOM killer does),
+/// the error says so: the signal, the likely cause and the remedy, not an empty message.
+#[test]
+fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
+    let dir = common::root().join("output/test-runs/killed-gmsh");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let fake = dir.join("fake-gmsh.sh");
+    std::fs::write(
+        &fake,
+        "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 4.15.2; exit 0; fi\nkill -9 $$\n",
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let mut r = request("quickstart.geo", 1);
+    r.gmsh = Some(fake);
+    let e = mesh_geometry(&r, &dir.join("cache"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("killed by signal 9")
+            && e.contains("out-of-memory")
+            && e.contains("element count"),
+        "{e}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// The verified mesh cache.
+
+/// Run quickstart into `output/test-runs/<tag>/quickstart` (its cache is
+/// `output/test-runs/<tag>/.mesh-cache`); exit code, stderr, probes.csv.
+fn run_quickstart(tag: &str) -> (Option<i32>, String, String) {
+    let out = format!("output/test-runs/{tag}/quickstart");
+    let o = hbcontact(&["run", "pipelines/quickstart.yaml", "--out", &out]);
+    let probes =
+        std::fs::read_to_string(common::root().join(&out).join("probes.csv")).unwrap_or_default();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        probes,
+    )
+}
+
+/// The one cached mesh of a test's cache directory.
+fn cached_mesh(tag: &str) -> PathBuf {
+    let dir = common::root().join(format!("output/test-runs/{tag}/.mesh-cache"));
+    let meshes: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "msh"))
+        .collect();
+    assert_eq!(meshes.len(), 1, "{meshes:?}");
+    assert!(
+        PathBuf::from(format!("{}.sha256", meshes[0].display())).is_file(),
+        "a cached mesh has its checksum beside it"
+    );
+    meshes[0].clone()
+}
+
+/// TEST GOAL: a cached mesh changed after gmsh wrote it (one node moved, the file still a
+/// valid mesh) is not used: the run warns that it fails its checksum, meshes again, and its
+/// results equal those of the untampered run.
+#[test]
+fn a_tampered_cached_mesh_is_detected_and_remeshed_with_the_untampered_result() {
+    let tag = "cache-tampered";
+    let _ = std::fs::remove_dir_all(common::root().join(format!("output/test-runs/{tag}")));
+    let (code, err, reference) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    let msh = cached_mesh(tag);
+    // Move node 1: the first coordinate line after the first node block's tag list.
+    let text = std::fs::read_to_string(&msh).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let nodes = lines.iter().position(|l| *l == "$Nodes").unwrap();
+    let block: Vec<usize> = lines[nodes + 2]
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let first_coordinates = nodes + 3 + block[3];
+    let moved = lines[first_coordinates]
+        .split_whitespace()
+        .enumerate()
+        .map(|(i, x)| {
+            let v: f64 = x.parse().unwrap();
+            if i == 1 { v + 1e-4 } else { v }.to_string()
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
+    let mut tampered: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    tampered[first_coordinates] = moved;
+    std::fs::write(&msh, tampered.join("\n") + "\n").unwrap();
+    read_msh(&msh).expect("the tampered mesh is still a valid mesh");
+
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("does not match its checksum") && err.contains("meshing again"),
+        "{err}"
+    );
+    assert!(!reference.is_empty());
+    assert_eq!(
+        again, reference,
+        "the remeshed run equals the untampered one"
+    );
+}
+
+/// TEST GOAL: a truncated cached mesh does not stop the run: it fails its checksum, is meshed
+/// again with a warning, and the run succeeds with the untampered result; so does a cached mesh
+/// whose checksum is missing, and one that matches its checksum but does not parse.
+#[test]
+fn a_truncated_cached_mesh_is_remeshed() {
+    let tag = "cache-truncated";
+    let _ = std::fs::remove_dir_all(common::root().join(format!("output/test-runs/{tag}")));
+    let (code, err, reference) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    let msh = cached_mesh(tag);
+    let bytes = std::fs::read(&msh).unwrap();
+    std::fs::write(&msh, &bytes[..bytes.len() / 2]).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("meshing again"), "{err}");
+    assert_eq!(again, reference);
+    std::fs::remove_file(format!("{}.sha256", msh.display())).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("has no checksum") && err.contains("meshing again"),
+        "{err}"
+    );
+    assert_eq!(again, reference);
+    // A damaged file whose checksum matches (a bad write) is caught by the reader instead.
+    let msh = cached_mesh(tag);
+    let garbage = b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\nbroken\n".to_vec();
+    let sum: String = {
+        use sha2::Digest;
+        sha2::Sha256::digest(&garbage)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    std::fs::write(&msh, &garbage).unwrap();
+    std::fs::write(format!("{}.sha256", msh.display()), sum).unwrap();
+    let (code, err, again) = run_quickstart(tag);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("meshing again"), "{err}");
+    assert_eq!(again, reference);
+}

@@ -867,3 +867,37 @@ fn quiet_prints_nothing_but_errors() {
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("harmonic_balance.frequency"));
 }
+
+/// TEST GOAL: a run removes the `.partial-<pid>` folders that dead runs left next to its
+/// output (here a fake `x.partial-<pid>` of a pid with no /proc entry) and says so, and keeps
+/// the partial folder of a run that is still alive (this test's own pid).
+#[test]
+fn a_run_removes_partial_outputs_of_dead_runs_and_keeps_live_ones() {
+    let parent = common::temp_out("stale-partials");
+    std::fs::create_dir_all(&parent).unwrap();
+    let dead_pid = (999_999u32..)
+        .find(|p| !Path::new(&format!("/proc/{p}")).exists())
+        .unwrap();
+    let dead = parent.join(format!("x.partial-{dead_pid}"));
+    std::fs::create_dir_all(dead.join("sub")).unwrap();
+    std::fs::write(dead.join("sub/frame_0000.vtu"), "half written").unwrap();
+    let live = parent.join(format!("y.partial-{}", std::process::id()));
+    std::fs::create_dir_all(&live).unwrap();
+    let out = parent.join("quickstart");
+    let o = common::hbcontact(&[
+        "run",
+        "pipelines/quickstart.yaml",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!dead.exists(), "the dead run's partial output is gone");
+    assert!(
+        err.contains(&format!("removed {}", dead.display()))
+            && err.contains(&format!("pid {dead_pid}")),
+        "{err}"
+    );
+    assert!(live.exists(), "a live run's partial output is kept");
+    assert!(out.join("summary.json").is_file());
+}

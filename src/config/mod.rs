@@ -42,6 +42,10 @@ pub struct Geometry {
     pub quads: bool,
     /// Explicit gmsh executable; otherwise `.venv/bin/gmsh`, then `PATH`.
     pub gmsh: Option<PathBuf>,
+    /// Refuse to mesh beyond this estimated number of elements.
+    pub max_elements: u64,
+    /// Time limit of one gmsh run, in seconds.
+    pub gmsh_timeout: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

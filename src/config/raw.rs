@@ -81,6 +81,15 @@ struct RawGeometry {
     /// `make venv`), then `gmsh` on PATH.
     #[serde(default)]
     gmsh: Option<PathBuf>,
+    /// Refuse to mesh when the estimated number of elements exceeds this (the estimate comes
+    /// from gmsh on a coarsened mesh, before the real one). Default: 2000000.
+    #[serde(default)]
+    #[schemars(range(min = 1))]
+    max_elements: Option<u64>,
+    /// Time limit of one gmsh run, in seconds, > 0: gmsh (with its process group) is killed
+    /// beyond it. Default: 600.
+    #[serde(default)]
+    gmsh_timeout: Option<f64>,
 }
 
 /// The 2-D model of the out-of-plane direction.
@@ -385,6 +394,11 @@ struct RawOutput {
     #[serde(default)]
     #[schemars(range(min = 1))]
     frames: Option<usize>,
+    /// The most frames `output.frames` may ask for (a guard against typos that would write
+    /// millions of files). Default: 10000.
+    #[serde(default)]
+    #[schemars(range(min = 1))]
+    max_frames: Option<usize>,
     /// The fields written to the snapshots. Default: all six.
     #[serde(default)]
     fields: Option<Vec<RawField>>,
@@ -400,11 +414,80 @@ pub(super) fn raw_schema() -> schemars::Schema {
         .into_root_schema_for::<RawPipeline>()
 }
 
+/// The highest fundamental frequency accepted, in Hz. Elastic waves at 1 GHz have wavelengths
+/// of micrometres in metals, where a continuum model without dispersion stops describing the
+/// body; a frequency like 1e300 only overflows ω² and is blamed on resonance later.
+pub const MAX_FREQUENCY: f64 = 1e9;
+/// The most harmonics (H, and any load's k): the dense contact solve grows as H² and N = 16H
+/// samples per period; 1000 harmonics is far past where the accuracy table stops paying.
+pub const MAX_HARMONICS: usize = 1000;
+/// The most time samples per period (`harmonic_balance.samples`).
+pub const MAX_SAMPLES: usize = 1_000_000;
+/// The default of `output.max_frames`: 10 000 snapshot files are already more than a viewer
+/// plays usefully, and each frame is a full VTU file.
+pub const DEFAULT_MAX_FRAMES: usize = 10_000;
+/// The largest magnitude of any number in a pipeline: far beyond any physical value in any
+/// consistent unit system, and small enough that squares and products stay finite.
+pub const MAX_MAGNITUDE: f64 = 1e30;
+/// The longest group name accepted.
+pub const MAX_NAME_CHARS: usize = 256;
+
 fn config_error(path: &Path, message: impl Into<String>) -> Error {
     Error::Config {
         path: path.to_path_buf(),
-        message: message.into(),
+        message: crate::error::shorten_quoted(&message.into()),
     }
+}
+
+/// A number as a message shows it: plain when moderate, in exponent form when huge or tiny.
+fn show(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A number that must be finite and at most `MAX_MAGNITUDE` in size.
+fn finite(path: &Path, field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v.abs() <= MAX_MAGNITUDE {
+        Ok(v)
+    } else {
+        Err(config_error(
+            path,
+            format!(
+                "{field} = {} must be a finite number of magnitude at most {MAX_MAGNITUDE:e}",
+                show(v)
+            ),
+        ))
+    }
+}
+
+fn finite_all(path: &Path, field: &str, values: &[f64]) -> Result<()> {
+    for (i, &v) in values.iter().enumerate() {
+        let name = if values.len() > 1 {
+            format!("{field}[{i}]")
+        } else {
+            field.to_string()
+        };
+        finite(path, &name, v)?;
+    }
+    Ok(())
+}
+
+/// A group name: non-empty and at most `MAX_NAME_CHARS` characters.
+fn group_name(path: &Path, field: &str, name: &str) -> Result<()> {
+    let n = name.chars().count();
+    if n == 0 || n > MAX_NAME_CHARS {
+        return Err(config_error(
+            path,
+            format!(
+                "{field} = {:?}: a group name has 1 to {MAX_NAME_CHARS} characters",
+                crate::error::excerpt(name)
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The names listed in serde's "expected one of `a`, `b`" / "expected `a` or `b`".
@@ -457,18 +540,23 @@ fn yaml_error(path: &Path, e: &serde_yaml::Error, context: Option<&str>) -> Erro
     config_error(path, message)
 }
 
-/// Set `a.b.c` to `value` (a YAML scalar or flow value), creating mappings on the way.
+/// Set `a.b.c` to `value` (a YAML scalar or flow value), creating mappings on the way. A
+/// segment of digits indexes an existing list (`boundaries.loads.0.static=[0, 1]`).
 fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
+    let shown = crate::error::excerpt(spec);
     let Some((key, value)) = spec.split_once('=') else {
         return Err(config_error(
             path,
-            format!("--set {spec}: expected KEY=VALUE, e.g. --set harmonic_balance.harmonics=20"),
+            format!("--set {shown}: expected KEY=VALUE, e.g. --set harmonic_balance.harmonics=20"),
         ));
     };
     let parsed: Value = serde_yaml::from_str(value).map_err(|e| {
         config_error(
             path,
-            format!("--set {spec}: the value is not valid YAML: {e}"),
+            format!(
+                "--set {shown}: the value is not valid YAML: {}",
+                crate::error::excerpt(&e.to_string())
+            ),
         )
     })?;
     let mut node = root;
@@ -476,10 +564,44 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
     if parts.iter().any(|p| p.is_empty()) {
         return Err(config_error(
             path,
-            format!("--set {spec}: empty key segment"),
+            format!("--set {shown}: empty key segment"),
         ));
     }
     for (i, part) in parts.iter().enumerate() {
+        let last = i + 1 == parts.len();
+        let so_far = parts[..i].join(".");
+        if let Ok(index) = part.parse::<usize>() {
+            match node {
+                Value::Sequence(list) => {
+                    let len = list.len();
+                    let Some(entry) = list.get_mut(index) else {
+                        return Err(config_error(
+                            path,
+                            format!(
+                                "--set {shown}: {so_far} has {len} entries (indices 0 to {}); to add or remove entries set the whole list, e.g. --set '{so_far}=[...]'",
+                                len.saturating_sub(1)
+                            ),
+                        ));
+                    };
+                    if last {
+                        *entry = parsed;
+                        return Ok(());
+                    }
+                    node = entry;
+                    continue;
+                }
+                _ => {
+                    return Err(config_error(
+                        path,
+                        format!(
+                            "--set {shown}: `{part}` indexes a list, but {} is not a list in the pipeline; set the whole value instead, e.g. --set '{}=[...]'",
+                            if so_far.is_empty() { "the top level".to_string() } else { so_far.clone() },
+                            if so_far.is_empty() { "KEY".to_string() } else { so_far.clone() }
+                        ),
+                    ));
+                }
+            }
+        }
         if !node.is_mapping() {
             *node = Value::Mapping(Default::default());
         }
@@ -487,7 +609,7 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
             unreachable!("just made a mapping")
         };
         let k = Value::String(part.to_string());
-        if i + 1 == parts.len() {
+        if last {
             map.insert(k, parsed);
             return Ok(());
         }
@@ -521,7 +643,7 @@ pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
                     "with {}",
                     overrides
                         .iter()
-                        .map(|o| format!("--set {o}"))
+                        .map(|o| format!("--set {}", crate::error::excerpt(o)))
                         .collect::<Vec<_>>()
                         .join(" ")
                 );
@@ -533,12 +655,15 @@ pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
 }
 
 fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
-    if v > 0.0 && v.is_finite() {
+    if v > 0.0 && v.is_finite() && v <= MAX_MAGNITUDE {
         Ok(v)
     } else {
         Err(config_error(
             path,
-            format!("{field} = {v} must be a positive number"),
+            format!(
+                "{field} = {} must be a positive number, at most {MAX_MAGNITUDE:e}",
+                show(v)
+            ),
         ))
     }
 }
@@ -584,6 +709,9 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let damping = validate_damping(path, raw.damping)?;
     let harmonic_balance = validate_harmonic_balance(path, raw.harmonic_balance)?;
     let contact = validate_contact(path, raw.contact)?;
+    if contact.is_some() {
+        check_contact_harmonics(path, &boundaries, harmonic_balance.harmonics)?;
+    }
     let transient = validate_transient(path, raw.transient)?;
     let output = validate_output(path, raw.output, &raw.name)?;
     Ok(Pipeline {
@@ -600,7 +728,44 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     })
 }
 
+/// A contact solve computes harmonics 0..H only: every harmonic a load or motion excites must
+/// be among them.
+fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> Result<()> {
+    let loads = b.loads.iter().enumerate().flat_map(|(i, l)| {
+        l.signal
+            .harmonics
+            .iter()
+            .map(move |x| (format!("boundaries.loads[{i}]"), x.0))
+    });
+    let motions = b.prescribed.iter().enumerate().flat_map(|(i, p)| {
+        p.signal
+            .harmonics
+            .iter()
+            .map(move |x| (format!("boundaries.prescribed[{i}]"), x.0))
+    });
+    if let Some((field, k)) = loads.chain(motions).max_by_key(|(_, k)| *k) {
+        if k > h {
+            return Err(config_error(
+                path,
+                format!(
+                    "harmonic_balance.harmonics = {h} is below harmonic k = {k} of {field}: a contact solve computes harmonics 0..H only; set harmonic_balance.harmonics ≥ {k} (several times more resolves the contact's higher harmonics)"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn validate_name(path: &Path, name: &str) -> Result<()> {
+    if name.chars().count() > 100 {
+        return Err(config_error(
+            path,
+            format!(
+                "name = {:?}: at most 100 characters (it names the output directory)",
+                crate::error::excerpt(name),
+            ),
+        ));
+    }
     if name.is_empty()
         || !name
             .chars()
@@ -609,7 +774,8 @@ fn validate_name(path: &Path, name: &str) -> Result<()> {
         return Err(config_error(
             path,
             format!(
-                "name = {name:?}: use letters, digits, `_` and `-` only (it names the output directory)"
+                "name = {:?}: use letters, digits, `_` and `-` only (it names the output directory)",
+                crate::error::excerpt(name)
             ),
         ));
     }
@@ -627,6 +793,13 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
     if let Some(h) = g.mesh_size {
         positive(path, "geometry.mesh_size", h)?;
     }
+    for (k, v) in &g.parameters {
+        finite(
+            path,
+            &format!("geometry.parameters.{}", crate::error::excerpt(k)),
+            *v,
+        )?;
+    }
     let file = resolve(path, "geometry.file", &g.file)?;
     let gmsh = match g.gmsh {
         Some(p) => Some(resolve(path, "geometry.gmsh", &p).map_err(|_| {
@@ -637,6 +810,27 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         })?),
         None => None,
     };
+    let max_elements = g
+        .max_elements
+        .unwrap_or(crate::mesh::gmsh::DEFAULT_MAX_ELEMENTS);
+    if max_elements == 0 {
+        return Err(config_error(
+            path,
+            "geometry.max_elements must be at least 1",
+        ));
+    }
+    let gmsh_timeout = positive(
+        path,
+        "geometry.gmsh_timeout",
+        g.gmsh_timeout
+            .unwrap_or(crate::mesh::gmsh::DEFAULT_GMSH_TIMEOUT),
+    )?;
+    if gmsh_timeout > 1e7 {
+        return Err(config_error(
+            path,
+            format!("geometry.gmsh_timeout = {gmsh_timeout} s: at most 1e7 s (about 4 months)"),
+        ));
+    }
     Ok(Geometry {
         file,
         parameters: g.parameters,
@@ -644,6 +838,8 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         order,
         quads: g.quads,
         gmsh,
+        max_elements,
+        gmsh_timeout,
     })
 }
 
@@ -678,15 +874,33 @@ fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> 
         if k == 0 || ks[..j].contains(&k) {
             return Err(config_error(path, format!("{field}.harmonics: k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
         }
+        if k > MAX_HARMONICS {
+            return Err(config_error(
+                path,
+                format!(
+                    "{field}.harmonics: k = {k} is above the limit of {MAX_HARMONICS} harmonics"
+                ),
+            ));
+        }
     }
     Ok(())
 }
 
 fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
+    for (i, g) in b.fixed.iter().enumerate() {
+        group_name(path, &format!("boundaries.fixed[{i}]"), g)?;
+    }
     let mut prescribed = Vec::new();
     for (i, p) in b.prescribed.into_iter().enumerate() {
+        let field = format!("boundaries.prescribed[{i}]");
+        group_name(path, &format!("{field}.group"), &p.group)?;
         let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
-        check_harmonic_indices(path, &format!("boundaries.prescribed[{i}]"), &ks)?;
+        check_harmonic_indices(path, &field, &ks)?;
+        finite(path, &format!("{field}.static"), p.static_part)?;
+        for h in &p.harmonics {
+            finite(path, &format!("{field}.harmonics (k = {}).cos", h.k), h.cos)?;
+            finite(path, &format!("{field}.harmonics (k = {}).sin", h.k), h.sin)?;
+        }
         prescribed.push(PrescribedSpec {
             group: p.group,
             component: match p.component {
@@ -705,8 +919,25 @@ fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
     }
     let mut loads = Vec::new();
     for (i, l) in b.loads.into_iter().enumerate() {
+        let field = format!("boundaries.loads[{i}]");
+        group_name(path, &format!("{field}.group"), &l.group)?;
         let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
-        check_harmonic_indices(path, &format!("boundaries.loads[{i}]"), &ks)?;
+        check_harmonic_indices(path, &field, &ks)?;
+        if let Some(s) = l.static_part {
+            finite_all(path, &format!("{field}.static"), &s)?;
+        }
+        for h in &l.harmonics {
+            finite_all(
+                path,
+                &format!("{field}.harmonics (k = {}).cos", h.k),
+                &h.cos,
+            )?;
+            finite_all(
+                path,
+                &format!("{field}.harmonics (k = {}).sin", h.k),
+                &h.sin,
+            )?;
+        }
         if l.static_part.is_none() && l.harmonics.is_empty() {
             return Err(config_error(
                 path,
@@ -739,6 +970,8 @@ fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<R
     let Some(d) = damping else {
         return Ok(None);
     };
+    finite(path, "damping.alpha", d.alpha)?;
+    finite(path, "damping.beta", d.beta)?;
     if !(d.alpha >= 0.0 && d.beta >= 0.0) {
         return Err(config_error(
             path,
@@ -755,8 +988,32 @@ fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<R
 }
 
 fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<HarmonicBalance> {
+    if hb.frequency.is_finite() && hb.frequency > MAX_FREQUENCY {
+        return Err(config_error(
+            path,
+            format!(
+                "harmonic_balance.frequency = {:e} Hz is above {MAX_FREQUENCY:e} Hz: at such frequencies elastic waves are micrometres long and the continuum model does not apply (is the unit Hz?)",
+                hb.frequency
+            ),
+        ));
+    }
     positive(path, "harmonic_balance.frequency", hb.frequency)?;
+    if hb.harmonics > MAX_HARMONICS {
+        return Err(config_error(
+            path,
+            format!(
+                "harmonic_balance.harmonics = {} is above the limit of {MAX_HARMONICS}: the contact solve grows as H² (and N = 16H samples); the accuracy table shows where more harmonics stop paying",
+                hb.harmonics
+            ),
+        ));
+    }
     if let Some(n) = hb.samples {
+        if n > MAX_SAMPLES {
+            return Err(config_error(
+                path,
+                format!("harmonic_balance.samples = {n} is above the limit of {MAX_SAMPLES}"),
+            ));
+        }
         if n <= 2 * hb.harmonics {
             return Err(config_error(path, format!(
                 "harmonic_balance.samples = {n} must exceed 2·harmonics = {}: use at least {} (16·H = {} converges reliably)",
@@ -790,9 +1047,15 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
     let Some(c) = contact else {
         return Ok(None);
     };
+    group_name(path, "contact.boundary", &c.boundary)?;
     let obstacle = match c.obstacle {
-        RawObstacle::Curve(group) => ObstacleSpec::Curve { group },
+        RawObstacle::Curve(group) => {
+            group_name(path, "contact.obstacle.curve", &group)?;
+            ObstacleSpec::Curve { group }
+        }
         RawObstacle::Line { point, normal } => {
+            finite_all(path, "contact.obstacle.line.point", &point)?;
+            finite_all(path, "contact.obstacle.line.normal", &normal)?;
             let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
             if !(len > 0.0) || !len.is_finite() {
                 return Err(config_error(path, "contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)"));
@@ -807,7 +1070,10 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
             radius,
             body_inside,
         } => ObstacleSpec::Circle {
-            center,
+            center: {
+                finite_all(path, "contact.obstacle.circle.center", &center)?;
+                center
+            },
             radius: positive(path, "contact.obstacle.circle.radius", radius)?,
             body_inside,
         },
@@ -853,12 +1119,25 @@ fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result
     let out = output.unwrap_or(RawOutput {
         directory: None,
         frames: None,
+        max_frames: None,
         fields: None,
         probes: Vec::new(),
     });
     let frames = out.frames.unwrap_or(24);
     if frames == 0 {
         return Err(config_error(path, "output.frames must be at least 1"));
+    }
+    let max_frames = out.max_frames.unwrap_or(DEFAULT_MAX_FRAMES);
+    if frames > max_frames {
+        return Err(config_error(
+            path,
+            format!(
+                "output.frames = {frames} is above output.max_frames = {max_frames} (each frame is a VTU file of the whole mesh): write fewer, or raise output.max_frames"
+            ),
+        ));
+    }
+    for (i, g) in out.probes.iter().enumerate() {
+        group_name(path, &format!("output.probes[{i}]"), g)?;
     }
     let fields = match out.fields {
         Some(f) => f

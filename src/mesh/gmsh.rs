@@ -1,13 +1,45 @@
 //! Running gmsh on a parametrised .geo, with a cache keyed by contents, parameters and version.
+//!
+//! gmsh is bounded: before meshing, the element count is estimated (`estimate_elements`) and a
+//! mesh beyond `MeshLimits::max_elements` is refused; gmsh runs in its own process group with a
+//! time limit, its whole group is killed on timeout, and it dies with hbcontact (a parent-death
+//! signal; `kill_running` for SIGINT/SIGTERM handlers).
 
 use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Read};
+use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use sha2::{Digest, Sha256};
 
-use crate::{Error, Result};
+use crate::progress::Reporter;
+use crate::{Error, Result, Silent};
+
+/// The default of `geometry.max_elements`.
+pub const DEFAULT_MAX_ELEMENTS: u64 = 2_000_000;
+/// The default of `geometry.gmsh_timeout`, in seconds.
+pub const DEFAULT_GMSH_TIMEOUT: f64 = 600.0;
+
+/// Bounds on one meshing.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshLimits {
+    /// Refuse to mesh when the estimated number of 2-D elements exceeds this.
+    pub max_elements: u64,
+    /// Kill gmsh (its whole process group) when one run takes longer than this.
+    pub timeout: Duration,
+}
+
+impl Default for MeshLimits {
+    fn default() -> Self {
+        MeshLimits {
+            max_elements: DEFAULT_MAX_ELEMENTS,
+            timeout: Duration::from_secs_f64(DEFAULT_GMSH_TIMEOUT),
+        }
+    }
+}
 
 /// What to mesh.
 #[derive(Clone, Debug)]
@@ -141,16 +173,10 @@ pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
             return Ok(v.clone());
         }
     }
-    let out = cmd
-        .command()
-        .arg("--version")
-        .output()
-        .map_err(|e| Error::Gmsh(format!("cannot start {key}: {e}")))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut c = cmd.command();
+    c.arg("--version");
+    let out = run_gmsh(c, &key, Duration::from_secs(60), &Silent)?;
+    let text = format!("{}{}", out.stdout, out.stderr);
     let version = text
         .lines()
         .map(str::trim)
@@ -186,8 +212,465 @@ fn cache_key(request: &MeshRequest, contents: &[u8], version: &str) -> String {
     digest.iter().take(8).map(|b| format!("{b:02x}")).collect()
 }
 
-/// Mesh `request.geo` with gmsh (or take it as is when it is already a `.msh`).
+/// Process groups of the gmsh runs under way (their leaders' pids), for `kill_running`.
+static RUNNING: Mutex<Vec<i32>> = Mutex::new(Vec::new());
+
+/// Kill every gmsh run under way (its whole process group). For a SIGINT/SIGTERM handler of
+/// the program: gmsh runs in its own process group, so a terminal's Ctrl-C does not reach it.
+pub fn kill_running() {
+    if let Ok(running) = RUNNING.lock() {
+        for &pgid in running.iter() {
+            kill_group(pgid);
+        }
+    }
+}
+
+fn kill_group(pgid: i32) {
+    if pgid > 0 {
+        // SAFETY: kill(2) has no memory-safety preconditions; a negative pid names the group.
+        unsafe {
+            libc::kill(-pgid, libc::SIGKILL);
+        }
+    }
+}
+
+/// Unregisters a running gmsh and kills its group unless it ended by itself (also on unwinding).
+struct RunningGuard {
+    pgid: i32,
+    ended: bool,
+}
+
+impl Drop for RunningGuard {
+    fn drop(&mut self) {
+        if !self.ended {
+            kill_group(self.pgid);
+        }
+        if let Ok(mut running) = RUNNING.lock() {
+            running.retain(|&p| p != self.pgid);
+        }
+    }
+}
+
+/// What one gmsh run printed, and how it ended.
+pub struct GmshOutput {
+    pub status: std::process::ExitStatus,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// How a gmsh exit status reads: "exited with code 1", or killed by a signal with the likely
+/// cause (an out-of-memory kill leaves gmsh no chance to print anything).
+fn describe_status(status: &std::process::ExitStatus) -> String {
+    match (status.code(), status.signal()) {
+        (Some(c), _) => format!("gmsh exited with code {c}"),
+        (None, Some(sig)) if sig == libc::SIGKILL => format!(
+            "gmsh was killed by signal {sig} (SIGKILL), most likely by the out-of-memory killer: lower the element count (a larger geometry.mesh_size or larger size parameters of the .geo)"
+        ),
+        (None, Some(sig)) => format!("gmsh was killed by signal {sig}"),
+        (None, None) => "gmsh ended without an exit code".into(),
+    }
+}
+
+/// Run gmsh to its end, bounded: in its own process group (so that killing the group takes
+/// any child it starts along), killed with its group after `timeout`, and dying with this
+/// process; each stdout line goes to the reporter as progress of the task "gmsh".
+pub fn run_gmsh(
+    mut c: Command,
+    what: &str,
+    timeout: Duration,
+    reporter: &dyn Reporter,
+) -> Result<GmshOutput> {
+    // SAFETY: getpid has no preconditions.
+    let me = unsafe { libc::getpid() };
+    c.process_group(0)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    // SAFETY: the closure runs in the forked child before exec and calls only the
+    // async-signal-safe system calls prctl and getppid, allocating nothing. PR_SET_PDEATHSIG
+    // is the only way to make gmsh die when hbcontact is killed by a signal it cannot catch
+    // (SIGKILL, the OOM killer), where no handler of ours can run.
+    unsafe {
+        c.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // The parent may have died before prctl took effect.
+            if libc::getppid() != me {
+                return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
+            }
+            Ok(())
+        });
+    }
+    let mut child = c
+        .spawn()
+        .map_err(|e| Error::Gmsh(format!("cannot start {what}: {e}")))?;
+    let pgid = child.id() as i32;
+    if let Ok(mut running) = RUNNING.lock() {
+        running.push(pgid);
+    }
+    let mut guard = RunningGuard { pgid, ended: false };
+    let stdout = child.stdout.take();
+    let stderr = child.stderr.take();
+    let start = Instant::now();
+    let (status, out_text, err_text) = std::thread::scope(|scope| {
+        let out_reader = scope.spawn(move || {
+            let mut text = String::new();
+            if let Some(out) = stdout {
+                for (i, line) in BufReader::new(out)
+                    .lines()
+                    .map_while(|l| l.ok())
+                    .enumerate()
+                {
+                    let status: String = line.trim().chars().take(100).collect();
+                    reporter.progress("gmsh", i as u64 + 1, None, &status);
+                    text.push_str(&line);
+                    text.push('\n');
+                }
+            }
+            text
+        });
+        let err_reader = scope.spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut err) = stderr {
+                let _ = err.read_to_end(&mut bytes);
+            }
+            String::from_utf8_lossy(&bytes).into_owned()
+        });
+        let status = loop {
+            match child.try_wait() {
+                Ok(Some(status)) => break Ok(status),
+                Ok(None) => {}
+                Err(e) => break Err(Error::Gmsh(format!("waiting for {what}: {e}"))),
+            }
+            if start.elapsed() > timeout {
+                kill_group(pgid);
+                let _ = child.wait();
+                break Err(Error::Gmsh(format!(
+                    "{what} did not finish within geometry.gmsh_timeout = {} s and was killed (with its process group); the mesh is probably too fine: a larger geometry.mesh_size or larger size parameters, or raise geometry.gmsh_timeout",
+                    timeout.as_secs_f64()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        if status.is_err() {
+            // Readers end when every writer of the pipes is gone: kill the whole group.
+            kill_group(pgid);
+        }
+        let out_text = out_reader.join().unwrap_or_default();
+        let err_text = err_reader.join().unwrap_or_default();
+        (status, out_text, err_text)
+    });
+    reporter.task_done("gmsh");
+    let status = status?;
+    guard.ended = true;
+    drop(guard);
+    Ok(GmshOutput {
+        status,
+        stdout: out_text,
+        stderr: err_text,
+    })
+}
+
+/// The gmsh command meshing `request` in 2-D into `out`, sizes scaled by `scale` (`-clscale`).
+fn mesh_command(cmd: &GmshCommand, request: &MeshRequest, out: &Path, scale: f64) -> Command {
+    let mut c = cmd.command();
+    c.arg(&request.geo)
+        .arg("-2")
+        .arg("-order")
+        .arg(request.order.to_string());
+    push_parameters(&mut c, request);
+    if let Some(h) = request.mesh_size {
+        c.arg("-clmax").arg(format!("{h:e}"));
+    }
+    if scale != 1.0 {
+        c.arg("-clscale").arg(format!("{scale:e}"));
+    }
+    c.args(["-format", "msh41", "-save_all", "0", "-nopopup", "-o"])
+        .arg(out);
+    c
+}
+
+fn push_parameters(c: &mut Command, request: &MeshRequest) {
+    for (k, v) in &request.parameters {
+        c.arg("-setnumber").arg(k).arg(format!("{v:e}"));
+    }
+    if request.quads {
+        c.arg("-setnumber").arg("quads").arg("1");
+    }
+}
+
+/// Run gmsh and turn a failure into an error that says what happened, even when gmsh printed
+/// nothing (killed by a signal).
+fn run_checked(
+    c: Command,
+    cmd: &GmshCommand,
+    request: &MeshRequest,
+    out: &Path,
+    limits: &MeshLimits,
+    reporter: &dyn Reporter,
+) -> Result<()> {
+    let result = run_gmsh(c, &cmd.describe(), limits.timeout, reporter).and_then(|o| {
+        let text = format!("{}{}", o.stdout, o.stderr);
+        let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
+        if o.status.success() && errors.is_empty() && out.is_file() {
+            return Ok(());
+        }
+        let mut shown = if errors.is_empty() {
+            let tail: Vec<&str> = text
+                .lines()
+                .filter(|l| !l.trim().is_empty())
+                .rev()
+                .take(10)
+                .collect();
+            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        } else {
+            errors.join("\n")
+        };
+        if !o.status.success() {
+            if !shown.is_empty() {
+                shown.push('\n');
+            }
+            shown.push_str(&describe_status(&o.status));
+        } else if shown.is_empty() {
+            shown = format!("gmsh wrote no mesh file {}", out.display());
+        }
+        Err(Error::Gmsh(format!(
+            "meshing {} failed:\n{shown}",
+            request.geo.display()
+        )))
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(out);
+    }
+    result
+}
+
+/// The elements a trial mesh aims at: enough that gmsh's per-curve minimum node counts are
+/// negligible, few enough that it takes a fraction of a second.
+const TRIAL_ELEMENTS: f64 = 4000.0;
+
+/// Elements of an equilateral-triangle mesh of size h per unit area: 4/(√3 h²).
+const TRIANGLES_PER_AREA: f64 = 2.31;
+
+/// What the geometry looks like before meshing (from gmsh `-0`): the bounding box of its points
+/// and the smallest size it asks for anywhere (point sizes, field sizes, `-clmax`).
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    area: f64,
+    diagonal: f64,
+    smallest_size: Option<f64>,
+}
+
+/// Read the points and sizes of an unrolled `.geo` (what gmsh `-0` writes: numbers and
+/// `cl__N` variables).
+fn parse_unrolled(text: &str) -> Option<Extent> {
+    let mut vars: BTreeMap<String, f64> = BTreeMap::new();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    let mut smallest = f64::INFINITY;
+    let value = |vars: &BTreeMap<String, f64>, t: &str| -> Option<f64> {
+        let t = t.trim();
+        t.parse::<f64>().ok().or_else(|| vars.get(t).copied())
+    };
+    for line in text.lines() {
+        let line = line.trim().trim_end_matches(';');
+        let Some((lhs, rhs)) = line.split_once('=') else {
+            continue;
+        };
+        let (lhs, rhs) = (lhs.trim(), rhs.trim());
+        if lhs.starts_with("Point(") {
+            let inner = rhs.trim_start_matches('{').trim_end_matches('}');
+            let parts: Vec<&str> = inner.split(',').collect();
+            let (Some(x), Some(y)) = (
+                parts.first().and_then(|t| value(&vars, t)),
+                parts.get(1).and_then(|t| value(&vars, t)),
+            ) else {
+                continue;
+            };
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+            if let Some(lc) = parts.get(3).and_then(|t| value(&vars, t)) {
+                if lc > 0.0 && lc < 1e20 {
+                    smallest = smallest.min(lc);
+                }
+            }
+        } else if let Some(field) = lhs.strip_prefix("Field[") {
+            let attribute = field.split_once("].").map(|(_, a)| a).unwrap_or("");
+            let is_size = attribute.starts_with("Size")
+                || attribute.starts_with("Lc")
+                || attribute == "VIn"
+                || attribute == "VOut";
+            if let (true, Some(v)) = (is_size, value(&vars, rhs)) {
+                if v > 0.0 && v < 1e20 {
+                    smallest = smallest.min(v);
+                }
+            }
+        } else if !lhs.contains(['(', '[', '.', ' ']) {
+            if let Ok(v) = rhs.parse::<f64>() {
+                vars.insert(lhs.to_string(), v);
+            }
+        }
+    }
+    if !(lo[0].is_finite() && hi[0].is_finite()) {
+        return None;
+    }
+    let (dx, dy) = (hi[0] - lo[0], hi[1] - lo[1]);
+    let diagonal = (dx * dx + dy * dy).sqrt();
+    let area = if dx > 0.0 && dy > 0.0 {
+        dx * dy
+    } else {
+        diagonal * diagonal
+    };
+    Some(Extent {
+        area,
+        diagonal,
+        smallest_size: smallest.is_finite().then_some(smallest),
+    })
+}
+
+/// An estimate of the 2-D elements gmsh would make for `request`, without making them.
+///
+/// 1. gmsh `-0` (parse only) gives the points and every size the geometry asks for; with the
+///    smallest size h (also `-clmax`) over the points' bounding box A, `2.31·A/h²` bounds the
+///    count from above (fields may refine below h only where they name a smaller size, which is
+///    counted). When that is below 4000 it is the estimate.
+/// 2. Otherwise gmsh meshes with every size scaled by s (`-clscale`, applied after `-clmax`
+///    and fields), s chosen for about 4000 elements by the bound; with n elements the estimate is
+///    n·s² (2-D: the count scales with 1/size²). When n is small (gmsh's minimum nodes per curve
+///    dominate), s is lowered (at most 10× per step) and gmsh meshes again, at most 4 times.
+pub fn estimate_elements(
+    cmd: &GmshCommand,
+    request: &MeshRequest,
+    scratch: &Path,
+    limits: &MeshLimits,
+    reporter: &dyn Reporter,
+) -> Result<f64> {
+    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let base = format!("estimate-{}-{unique}", std::process::id());
+    let unrolled = scratch.join(format!("{base}.geo_unrolled"));
+    let mut c = cmd.command();
+    c.arg(&request.geo).arg("-0");
+    push_parameters(&mut c, request);
+    c.args(["-nopopup", "-o"]).arg(&unrolled);
+    run_checked(c, cmd, request, &unrolled, limits, reporter)?;
+    let text = std::fs::read_to_string(&unrolled).unwrap_or_default();
+    let _ = std::fs::remove_file(&unrolled);
+    let extent = parse_unrolled(&text);
+    let mut scale = match extent {
+        Some(e) => {
+            let h = [e.smallest_size, request.mesh_size, Some(e.diagonal)]
+                .into_iter()
+                .flatten()
+                .filter(|h| *h > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            let bound = TRIANGLES_PER_AREA * e.area / (h * h);
+            if bound <= TRIAL_ELEMENTS {
+                return Ok(bound);
+            }
+            (bound / TRIAL_ELEMENTS).sqrt()
+        }
+        // No points read (an OpenCASCADE geometry, say): start coarse and refine.
+        None => 1e6,
+    };
+    let trial = scratch.join(format!("{base}.msh"));
+    let mut estimate = 0.0;
+    for _ in 0..4 {
+        let c = mesh_command(cmd, request, &trial, scale);
+        run_checked(c, cmd, request, &trial, limits, reporter)?;
+        let cells = super::msh::read_msh(&trial).map(|m| m.cells.len());
+        let _ = std::fs::remove_file(&trial);
+        let n = cells? as f64;
+        estimate = n * scale * scale;
+        if n >= TRIAL_ELEMENTS / 8.0 || scale <= 1.0 {
+            break;
+        }
+        scale = (scale * (n.max(1.0) / TRIAL_ELEMENTS).sqrt())
+            .max(scale / 10.0)
+            .max(1.0);
+    }
+    Ok(estimate)
+}
+
+/// The SHA-256 of a cached mesh is kept beside it, in `<mesh>.msh.sha256`.
+fn checksum_path(msh: &Path) -> PathBuf {
+    let mut name = msh.as_os_str().to_owned();
+    name.push(".sha256");
+    PathBuf::from(name)
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Whether a cached mesh is the one gmsh wrote: its SHA-256 equals the one stored beside it.
+/// The error says why not (for the warning).
+fn verify_cached(msh: &Path) -> std::result::Result<(), String> {
+    let stored = std::fs::read_to_string(checksum_path(msh))
+        .map_err(|_| "has no checksum (written by an older hbcontact, or damaged)".to_string())?;
+    let bytes = std::fs::read(msh).map_err(|e| format!("cannot be read ({e})"))?;
+    if stored.trim() == sha256_hex(&bytes) {
+        Ok(())
+    } else {
+        Err("does not match its checksum (changed or damaged since gmsh wrote it)".into())
+    }
+}
+
+/// Remove a cached mesh and its checksum (so that it is made again).
+pub fn evict(msh: &Path) {
+    let _ = std::fs::remove_file(msh);
+    let _ = std::fs::remove_file(checksum_path(msh));
+}
+
+/// The refusal of a mesh estimated at `estimate` elements: the estimate, the limit, a size
+/// that fits and how to raise the limit.
+fn too_many_elements(request: &MeshRequest, limits: &MeshLimits, estimate: f64) -> Error {
+    let ratio = (estimate / limits.max_elements as f64).sqrt();
+    let (size, fix) = match request.mesh_size {
+        Some(h) => (
+            format!("geometry.mesh_size = {h:e}"),
+            format!("geometry.mesh_size ≥ {:.2e} fits", h * ratio),
+        ),
+        None => (
+            "the .geo's sizes".to_string(),
+            format!(
+                "sizes {ratio:.1}× larger fit (geometry.mesh_size or the .geo's size parameters)"
+            ),
+        ),
+    };
+    let parameters = if request.parameters.is_empty() {
+        String::new()
+    } else {
+        let list: Vec<String> = request
+            .parameters
+            .iter()
+            .map(|(k, v)| format!("{k} = {v:e}"))
+            .collect();
+        format!(" and geometry.parameters {}", list.join(", "))
+    };
+    Error::Input(format!(
+        "meshing {} with {size}{parameters} would make about {estimate:.2e} elements (estimated from a coarsened gmsh mesh), more than geometry.max_elements = {}: {fix}; or raise geometry.max_elements if the machine has the memory (gmsh needs about 1 kB per element, the solver several times more)",
+        request.geo.display(),
+        limits.max_elements,
+    ))
+}
+
+/// Mesh `request.geo` with gmsh (or take it as is when it is already a `.msh`), with the
+/// default limits and no progress reports.
 pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGeometry> {
+    mesh_geometry_with(request, &MeshLimits::default(), cache_dir, &Silent)
+}
+
+/// Mesh `request.geo` with gmsh (or take it as is when it is already a `.msh`): from the cache
+/// when it holds the mesh, else after checking the estimated element count against `limits`.
+pub fn mesh_geometry_with(
+    request: &MeshRequest,
+    limits: &MeshLimits,
+    cache_dir: &Path,
+    reporter: &dyn Reporter,
+) -> Result<MeshedGeometry> {
     let geo = &request.geo;
     if geo.extension().is_some_and(|e| e == "msh") {
         if !geo.is_file() {
@@ -215,60 +698,38 @@ pub fn mesh_geometry(request: &MeshRequest, cache_dir: &Path) -> Result<MeshedGe
         cache_key(request, &contents, &version)
     ));
     if msh.is_file() {
-        return Ok(MeshedGeometry {
-            msh,
-            cache_hit: true,
-            gmsh_version: version,
-        });
+        match verify_cached(&msh) {
+            Ok(()) => {
+                return Ok(MeshedGeometry {
+                    msh,
+                    cache_hit: true,
+                    gmsh_version: version,
+                })
+            }
+            Err(why) => {
+                reporter.warning(&format!(
+                    "cached mesh {} {why}: meshing again",
+                    msh.display()
+                ));
+                evict(&msh);
+            }
+        }
     }
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
+    let estimate = estimate_elements(&cmd, request, cache_dir, limits, reporter)?;
+    if estimate > limits.max_elements as f64 {
+        return Err(too_many_elements(request, limits, estimate));
+    }
     // Unique per call: threads of one process (parallel tests, studies) may mesh at once.
     let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let tmp = cache_dir.join(format!("{stem}.tmp-{}-{unique}.msh", std::process::id()));
-    let mut c = cmd.command();
-    c.arg(geo)
-        .arg("-2")
-        .arg("-order")
-        .arg(request.order.to_string());
-    for (k, v) in &request.parameters {
-        c.arg("-setnumber").arg(k).arg(format!("{v:e}"));
-    }
-    if request.quads {
-        c.arg("-setnumber").arg("quads").arg("1");
-    }
-    if let Some(h) = request.mesh_size {
-        c.arg("-clmax").arg(format!("{h:e}"));
-    }
-    c.args(["-format", "msh41", "-save_all", "0", "-nopopup", "-o"])
-        .arg(&tmp);
-    let out = c
-        .output()
-        .map_err(|e| Error::Gmsh(format!("cannot start {}: {e}", cmd.describe())))?;
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
-    if !out.status.success() || !errors.is_empty() || !tmp.is_file() {
-        let _ = std::fs::remove_file(&tmp);
-        let shown = if errors.is_empty() {
-            text.lines()
-                .rev()
-                .take(10)
-                .collect::<Vec<_>>()
-                .into_iter()
-                .rev()
-                .collect::<Vec<_>>()
-                .join("\n")
-        } else {
-            errors.join("\n")
-        };
-        return Err(Error::Gmsh(format!(
-            "meshing {} failed:\n{shown}",
-            geo.display()
-        )));
-    }
+    let c = mesh_command(&cmd, request, &tmp, 1.0);
+    run_checked(c, &cmd, request, &tmp, limits, reporter)?;
+    // The checksum goes first, so a mesh in the cache always has one (a crash in between
+    // leaves a checksum without its mesh, which is harmless).
+    let bytes = std::fs::read(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let sum = checksum_path(&msh);
+    std::fs::write(&sum, sha256_hex(&bytes)).map_err(|e| Error::io(&sum, e))?;
     std::fs::rename(&tmp, &msh).map_err(|e| Error::io(&msh, e))?;
     Ok(MeshedGeometry {
         msh,

@@ -3,7 +3,54 @@
 //! complete (and keeps the previous complete one).
 use std::path::{Path, PathBuf};
 
+use crate::progress::Reporter;
 use crate::{Error, Result};
+
+/// Remove the `<name>.partial-<pid>` directories that runs which no longer exist left next to
+/// `final_dir` (a run killed outright cannot clean up after itself), telling the reporter about
+/// each. Only directories whose pid has no `/proc/<pid>` go: a partial output of a run still
+/// going is kept, and so is everything when `/proc` is not there to tell. Returns what went.
+pub fn remove_stale_partials(final_dir: &Path, reporter: &dyn Reporter) -> Vec<PathBuf> {
+    let proc_fs = Path::new("/proc");
+    if !proc_fs.join("self").exists() {
+        return Vec::new();
+    }
+    let parent = match final_dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let Ok(entries) = std::fs::read_dir(&parent) else {
+        return Vec::new();
+    };
+    let mut removed = Vec::new();
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        let Some((_, pid)) = name.rsplit_once(".partial-") else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        let path = entry.path();
+        if pid == std::process::id() || proc_fs.join(pid.to_string()).exists() || !path.is_dir() {
+            continue;
+        }
+        match std::fs::remove_dir_all(&path) {
+            Ok(()) => {
+                reporter.warning(&format!(
+                    "removed {}, the partial output of a run (pid {pid}) that no longer exists",
+                    path.display()
+                ));
+                removed.push(path);
+            }
+            Err(e) => reporter.warning(&format!(
+                "cannot remove the stale partial output {}: {e}",
+                path.display()
+            )),
+        }
+    }
+    removed
+}
 
 /// A directory written under a temporary name and renamed onto its final name by `commit`.
 pub struct StagedDir {

@@ -50,6 +50,7 @@ pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
 /// `hbcontact run`: the harmonic-balance steady state.
 pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<RunResult> {
     let out = output_dir(p, options);
+    crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
@@ -87,6 +88,7 @@ pub fn run_transient(
     reporter: &dyn Reporter,
 ) -> Result<RunResult> {
     let out = transient_output_dir(p, options);
+    crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;

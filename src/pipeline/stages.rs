@@ -117,8 +117,28 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
         quads: p.geometry.quads,
         gmsh: p.geometry.gmsh.clone(),
     };
-    let meshed = stages.run("mesh", || mesh::gmsh::mesh_geometry(&request, &cache_dir))?;
-    let mesh = stages.run("read", || mesh::msh::read_msh(&meshed.msh))?;
+    let limits = mesh::gmsh::MeshLimits {
+        max_elements: p.geometry.max_elements,
+        timeout: std::time::Duration::from_secs_f64(p.geometry.gmsh_timeout),
+    };
+    let reporter = stages.reporter;
+    let mut meshed = stages.run("mesh", || {
+        mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
+    })?;
+    let first = stages.run("read", || Ok(mesh::msh::read_msh(&meshed.msh)))?;
+    let mesh = match first {
+        // A cached mesh that passed its checksum but does not read (a damaged write) is made
+        // again, once; a mesh the pipeline names itself is never touched.
+        Err(e) if meshed.cache_hit && meshed.msh.starts_with(&cache_dir) => {
+            reporter.warning(&format!("{e}: meshing again"));
+            mesh::gmsh::evict(&meshed.msh);
+            meshed = stages.run("mesh", || {
+                mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
+            })?;
+            stages.run("read", || mesh::msh::read_msh(&meshed.msh))?
+        }
+        other => other.map_err(|e| stages.context("read", e))?,
+    };
     let info = MeshInfo {
         geometry: p.geometry.file.clone(),
         parameters: p.geometry.parameters.clone(),
