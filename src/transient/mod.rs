@@ -197,39 +197,32 @@ struct Condensation {
     w: DMatrix<f64>,
 }
 
-pub fn run_to_periodic(
-    problem: &TransientProblem,
-    settings: &TransientSettings,
-    reporter: &dyn Reporter,
-) -> Result<TransientResult> {
-    let start = Instant::now();
-    let k = problem.stiffness;
-    let n = problem.mass.len();
-    let mass = problem.mass;
-    let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
-    let z: Vec<usize> = (0..n).filter(|&i| mass[i] <= 0.0).collect();
-    let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
-    let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
-    // Contact rows as dense small vectors over the dofs they touch.
-    let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nc];
-    if let Some(c) = &problem.contact {
-        for j in 0..c.b.ncols {
-            for p in c.b.col_ptr[j]..c.b.col_ptr[j + 1] {
-                rows[c.b.row_idx[p]].push((j, c.b.values[p]));
-            }
-        }
-        let on_z = rows.iter().flatten().filter(|(d, _)| is_z[*d]).count();
-        let total = rows.iter().map(Vec::len).sum::<usize>();
-        if on_z != 0 && on_z != total {
-            return Err(Error::Model("time marching: contact rows touch both massless and massive dofs; use one mass model for all contact nodes".into()));
+/// Contact rows as small sparse vectors over the dofs they touch; all on massless dofs
+/// (condensed) or all on massive ones (forward-increment multipliers).
+fn contact_rows(problem: &TransientProblem, is_z: &[bool]) -> Result<Vec<Vec<(usize, f64)>>> {
+    let Some(c) = &problem.contact else {
+        return Ok(Vec::new());
+    };
+    let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); c.g0.len()];
+    for j in 0..c.b.ncols {
+        for p in c.b.col_ptr[j]..c.b.col_ptr[j + 1] {
+            rows[c.b.row_idx[p]].push((j, c.b.values[p]));
         }
     }
-    let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
+    let on_z = rows.iter().flatten().filter(|(d, _)| is_z[*d]).count();
+    let total = rows.iter().map(Vec::len).sum::<usize>();
+    if on_z != 0 && on_z != total {
+        return Err(Error::Model("time marching: contact rows touch both massless and massive dofs; use one mass model for all contact nodes".into()));
+    }
+    Ok(rows)
+}
 
-    // Static condensation of the massless dofs.
-    let condensation = if z.is_empty() {
-        None
-    } else {
+impl Condensation {
+    /// K_zz⁻¹, B_z and W for the massless dofs `z` (none: `None`).
+    fn new(k: &Csc, z: Vec<usize>, rows: &[Vec<(usize, f64)>]) -> Result<Option<Self>> {
+        if z.is_empty() {
+            return Ok(None);
+        }
         let pos: std::collections::HashMap<usize, usize> =
             z.iter().enumerate().map(|(a, &d)| (d, a)).collect();
         let mut kzz = DMatrix::zeros(z.len(), z.len());
@@ -244,7 +237,7 @@ pub fn run_to_periodic(
             return Err(Error::Model("time marching: the stiffness among the massless dofs is singular (a massless node without stiffness?)".into()));
         };
         let kzz_inv = chol.inverse();
-        let mut bz = DMatrix::zeros(nc, z.len());
+        let mut bz = DMatrix::zeros(rows.len(), z.len());
         for (i, row) in rows.iter().enumerate() {
             for &(d, v) in row {
                 if let Some(&a) = pos.get(&d) {
@@ -253,11 +246,18 @@ pub fn run_to_periodic(
             }
         }
         let w = &bz * &kzz_inv * bz.transpose();
-        Some(Condensation { z, kzz_inv, bz, w })
-    };
+        Ok(Some(Condensation { z, kzz_inv, bz, w }))
+    }
+}
 
-    // Time step: stable for central differences, fitted to the period and the samples.
-    let omega_max = estimate_max_eigenvalue(k, mass).sqrt() * 1.05;
+/// Δt stable for central differences (with stiffness damping), fitted to the period and the
+/// samples: (Δt, steps per period, steps per sample).
+fn time_step(
+    problem: &TransientProblem,
+    settings: &TransientSettings,
+    beta: f64,
+) -> Result<(f64, usize, usize)> {
+    let omega_max = estimate_max_eigenvalue(problem.stiffness, problem.mass).sqrt() * 1.05;
     if !(omega_max > 0.0 && omega_max.is_finite()) {
         return Err(Error::Model(
             "time marching: no massive dof or no stiffness".into(),
@@ -268,7 +268,67 @@ pub fn run_to_periodic(
     let s = settings.samples_per_period.max(1);
     let per_sample = ((problem.period / dt_stable) / s as f64).ceil().max(1.0) as usize;
     let steps = per_sample * s;
-    let dt = problem.period / steps as f64;
+    Ok((problem.period / steps as f64, steps, per_sample))
+}
+
+/// W = Δt² B M⁻¹ Bᵀ / (1 + αΔt/2) for forward-increment multipliers on massive dofs.
+fn lumped_w(rows: &[Vec<(usize, f64)>], mass: &[f64], dt: f64, alpha: f64) -> DMatrix<f64> {
+    let nc = rows.len();
+    let mut w = DMatrix::zeros(nc, nc);
+    for a in 0..nc {
+        for b in 0..nc {
+            let mut sum = 0.0;
+            for &(d, va) in &rows[a] {
+                for &(e, vb) in &rows[b] {
+                    if d == e {
+                        sum += va * vb / mass[d];
+                    }
+                }
+            }
+            w[(a, b)] = dt * dt * sum / (1.0 + alpha * dt / 2.0);
+        }
+    }
+    w
+}
+
+/// ‖state − previous‖ / ‖state‖ between the states at two successive period starts.
+fn relative_change(state: &[f64], previous: &[f64]) -> f64 {
+    let diff = state
+        .iter()
+        .zip(previous)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let norm = state
+        .iter()
+        .map(|a| a * a)
+        .sum::<f64>()
+        .sqrt()
+        .max(f64::MIN_POSITIVE);
+    diff / norm
+}
+
+pub fn run_to_periodic(
+    problem: &TransientProblem,
+    settings: &TransientSettings,
+    reporter: &dyn Reporter,
+) -> Result<TransientResult> {
+    let start = Instant::now();
+    let k = problem.stiffness;
+    let n = problem.mass.len();
+    let mass = problem.mass;
+    let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
+    let z: Vec<usize> = (0..n).filter(|&i| mass[i] <= 0.0).collect();
+    let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
+    let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
+    let rows = contact_rows(problem, &is_z)?;
+    let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
+
+    // Static condensation of the massless dofs.
+    let condensation = Condensation::new(k, z, &rows)?;
+
+    let (dt, steps, per_sample) = time_step(problem, settings, beta)?;
+    let s = settings.samples_per_period.max(1);
 
     let mut u = vec![0.0; n];
     let mut u_prev = vec![0.0; n];
@@ -291,25 +351,7 @@ pub fn run_to_periodic(
     let mut contact_force = vec![vec![0.0; nc]; s];
     let mut probe_history = vec![vec![0.0; steps]; problem.probes.len()];
     let mut total_contact_history = vec![0.0; steps];
-    let lumped_w = if nc > 0 && !condensed_contact {
-        let mut w = DMatrix::zeros(nc, nc);
-        for a in 0..nc {
-            for b in 0..nc {
-                let mut sum = 0.0;
-                for &(d, va) in &rows[a] {
-                    for &(e, vb) in &rows[b] {
-                        if d == e {
-                            sum += va * vb / mass[d];
-                        }
-                    }
-                }
-                w[(a, b)] = dt * dt * sum / (1.0 + alpha * dt / 2.0);
-            }
-        }
-        Some(w)
-    } else {
-        None
-    };
+    let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
     for i in 0..s {
         times.push(i as f64 * problem.period / s as f64);
     }
@@ -462,19 +504,7 @@ pub fn run_to_periodic(
             .chain(v_half.iter().map(|v| v * problem.period))
             .collect();
         if let Some(prev) = &last_state {
-            let diff = state
-                .iter()
-                .zip(prev)
-                .map(|(a, b)| (a - b).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            let norm = state
-                .iter()
-                .map(|a| a * a)
-                .sum::<f64>()
-                .sqrt()
-                .max(f64::MIN_POSITIVE);
-            change = diff / norm;
+            change = relative_change(&state, prev);
             reporter.progress(
                 "periods",
                 periods as u64,
