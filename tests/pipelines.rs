@@ -649,6 +649,16 @@ fn bad_input_fails_cleanly() {
             2,
         ),
         (
+            "misspelt geometry parameter",
+            &["--set", "geometry.parameters.lcc=0.01"],
+            &[
+                "geometry.parameters.lcc",
+                "quickstart.geo",
+                "did you mean `lc`?",
+            ],
+            2,
+        ),
+        (
             "contact obstacle is a surface",
             &["--set", "contact={boundary: hole, obstacle: {curve: body}}"],
             &[

@@ -672,6 +672,9 @@ pub fn mesh_geometry_with(
     reporter: &dyn Reporter,
 ) -> Result<MeshedGeometry> {
     let geo = &request.geo;
+    if geo.extension().is_some_and(|e| e == "geo") {
+        super::geo::check_parameters(geo, &request.parameters)?;
+    }
     if geo.extension().is_some_and(|e| e == "msh") {
         if !geo.is_file() {
             return Err(Error::Gmsh(format!(

@@ -1,6 +1,7 @@
 //! Two-dimensional meshes: the types the rest of the program sees, reading gmsh's .msh files
 //! (`msh`), and running gmsh on a parametrised `.geo` with a cache (`gmsh`).
 
+pub mod geo;
 pub mod gmsh;
 pub mod msh;
 
