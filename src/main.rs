@@ -47,7 +47,13 @@ enum Command {
     /// to `<output.directory>-transient` (or `--out`), beside the harmonic-balance result.
     Transient(Common),
     /// Validate the pipeline and the geometry's groups without solving.
-    Check(Common),
+    Check {
+        #[command(flatten)]
+        common: Common,
+        /// Print the findings as JSON only (for scripts).
+        #[arg(long)]
+        json: bool,
+    },
     /// What accuracy costs: run ladders of settings and tabulate error against wall time.
     Accuracy {
         #[command(flatten)]
@@ -100,7 +106,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Run(c) => run(c, Mode::Run),
         Command::Transient(c) => run(c, Mode::Transient),
-        Command::Check(c) => run(c, Mode::Check),
+        Command::Check { common, json } => check(common, *json),
         Command::Accuracy { common, ladders } => accuracy(common, ladders),
         Command::Schema { which } => schema(*which),
     };
@@ -117,7 +123,6 @@ fn main() -> ExitCode {
 enum Mode {
     Run,
     Transient,
-    Check,
 }
 
 /// The reporter a subcommand uses: nothing with `--quiet`, bars or lines otherwise.
@@ -133,23 +138,26 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
     let options = RunOptions { out: c.out.clone() };
     let reporter = reporter(c.quiet);
-    match mode {
-        Mode::Run | Mode::Transient => {
-            let result = match mode {
-                Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
-                _ => pipeline::run_transient(&pipeline, &options, &*reporter)?,
-            };
-            if !c.quiet {
-                cli::show_run(&result);
-            }
-        }
-        Mode::Check => {
-            let report = pipeline::check(&pipeline, &options, &*reporter)?;
-            if !c.quiet {
-                println!("{}", to_json(&report)?);
-                println!("ok: {} is valid", c.pipeline.display());
-            }
-        }
+    let result = match mode {
+        Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
+        Mode::Transient => pipeline::run_transient(&pipeline, &options, &*reporter)?,
+    };
+    if !c.quiet {
+        cli::show_run(&result);
+    }
+    Ok(())
+}
+
+/// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
+fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let options = RunOptions { out: c.out.clone() };
+    let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
+    if json {
+        println!("{}", to_json(&report)?);
+    } else if !c.quiet {
+        cli::show_check(&report);
+        println!("ok: {} is valid", c.pipeline.display());
     }
     Ok(())
 }

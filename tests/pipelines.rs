@@ -911,3 +911,22 @@ fn a_run_removes_partial_outputs_of_dead_runs_and_keeps_live_ones() {
     assert!(live.exists(), "a live run's partial output is kept");
     assert!(out.join("summary.json").is_file());
 }
+
+/// TEST GOAL: `check --json` prints JSON only (scripts parse it: the groups the mesh has, the
+/// contact nodes), and plain `check` lists the groups it found for a person.
+#[test]
+fn check_json_parses_and_plain_check_lists_the_groups() {
+    let r = common::hbcontact(&["check", "pipelines/strip_wall.yaml", "--json"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(&r.stdout)));
+    assert_eq!(v["contact_nodes"], 9);
+    assert_eq!(v["groups"]["wall"]["edges"], 16);
+    assert!(v["groups"]["body"]["cells"].as_u64().unwrap() > 0);
+    let r = common::hbcontact(&["check", "pipelines/strip_wall.yaml"]);
+    let text = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success());
+    for needle in ["groups:", "wall", "clamp", "contact: 9 of 9", "is valid"] {
+        assert!(text.contains(needle), "`{needle}` missing:\n{text}");
+    }
+}

@@ -3,7 +3,7 @@
 pub mod reporter;
 
 use hbcontact::hbm::IterationLog;
-use hbcontact::pipeline::RunResult;
+use hbcontact::pipeline::{CheckReport, RunResult};
 
 /// After a run: warnings, the contact Newton's log, where the results went and what was
 /// simulated.
@@ -32,5 +32,28 @@ fn show_newton_log(log: &[IterationLog]) {
         } else if i == 30 {
             eprintln!("    …");
         }
+    }
+}
+
+/// `check`'s findings: the mesh, its groups and the contact candidates.
+pub fn show_check(report: &CheckReport) {
+    let m = &report.mesh;
+    println!(
+        "mesh: {} nodes, {} cells, order {}, shortest edge {:.3e} m ({})",
+        m.nodes,
+        m.cells,
+        m.order,
+        m.min_edge_length,
+        if m.cache_hit { "cached" } else { "meshed" }
+    );
+    println!("groups:");
+    for (name, g) in &report.groups {
+        println!(
+            "  {name:<16} {:>7} nodes {:>7} edges {:>7} cells",
+            g.nodes, g.edges, g.cells
+        );
+    }
+    if let (Some(kept), Some(candidates)) = (report.contact_nodes, report.contact_candidates) {
+        println!("contact: {kept} of {candidates} boundary nodes face the obstacle");
     }
 }

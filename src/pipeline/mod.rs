@@ -115,6 +115,18 @@ pub struct CheckReport {
     /// Nodes of the contact boundary group (contact scenes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub contact_candidates: Option<usize>,
+    /// The mesh's physical groups: name → what they hold.
+    pub groups: std::collections::BTreeMap<String, GroupInfo>,
+}
+
+/// What one physical group holds.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct GroupInfo {
+    pub nodes: usize,
+    /// 1-D elements (a curve group).
+    pub edges: usize,
+    /// 2-D cells (a surface group).
+    pub cells: usize,
 }
 
 /// `hbcontact check`: the config and the geometry's groups, without solving.
@@ -129,7 +141,20 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
             .map(|spec| crate::contact::geometry::build_contact_set(&mesh, spec))
             .transpose()
     })?;
+    let groups = mesh
+        .node_groups
+        .iter()
+        .map(|(name, nodes)| {
+            let info = GroupInfo {
+                nodes: nodes.len(),
+                edges: mesh.edge_groups.get(name).map_or(0, Vec::len),
+                cells: mesh.cell_groups.get(name).map_or(0, Vec::len),
+            };
+            (name.clone(), info)
+        })
+        .collect();
     Ok(CheckReport {
+        groups,
         mesh: info,
         contact_nodes: set.as_ref().map(|s| s.nodes.len()),
         contact_candidates: set.as_ref().map(|s| s.candidates),
