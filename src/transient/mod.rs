@@ -186,7 +186,12 @@ fn solve_lcp(w: &DMatrix<f64>, q: &[f64], active: &mut [bool]) -> Result<Vec<f64
     ))
 }
 
-struct Condensation {
+struct Condensation<'a> {
+    k: &'a Csc,
+    /// Per dof: massless.
+    is_z: Vec<bool>,
+    /// The contact rows' initial gaps when the contact acts on the massless dofs.
+    condensed_g0: Option<&'a [f64]>,
     /// Massless dofs.
     z: Vec<usize>,
     /// K_zz⁻¹ (dense).
@@ -217,9 +222,16 @@ fn contact_rows(problem: &TransientProblem, is_z: &[bool]) -> Result<Vec<Vec<(us
     Ok(rows)
 }
 
-impl Condensation {
-    /// K_zz⁻¹, B_z and W for the massless dofs `z` (none: `None`).
-    fn new(k: &Csc, z: Vec<usize>, rows: &[Vec<(usize, f64)>]) -> Result<Option<Self>> {
+impl<'a> Condensation<'a> {
+    /// K_zz⁻¹, B_z and W for the massless dofs (none: `None`); `condensed_g0`: the contact
+    /// rows' gaps when they act on the massless dofs.
+    fn new(
+        k: &'a Csc,
+        is_z: &[bool],
+        rows: &[Vec<(usize, f64)>],
+        condensed_g0: Option<&'a [f64]>,
+    ) -> Result<Option<Self>> {
+        let z: Vec<usize> = (0..is_z.len()).filter(|&i| is_z[i]).collect();
         if z.is_empty() {
             return Ok(None);
         }
@@ -246,7 +258,124 @@ impl Condensation {
             }
         }
         let w = &bz * &kzz_inv * bz.transpose();
-        Ok(Some(Condensation { z, kzz_inv, bz, w }))
+        Ok(Some(Condensation {
+            k,
+            is_z: is_z.to_vec(),
+            condensed_g0,
+            z,
+            kzz_inv,
+            bz,
+            w,
+        }))
+    }
+
+    /// Condense the massless dofs. Their rows carry no inertia but do carry stiffness-
+    /// proportional damping: K_z·(u + βu̇) = f_z + B_zᵀλ is static in w = u + βu̇, and u_z
+    /// follows from w_z by backward Euler, u_z' = s w_z + (1 − s) u_z with s = 1/(1 + β/Δt).
+    /// `w` holds u + βu̇ on the massive dofs; `uz_old` the massless dofs' last values; the
+    /// result goes to `out`'s massless dofs, and the contact multipliers to `contact`.
+    fn condense(
+        &self,
+        w: &[f64],
+        out: &mut [f64],
+        uz_old: &[f64],
+        s_weight: f64,
+        f: &[f64],
+        contact: &mut ContactState,
+    ) -> Result<()> {
+        let (k, nz) = (self.k, self.z.len());
+        let mut rhs = DVector::zeros(nz);
+        for (a, &j) in self.z.iter().enumerate() {
+            let mut sum = f[j];
+            for p in k.col_ptr[j]..k.col_ptr[j + 1] {
+                let r = k.row_idx[p];
+                if !self.is_z[r] {
+                    sum -= k.values[p] * w[r];
+                }
+            }
+            rhs[a] = sum;
+        }
+        let mut wz = &self.kzz_inv * &rhs;
+        let old = DVector::from_iterator(nz, self.z.iter().map(|&j| uz_old[j]));
+        if let Some(g0) = self.condensed_g0 {
+            let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
+            let gap = &self.bz * &predicted;
+            let q: Vec<f64> = (0..g0.len()).map(|i| gap[i] - g0[i]).collect();
+            let p = solve_lcp(&(&self.w * s_weight), &q, &mut contact.active)?;
+            for (l, pi) in contact.lambda.iter_mut().zip(&p) {
+                *l = -pi;
+            }
+            let lam = DVector::from_iterator(g0.len(), contact.lambda.iter().copied());
+            wz += &self.kzz_inv * (self.bz.transpose() * lam);
+        }
+        let uz = (&wz * s_weight) + (&old * (1.0 - s_weight));
+        for (a, &j) in self.z.iter().enumerate() {
+            out[j] = uz[a];
+        }
+        Ok(())
+    }
+}
+
+/// The contact multipliers of the current step and the LCP's active set (warm start).
+struct ContactState {
+    lambda: Vec<f64>,
+    active: Vec<bool>,
+}
+
+/// What the last period records: states at the output samples, probes and total force at
+/// every step.
+struct LastPeriod {
+    per_sample: usize,
+    displacement: Vec<Vec<f64>>,
+    velocity: Vec<Vec<f64>>,
+    acceleration: Vec<Vec<f64>>,
+    contact_force: Vec<Vec<f64>>,
+    probe_history: Vec<Vec<f64>>,
+    total_contact_history: Vec<f64>,
+}
+
+impl LastPeriod {
+    fn new(samples: usize, steps: usize, per_sample: usize, nc: usize, probes: usize) -> Self {
+        LastPeriod {
+            per_sample,
+            displacement: vec![Vec::new(); samples],
+            velocity: vec![Vec::new(); samples],
+            acceleration: vec![Vec::new(); samples],
+            contact_force: vec![vec![0.0; nc]; samples],
+            probe_history: vec![vec![0.0; steps]; probes],
+            total_contact_history: vec![0.0; steps],
+        }
+    }
+
+    /// Record step `step` (u at it, centred differences around it); λ belongs to the end of
+    /// the step (it enforced u_next), so it is booked at step + 1.
+    fn record(
+        &mut self,
+        step: usize,
+        dt: f64,
+        [u_prev, u, u_next]: [&[f64]; 3],
+        lambda: &[f64],
+        probes: &[usize],
+    ) {
+        if step.is_multiple_of(self.per_sample) {
+            let j = step / self.per_sample;
+            self.displacement[j] = u.to_vec();
+            self.velocity[j] = (0..u.len())
+                .map(|i| (u_next[i] - u_prev[i]) / (2.0 * dt))
+                .collect();
+            self.acceleration[j] = (0..u.len())
+                .map(|i| (u_next[i] - 2.0 * u[i] + u_prev[i]) / (dt * dt))
+                .collect();
+        }
+        for (history, &d) in self.probe_history.iter_mut().zip(probes) {
+            history[step] = u[d];
+        }
+        let steps = self.total_contact_history.len();
+        let next = (step + 1) % steps;
+        self.total_contact_history[next] = lambda.iter().sum();
+        if next.is_multiple_of(self.per_sample) {
+            self.contact_force[next / self.per_sample] = lambda.to_vec();
+        }
     }
 }
 
@@ -314,139 +443,70 @@ pub fn run_to_periodic(
     reporter: &dyn Reporter,
 ) -> Result<TransientResult> {
     let start = Instant::now();
-    let k = problem.stiffness;
-    let n = problem.mass.len();
-    let mass = problem.mass;
+    let (k, mass) = (problem.stiffness, problem.mass);
+    let n = mass.len();
     let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
-    let z: Vec<usize> = (0..n).filter(|&i| mass[i] <= 0.0).collect();
     let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
     let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
     let rows = contact_rows(problem, &is_z)?;
     let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
-
-    // Static condensation of the massless dofs.
-    let condensation = Condensation::new(k, z, &rows)?;
-
+    let g0 = problem.contact.as_ref().map(|c| c.g0);
+    let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
     let (dt, steps, per_sample) = time_step(problem, settings, beta)?;
     let s = settings.samples_per_period.max(1);
-
-    let mut u = vec![0.0; n];
-    let mut u_prev = vec![0.0; n];
-    // Three rotating buffers: no allocation in the time loop.
-    let mut u_next = vec![0.0; n];
-    let mut v_half = vec![0.0; n];
-    let mut f = vec![0.0; n];
-    let mut ku = vec![0.0; n];
-    let mut kv = vec![0.0; n];
-    let mut lambda = vec![0.0; nc];
-    let mut active = vec![false; nc];
-    let mut last_state: Option<Vec<f64>> = None;
-    let mut periods = 0;
-    let mut converged = false;
-    let mut change = f64::INFINITY;
-    let mut times = Vec::new();
-    let mut displacement = vec![Vec::new(); s];
-    let mut velocity = vec![Vec::new(); s];
-    let mut acceleration = vec![Vec::new(); s];
-    let mut contact_force = vec![vec![0.0; nc]; s];
-    let mut probe_history = vec![vec![0.0; steps]; problem.probes.len()];
-    let mut total_contact_history = vec![0.0; steps];
     let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
-    for i in 0..s {
-        times.push(i as f64 * problem.period / s as f64);
-    }
-
-    // Condense the massless dofs. Their rows carry no inertia but do carry stiffness-
-    // proportional damping: K_z·(u + βu̇) = f_z + B_zᵀλ is static in w = u + βu̇, and u_z
-    // follows from w_z by backward Euler, u_z' = s w_z + (1 − s) u_z with s = 1/(1 + β/Δt).
-    // `w` holds u + βu̇ on the massive dofs; `uz_old` the massless dofs' last values.
-    let condense = |w: &[f64],
-                    out: &mut [f64],
-                    uz_old: &[f64],
-                    s_weight: f64,
-                    f: &[f64],
-                    lambda: &mut [f64],
-                    active: &mut [bool]|
-     -> Result<()> {
-        let Some(c) = &condensation else {
-            return Ok(());
-        };
-        let nz = c.z.len();
-        let mut rhs = DVector::zeros(nz);
-        for (a, &j) in c.z.iter().enumerate() {
-            let mut sum = f[j];
-            for p in k.col_ptr[j]..k.col_ptr[j + 1] {
-                let r = k.row_idx[p];
-                if !is_z[r] {
-                    sum -= k.values[p] * w[r];
-                }
-            }
-            rhs[a] = sum;
-        }
-        let mut wz = &c.kzz_inv * &rhs;
-        let old = DVector::from_iterator(nz, c.z.iter().map(|&j| uz_old[j]));
-        if condensed_contact {
-            let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
-            let gap = &c.bz * &predicted;
-            let q: Vec<f64> = (0..nc)
-                .map(|i| gap[i] - problem.contact.as_ref().map_or(0.0, |cr| cr.g0[i]))
-                .collect();
-            let p = solve_lcp(&(&c.w * s_weight), &q, active)?;
-            for i in 0..nc {
-                lambda[i] = -p[i];
-            }
-            let lam = DVector::from_iterator(nc, lambda.iter().copied());
-            wz += &c.kzz_inv * (c.bz.transpose() * lam);
-        }
-        let uz = (&wz * s_weight) + (&old * (1.0 - s_weight));
-        for (a, &j) in c.z.iter().enumerate() {
-            out[j] = uz[a];
-        }
-        Ok(())
-    };
     let s_weight = 1.0 / (1.0 + beta / dt);
-    let mut w_massive = vec![0.0; n];
+    let damp = alpha * dt / 2.0;
 
-    let mut t = 0.0;
-    (problem.force)(t, &mut f);
-    // At rest: the static state of the massless dofs (s = 1).
-    let rest = u.clone();
-    condense(&rest, &mut u, &rest, 1.0, &f, &mut lambda, &mut active)?;
+    // Three rotating buffers: no allocation in the time loop.
+    let (mut u, mut u_prev, mut u_next) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut v_half, mut f, mut ku, mut kv) =
+        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut w_massive = vec![0.0; n];
+    let mut contact = ContactState {
+        lambda: vec![0.0; nc],
+        active: vec![false; nc],
+    };
+    let mut record = LastPeriod::new(s, steps, per_sample, nc, problem.probes.len());
+    let mut last_state: Option<Vec<f64>> = None;
+    let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
+
+    (problem.force)(0.0, &mut f);
+    if let Some(c) = &condensation {
+        // At rest: the static state of the massless dofs (s = 1).
+        let rest = u.clone();
+        c.condense(&rest, &mut u, &rest, 1.0, &f, &mut contact)?;
+    }
     u_prev.copy_from_slice(&u);
     while periods < settings.max_periods {
         for step in 0..steps {
-            t = (periods * steps + step) as f64 * dt;
+            let t = (periods * steps + step) as f64 * dt;
             (problem.force)(t, &mut f);
             sym_mul(k, &u, &mut ku);
             if beta != 0.0 {
                 sym_mul(k, &v_half, &mut kv);
             }
-            let damp = alpha * dt / 2.0;
-            for i in 0..n {
-                if is_z[i] {
-                    continue;
-                }
+            for i in (0..n).filter(|&i| !is_z[i]) {
                 let r = f[i] - ku[i] - beta * kv[i];
                 let v = ((1.0 - damp) * v_half[i] + dt * r / mass[i]) / (1.0 + damp);
                 u_next[i] = u[i] + dt * v;
             }
             if let Some(w) = &lumped_w {
                 // Forward-increment multipliers on massive contact dofs.
-                let c = problem.contact.as_ref().map(|c| c.g0).unwrap_or(&[]);
+                let g0 = g0.unwrap_or(&[]);
                 let q: Vec<f64> = (0..nc)
-                    .map(|a| rows[a].iter().map(|&(d, v)| v * u_next[d]).sum::<f64>() - c[a])
+                    .map(|a| rows[a].iter().map(|&(d, v)| v * u_next[d]).sum::<f64>() - g0[a])
                     .collect();
-                let p = solve_lcp(w, &q, &mut active)?;
+                let p = solve_lcp(w, &q, &mut contact.active)?;
                 for a in 0..nc {
-                    lambda[a] = -p[a];
+                    contact.lambda[a] = -p[a];
                     for &(d, v) in &rows[a] {
-                        u_next[d] += dt * dt * v * lambda[a] / mass[d] / (1.0 + damp);
+                        u_next[d] += dt * dt * v * contact.lambda[a] / mass[d] / (1.0 + damp);
                     }
                 }
             }
-            let t_next = t + dt;
-            if condensation.is_some() {
-                (problem.force)(t_next, &mut f);
+            if let Some(c) = &condensation {
+                (problem.force)(t + dt, &mut f);
                 for i in 0..n {
                     w_massive[i] = if is_z[i] {
                         0.0
@@ -454,39 +514,18 @@ pub fn run_to_periodic(
                         u_next[i] + beta * (u_next[i] - u[i]) / dt
                     };
                 }
-                condense(
-                    &w_massive,
-                    &mut u_next,
-                    &u,
-                    s_weight,
-                    &f,
-                    &mut lambda,
-                    &mut active,
-                )?;
+                c.condense(&w_massive, &mut u_next, &u, s_weight, &f, &mut contact)?;
             }
             for i in 0..n {
                 v_half[i] = (u_next[i] - u[i]) / dt;
             }
-            // Record the state at the step (u at `step`, centred differences around it).
-            if step.is_multiple_of(per_sample) {
-                let j = step / per_sample;
-                displacement[j] = u.clone();
-                velocity[j] = (0..n)
-                    .map(|i| (u_next[i] - u_prev[i]) / (2.0 * dt))
-                    .collect();
-                acceleration[j] = (0..n)
-                    .map(|i| (u_next[i] - 2.0 * u[i] + u_prev[i]) / (dt * dt))
-                    .collect();
-            }
-            for (history, &d) in probe_history.iter_mut().zip(&problem.probes) {
-                history[step] = u[d];
-            }
-            // λ belongs to the end of this step (it enforced u_next); book it at step + 1.
-            let next = (step + 1) % steps;
-            total_contact_history[next] = lambda.iter().sum();
-            if next.is_multiple_of(per_sample) {
-                contact_force[next / per_sample] = lambda.clone();
-            }
+            record.record(
+                step,
+                dt,
+                [&u_prev, &u, &u_next],
+                &contact.lambda,
+                &problem.probes,
+            );
             // Rotate: (prev, current, next) ← (current, next, old prev).
             std::mem::swap(&mut u_prev, &mut u);
             std::mem::swap(&mut u, &mut u_next);
@@ -505,11 +544,12 @@ pub fn run_to_periodic(
             .collect();
         if let Some(prev) = &last_state {
             change = relative_change(&state, prev);
+            let status = format!("change {change:.2e}");
             reporter.progress(
                 "periods",
                 periods as u64,
                 Some(settings.max_periods as u64),
-                &format!("change {change:.2e}"),
+                &status,
             );
             if change < settings.periodic_tolerance {
                 converged = true;
@@ -524,13 +564,15 @@ pub fn run_to_periodic(
         periods,
         converged,
         periodicity_error: change,
-        times,
-        displacement,
-        velocity,
-        acceleration,
-        contact_force,
-        probe_history,
-        total_contact_history,
+        times: (0..s)
+            .map(|i| i as f64 * problem.period / s as f64)
+            .collect(),
+        displacement: record.displacement,
+        velocity: record.velocity,
+        acceleration: record.acceleration,
+        contact_force: record.contact_force,
+        probe_history: record.probe_history,
+        total_contact_history: record.total_contact_history,
         wall_time: start.elapsed(),
     })
 }
