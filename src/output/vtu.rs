@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use vtkio::model::{
-    Attribute, Attributes, ByteOrder, CellType, Cells, DataSet, UnstructuredGridPiece, Version,
-    VertexNumbers,
+    Attribute, Attributes, ByteOrder, CellType, Cells, DataSet, IOBuffer, UnstructuredGridPiece,
+    Version, VertexNumbers,
 };
 use vtkio::Vtk;
 
@@ -73,14 +73,42 @@ pub fn write_vtu(
             Attribute::generic(f.name.clone(), f.components as u32).with_data(f.values.clone()),
         );
     }
+    export(path, points.into(), connectivity, offsets, types, data)
+}
+
+/// Write 2-node line cells between `points` (z = 0), without data: the obstacle outline.
+pub fn write_lines_vtu(path: &Path, points: &[[f64; 2]], segments: &[[usize; 2]]) -> Result<()> {
+    let coordinates: Vec<f64> = points.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
+    let connectivity: Vec<u64> = segments.iter().flatten().map(|&i| i as u64).collect();
+    let offsets: Vec<u64> = (1..=segments.len()).map(|i| 2 * i as u64).collect();
+    let types = vec![CellType::Line; segments.len()];
+    export(
+        path,
+        coordinates.into(),
+        connectivity,
+        offsets,
+        types,
+        Attributes::new(),
+    )
+}
+
+/// One unstructured grid piece written as a `.vtu`, file version 1.0 (as fenris does) so that
+/// ParaView reads 64-bit offsets without a warning.
+fn export(
+    path: &Path,
+    points: IOBuffer,
+    connectivity: Vec<u64>,
+    offsets: Vec<u64>,
+    types: Vec<CellType>,
+    data: Attributes,
+) -> Result<()> {
     let vtk = Vtk {
-        // 1.0 (as fenris does) so that ParaView reads 64-bit offsets without a warning.
         version: Version { major: 1, minor: 0 },
         title: String::new(),
         byte_order: ByteOrder::LittleEndian,
         file_path: None,
         data: DataSet::inline(UnstructuredGridPiece {
-            points: points.into(),
+            points,
             cells: Cells {
                 cell_verts: VertexNumbers::XML {
                     connectivity,
@@ -89,32 +117,6 @@ pub fn write_vtu(
                 types,
             },
             data,
-        }),
-    };
-    vtk.export(path)
-        .map_err(|e| Error::io(path, std::io::Error::other(format!("{e:?}"))))
-}
-
-/// Write 2-node line cells between `points` (z = 0), without data: the obstacle outline.
-pub fn write_lines_vtu(path: &Path, points: &[[f64; 2]], segments: &[[usize; 2]]) -> Result<()> {
-    let coordinates: Vec<f64> = points.iter().flat_map(|p| [p[0], p[1], 0.0]).collect();
-    let connectivity: Vec<u64> = segments.iter().flatten().map(|&i| i as u64).collect();
-    let offsets: Vec<u64> = (1..=segments.len()).map(|i| 2 * i as u64).collect();
-    let vtk = Vtk {
-        version: Version { major: 1, minor: 0 },
-        title: String::new(),
-        byte_order: ByteOrder::LittleEndian,
-        file_path: None,
-        data: DataSet::inline(UnstructuredGridPiece {
-            points: coordinates.into(),
-            cells: Cells {
-                cell_verts: VertexNumbers::XML {
-                    connectivity,
-                    offsets,
-                },
-                types: vec![CellType::Line; segments.len()],
-            },
-            data: Attributes::new(),
         }),
     };
     vtk.export(path)
