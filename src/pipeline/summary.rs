@@ -300,6 +300,13 @@ fn series_stats(sampled: &Sampled) -> ContactSummary {
     }
 }
 
+/// Half the peak-to-peak range of a series (what a gauge shows as amplitude).
+fn half_range(series: &[f64]) -> f64 {
+    let max = series.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let min = series.iter().cloned().fold(f64::INFINITY, f64::min);
+    0.5 * (max - min)
+}
+
 /// Over evenly spaced samples of one period, per probe: half the peak-to-peak range and the
 /// first-harmonic amplitude of each component of the probe's mean displacement.
 pub fn probe_amplitudes(
@@ -308,15 +315,13 @@ pub fn probe_amplitudes(
 ) -> BTreeMap<String, ProbeAmplitudes> {
     let count = displacements.len().max(1) as f64;
     let measure = |series: &[f64]| -> (f64, f64) {
-        let max = series.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        let min = series.iter().cloned().fold(f64::INFINITY, f64::min);
         let (mut a, mut b) = (0.0, 0.0);
         for (j, s) in series.iter().enumerate() {
             let phase = 2.0 * std::f64::consts::PI * j as f64 / count;
             a += s * phase.cos();
             b += s * phase.sin();
         }
-        (0.5 * (max - min), 2.0 * (a * a + b * b).sqrt() / count)
+        (half_range(series), 2.0 * (a * a + b * b).sqrt() / count)
     };
     model
         .probes
@@ -388,9 +393,9 @@ pub fn transient(
     result: &TransientResult,
     sampled: &Sampled,
 ) -> Summary {
-    let contact = model.contact.as_ref().map(|_| {
-        let totals: Vec<f64> = result.total_contact_history.iter().map(|v| -v).collect();
-        let (peak, mean) = force_stats(&totals);
+    // Peak and mean from every step (`contact_steps.csv`), which the frames undersample.
+    let contact = sampled.steps.as_ref().map(|steps| {
+        let (peak, mean) = force_stats(&steps.total_force);
         ContactSummary {
             peak_contact_force: peak,
             mean_contact_force: mean,
@@ -410,11 +415,7 @@ pub fn transient(
         .probe_history
         .iter()
         .enumerate()
-        .map(|(j, h)| {
-            let max = h.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-            let min = h.iter().cloned().fold(f64::INFINITY, f64::min);
-            (format!("probe_dof_{j}"), 0.5 * (max - min))
-        })
+        .map(|(j, h)| (format!("probe_dof_{j}"), half_range(h)))
         .collect();
     Summary {
         contact,
