@@ -284,6 +284,44 @@ impl SparseLu {
         }
     }
 
+    /// The compliance B A⁻¹ Bᵀ (row-major nrows(B)²) for a sparse B: one blocked solve with
+    /// the rows of B as right-hand sides (real ones for a real factorization), then B times
+    /// the solution, without keeping the n × nrows(B) solution beyond this call.
+    pub fn compliance(&self, b: &Csc) -> Vec<c64> {
+        let (n, nc) = (self.dim(), b.nrows);
+        let mut out = vec![c64::new(0.0, 0.0); nc * nc];
+        // (B X)_ij = Σ_p B_ip X_pj, with B stored by columns p.
+        let mut product = |x: &dyn Fn(usize, usize) -> c64| {
+            for p in 0..b.ncols {
+                for q in b.col_ptr[p]..b.col_ptr[p + 1] {
+                    let (i, v) = (b.row_idx[q], b.values[q]);
+                    for j in 0..nc {
+                        out[i * nc + j] += x(p, j) * v;
+                    }
+                }
+            }
+        };
+        match self {
+            SparseLu::Real(lu) => {
+                let mut rhs = Mat::<f64>::zeros(n, nc);
+                for (row, col, v) in b.triplet_iter() {
+                    rhs[(col, row)] = v;
+                }
+                let x = lu.solve(&rhs);
+                product(&|p, j| c64::new(x[(p, j)], 0.0));
+            }
+            SparseLu::Complex(lu) => {
+                let mut rhs = Mat::<c64>::zeros(n, nc);
+                for (row, col, v) in b.triplet_iter() {
+                    rhs[(col, row)] = c64::new(v, 0.0);
+                }
+                let x = lu.solve(&rhs);
+                product(&|p, j| x[(p, j)]);
+            }
+        }
+        out
+    }
+
     pub fn solve(&self, rhs: &[c64]) -> Vec<c64> {
         self.solve_many(&[rhs.to_vec()]).pop().unwrap_or_default()
     }

@@ -26,6 +26,34 @@ pub struct ContactSet {
     pub candidates: usize,
     pub dropped_off_obstacle: usize,
     pub dropped_beyond_search: usize,
+    /// Candidates whose normal motion is fully held by boundary conditions: a support, not a
+    /// contact (their multiplier would be undetermined).
+    pub dropped_held: usize,
+}
+
+impl ContactSet {
+    /// Drop the nodes that cannot move along their normal (every dof the normal touches is
+    /// held); `is_free(dof)` says whether a global dof is free.
+    pub fn drop_held(&mut self, is_free: impl Fn(usize) -> bool) {
+        let keep: Vec<bool> = self
+            .nodes
+            .iter()
+            .zip(&self.normals)
+            .map(|(&n, normal)| (0..2).any(|c| normal[c] != 0.0 && is_free(2 * n + c)))
+            .collect();
+        retain_by(&mut self.nodes, &keep);
+        retain_by(&mut self.normals, &keep);
+        retain_by(&mut self.gaps, &keep);
+        retain_by(&mut self.closest, &keep);
+        retain_by(&mut self.tributary, &keep);
+        self.dropped_held += keep.iter().filter(|&&k| !k).count();
+    }
+}
+
+/// Keep the entries whose flag is set.
+fn retain_by<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut flags = keep.iter();
+    v.retain(|_| flags.next().copied().unwrap_or(true));
 }
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
@@ -278,6 +306,7 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet
         candidates: candidates.len(),
         dropped_off_obstacle: 0,
         dropped_beyond_search: 0,
+        dropped_held: 0,
     };
     let mut smallest_gap = f64::INFINITY;
     for &n in candidates {

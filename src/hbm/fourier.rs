@@ -94,6 +94,11 @@ impl Sampler {
         }
     }
 
+    /// The forward DFT X_j = Σ_n x_n e^{−2πijn/N} in place (length N).
+    pub fn forward_in_place(&self, buffer: &mut [Complex64]) {
+        self.forward.process(buffer);
+    }
+
     /// Number of coefficients, M = 2H + 1.
     pub fn coefficients(&self) -> usize {
         2 * self.harmonics + 1

@@ -13,8 +13,9 @@ use std::collections::BTreeMap;
 
 use faer::c64;
 
-use super::fourier;
 use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
+use super::step::StepMethod;
+use super::{fourier, knobs};
 use super::{measure_complementarity, ContactSolution, HbSettings, System};
 use crate::contact::ContactOperator;
 use crate::progress::Reporter;
@@ -67,6 +68,9 @@ fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Result<f64> {
     Ok(settings.c_scale / mean_compliance)
 }
 
+/// Newton iterations one smoothing level may take before the continuation narrows its step.
+const LEVEL_ITERATIONS: usize = 30;
+
 /// Every Newton run of one contact solve: iterations, log and why each attempt failed.
 struct Attempts<'a> {
     problem: &'a ReducedProblem,
@@ -79,7 +83,7 @@ struct Attempts<'a> {
 
 impl Attempts<'_> {
     /// Newton settings for rung `h` of the ladder (the same oversampling ratio as at H).
-    fn newton_settings(&self, h: usize, c: f64) -> NewtonSettings {
+    fn newton_settings(&self, h: usize, c: f64, smoothing: f64) -> NewtonSettings {
         let (top, samples) = (self.settings.harmonics, self.settings.samples);
         NewtonSettings {
             samples: if h == top {
@@ -90,28 +94,82 @@ impl Attempts<'_> {
             c,
             tolerance: self.settings.tolerance,
             max_iterations: self.settings.max_iterations,
-            dense_limit: reduced::DENSE_LIMIT,
+            method: StepMethod::Auto,
+            smoothing,
+            min_iterations: 0,
         }
     }
 
-    fn newton(&mut self, h: usize, c: f64, start: &[f64]) -> NewtonOutcome {
-        let truncated;
-        let problem = if h == self.problem.harmonics {
-            self.problem
+    fn problem_at(&self, h: usize) -> std::borrow::Cow<'_, ReducedProblem> {
+        if h == self.problem.harmonics {
+            std::borrow::Cow::Borrowed(self.problem)
         } else {
-            truncated = self.problem.truncate(h);
-            &truncated
-        };
-        let o = reduced::newton(problem, &self.newton_settings(h, c), start, self.reporter);
+            std::borrow::Cow::Owned(self.problem.truncate(h))
+        }
+    }
+
+    fn run(
+        &mut self,
+        problem: &ReducedProblem,
+        settings: &NewtonSettings,
+        start: &[f64],
+    ) -> NewtonOutcome {
+        let o = reduced::newton(problem, settings, start, self.reporter);
         self.iterations += o.iterations;
         self.log.extend(o.log.iter().cloned());
+        o
+    }
+
+    /// Continuation in the smoothing μ at harmonic h, from μ = 0.3 F (F the linear solution's
+    /// implied force) by a factor 0.3 per level down to below the tolerance; each level starts
+    /// from the last solution, a failed level narrows the factor. The last step solves the
+    /// exact law (μ = 0), which then starts within the tolerance. If the path turns back (a
+    /// fold in μ, where no nearby smoothed solution exists), the exact law is tried from the
+    /// last point reached.
+    fn smoothed(&mut self, h: usize, c: f64, start: &[f64]) -> NewtonOutcome {
+        let problem = self.problem_at(h).into_owned();
+        let mut settings = self.newton_settings(h, c, 0.0);
+        let force = reduced::linear_force(&problem, settings.samples, c);
+        let floor = 0.1 * self.settings.tolerance * force;
+        let (mut x, mut ratio, mut last) = (start.to_vec(), 0.3f64, force);
+        let mut fold = None;
+        while force > 0.0 && last * ratio > floor {
+            let mu = last * ratio;
+            settings.smoothing = mu;
+            settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
+            settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
+            let o = self.run(&problem, &settings, &x);
+            if o.converged {
+                (x, last) = (o.multipliers, mu);
+            } else if ratio.sqrt() > 0.95 {
+                fold = Some(last / force);
+                break;
+            } else {
+                ratio = ratio.sqrt();
+            }
+        }
+        settings.smoothing = 0.0;
+        settings.tolerance = self.settings.tolerance;
+        settings.max_iterations = self.settings.max_iterations;
+        // Polish a continuation's end point onto the exact law's active set (nothing to
+        // polish when nothing penetrates: λ = 0 is then exact).
+        settings.min_iterations = usize::from(force > 0.0);
+        let mut o = self.run(&problem, &settings, &x);
+        if let (false, Some(at)) = (o.converged, fold) {
+            o.reason = format!(
+                "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance the \
+                 contact problem can have several periodic states), and the exact law from there: {}",
+                o.reason
+            );
+        }
         o
     }
 
     /// The plain Newton, then the harmonic ladder, at one c.
     fn at(&mut self, c: f64) -> Option<(NewtonOutcome, Vec<usize>)> {
         let (h, nc) = (self.problem.harmonics, self.problem.nodes);
-        let o = self.newton(h, c, &vec![0.0; nc * (2 * h + 1)]);
+        let zero = vec![0.0; nc * (2 * h + 1)];
+        let o = self.smoothed(h, c, &zero);
         if o.converged {
             return Some((o, vec![h]));
         }
@@ -128,7 +186,7 @@ impl Attempts<'_> {
         rungs.push(h);
         let (mut x, mut prev) = (vec![0.0; nc * 3], 1);
         for &rung in &rungs {
-            let o = self.newton(rung, c, &reduced::pad(&x, nc, prev, rung));
+            let o = self.smoothed(rung, c, &reduced::pad(&x, nc, prev, rung));
             if !o.converged {
                 self.reasons.push(format!(
                     "ladder at c = {c:.3e} failed at H = {rung}: {}",
@@ -165,7 +223,7 @@ pub(super) fn solve_contact(
         .into_iter()
         .find_map(|c_try| attempts.at(c_try).map(|(o, ladder)| (o, ladder, c_try)));
     reporter.task_done("contact Newton");
-    let Some((mut outcome, ladder, c)) = found else {
+    let Some((outcome, ladder, c)) = found else {
         let failed = NewtonOutcome {
             multipliers: Vec::new(),
             converged: false,
@@ -176,20 +234,28 @@ pub(super) fn solve_contact(
         };
         return Err(stall_diagnosis(system, settings, &failed));
     };
+    let (samples, mut outcome, knob_check) = knobs::adapt_samples(
+        problem,
+        outcome,
+        settings.samples,
+        c,
+        settings.tolerance,
+        reporter,
+    );
     outcome.iterations = attempts.iterations;
     outcome.log = attempts.log;
     let gaps = problem.gap(&outcome.multipliers);
-    let complementarity =
-        measure_complementarity(problem, &outcome.multipliers, &gaps, settings.samples);
+    let complementarity = measure_complementarity(problem, &outcome.multipliers, &gaps, samples);
     Ok(ContactSolution {
         harmonics: settings.harmonics,
-        samples: settings.samples,
+        samples,
         c,
         multipliers: outcome.multipliers.clone(),
         gaps,
         newton: outcome,
         ladder,
         complementarity,
+        knob_check,
     })
 }
 

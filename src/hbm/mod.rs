@@ -16,8 +16,10 @@
 
 pub mod fourier;
 mod globalize;
+pub mod knobs;
 pub mod reduced;
 pub mod solution;
+pub mod step;
 pub mod system;
 
 use std::collections::BTreeMap;
@@ -26,7 +28,7 @@ use std::time::Instant;
 use faer::c64;
 
 use crate::contact::ContactOperator;
-use crate::linalg::{Csc, SparseLu};
+use crate::linalg::SparseLu;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
@@ -78,18 +80,14 @@ pub fn solve(
     let harmonics = harmonics_to_compute(system, contact, settings)?;
     let mut timings = Timings::default();
     let mut linear = LinearResponse::default();
-    let bt_columns: Vec<Vec<c64>> = contact
-        .map(|op| transpose_rows(&op.b_free))
-        .unwrap_or_default();
     for (i, &k) in harmonics.iter().enumerate() {
         let total = Some(harmonics.len() as u64);
         reporter.progress("factor", i as u64, total, &format!("harmonic {k}"));
         let lu = timed(&mut timings.factor, || system.factor(k))?;
         timed(&mut timings.linear_solve, || linear.solve(system, k, &lu))?;
         if let Some(op) = contact {
-            timed(&mut timings.reduce, || {
-                linear.reduce(system, op, k, &lu, &bt_columns)
-            })?;
+            timed(&mut timings.reduce, || linear.reduce(system, op, k, &lu))?;
+            linear.factors.insert(k, lu);
         }
     }
     reporter.task_done("factor");
@@ -110,7 +108,10 @@ pub fn solve(
             let solution = timed(&mut timings.newton, || {
                 globalize::solve_contact(system, &problem, settings, reporter)
             })?;
-            timed(&mut timings.recover, || linear.recover(&solution));
+            timed(&mut timings.recover, || linear.recover(op, &solution));
+            linear
+                .warnings
+                .extend(knobs::warnings(&solution.knob_check, solution.samples));
             Some(solution)
         }
     };
@@ -163,8 +164,8 @@ struct LinearResponse {
     motion: BTreeMap<usize, Vec<c64>>,
     residuals: BTreeMap<usize, f64>,
     warnings: Vec<String>,
-    /// Z_k⁻¹ Bᵀ per harmonic, kept for the recovery (24).
-    columns: BTreeMap<usize, Vec<Vec<c64>>>,
+    /// The factorizations of Z_k, kept for the recovery (24) (contact scenes only).
+    factors: BTreeMap<usize, SparseLu>,
     /// G_k = B Z_k⁻¹ Bᵀ per harmonic (row-major nc × nc).
     compliance: Vec<Vec<c64>>,
 }
@@ -200,66 +201,51 @@ impl LinearResponse {
         Ok(())
     }
 
-    /// G_k = B (Z_k⁻¹ Bᵀ), (19)–(20).
+    /// G_k = B Z_k⁻¹ Bᵀ, (19)–(20).
     fn reduce(
         &mut self,
         system: &System,
         op: &ContactOperator,
         k: usize,
         lu: &SparseLu,
-        bt_columns: &[Vec<c64>],
     ) -> Result<()> {
-        let cols = lu.solve_many(bt_columns);
-        if cols
-            .iter()
-            .flatten()
-            .any(|z| !z.re.is_finite() || !z.im.is_finite())
-        {
+        let gk = lu.compliance(&op.b_free);
+        if gk.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
             return Err(singular_diagnosis(system, k));
         }
-        let nc = op.nodes();
-        let mut gk = vec![c64::new(0.0, 0.0); nc * nc];
-        for (j, col) in cols.iter().enumerate() {
-            let (re, im): (Vec<f64>, Vec<f64>) = col.iter().map(|z| (z.re, z.im)).unzip();
-            let (bre, bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
-            for i in 0..nc {
-                gk[i * nc + j] = c64::new(bre[i], bim[i]);
-            }
-        }
         self.compliance.push(gk);
-        self.columns.insert(k, cols);
         Ok(())
     }
 
-    /// Recovery (24): z_k = Z_k⁻¹(f_k + Bᵀλ_k) = z_lin,k + (Z_k⁻¹Bᵀ) λ_k.
-    fn recover(&mut self, contact: &ContactSolution) {
+    /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic.
+    fn recover(&mut self, op: &ContactOperator, contact: &ContactSolution) {
         let m = contact.coefficients();
-        for (&k, cols) in &self.columns {
+        let nc = op.nodes();
+        for (&k, lu) in &self.factors {
             let Some(z) = self.free.get_mut(&k) else {
                 continue;
             };
-            for (j, col) in cols.iter().enumerate() {
-                let lam = fourier::phasor(&contact.multipliers[j * m..(j + 1) * m], k);
-                if lam.norm() == 0.0 {
-                    continue;
-                }
-                for (zi, ci) in z.iter_mut().zip(col) {
-                    *zi += ci * lam;
-                }
+            let lam: Vec<c64> = (0..nc)
+                .map(|j| fourier::phasor(&contact.multipliers[j * m..(j + 1) * m], k))
+                .collect();
+            if lam.iter().all(|l| l.norm() == 0.0) {
+                continue;
+            }
+            let (re, im): (Vec<f64>, Vec<f64>) = lam.iter().map(|l| (l.re, l.im)).unzip();
+            let (bre, bim) = (
+                op.b_free.mul_transpose_vec(&re),
+                op.b_free.mul_transpose_vec(&im),
+            );
+            let rhs: Vec<c64> = bre
+                .iter()
+                .zip(&bim)
+                .map(|(&a, &b)| c64::new(a, b))
+                .collect();
+            for (zi, di) in z.iter_mut().zip(lu.solve(&rhs)) {
+                *zi += di;
             }
         }
     }
-}
-
-/// Columns of Bᵀ (= rows of B) as dense complex vectors.
-fn transpose_rows(b: &Csc) -> Vec<Vec<c64>> {
-    let mut rows = vec![vec![c64::new(0.0, 0.0); b.ncols]; b.nrows];
-    for (j, window) in b.col_ptr.windows(2).enumerate() {
-        for p in window[0]..window[1] {
-            rows[b.row_idx[p]][j] = c64::new(b.values[p], 0.0);
-        }
-    }
-    rows
 }
 
 fn check_solve(

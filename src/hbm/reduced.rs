@@ -1,17 +1,20 @@
 //! The contact problem reduced to the contact nodes' multipliers, solved by a semi-smooth
 //! Newton method on the complementarity residual (23) of docs/method.md:
 //!
-//! R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)),   J = I + Q S P (cG − I).
+//! R(λ) = λ + Q φ_μ(P(c(Gλ + r) − λ)),   J = I + Q D P (cG − I),   D = diag(φ_μ'),
+//!
+//! with φ_0(w) = max(0, w) the contact law and, for μ > 0, its smoothing
+//! φ_μ(w) = (w + √(w² + 4μ²))/2 (Chen–Harker–Kanzow–Smale), whose root λ_μ tends to the
+//! contact solution as μ → 0 (the continuation in μ lives in `globalize`). μ is a force.
 //!
 //! Unknowns are node-major: x[i·M + m] is coefficient m (`fourier` layout) of node i's λ.
 
 use faer::c64;
-use nalgebra::DMatrix;
 
-use crate::linalg::gmres;
 use crate::progress::Reporter;
 
 use super::fourier::{harmonic_of, phasor, set_phasor, Sampler};
+use super::step::{self, StepMethod};
 
 /// G (per harmonic, complex, nc × nc row-major) and r (node-major coefficients).
 #[derive(Clone, Debug)]
@@ -62,7 +65,7 @@ impl ReducedProblem {
 
     /// Real-form entry of G between coefficient `a` of node i and coefficient `b` of node j
     /// (zero unless both belong to the same harmonic).
-    fn real_entry(&self, i: usize, a: usize, j: usize, b: usize) -> f64 {
+    pub(super) fn real_entry(&self, i: usize, a: usize, j: usize, b: usize) -> f64 {
         let (ka, kb) = (harmonic_of(a), harmonic_of(b));
         if ka != kb {
             return 0.0;
@@ -85,19 +88,33 @@ pub struct NewtonSettings {
     pub c: f64,
     pub tolerance: f64,
     pub max_iterations: usize,
-    /// Reduced systems larger than this use the matrix-free Krylov path instead of a dense LU.
-    pub dense_limit: usize,
+    /// Dense LU or matrix-free GMRES for the Newton step (`Auto`: by estimated flops).
+    pub method: StepMethod,
+    /// The smoothing μ of the projection (a force; 0 = the exact contact law).
+    pub smoothing: f64,
+    /// Newton steps taken even when the start is within the tolerance (1 polishes a
+    /// continuation's end point onto the exact law's active set).
+    pub min_iterations: usize,
+}
+
+/// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
+/// of the multipliers before any is known (zero when nothing penetrates).
+pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
+    let sampler = Sampler::new(problem.harmonics, samples);
+    let m = problem.coefficients();
+    let mut buffer = vec![0.0; samples];
+    let mut penetration: f64 = 0.0;
+    for i in 0..problem.nodes {
+        sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut buffer);
+        penetration = buffer.iter().fold(penetration, |a, &v| a.max(v));
+    }
+    c * penetration.max(0.0)
 }
 
 /// Residual norms the non-monotone line search looks back over.
 const NONMONOTONE_WINDOW: usize = 8;
 /// Steps taken without sufficient decrease before the Newton gives up.
 const MAX_FORCED_STEPS: usize = 10;
-
-/// Dense Newton matrices stay below this many unknowns. Measured: at 1089 unknowns (strip,
-/// H = 60) GMRES took 3.5 s against 7.8 s dense, at 2583 (half-disc, H = 20) 2.6 s against
-/// 56 s, with the same answers; below ~800 the dense LU is a few hundredths of a second.
-pub const DENSE_LIMIT: usize = 800;
 
 /// One Newton iteration's record (the log the user sees with `--verbose`).
 #[derive(Clone, Debug, serde::Serialize, schemars::JsonSchema)]
@@ -126,8 +143,15 @@ struct Evaluation {
     residual: Vec<f64>,
     /// Peak |λ| over the samples.
     peak: f64,
-    /// Per node and sample: c g − λ > 0 (the max(0, ·) is active).
-    active: Vec<bool>,
+    /// Per node and sample: the slope φ_μ'(c g − λ) ∈ [0, 1] (1 where contact is active).
+    slopes: Vec<f64>,
+}
+
+impl Evaluation {
+    /// Samples where the contact law is (mostly) active.
+    fn active_samples(&self) -> usize {
+        self.slopes.iter().filter(|&&s| s > 0.5).count()
+    }
 }
 
 /// R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)) and its pieces.
@@ -135,6 +159,7 @@ struct Residual<'a> {
     problem: &'a ReducedProblem,
     sampler: Sampler,
     c: f64,
+    smoothing: f64,
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
@@ -142,19 +167,22 @@ struct Residual<'a> {
 
 impl<'a> Residual<'a> {
     fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
-        let sampler = Sampler::new(problem.harmonics, settings.samples);
-        let (nc, m) = (problem.nodes, problem.coefficients());
-        let mut samples = vec![0.0; settings.samples];
-        let mut penetration: f64 = 0.0;
-        for i in 0..nc {
-            sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut samples);
-            penetration = samples.iter().fold(penetration, |a, &v| a.max(v));
-        }
         Residual {
             problem,
-            sampler,
+            sampler: Sampler::new(problem.harmonics, settings.samples),
             c: settings.c,
-            linear_force: settings.c * penetration.max(0.0),
+            smoothing: settings.smoothing,
+            linear_force: linear_force(problem, settings.samples, settings.c),
+        }
+    }
+
+    /// φ_μ(w) and φ_μ'(w).
+    fn law(&self, w: f64) -> (f64, f64) {
+        if self.smoothing == 0.0 {
+            (w.max(0.0), if w > 0.0 { 1.0 } else { 0.0 })
+        } else {
+            let root = (w * w + 4.0 * self.smoothing * self.smoothing).sqrt();
+            (0.5 * (w + root), 0.5 * (1.0 + w / root))
         }
     }
 
@@ -168,7 +196,7 @@ impl<'a> Residual<'a> {
         let mut residual = x.clone();
         let (mut w, mut lam, mut coeffs) = (vec![0.0; ns], vec![0.0; ns], vec![0.0; m]);
         let mut peak: f64 = 0.0;
-        let mut active = Vec::with_capacity(nc * ns);
+        let mut slopes = Vec::with_capacity(nc * ns);
         for i in 0..nc {
             let arg: Vec<f64> = (0..m)
                 .map(|a| self.c * g[i * m + a] - x[i * m + a])
@@ -177,8 +205,9 @@ impl<'a> Residual<'a> {
             self.sampler.to_samples(&x[i * m..(i + 1) * m], &mut lam);
             peak = lam.iter().fold(peak, |a, &v| a.max(v.abs()));
             for v in w.iter_mut() {
-                active.push(*v > 0.0);
-                *v = v.max(0.0);
+                let (value, slope) = self.law(*v);
+                slopes.push(slope);
+                *v = value;
             }
             self.sampler.to_coefficients(&w, &mut coeffs);
             for a in 0..m {
@@ -189,7 +218,7 @@ impl<'a> Residual<'a> {
             x,
             residual,
             peak,
-            active,
+            slopes,
         }
     }
 
@@ -199,23 +228,16 @@ impl<'a> Residual<'a> {
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
-    /// The Newton direction: dense LU or matrix-free GMRES by size.
+    /// The Newton direction: dense LU or matrix-free GMRES (`step`).
     fn direction(&self, e: &Evaluation, settings: &NewtonSettings) -> Result<Vec<f64>, String> {
-        if e.x.len() <= settings.dense_limit {
-            let (p, q) = (self.sampler.p_matrix(), self.sampler.q_matrix());
-            dense_step(
-                self.problem,
-                &p,
-                &q,
-                self.sampler.samples,
-                self.c,
-                &e.active,
-                &e.residual,
-            )
-            .ok_or_else(|| "the Newton matrix is singular".to_string())
-        } else {
-            krylov_step(self.problem, &self.sampler, self.c, &e.active, &e.residual)
-        }
+        step::direction(
+            self.problem,
+            &self.sampler,
+            self.c,
+            &e.slopes,
+            &e.residual,
+            settings.method,
+        )
     }
 }
 
@@ -268,14 +290,15 @@ pub fn newton(
     let mut current = residual.evaluate(start.to_vec());
     let mut log = vec![IterationLog {
         residual: residual.relative(&current),
-        active_samples: current.active.iter().filter(|&&a| a).count(),
+        active_samples: current.active_samples(),
         step: 0.0,
     }];
     let (mut iterations, mut stalls) = (0, 0);
     let mut history: Vec<f64> = Vec::new();
     let reason = loop {
         let rel = residual.relative(&current);
-        if rel <= settings.tolerance {
+        let within = rel <= settings.tolerance;
+        if within && iterations >= settings.min_iterations {
             break None;
         }
         if !rel.is_finite() {
@@ -315,9 +338,12 @@ pub fn newton(
         }
         log.push(IterationLog {
             residual: residual.relative(&current),
-            active_samples: current.active.iter().filter(|&&a| a).count(),
+            active_samples: current.active_samples(),
             step: alpha,
         });
+        if stalled && within {
+            break None; // a polishing step that could not improve: keep the converged point
+        }
         if stalled {
             break Some("the line search found no decrease of ‖R‖ (stalled)".into());
         }
@@ -330,137 +356,6 @@ pub fn newton(
         log,
         reason: reason.unwrap_or_default(),
     }
-}
-
-/// The Newton step from the dense generalized Jacobian J = I − A + c A G, A = blockdiag(Q S_i P).
-fn dense_step(
-    problem: &ReducedProblem,
-    p: &[f64],
-    q: &[f64],
-    ns: usize,
-    c: f64,
-    active: &[bool],
-    residual: &[f64],
-) -> Option<Vec<f64>> {
-    let (nc, m) = (problem.nodes, problem.coefficients());
-    let dim = nc * m;
-    let mut jac = DMatrix::<f64>::identity(dim, dim);
-    let mut a_block = vec![0.0; m * m];
-    for i in 0..nc {
-        // A_i = Q S_i P.
-        a_block.iter_mut().for_each(|v| *v = 0.0);
-        for n in 0..ns {
-            if !active[i * ns + n] {
-                continue;
-            }
-            for a in 0..m {
-                let qa = q[a * ns + n];
-                if qa == 0.0 {
-                    continue;
-                }
-                for b in 0..m {
-                    a_block[a * m + b] += qa * p[n * m + b];
-                }
-            }
-        }
-        for a in 0..m {
-            for b in 0..m {
-                jac[(i * m + a, i * m + b)] -= a_block[a * m + b];
-            }
-            // c A_i G: G couples coefficient b'' of node i with coefficients of the same
-            // harmonic of every node j.
-            for bb in 0..m {
-                let aval = a_block[a * m + bb];
-                if aval == 0.0 {
-                    continue;
-                }
-                let kk = harmonic_of(bb);
-                let cols: &[usize] = if kk == 0 { &[0] } else { &[2 * kk - 1, 2 * kk] };
-                for j in 0..nc {
-                    for &b in cols {
-                        jac[(i * m + a, j * m + b)] += c * aval * problem.real_entry(i, bb, j, b);
-                    }
-                }
-            }
-        }
-    }
-    let rhs = DMatrix::from_iterator(dim, 1, residual.iter().map(|v| -v));
-    jac.lu().solve(&rhs).map(|x| x.iter().copied().collect())
-}
-
-/// The Newton step without forming J: restarted GMRES on J v = v − A v + c A G v (products
-/// by FFT and per-harmonic G), right-preconditioned by J's node-diagonal blocks. Inexact
-/// Newton: the linear tolerance is loose because the line search guards the step.
-fn krylov_step(
-    problem: &ReducedProblem,
-    sampler: &Sampler,
-    c: f64,
-    active: &[bool],
-    residual: &[f64],
-) -> Result<Vec<f64>, String> {
-    let (nc, m, ns) = (problem.nodes, problem.coefficients(), sampler.samples);
-    let p = sampler.p_matrix();
-    let q = sampler.q_matrix();
-    let dim = nc * m;
-    // A w, node by node through the samples.
-    let apply_a = |w: &[f64], out: &mut [f64]| {
-        let mut samples = vec![0.0; ns];
-        for i in 0..nc {
-            sampler.to_samples(&w[i * m..(i + 1) * m], &mut samples);
-            for (n, v) in samples.iter_mut().enumerate() {
-                if !active[i * ns + n] {
-                    *v = 0.0;
-                }
-            }
-            sampler.to_coefficients(&samples, &mut out[i * m..(i + 1) * m]);
-        }
-    };
-    let linear_gap = &problem.linear_gap;
-    let apply_j = |v: &[f64]| -> Vec<f64> {
-        let mut gv = problem.gap(v);
-        for (g, r) in gv.iter_mut().zip(linear_gap) {
-            *g -= r;
-        }
-        let arg: Vec<f64> = gv.iter().zip(v).map(|(g, x)| c * g - x).collect();
-        let mut a = vec![0.0; dim];
-        apply_a(&arg, &mut a);
-        v.iter().zip(&a).map(|(x, y)| x + y).collect()
-    };
-    // Node-diagonal blocks of J, factored once per Newton step.
-    let mut blocks = Vec::with_capacity(nc);
-    for i in 0..nc {
-        let mut a_block = DMatrix::<f64>::zeros(m, m);
-        for n in 0..ns {
-            if !active[i * ns + n] {
-                continue;
-            }
-            for a in 0..m {
-                for b in 0..m {
-                    a_block[(a, b)] += q[a * ns + n] * p[n * m + b];
-                }
-            }
-        }
-        let mut g_block = DMatrix::<f64>::zeros(m, m);
-        for a in 0..m {
-            for b in 0..m {
-                g_block[(a, b)] = problem.real_entry(i, a, i, b);
-            }
-        }
-        let j_block = DMatrix::<f64>::identity(m, m) - &a_block + (&a_block * g_block) * c;
-        blocks.push(j_block.lu());
-    }
-    let precondition = |v: &[f64]| -> Vec<f64> {
-        let mut out = v.to_vec();
-        for (i, lu) in blocks.iter().enumerate() {
-            let rhs = DMatrix::from_column_slice(m, 1, &v[i * m..(i + 1) * m]);
-            if let Some(x) = lu.solve(&rhs) {
-                out[i * m..(i + 1) * m].copy_from_slice(x.as_slice());
-            }
-        }
-        out
-    };
-    let rhs: Vec<f64> = residual.iter().map(|v| -v).collect();
-    gmres(&apply_j, &precondition, &rhs, 1e-6, 60, 20)
 }
 
 /// Pad node-major coefficients from `from_h` harmonics to `to_h` (zeros for the new ones).
@@ -496,7 +391,9 @@ mod tests {
             c: k,
             tolerance: 1e-12,
             max_iterations: 20,
-            dense_limit: DENSE_LIMIT,
+            method: StepMethod::Auto,
+            smoothing: 0.0,
+            min_iterations: 0,
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -547,7 +444,9 @@ mod tests {
                 c: k,
                 tolerance: 1e-12,
                 max_iterations: 50,
-                dense_limit: DENSE_LIMIT,
+                method: StepMethod::Auto,
+                smoothing: 0.0,
+                min_iterations: 0,
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -588,10 +487,13 @@ mod tests {
             c: 1.0,
             tolerance: 1e-10,
             max_iterations: 60,
-            dense_limit: DENSE_LIMIT,
+            method: StepMethod::Auto,
+            smoothing: 0.0,
+            min_iterations: 0,
         };
+        settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
-        settings.dense_limit = 0;
+        settings.method = StepMethod::Krylov;
         let krylov = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
         assert!(
             dense.converged && krylov.converged,
@@ -649,7 +551,6 @@ mod jacobian_tests {
             linear_gap: (0..nc * m).map(|_| rnd()).collect(),
         };
         let sampler = Sampler::new(h, 64);
-        let (p, q) = (sampler.p_matrix(), sampler.q_matrix());
         let x: Vec<f64> = (0..nc * m).map(|_| rnd()).collect();
         let c = 0.7;
         let residual = |x: &[f64]| -> (Vec<f64>, Vec<bool>) {
@@ -687,7 +588,9 @@ mod jacobian_tests {
             // dense_step returns J⁻¹(−r); with r = −J e_k we would need J. Compare J⁻¹ of the
             // finite-difference column instead: J⁻¹ (R(x+εe_k) − R(x))/ε must be e_k.
             let fd: Vec<f64> = rp.iter().zip(&r0).map(|(a, b)| -(a - b) / eps).collect();
-            let back = dense_step(&problem, &p, &q, 64, c, &active, &fd).expect("regular");
+            let slopes: Vec<f64> = active.iter().map(|&a| a as u8 as f64).collect();
+            let back = step::direction(&problem, &sampler, c, &slopes, &fd, StepMethod::Dense)
+                .expect("regular");
             for (a, b) in back.iter().zip(&e) {
                 assert!((a - b).abs() < 1e-5, "column {k}: {back:?}");
             }

@@ -56,6 +56,8 @@ pub struct ContactSolution {
     /// The harmonic ladder actually climbed (just [H] when the direct solve converged).
     pub ladder: Vec<usize>,
     pub complementarity: Complementarity,
+    /// The N and c checks (`knobs`).
+    pub knob_check: super::knobs::KnobCheck,
 }
 
 impl ContactSolution {

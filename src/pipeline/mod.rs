@@ -57,7 +57,11 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let solution = stages::solve(p, &model, &mut stages)?;
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
-        let samples = hb_settings(p).samples;
+        // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
+        let samples = solution
+            .contact
+            .as_ref()
+            .map_or(hb_settings(p).samples, |c| c.samples);
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
         sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
         report::write_amplitudes(staged.path(), &model, &solution)?;

@@ -153,7 +153,11 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let stiffness = fem::assemble_stiffness(&mesh, &material)?;
     let dofs = dof_map(p, &mesh)?;
     let contact_set = match &p.contact {
-        Some(spec) => Some(build_contact_set(&mesh, spec)?),
+        Some(spec) => {
+            let mut set = build_contact_set(&mesh, spec)?;
+            set.drop_held(|d| dofs.free_index(d).is_some());
+            Some(set)
+        }
         None => None,
     };
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;

@@ -13,6 +13,7 @@ use super::model::{Effects, Model};
 use super::report::Sampled;
 use super::stages::StageTimes;
 use crate::config::Pipeline;
+use crate::hbm::knobs::KnobCheck;
 use crate::hbm::{Complementarity, IterationLog, Solution};
 use crate::transient::TransientResult;
 
@@ -127,6 +128,8 @@ pub struct ContactSetup {
     pub kept: usize,
     pub dropped_off_obstacle: usize,
     pub dropped_beyond_search: usize,
+    /// Candidates whose normal motion boundary conditions hold (supports, not contacts).
+    pub dropped_held: usize,
     /// Smallest initial gap g0 [m] (negative: initial penetration).
     pub min_initial_gap: f64,
     /// Largest initial gap g0 [m].
@@ -191,6 +194,9 @@ pub struct ContactSolve {
     pub max_penetration_on_history: f64,
     /// One entry per Newton iteration.
     pub newton_log: Vec<IterationLog>,
+    /// Whether the answer moved with the samples N (doubled until it settles; `samples` is
+    /// the N used) and with c (re-solved at c/3).
+    pub knob_check: KnobCheck,
 }
 
 /// Amplitudes of a probe group's mean displacement over one period [m].
@@ -244,6 +250,7 @@ pub fn contact_setup(model: &Model) -> Option<ContactSetup> {
         kept: c.set.nodes.len(),
         dropped_off_obstacle: c.set.dropped_off_obstacle,
         dropped_beyond_search: c.set.dropped_beyond_search,
+        dropped_held: c.set.dropped_held,
         min_initial_gap: gaps.iter().cloned().fold(f64::INFINITY, f64::min),
         max_initial_gap: gaps.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
         mass_moved_fraction: c.redistribution.as_ref().map(|r| r.moved_fraction),
@@ -372,6 +379,7 @@ pub fn harmonic_balance(
                 complementarity: c.complementarity.clone(),
                 max_penetration_on_history: history.max_penetration(),
                 newton_log: c.newton.log.clone(),
+                knob_check: c.knob_check.clone(),
             }),
             ..series_stats(sampled)
         }
