@@ -4,7 +4,7 @@ pub mod reporter;
 
 use hbcontact::hbm::IterationLog;
 use hbcontact::pipeline::compare::Comparison;
-use hbcontact::pipeline::summary::Summary;
+use hbcontact::pipeline::summary::{RunMode, Summary};
 use hbcontact::pipeline::{CheckReport, ModesResult, RunResult};
 
 /// After a run: warnings, the contact Newton's log, where the results went and what was
@@ -27,7 +27,11 @@ pub fn show_run(result: &RunResult) {
 /// The headline: what an engineer looks at first, from the typed summary.
 fn show_headline(s: &Summary) {
     let h = s.headline();
-    println!("{} ({:?})", s.name, s.mode);
+    let mode = match s.mode {
+        RunMode::HarmonicBalance => "harmonic balance",
+        RunMode::Transient => "time marching",
+    };
+    println!("{}: {mode}", s.name);
     if let Some((name, a)) = &h.probe {
         println!(
             "  probe {name}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",
