@@ -13,7 +13,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (name, schema) in [
         ("pipeline.schema.json", hbcontact::config::pipeline_schema()),
         ("summary.schema.json", hbcontact::pipeline::summary_schema()),
-        ("modes.schema.json", hbcontact::pipeline::modes::modes_schema()),
+        (
+            "modes.schema.json",
+            hbcontact::pipeline::modes::modes_schema(),
+        ),
         (
             "compare.schema.json",
             hbcontact::pipeline::compare::compare_schema(),

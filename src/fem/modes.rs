@@ -50,8 +50,13 @@ pub fn modes_near(
     Ok(modes)
 }
 
-/// K − σM on the common pattern of K and M.
+/// K − σM on the common pattern of K and M (K's own when M shares it, as `System`'s do).
 fn shifted(k: &Csc, m: &Csc, shift: f64) -> Result<Csc> {
+    if k.col_ptr == m.col_ptr && k.row_idx == m.row_idx {
+        let mut a = k.clone();
+        a.values.iter_mut().zip(&m.values).for_each(|(v, w)| *v -= shift * w);
+        return Ok(a);
+    }
     let mut common = Csc::on_common_pattern(&[k, m]).into_iter();
     let (Some(mut a), Some(mm)) = (common.next(), common.next()) else {
         return Err(Error::Model("internal: modes pattern".into()));
