@@ -462,7 +462,7 @@ fn analytic_circle_obstacle_is_written_as_an_arc_on_the_circle() {
 /// the same scene (common::model + common::solve).
 ///
 /// ```text
-///   clamp ▐▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▌ load: traction cos(ω t), 1 kHz
+///   clamp ▐▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▌ load: traction cos(ω t), 500 Hz
 ///         ▐      ( hole )   • ▌        • probe
 ///         ▐▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▌
 /// ```
@@ -1049,6 +1049,6 @@ fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_wit
         1 + c["differences"].as_array().unwrap().len()
     );
     let change = s_hb["contact"]["peak_change_from_half_h"].as_f64().unwrap();
-    println!("HB peak change from H/2 to H: {change:+.3}");
-    assert!(change.is_finite());
+    println!("HB peak change from H/2 to H: {change:+.3} (measured +0.091)");
+    assert!(change > 0.045 && change < 0.18, "{change}");
 }
