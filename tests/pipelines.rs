@@ -1048,6 +1048,16 @@ fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_wit
         csv.lines().count(),
         1 + c["differences"].as_array().unwrap().len()
     );
+    // Swapped directories, or a count of no modes, are bad input (exit 2) saying what to do.
+    let o = common::hbcontact(&["compare", tm_dir, hb.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("give the `hbcontact run` directory first"), "{stderr}");
+    let o = common::hbcontact(&["modes", "pipelines/cantilever.yaml", "--count", "0"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--count 0"), "{stderr}");
+
     let change = s_hb["contact"]["peak_change_from_half_h"].as_f64().unwrap();
     println!("HB peak change from H/2 to H: {change:+.3} (measured +0.091)");
     assert!(change > 0.045 && change < 0.18, "{change}");

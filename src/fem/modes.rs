@@ -54,7 +54,10 @@ pub fn modes_near(
 fn shifted(k: &Csc, m: &Csc, shift: f64) -> Result<Csc> {
     if k.col_ptr == m.col_ptr && k.row_idx == m.row_idx {
         let mut a = k.clone();
-        a.values.iter_mut().zip(&m.values).for_each(|(v, w)| *v -= shift * w);
+        a.values
+            .iter_mut()
+            .zip(&m.values)
+            .for_each(|(v, w)| *v -= shift * w);
         return Ok(a);
     }
     let mut common = Csc::on_common_pattern(&[k, m]).into_iter();
