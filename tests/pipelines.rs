@@ -1052,7 +1052,10 @@ fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_wit
     let o = common::hbcontact(&["compare", tm_dir, hb.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("give the `hbcontact run` directory first"), "{stderr}");
+    assert!(
+        stderr.contains("give the `hbcontact run` directory first"),
+        "{stderr}"
+    );
     let o = common::hbcontact(&["modes", "pipelines/cantilever.yaml", "--count", "0"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
