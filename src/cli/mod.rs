@@ -2,6 +2,14 @@
 
 pub mod reporter;
 
+/// `println!` that ignores a closed stdout (`hbcontact modes … | head`) instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 use hbcontact::hbm::IterationLog;
 use hbcontact::pipeline::compare::Comparison;
 use hbcontact::pipeline::summary::{RunMode, Summary};
@@ -31,9 +39,9 @@ fn show_headline(s: &Summary) {
         RunMode::HarmonicBalance => "harmonic balance",
         RunMode::Transient => "time marching",
     };
-    println!("{}: {mode}", s.name);
+    outln!("{}: {mode}", s.name);
     if let Some((name, a)) = &h.probe {
-        println!(
+        outln!(
             "  probe {name}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",
             a.first_harmonic_x, a.first_harmonic_y, a.half_peak_to_peak_x, a.half_peak_to_peak_y
         );
@@ -43,14 +51,14 @@ fn show_headline(s: &Summary) {
             .peak_change_from_half_h
             .map(|c| format!(" ({:+.1}% from H/2 to H)", 100.0 * c))
             .unwrap_or_default();
-        println!("  contact force: peak {peak:.4e} N{change}, mean {mean:.4e} N");
+        outln!("  contact force: peak {peak:.4e} N{change}, mean {mean:.4e} N");
     }
     if let Some(vm) = h.max_von_mises {
-        println!("  max von Mises: {vm:.4e} Pa");
+        outln!("  max von Mises: {vm:.4e} Pa");
     }
     for r in s.resonance.iter().flat_map(|r| &r.harmonics) {
         if let Some(m) = r.nearest_modes.first() {
-            println!(
+            outln!(
                 "  harmonic {} ({:.4} Hz): nearest natural frequency {:.4} Hz ({:+.2}%, ζ = {:.3}%)",
                 r.k,
                 r.frequency_hz,
@@ -61,28 +69,34 @@ fn show_headline(s: &Summary) {
         }
     }
     if let Some(n) = h.newton_iterations {
-        println!("  Newton iterations: {n}");
+        outln!("  Newton iterations: {n}");
     }
-    println!("  wall time: {:.3} s", h.wall_seconds);
-    println!("  warnings: {}", h.warnings);
+    outln!("  wall time: {:.3} s", h.wall_seconds);
+    outln!("  warnings: {}", h.warnings);
 }
 
 /// `modes`: the table of frequencies, damping ratios and effective masses (stdout).
 pub fn show_modes(result: &ModesResult) {
     let s = &result.summary;
-    println!(
+    outln!(
         "{}: {} modes, supports held, contact open; mass free to move x {:.4e} kg, y {:.4e} kg",
         s.name,
         s.modes.len(),
         s.free_mass_x,
         s.free_mass_y
     );
-    println!(
+    outln!(
         "{:>5} {:>14} {:>9} {:>12} {:>12} {:>8} {:>8}",
-        "mode", "frequency [Hz]", "ζ [%]", "m_eff,x [kg]", "m_eff,y [kg]", "Σx [%]", "Σy [%]"
+        "mode",
+        "frequency [Hz]",
+        "ζ [%]",
+        "m_eff,x [kg]",
+        "m_eff,y [kg]",
+        "Σx [%]",
+        "Σy [%]"
     );
     for m in &s.modes {
-        println!(
+        outln!(
             "{:>5} {:>14.6} {:>9.4} {:>12.4e} {:>12.4e} {:>8.2} {:>8.2}",
             m.mode,
             m.frequency_hz,
@@ -98,9 +112,14 @@ pub fn show_modes(result: &ModesResult) {
 
 /// `compare`: one line per compared quantity (stdout).
 pub fn show_compare(c: &Comparison) {
-    println!(
+    outln!(
         "{:<40} {:>4} {:>13} {:>13} {:>10} {:>9}",
-        "quantity", "unit", "HB", "transient", "rel. diff", "phase [°]"
+        "quantity",
+        "unit",
+        "HB",
+        "transient",
+        "rel. diff",
+        "phase [°]"
     );
     for d in &c.differences {
         let rel = d
@@ -111,9 +130,14 @@ pub fn show_compare(c: &Comparison) {
             .phase_difference_deg
             .map(|p| format!("{p:+.2}"))
             .unwrap_or_default();
-        println!(
+        outln!(
             "{:<40} {:>4} {:>13.5e} {:>13.5e} {:>10} {:>9}",
-            d.quantity, d.unit, d.harmonic_balance, d.transient, rel, phase
+            d.quantity,
+            d.unit,
+            d.harmonic_balance,
+            d.transient,
+            rel,
+            phase
         );
     }
     for n in &c.notes {
