@@ -243,8 +243,13 @@ fn paraview_opens_and_warps_the_mode_series() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let png = out.with_extension("png");
     let mut last = None;
-    // xvfb-run -a can race for a display on a busy machine: a few attempts.
-    for _ in 0..3 {
+    // xvfb-run -a can race for a display on a busy machine (other runs' X servers): a few
+    // attempts, a little apart.
+    for attempt in 0..5u64 {
+        if attempt > 0 {
+            let pause = 500 * attempt + u64::from(std::process::id() % 500);
+            std::thread::sleep(std::time::Duration::from_millis(pause));
+        }
         let s = std::process::Command::new("xvfb-run")
             .args(["-a", "-s", "-screen 0 1024x768x24", "pvbatch"])
             .env("PARAVIEW_CHECK_SCALE", "0.02")
