@@ -1,7 +1,8 @@
 //! Regenerate the committed JSON Schemas from the code:
 //! `cargo run --release --example write_schemas` writes `docs/pipeline.schema.json` (the
-//! pipeline YAML) and `docs/summary.schema.json` (a run's summary.json); `hbcontact schema
-//! pipeline|summary` prints the same. `tests/docs.rs` fails when the committed files and the
+//! pipeline YAML), `docs/summary.schema.json` (a run's summary.json), `docs/modes.schema.json`
+//! (modes.json) and `docs/compare.schema.json` (compare.json); `hbcontact schema
+//! pipeline|summary|modes|compare` prints the same. `tests/docs.rs` fails when the committed files and the
 //! code disagree.
 
 use std::path::PathBuf;
@@ -12,6 +13,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (name, schema) in [
         ("pipeline.schema.json", hbcontact::config::pipeline_schema()),
         ("summary.schema.json", hbcontact::pipeline::summary_schema()),
+        (
+            "modes.schema.json",
+            hbcontact::pipeline::modes::modes_schema(),
+        ),
+        (
+            "compare.schema.json",
+            hbcontact::pipeline::compare::compare_schema(),
+        ),
     ] {
         let path = docs.join(name);
         std::fs::write(&path, serde_json::to_string_pretty(&schema)? + "\n")?;

@@ -65,7 +65,32 @@ enum Command {
         #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
         ladders: Vec<String>,
     },
-    /// Print the JSON Schema of a pipeline YAML (`pipeline`) or of summary.json (`summary`).
+    /// Natural frequencies with the scene's supports (contact open), mode shapes as a VTU
+    /// series and effective modal masses, written to `<output.directory>-modes` (or `--out`).
+    Modes {
+        #[command(flatten)]
+        common: Common,
+        /// How many modes, lowest first.
+        #[arg(long, default_value_t = 10)]
+        count: usize,
+    },
+    /// Differences between a harmonic-balance result and a time-marching one of the same
+    /// scene (probe amplitudes, contact forces, harmonics), printed and written as
+    /// compare.json and compare.csv into HB_DIR (or `--out`).
+    Compare {
+        /// The `hbcontact run` result directory.
+        hb_dir: PathBuf,
+        /// The `hbcontact transient` result directory (`<dir>-transient`).
+        transient_dir: PathBuf,
+        /// Write compare.json and compare.csv here instead of HB_DIR.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Print the JSON Schema of a pipeline YAML (`pipeline`), summary.json (`summary`),
+    /// modes.json (`modes`) or compare.json (`compare`).
     Schema {
         #[arg(value_enum)]
         which: SchemaKind,
@@ -78,6 +103,10 @@ enum SchemaKind {
     Pipeline,
     /// summary.json (docs/summary.schema.json)
     Summary,
+    /// modes.json (docs/modes.schema.json)
+    Modes,
+    /// compare.json (docs/compare.schema.json)
+    Compare,
 }
 
 fn exit_code(e: &Error) -> u8 {
@@ -109,6 +138,13 @@ fn main() -> ExitCode {
         Command::Check { common, json } => check(common, *json),
         Command::Accuracy { common, ladders } => accuracy(common, ladders),
         Command::Schema { which } => schema(*which),
+        Command::Modes { common, count } => modes(common, *count),
+        Command::Compare {
+            hb_dir,
+            transient_dir,
+            out,
+            quiet,
+        } => compare(hb_dir, transient_dir, out.as_deref(), *quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -172,8 +208,38 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
     let schema = match which {
         SchemaKind::Pipeline => hbcontact::config::pipeline_schema(),
         SchemaKind::Summary => pipeline::summary_schema(),
+        SchemaKind::Modes => pipeline::modes::modes_schema(),
+        SchemaKind::Compare => pipeline::compare::compare_schema(),
     };
     println!("{}", to_json(&schema)?);
+    Ok(())
+}
+
+/// `hbcontact modes`: the table on stdout, the files in `<output.directory>-modes`.
+fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let options = RunOptions { out: c.out.clone() };
+    let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.quiet))?;
+    if !c.quiet {
+        cli::show_modes(&result);
+    }
+    Ok(())
+}
+
+/// `hbcontact compare`: the differences on stdout, compare.json and compare.csv written.
+fn compare(
+    hb: &std::path::Path,
+    transient: &std::path::Path,
+    out: Option<&std::path::Path>,
+    quiet: bool,
+) -> hbcontact::Result<()> {
+    let comparison = pipeline::compare::compare(hb, transient)?;
+    let dir = out.unwrap_or(hb);
+    pipeline::compare::write(&comparison, dir)?;
+    if !quiet {
+        cli::show_compare(&comparison);
+        eprintln!("wrote {}/compare.json and compare.csv", dir.display());
+    }
     Ok(())
 }
 

@@ -54,6 +54,20 @@ fn committed_summary_schema_is_the_generated_one() {
     );
 }
 
+/// TEST GOAL: the schemas of modes.json and compare.json in docs/ are the ones the typed
+/// `ModesSummary` and `Comparison` serialize to (`hbcontact schema modes|compare`).
+#[test]
+fn committed_modes_and_compare_schemas_are_the_generated_ones() {
+    assert_committed(
+        "modes.schema.json",
+        &hbcontact::pipeline::modes::modes_schema(),
+    );
+    assert_committed(
+        "compare.schema.json",
+        &hbcontact::pipeline::compare::compare_schema(),
+    );
+}
+
 /// Every key path of the schema (`a.b.c`; list items add no segment), following `$ref`,
 /// `allOf`/`anyOf`/`oneOf` and `items`. Maps with free keys (`additionalProperties` schemas)
 /// end the path.

@@ -241,8 +241,8 @@ fn undamped_scenes_factor_real_matrices_and_a_free_body_is_diagnosed() {
 /// exactly at its first bending frequency (computed by `fem::modes` on the scene's own reduced
 /// K and M) is refused with Error::Model naming harmonic 1, the frequency setting and the
 /// remedy (add damping), instead of returning a huge or NaN answer. Measured: refused from
-/// exactly f1 out to 1e-8 relative; 1e-6 off it solves (tip amplitude 21 m under a 1 kPa load)
-/// with a resonance warning (amplified 7.6e4×), as 1e-4 off (7.5e2×), the case held here.
+/// exactly f1 out to 1e-8 relative; 1e-6 off it solves (tip amplitude 21 m under a 1 kPa load),
+/// as 1e-4 off, the case held here (its warning is the run's resonance check: modes.rs).
 ///
 /// ```text
 ///   ▐████████████████████████████████▌ ↕ tip load cos(ω t), ω = ω₁ (no damping)
@@ -279,15 +279,11 @@ fn undamped_scene_driven_at_a_natural_frequency_is_refused_with_the_fix() {
             s.warnings
         ),
     }
-    // Near (not at) resonance the answer exists; the user is told it is set by the distance
-    // to resonance alone.
+    // Near (not at) resonance the answer exists. The warning that its amplitude is set by
+    // the distance to resonance alone is the run's resonance check (pipeline::resonance),
+    // tested in modes.rs::resonance_warning_fires_within_half_a_percent_of_f1_and_not_at_half_of_it.
     let s = at(f1 * (1.0 + 1e-4)).unwrap_or_else(|e| panic!("1e-4 off f1: {e}"));
-    println!("1e-4 off f1: {:?}", s.warnings);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("harmonic 1")
-            && w.contains("close to a natural frequency")
-            && w.contains("no damping")),
-        "{:?}",
-        s.warnings
-    );
+    let tip = s.free[&1].iter().map(|z| z.norm()).fold(0.0, f64::max);
+    println!("1e-4 off f1: largest |z| {tip:e} m");
+    assert!(tip.is_finite() && tip > 0.0);
 }

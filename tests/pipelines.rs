@@ -463,7 +463,7 @@ fn analytic_circle_obstacle_is_written_as_an_arc_on_the_circle() {
 /// the same scene (common::model + common::solve).
 ///
 /// ```text
-///   clamp ▐▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▌ load: traction cos(ω t), 1 kHz
+///   clamp ▐▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▀▌ load: traction cos(ω t), 500 Hz
 ///         ▐      ( hole )   • ▌        • probe
 ///         ▐▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▄▌
 /// ```
@@ -932,4 +932,150 @@ fn check_json_parses_and_plain_check_lists_the_groups() {
     for needle in ["groups:", "wall", "clamp", "contact: 9 of 9", "is valid"] {
         assert!(text.contains(needle), "`{needle}` missing:\n{text}");
     }
+}
+
+/// The row of compare.json named `quantity`.
+fn compare_row<'a>(c: &'a serde_json::Value, quantity: &str) -> &'a serde_json::Value {
+    c["differences"]
+        .as_array()
+        .and_then(|rows| rows.iter().find(|r| r["quantity"] == quantity))
+        .unwrap_or_else(|| panic!("compare.json has no row `{quantity}`"))
+}
+
+/// TEST GOAL: `hbcontact run` ends with a headline on stdout (probe amplitude, peak and mean
+/// contact force with the peak's change from H/2 to H, max von Mises, Newton iterations,
+/// wall time, warnings) taken from the summary; and `hbcontact compare` on the strip
+/// (lc = 2.5 mm, H = 20, run then transient) reports differences consistent with each file:
+/// each side's probe first harmonic is that of its own probes.csv, the force mean and peak
+/// are its summary's, the transient's force harmonic 1 is that of contact_steps.csv, and
+/// relative = (HB − TM)/|TM|. Measured (held within 2×): probe u_x first harmonic −1.5e-3,
+/// mean force +4.9e-4, force harmonic 1 −8.4e-4, peak force −0.217 (HB truncation misses
+/// the impact peak), and the HB summary's peak change from H/2 to H.
+#[test]
+fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_with_each_file() {
+    let base = common::temp_out("compare");
+    let (hb, tm) = (base.join("strip"), base.join("strip-transient"));
+    let lc = "geometry.parameters.lc=0.0025";
+    let o = common::hbcontact(&[
+        "run",
+        "pipelines/strip_wall.yaml",
+        "--set",
+        lc,
+        "--out",
+        hb.to_str().unwrap(),
+    ]);
+    assert!(o.status.success());
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    println!("{stdout}");
+    for line in [
+        "probe probe: first harmonic x",
+        "contact force: peak",
+        "from H/2 to H), mean",
+        "max von Mises:",
+        "nearest natural frequency",
+        "Newton iterations:",
+        "wall time:",
+        "warnings: 0",
+    ] {
+        assert!(
+            stdout.contains(line),
+            "no `{line}` in the headline:\n{stdout}"
+        );
+    }
+    let tm_dir = tm.to_str().unwrap();
+    run_ok(&[
+        "transient",
+        "pipelines/strip_wall.yaml",
+        "--quiet",
+        "--set",
+        lc,
+        "--out",
+        tm_dir,
+    ]);
+    let o = common::hbcontact(&["compare", hb.to_str().unwrap(), tm_dir]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = String::from_utf8_lossy(&o.stdout);
+    println!("{table}");
+    assert!(table.contains("total contact force peak"));
+
+    let c = common::read_json(&hb.join("compare.json"));
+    let (s_hb, s_tm) = (
+        common::read_json(&hb.join("summary.json")),
+        common::read_json(&tm.join("summary.json")),
+    );
+    let row = compare_row(&c, "probe ux first harmonic");
+    for (side, dir) in [("harmonic_balance", &hb), ("transient", &tm)] {
+        let from_csv = first_harmonic(&read_csv(&dir.join("probes.csv"))["probe_ux"]);
+        let reported = row[side].as_f64().unwrap();
+        assert!((reported - from_csv).abs() <= 1e-12 * from_csv, "{side}");
+    }
+    for (quantity, key) in [
+        ("total contact force mean", "mean_contact_force"),
+        ("total contact force peak", "peak_contact_force"),
+    ] {
+        let r = compare_row(&c, quantity);
+        assert_eq!(r["harmonic_balance"], s_hb["contact"][key]);
+        assert_eq!(r["transient"], s_tm["contact"][key]);
+    }
+    let steps = first_harmonic(&read_csv(&tm.join("contact_steps.csv"))["total_force"]);
+    let h1 = compare_row(&c, "total contact force harmonic 1");
+    assert!((h1["transient"].as_f64().unwrap() - steps).abs() <= 1e-12 * steps);
+    let relative = |q: &str| {
+        let r = compare_row(&c, q);
+        let (a, b) = (
+            r["harmonic_balance"].as_f64().unwrap(),
+            r["transient"].as_f64().unwrap(),
+        );
+        let rel = r["relative"].as_f64().unwrap();
+        assert!((rel - (a - b) / b.abs()).abs() < 1e-12);
+        rel
+    };
+    for (q, measured) in [
+        ("probe ux first harmonic", -1.5e-3f64),
+        ("total contact force mean", 4.9e-4),
+        ("total contact force harmonic 1", -8.4e-4),
+        ("total contact force peak", -0.217),
+    ] {
+        let rel = relative(q);
+        println!("{q}: relative {rel:+.3e} (measured {measured:+.1e})");
+        assert!(rel.abs() <= 2.0 * measured.abs(), "{q}: {rel:+e}");
+    }
+    assert!(
+        relative("total contact force peak") < -0.1,
+        "HB's peak stays below time marching's"
+    );
+    // The transient's probes.csv holds only its 32 frames: its half peak-to-peak misses the
+    // extremes between them (measured HB above by +4.2e-3 in x, +7.5e-2 in y).
+    for (q, measured) in [
+        ("probe ux half peak-to-peak", 4.2e-3),
+        ("probe uy half peak-to-peak", 7.5e-2),
+    ] {
+        let rel = relative(q);
+        println!("{q}: relative {rel:+.3e} (measured {measured:+.1e})");
+        assert!(
+            rel > 0.5 * measured && rel < 2.0 * measured,
+            "{q}: {rel:+e}"
+        );
+    }
+    let csv = std::fs::read_to_string(hb.join("compare.csv")).unwrap();
+    assert_eq!(
+        csv.lines().count(),
+        1 + c["differences"].as_array().unwrap().len()
+    );
+    // Swapped directories, or a count of no modes, are bad input (exit 2) saying what to do.
+    let o = common::hbcontact(&["compare", tm_dir, hb.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("give the `hbcontact run` directory first"),
+        "{stderr}"
+    );
+    let o = common::hbcontact(&["modes", "pipelines/cantilever.yaml", "--count", "0"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--count 0"), "{stderr}");
+
+    let change = s_hb["contact"]["peak_change_from_half_h"].as_f64().unwrap();
+    println!("HB peak change from H/2 to H: {change:+.3} (measured +0.091)");
+    assert!(change > 0.045 && change < 0.18, "{change}");
 }

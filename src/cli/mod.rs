@@ -2,11 +2,21 @@
 
 pub mod reporter;
 
+/// `println!` that ignores a closed stdout (`hbcontact modes … | head`) instead of panicking.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 use hbcontact::hbm::IterationLog;
-use hbcontact::pipeline::{CheckReport, RunResult};
+use hbcontact::pipeline::compare::Comparison;
+use hbcontact::pipeline::summary::{RunMode, Summary};
+use hbcontact::pipeline::{CheckReport, ModesResult, RunResult};
 
 /// After a run: warnings, the contact Newton's log, where the results went and what was
-/// simulated.
+/// simulated (stderr), then the headline (stdout).
 pub fn show_run(result: &RunResult) {
     let s = &result.summary;
     for w in &s.warnings {
@@ -18,6 +28,120 @@ pub fn show_run(result: &RunResult) {
     eprintln!("wrote {}", result.dir.display());
     if let Ok(effects) = serde_json::to_string(&s.effects) {
         eprintln!("simulated: {effects}");
+    }
+    show_headline(s);
+}
+
+/// The headline: what an engineer looks at first, from the typed summary.
+fn show_headline(s: &Summary) {
+    let h = s.headline();
+    let mode = match s.mode {
+        RunMode::HarmonicBalance => "harmonic balance",
+        RunMode::Transient => "time marching",
+    };
+    outln!("{}: {mode}", s.name);
+    if let Some((name, a)) = &h.probe {
+        outln!(
+            "  probe {name}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",
+            a.first_harmonic_x, a.first_harmonic_y, a.half_peak_to_peak_x, a.half_peak_to_peak_y
+        );
+    }
+    if let (Some(peak), Some(mean)) = (h.peak_contact_force, h.mean_contact_force) {
+        let change = h
+            .peak_change_from_half_h
+            .map(|c| format!(" ({:+.1}% from H/2 to H)", 100.0 * c))
+            .unwrap_or_default();
+        outln!("  contact force: peak {peak:.4e} N{change}, mean {mean:.4e} N");
+    }
+    if let Some(vm) = h.max_von_mises {
+        outln!("  max von Mises: {vm:.4e} Pa");
+    }
+    for r in s.resonance.iter().flat_map(|r| &r.harmonics) {
+        if let Some(m) = r.nearest_modes.first() {
+            outln!(
+                "  harmonic {} ({:.4} Hz): nearest natural frequency {:.4} Hz ({:+.2}%, ζ = {:.3}%)",
+                r.k,
+                r.frequency_hz,
+                m.frequency_hz,
+                100.0 * m.detuning,
+                100.0 * m.damping_ratio
+            );
+        }
+    }
+    if let Some(n) = h.newton_iterations {
+        outln!("  Newton iterations: {n}");
+    }
+    outln!("  wall time: {:.3} s", h.wall_seconds);
+    outln!("  warnings: {}", h.warnings);
+}
+
+/// `modes`: the table of frequencies, damping ratios and effective masses (stdout).
+pub fn show_modes(result: &ModesResult) {
+    let s = &result.summary;
+    outln!(
+        "{}: {} modes, supports held, contact open; mass free to move x {:.4e} kg, y {:.4e} kg",
+        s.name,
+        s.modes.len(),
+        s.free_mass_x,
+        s.free_mass_y
+    );
+    outln!(
+        "{:>5} {:>14} {:>9} {:>12} {:>12} {:>8} {:>8}",
+        "mode",
+        "frequency [Hz]",
+        "ζ [%]",
+        "m_eff,x [kg]",
+        "m_eff,y [kg]",
+        "Σx [%]",
+        "Σy [%]"
+    );
+    for m in &s.modes {
+        outln!(
+            "{:>5} {:>14.6} {:>9.4} {:>12.4e} {:>12.4e} {:>8.2} {:>8.2}",
+            m.mode,
+            m.frequency_hz,
+            100.0 * m.damping_ratio,
+            m.effective_mass_x,
+            m.effective_mass_y,
+            100.0 * m.cumulative_fraction_x,
+            100.0 * m.cumulative_fraction_y
+        );
+    }
+    eprintln!("wrote {} (modes.pvd, modes.json)", result.dir.display());
+}
+
+/// `compare`: one line per compared quantity (stdout).
+pub fn show_compare(c: &Comparison) {
+    outln!(
+        "{:<40} {:>4} {:>13} {:>13} {:>10} {:>9}",
+        "quantity",
+        "unit",
+        "HB",
+        "transient",
+        "rel. diff",
+        "phase [°]"
+    );
+    for d in &c.differences {
+        let rel = d
+            .relative
+            .map(|r| format!("{:+.3e}", r))
+            .unwrap_or_else(|| "-".into());
+        let phase = d
+            .phase_difference_deg
+            .map(|p| format!("{p:+.2}"))
+            .unwrap_or_default();
+        outln!(
+            "{:<40} {:>4} {:>13.5e} {:>13.5e} {:>10} {:>9}",
+            d.quantity,
+            d.unit,
+            d.harmonic_balance,
+            d.transient,
+            rel,
+            phase
+        );
+    }
+    for n in &c.notes {
+        eprintln!("note: {n}");
     }
 }
 

@@ -194,7 +194,6 @@ impl LinearResponse {
             res = system::relative_residual(system, k, &z, &rhs);
         }
         check_solve(system, k, res, system::amplification(system, &z, &rhs), &z)?;
-        self.warnings.extend(resonance_warning(system, k, &z, &rhs));
         self.residuals.insert(k, res);
         self.free.insert(k, z);
         self.motion.insert(k, system.motion(k));
@@ -262,34 +261,6 @@ fn check_solve(
         return Ok(());
     }
     Err(singular_diagnosis(system, k))
-}
-
-/// The dynamic amplification ‖K z‖ / ‖f‖ of harmonic k: far above 1 means the forcing sits
-/// near a natural frequency, where an undamped answer is set by the distance to resonance
-/// alone and a lightly damped one by the damping alone.
-fn resonance_warning(system: &System, k: usize, z: &[c64], f: &[c64]) -> Option<String> {
-    if k == 0 {
-        return None;
-    }
-    let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
-    let (kr, ki) = (system.k_ff.mul_vec(&re), system.k_ff.mul_vec(&im));
-    let num: f64 = kr
-        .iter()
-        .zip(&ki)
-        .map(|(a, b)| a * a + b * b)
-        .sum::<f64>()
-        .sqrt();
-    let den: f64 = f.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
-    let amplification = if den > 0.0 { num / den } else { 0.0 };
-    let f_hz = k as f64 * system.omega / (2.0 * std::f64::consts::PI);
-    (amplification > 100.0).then(|| {
-        format!(
-            "harmonic {k} ({f_hz:.4} Hz) is amplified {amplification:.0}× over its static response: the \
-             forcing is close to a natural frequency. The amplitude there is set by {}; check that \
-             this is intended",
-            if system.rayleigh.is_some() { "the damping" } else { "the distance to resonance alone (no damping)" }
-        )
-    })
 }
 
 fn singular_diagnosis(system: &System, k: usize) -> Error {

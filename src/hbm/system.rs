@@ -71,6 +71,11 @@ impl System {
         })
     }
 
+    /// The symbolic analysis of the free-dof pattern (K, M and every Z_k share it).
+    pub fn lu_pattern(&self) -> &LuPattern {
+        &self.pattern
+    }
+
     pub fn free_count(&self) -> usize {
         self.dofs.free.len()
     }

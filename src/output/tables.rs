@@ -33,3 +33,8 @@ pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Resul
         .map_err(|e| Error::Model(format!("internal: JSON: {e}")))?;
     write_atomic(path, &(text + "\n"))
 }
+
+/// Any text file (a CSV with text columns, say), written under a temporary name and renamed.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, text)
+}

@@ -103,7 +103,7 @@ fn export(
     data: Attributes,
 ) -> Result<()> {
     let vtk = Vtk {
-        version: Version { major: 1, minor: 0 },
+        version: Version::new_xml(1, 0),
         title: String::new(),
         byte_order: ByteOrder::LittleEndian,
         file_path: None,

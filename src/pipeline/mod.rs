@@ -5,8 +5,11 @@
 //! stage cost.
 
 pub mod accuracy;
+pub mod compare;
 pub mod model;
+pub mod modes;
 pub mod report;
+pub mod resonance;
 pub mod stages;
 pub mod summary;
 
@@ -20,6 +23,7 @@ use crate::output::StagedDir;
 use crate::progress::Reporter;
 use crate::Result;
 pub use model::{build, Model, Purpose};
+pub use modes::{modes, ModesResult, ModesSummary};
 use report::Sampled;
 pub use stages::{hb_settings, StageTimes, Stages};
 use summary::MeshInfo;
@@ -54,6 +58,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
@@ -63,13 +68,16 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
             .as_ref()
             .map_or(hb_settings(p).samples, |c| c.samples);
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
-        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+        let written = sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
         report::write_amplitudes(staged.path(), &model, &solution)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
-        Ok(summary::harmonic_balance(
-            p, mesh_info, &model, &solution, &sampled,
-        ))
+        let mut summary = summary::harmonic_balance(p, mesh_info, &model, &solution, &sampled);
+        summary.max_von_mises = Some(written.max_von_mises);
+        Ok(summary)
     })?;
+    let (check, warnings) = resonance;
+    summary.resonance = check;
+    summary.warnings.extend(warnings);
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
@@ -100,9 +108,11 @@ pub fn run_transient(
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
-        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+        let written = sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
-        Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
+        let mut summary = summary::transient(p, mesh_info, &model, &result, &sampled);
+        summary.max_von_mises = Some(written.max_von_mises);
+        Ok(summary)
     })?;
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;

@@ -222,15 +222,15 @@ impl Sampled {
 
     /// Every file of the run but the summary: the VTU series and its `.pvd`, `probes.csv`,
     /// and for contact scenes `contact.csv`, `obstacle.vtu` + `obstacle.pvd` and (time
-    /// marching) `contact_steps.csv`.
+    /// marching) `contact_steps.csv`. Returns what the series found on the way.
     pub fn write(
         &self,
         dir: &Path,
         model: &Model,
         spec: Option<&ContactSpec>,
         fields: &[FieldName],
-    ) -> Result<()> {
-        write_series(dir, model, self, fields)?;
+    ) -> Result<SeriesWritten> {
+        let written = write_series(dir, model, self, fields)?;
         let h = &self.history;
         write_probes(&dir.join("probes.csv"), model, &h.times, &h.displacement)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
@@ -253,8 +253,17 @@ impl Sampled {
             let header = ["time".to_string(), "total_force".to_string()];
             write_csv(&dir.join("contact_steps.csv"), &header, &rows)?;
         }
-        Ok(())
+        Ok(written)
     }
+}
+
+/// What writing the VTU series found.
+pub struct SeriesWritten {
+    /// The frames' file names.
+    pub files: Vec<String>,
+    /// The largest cell von Mises stress over the frames [Pa] (cell stresses are recovered
+    /// for every frame, written or not).
+    pub max_von_mises: f64,
 }
 
 fn vector3(u: &[f64]) -> Vec<f64> {
@@ -275,13 +284,15 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Write one VTU per snapshot and the `.pvd`; returns the file names.
+/// Write one VTU per snapshot and the `.pvd`; returns the file names and the largest von
+/// Mises stress.
 pub fn write_series(
     dir: &Path,
     model: &Model,
     sampled: &Sampled,
     fields: &[FieldName],
-) -> Result<Vec<String>> {
+) -> Result<SeriesWritten> {
+    let mut max_von_mises = 0.0f64;
     let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
@@ -347,34 +358,45 @@ pub fn write_series(
                 });
             }
         }
-        let mut cells = Vec::new();
-        if want(FieldName::Stress) || want(FieldName::VonMises) {
-            let stresses = fem::cell_stresses(&model.mesh, &model.material, &s.displacement);
-            if want(FieldName::Stress) {
-                cells.push(Field {
-                    name: "stress".into(),
-                    components: 6,
-                    values: stresses
-                        .iter()
-                        .flat_map(|t| [t.xx, t.yy, t.zz, t.xy, 0.0, 0.0])
-                        .collect(),
-                });
-            }
-            if want(FieldName::VonMises) {
-                cells.push(Field {
-                    name: "von_mises".into(),
-                    components: 1,
-                    values: stresses.iter().map(|t| t.von_mises()).collect(),
-                });
-            }
-        }
+        let (cells, max) = stress_fields(model, &s.displacement, fields);
+        max_von_mises = max_von_mises.max(max);
         let name = format!("frame_{j:04}.vtu");
         write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
         entries.push((s.time, name.clone()));
         files.push(name);
     }
     write_pvd(&dir.join("series.pvd"), &entries)?;
-    Ok(files)
+    Ok(SeriesWritten {
+        files,
+        max_von_mises,
+    })
+}
+
+/// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`), and its
+/// largest von Mises stress.
+fn stress_fields(model: &Model, u: &[f64], fields: &[FieldName]) -> (Vec<Field>, f64) {
+    let stresses = fem::cell_stresses(&model.mesh, &model.material, u);
+    let von_mises: Vec<f64> = stresses.iter().map(|t| t.von_mises()).collect();
+    let max = von_mises.iter().copied().fold(0.0, f64::max);
+    let mut cells = Vec::new();
+    if fields.contains(&FieldName::Stress) {
+        cells.push(Field {
+            name: "stress".into(),
+            components: 6,
+            values: stresses
+                .iter()
+                .flat_map(|t| [t.xx, t.yy, t.zz, t.xy, 0.0, 0.0])
+                .collect(),
+        });
+    }
+    if fields.contains(&FieldName::VonMises) {
+        cells.push(Field {
+            name: "von_mises".into(),
+            components: 1,
+            values: von_mises,
+        });
+    }
+    (cells, max)
 }
 
 /// `amplitudes.vtu`: the cos/sin amplitude field of every computed harmonic (`static` for
@@ -468,4 +490,31 @@ pub fn write_contact_history(
         })
         .collect();
     write_csv(path, &header, &rows)
+}
+
+/// The total pressing force of the contact law, Σ_i max(0, c g_i(t) − λ_i(t)), at `times`,
+/// from the solved multipliers' and gaps' Fourier series cut to their first `harmonics`
+/// harmonics (`fourier`'s coefficient order puts them first): the summary's H/2 truncation
+/// indicator. It re-evaluates the solved coefficients; it is not a solve at H/2. `None`
+/// without contact.
+pub fn truncated_law_force(
+    solution: &Solution,
+    times: &[f64],
+    harmonics: usize,
+) -> Option<Vec<f64>> {
+    let c = solution.contact.as_ref()?;
+    let m = c.coefficients();
+    let kept = (2 * harmonics.min(c.harmonics) + 1).min(m);
+    let series = |coeffs: &[f64], t: f64| fourier::evaluate(&coeffs[..kept], solution.omega, t)[0];
+    let totals = times
+        .iter()
+        .map(|&t| {
+            c.multipliers
+                .chunks(m)
+                .zip(c.gaps.chunks(m))
+                .map(|(lambda, gap)| (c.c * series(gap, t) - series(lambda, t)).max(0.0))
+                .sum()
+        })
+        .collect();
+    Some(totals)
 }

@@ -1,6 +1,6 @@
-//! The stages `run`, `run_transient` and `check` string together, each timed into
-//! `StageTimes` and announced to the `Reporter`: meshing, solving by harmonic balance or by
-//! time marching, and committing the staged output with its summary.
+//! The stages `run`, `run_transient`, `check` and `modes` string together, each timed into
+//! `StageTimes` and announced to the `Reporter`: meshing, the resonance check, solving by
+//! harmonic balance or by time marching, and committing the staged output with its summary.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -9,6 +9,7 @@ use schemars::JsonSchema;
 use serde::{Serialize, Serializer};
 
 use super::model::Model;
+use super::resonance::ResonanceCheck;
 use super::summary::{MeshInfo, Summary};
 use crate::config::Pipeline;
 use crate::hbm::{self, HbSettings, Solution};
@@ -185,6 +186,16 @@ pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solutio
         stages.times.push(name, secs);
     }
     Ok(solution)
+}
+
+/// The resonance check (`resonance`): the natural frequencies nearest each load-excited
+/// harmonic, and warnings for those within a half-power band. A check that fails does not
+/// stop the run: it becomes a warning.
+pub fn resonance(model: &Model, stages: &mut Stages) -> (Option<ResonanceCheck>, Vec<String>) {
+    match stages.run("resonance", || super::resonance::check(model)) {
+        Ok((check, warnings)) => (Some(check), warnings),
+        Err(e) => (None, vec![format!("the resonance check failed: {e}")]),
+    }
 }
 
 /// Time marching from rest to the periodic state.

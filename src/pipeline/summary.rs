@@ -10,7 +10,8 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::model::{Effects, Model};
-use super::report::Sampled;
+use super::report::{truncated_law_force, Sampled};
+use super::resonance::ResonanceCheck;
 use super::stages::StageTimes;
 use crate::config::Pipeline;
 use crate::hbm::knobs::KnobCheck;
@@ -71,6 +72,54 @@ pub struct Summary {
     pub probe_dof_amplitudes: Option<BTreeMap<String, f64>>,
     /// Wall time per stage [s], in run order, with their `total`.
     pub stage_seconds: StageTimes,
+    /// The natural frequencies nearest each load-excited harmonic and whether one lies
+    /// within a mode's half-power band (harmonic balance only; its cost is the stage time
+    /// `resonance`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resonance: Option<ResonanceCheck>,
+    /// The largest cell von Mises stress over the output frames [Pa].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_von_mises: Option<f64>,
+}
+
+/// The few numbers a run ends with (`hbcontact run` prints them), taken from its summary.
+#[derive(Clone, Debug)]
+pub struct Headline {
+    /// The first probe group and its amplitudes.
+    pub probe: Option<(String, ProbeAmplitudes)>,
+    /// Peak and mean total contact force [N] and the peak's change from H/2 to H (relative).
+    pub peak_contact_force: Option<f64>,
+    pub mean_contact_force: Option<f64>,
+    pub peak_change_from_half_h: Option<f64>,
+    pub max_von_mises: Option<f64>,
+    /// Contact Newton iterations over every attempt.
+    pub newton_iterations: Option<usize>,
+    /// Wall time of every stage [s].
+    pub wall_seconds: f64,
+    pub warnings: usize,
+}
+
+impl Summary {
+    /// The run's headline numbers.
+    pub fn headline(&self) -> Headline {
+        let contact = self.contact.as_ref();
+        Headline {
+            probe: self
+                .probes
+                .iter()
+                .next()
+                .map(|(name, a)| (name.clone(), a.clone())),
+            peak_contact_force: contact.map(|c| c.peak_contact_force),
+            mean_contact_force: contact.map(|c| c.mean_contact_force),
+            peak_change_from_half_h: contact.and_then(|c| c.peak_change_from_half_h),
+            max_von_mises: self.max_von_mises,
+            newton_iterations: contact
+                .and_then(|c| c.solver.as_ref())
+                .map(|s| s.newton_iterations),
+            wall_seconds: self.stage_seconds.total(),
+            warnings: self.warnings.len(),
+        }
+    }
 }
 
 /// The mesh the run used.
@@ -169,6 +218,15 @@ pub struct ContactSummary {
     pub closed_opening_tolerance: f64,
     /// Largest sampled penetration B u − g0 > 0 over the output history [m].
     pub max_sampled_penetration: f64,
+    /// Truncation indicator of the peak (harmonic balance only): the peak total law force
+    /// over the same samples with the solved multipliers' and gaps' series cut to H/2
+    /// harmonics [N]. The solved coefficients re-evaluated, not a solve at H/2.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_contact_force_half_h: Option<f64>,
+    /// (peak at H − peak at H/2) / peak at H, both from the cut series: how much the peak
+    /// still moves with H (impact peaks converge slowly; the mean and the amplitudes fast).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_change_from_half_h: Option<f64>,
     /// The harmonic-balance contact solve (harmonic balance only).
     #[serde(flatten)]
     pub solver: Option<ContactSolve>,
@@ -303,6 +361,8 @@ fn series_stats(sampled: &Sampled) -> ContactSummary {
         },
         closed_opening_tolerance: sampled.closed_tolerance,
         max_sampled_penetration: 0.0,
+        peak_contact_force_half_h: None,
+        peak_change_from_half_h: None,
         solver: None,
     }
 }
@@ -365,9 +425,12 @@ pub fn harmonic_balance(
     let history = &sampled.history;
     let contact = solution.contact.as_ref().map(|c| {
         let (peak, mean) = force_stats(&history.total_force());
+        let (half_h, change) = peak_change_from_half_h(solution, &history.times, c.harmonics);
         ContactSummary {
             peak_contact_force: peak,
             mean_contact_force: mean,
+            peak_contact_force_half_h: half_h,
+            peak_change_from_half_h: change,
             max_sampled_penetration: c.complementarity.max_penetration,
             solver: Some(ContactSolve {
                 harmonics: c.harmonics,
@@ -467,5 +530,22 @@ fn common(
         transient: None,
         probe_dof_amplitudes: None,
         stage_seconds: StageTimes::default(),
+        resonance: None,
+        max_von_mises: None,
+    }
+}
+
+/// The peak total law force with the series cut to H/2, and the peak's relative change from
+/// there to H (both peaks from the cut-series evaluation, over the history's times).
+fn peak_change_from_half_h(
+    solution: &Solution,
+    times: &[f64],
+    harmonics: usize,
+) -> (Option<f64>, Option<f64>) {
+    let peak =
+        |h: usize| truncated_law_force(solution, times, h).map(|totals| force_stats(&totals).0);
+    match (peak(harmonics / 2), peak(harmonics)) {
+        (Some(half), Some(full)) if full > 0.0 => (Some(half), Some((full - half) / full)),
+        (half, _) => (half, None),
     }
 }

@@ -3,6 +3,7 @@ With OBSTACLE.pvd, also open the obstacle (one time-independent step of line cel
 it in the same view.
 
 usage: pvbatch paraview_check.py SERIES.pvd OUT.png ARRAY EXPECTED_STEPS [OBSTACLE.pvd]
+(warp scale: PARAVIEW_CHECK_SCALE, default 100)
 """
 import os
 import sys
@@ -23,7 +24,9 @@ if array not in names:
     sys.exit(1)
 warp = WarpByVector(Input=reader)
 warp.Vectors = ["POINTS", array]
-warp.ScaleFactor = 100.0
+# Results move by micrometres (×100 shows them); mode shapes are scaled to 1 and want a
+# fraction of the body's size: PARAVIEW_CHECK_SCALE overrides.
+warp.ScaleFactor = float(os.environ.get("PARAVIEW_CHECK_SCALE", "100.0"))
 view = GetActiveViewOrCreate("RenderView")
 view.ViewSize = [800, 600]
 display = Show(warp, view)

@@ -1,0 +1,391 @@
+//! `hbcontact compare HB_DIR TRANSIENT_DIR`: the differences between a harmonic-balance result
+//! and a time-marching one of the same scene, read back from their directories
+//! (`summary.json`, `probes.csv`, `contact.csv`, `contact_steps.csv`).
+//!
+//! Glossary: for a signal x sampled evenly over one period at times t_j (j < n), its harmonic
+//! k is z_k = a_k − i b_k with a_k = (2/n) Σ x_j cos kωt_j, b_k = (2/n) Σ x_j sin kωt_j (the
+//! convention of `hbm::fourier`), amplitude |z_k|; both solvers write phases in [0, T), so the
+//! phase difference arg z_k,HB − arg z_k,TM is meaningful. Relative differences are
+//! (HB − TM)/|TM|: the time marching is the reference.
+//!
+//! Compared: per probe and component, the first-harmonic amplitude (HB at the N samples of
+//! `probes.csv`, TM at its frames) and half the peak-to-peak range; for contact scenes, the
+//! summaries' mean and peak total contact force (HB over its samples, TM over every time
+//! step), and the first three harmonics of the total contact force (TM from
+//! `contact_steps.csv`, every step).
+//!
+//! Plot hook: `Comparison::overlays` keeps both time series of every compared signal, for
+//! the shared plotting module (`output::plot`, to come) to overlay; nothing here draws.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use faer::c64;
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use crate::hbm::fourier;
+use crate::output::tables::{write_json, write_text};
+use crate::{Error, Result};
+
+/// One compared quantity.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct Difference {
+    /// What is compared, e.g. `probe ux first harmonic`.
+    pub quantity: String,
+    /// Its unit.
+    pub unit: String,
+    pub harmonic_balance: f64,
+    pub transient: f64,
+    /// harmonic_balance − transient.
+    pub difference: f64,
+    /// (harmonic_balance − transient) / |transient|; null when the transient value is 0.
+    pub relative: Option<f64>,
+    /// For harmonics: arg z_HB − arg z_TM in degrees, wrapped to (−180, 180].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phase_difference_deg: Option<f64>,
+}
+
+/// A time series over one period.
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    pub times: Vec<f64>,
+    pub values: Vec<f64>,
+}
+
+/// Both solvers' series of one signal, for plotting.
+#[derive(Clone, Debug)]
+pub struct Overlay {
+    pub quantity: String,
+    pub unit: String,
+    pub harmonic_balance: Series,
+    pub transient: Series,
+}
+
+/// What `compare` found (`compare.json`).
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct Comparison {
+    /// The harmonic-balance result directory.
+    pub harmonic_balance: PathBuf,
+    /// The time-marching result directory.
+    pub transient: PathBuf,
+    /// The fundamental frequency both share [Hz].
+    pub frequency_hz: f64,
+    pub differences: Vec<Difference>,
+    /// Things to know about the comparison (different scene names, missing probes).
+    pub notes: Vec<String>,
+    /// Both solvers' series of every compared signal (not written; for plots).
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub overlays: Vec<Overlay>,
+}
+
+/// One result directory read back.
+struct ResultDir {
+    dir: PathBuf,
+    summary: serde_json::Value,
+    probes: Table,
+    contact: Option<Table>,
+    /// Time marching: every step's total force.
+    steps: Option<Table>,
+}
+
+/// A CSV table: column name → values.
+type Table = BTreeMap<String, Vec<f64>>;
+
+/// Compare a harmonic-balance result directory with a time-marching one.
+pub fn compare(hb_dir: &Path, transient_dir: &Path) -> Result<Comparison> {
+    let hb = read_dir(hb_dir, "harmonic_balance", "hbcontact run")?;
+    let tm = read_dir(transient_dir, "transient", "hbcontact transient")?;
+    let frequency_hz = number(&hb, &["frequency_hz"])?;
+    let tm_frequency = number(&tm, &["frequency_hz"])?;
+    if (frequency_hz - tm_frequency).abs() > 1e-9 * frequency_hz.abs() {
+        return Err(Error::Input(format!(
+            "{} is at {frequency_hz} Hz but {} at {tm_frequency} Hz: compare results of the same scene",
+            hb.dir.display(),
+            tm.dir.display()
+        )));
+    }
+    let mut c = Comparison {
+        harmonic_balance: hb.dir.clone(),
+        transient: tm.dir.clone(),
+        frequency_hz,
+        differences: Vec::new(),
+        notes: Vec::new(),
+        overlays: Vec::new(),
+    };
+    if hb.summary["name"] != tm.summary["name"] {
+        c.notes.push(format!(
+            "the scene names differ ({} and {})",
+            hb.summary["name"], tm.summary["name"]
+        ));
+    }
+    let omega = 2.0 * std::f64::consts::PI * frequency_hz;
+    compare_probes(&hb, &tm, omega, &mut c);
+    compare_contact(&hb, &tm, omega, &mut c)?;
+    Ok(c)
+}
+
+fn read_dir(dir: &Path, mode: &str, producer: &str) -> Result<ResultDir> {
+    let path = dir.join("summary.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        Error::Input(format!(
+            "{}: {e}: is {} a result directory of `{producer}`?",
+            path.display(),
+            dir.display()
+        ))
+    })?;
+    let summary: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| Error::Input(format!("{}: not JSON ({e})", path.display())))?;
+    if summary["mode"] != mode {
+        return Err(Error::Input(format!(
+            "{}: mode is {} where {mode} was expected: give the `hbcontact run` directory first, \
+             then the `hbcontact transient` one (`<dir>-transient`)",
+            path.display(),
+            summary["mode"]
+        )));
+    }
+    let optional = |name: &str| {
+        let p = dir.join(name);
+        p.exists().then(|| read_csv(&p)).transpose()
+    };
+    Ok(ResultDir {
+        dir: dir.to_path_buf(),
+        probes: read_csv(&dir.join("probes.csv"))?,
+        contact: optional("contact.csv")?,
+        steps: optional("contact_steps.csv")?,
+        summary,
+    })
+}
+
+/// A number of the summary at `keys`, or bad input naming the file and the field.
+fn number(r: &ResultDir, keys: &[&str]) -> Result<f64> {
+    let mut v = &r.summary;
+    for k in keys {
+        v = &v[*k];
+    }
+    v.as_f64().ok_or_else(|| {
+        Error::Input(format!(
+            "{}: no number at `{}` (a summary.json of another hbcontact version?)",
+            r.dir.join("summary.json").display(),
+            keys.join(".")
+        ))
+    })
+}
+
+/// Read a CSV of numbers with a header line.
+fn read_csv(path: &Path) -> Result<Table> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(|h| h.trim().to_string())
+        .collect();
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+    for (row, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != header.len() {
+            return Err(Error::Input(format!(
+                "{}: line {} has {} values for {} columns",
+                path.display(),
+                row + 2,
+                fields.len(),
+                header.len()
+            )));
+        }
+        for (col, f) in columns.iter_mut().zip(fields) {
+            col.push(f.trim().parse().map_err(|_| {
+                Error::Input(format!(
+                    "{}: line {}: `{}` is not a number",
+                    path.display(),
+                    row + 2,
+                    crate::error::excerpt(f)
+                ))
+            })?);
+        }
+    }
+    Ok(header.into_iter().zip(columns).collect())
+}
+
+/// Harmonic k of evenly spaced samples over one period, z_k = a_k − i b_k.
+pub fn harmonic(times: &[f64], values: &[f64], omega: f64, k: usize) -> c64 {
+    let n = values.len().max(1) as f64;
+    let (mut a, mut b) = (0.0, 0.0);
+    for (&t, &x) in times.iter().zip(values) {
+        let phase = k as f64 * omega * t;
+        a += x * phase.cos();
+        b += x * phase.sin();
+    }
+    fourier::from_cos_sin(2.0 * a / n, 2.0 * b / n)
+}
+
+fn half_range(v: &[f64]) -> f64 {
+    let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+    0.5 * (max - min)
+}
+
+fn difference(quantity: String, unit: &str, hb: f64, tm: f64) -> Difference {
+    Difference {
+        quantity,
+        unit: unit.into(),
+        harmonic_balance: hb,
+        transient: tm,
+        difference: hb - tm,
+        relative: (tm != 0.0).then(|| (hb - tm) / tm.abs()),
+        phase_difference_deg: None,
+    }
+}
+
+fn harmonic_difference(quantity: String, unit: &str, hb: c64, tm: c64) -> Difference {
+    let mut phase = (hb.arg() - tm.arg()).to_degrees();
+    if phase > 180.0 {
+        phase -= 360.0;
+    } else if phase <= -180.0 {
+        phase += 360.0;
+    }
+    Difference {
+        phase_difference_deg: Some(phase),
+        ..difference(quantity, unit, hb.norm(), tm.norm())
+    }
+}
+
+/// Each probe column both results have: first-harmonic amplitude and half peak-to-peak.
+fn compare_probes(hb: &ResultDir, tm: &ResultDir, omega: f64, c: &mut Comparison) {
+    let (Some(t_hb), Some(t_tm)) = (hb.probes.get("time"), tm.probes.get("time")) else {
+        c.notes.push("a probes.csv has no time column".into());
+        return;
+    };
+    for (name, v_hb) in hb.probes.iter().filter(|(n, _)| *n != "time") {
+        let Some(v_tm) = tm.probes.get(name) else {
+            c.notes.push(format!("{name} is in the HB probes.csv only"));
+            continue;
+        };
+        let (z_hb, z_tm) = (
+            harmonic(t_hb, v_hb, omega, 1),
+            harmonic(t_tm, v_tm, omega, 1),
+        );
+        let label = name.replace('_', " ");
+        c.differences.push(harmonic_difference(
+            format!("{label} first harmonic"),
+            "m",
+            z_hb,
+            z_tm,
+        ));
+        c.differences.push(difference(
+            format!("{label} half peak-to-peak"),
+            "m",
+            half_range(v_hb),
+            half_range(v_tm),
+        ));
+        c.overlays.push(Overlay {
+            quantity: name.clone(),
+            unit: "m".into(),
+            harmonic_balance: Series {
+                times: t_hb.clone(),
+                values: v_hb.clone(),
+            },
+            transient: Series {
+                times: t_tm.clone(),
+                values: v_tm.clone(),
+            },
+        });
+    }
+}
+
+/// Mean and peak total force from the summaries, harmonics 1–3 of the total force history.
+fn compare_contact(hb: &ResultDir, tm: &ResultDir, omega: f64, c: &mut Comparison) -> Result<()> {
+    let (Some(hb_contact), Some(tm_contact)) = (&hb.contact, &tm.contact) else {
+        if hb.contact.is_some() != tm.contact.is_some() {
+            c.notes
+                .push("only one of the results has contact.csv".into());
+        }
+        return Ok(());
+    };
+    for (key, label) in [
+        ("mean_contact_force", "mean"),
+        ("peak_contact_force", "peak"),
+    ] {
+        let (a, b) = (
+            number(hb, &["contact", key])?,
+            number(tm, &["contact", key])?,
+        );
+        c.differences.push(difference(
+            format!("total contact force {label}"),
+            "N",
+            a,
+            b,
+        ));
+    }
+    let series = |table: &Table, path: &Path| -> Result<Series> {
+        match (table.get("time"), table.get("total_force")) {
+            (Some(t), Some(f)) => Ok(Series {
+                times: t.clone(),
+                values: f.clone(),
+            }),
+            _ => Err(Error::Input(format!(
+                "{}: no time or total_force column",
+                path.display()
+            ))),
+        }
+    };
+    let s_hb = series(hb_contact, &hb.dir.join("contact.csv"))?;
+    let s_tm = match &tm.steps {
+        Some(steps) => series(steps, &tm.dir.join("contact_steps.csv"))?,
+        None => series(tm_contact, &tm.dir.join("contact.csv"))?,
+    };
+    for k in 1..=3 {
+        let (a, b) = (
+            harmonic(&s_hb.times, &s_hb.values, omega, k),
+            harmonic(&s_tm.times, &s_tm.values, omega, k),
+        );
+        c.differences.push(harmonic_difference(
+            format!("total contact force harmonic {k}"),
+            "N",
+            a,
+            b,
+        ));
+    }
+    c.overlays.push(Overlay {
+        quantity: "total_force".into(),
+        unit: "N".into(),
+        harmonic_balance: s_hb,
+        transient: s_tm,
+    });
+    Ok(())
+}
+
+/// Write `compare.json` and `compare.csv` into `dir` (each written under a temporary name and
+/// renamed).
+pub fn write(c: &Comparison, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    write_json(&dir.join("compare.json"), c)?;
+    let mut csv = String::from(
+        "quantity,unit,harmonic_balance,transient,difference,relative,phase_difference_deg\n",
+    );
+    let opt = |v: Option<f64>| v.map(|x| format!("{x:e}")).unwrap_or_default();
+    for d in &c.differences {
+        csv.push_str(&format!(
+            "{},{},{:e},{:e},{:e},{},{}\n",
+            d.quantity,
+            d.unit,
+            d.harmonic_balance,
+            d.transient,
+            d.difference,
+            opt(d.relative),
+            opt(d.phase_difference_deg)
+        ));
+    }
+    write_text(&dir.join("compare.csv"), &csv)
+}
+
+/// The JSON Schema (draft 07) of `compare.json` (`docs/compare.schema.json`).
+pub fn compare_schema() -> serde_json::Value {
+    let schema = schemars::generate::SchemaSettings::draft07()
+        .into_generator()
+        .into_root_schema_for::<Comparison>();
+    serde_json::Value::from(schema)
+}
