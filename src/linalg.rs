@@ -141,6 +141,26 @@ impl Csc {
         y
     }
 
+    /// y = A z for a complex z (A real: its real and imaginary parts separately).
+    pub fn mul_complex(&self, z: &[c64]) -> Vec<c64> {
+        let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
+        let (yr, yi) = (self.mul_vec(&re), self.mul_vec(&im));
+        yr.into_iter()
+            .zip(yi)
+            .map(|(a, b)| c64::new(a, b))
+            .collect()
+    }
+
+    /// y = Aᵀ z for a complex z.
+    pub fn mul_transpose_complex(&self, z: &[c64]) -> Vec<c64> {
+        let (re, im): (Vec<f64>, Vec<f64>) = z.iter().map(|v| (v.re, v.im)).unzip();
+        let (yr, yi) = (self.mul_transpose_vec(&re), self.mul_transpose_vec(&im));
+        yr.into_iter()
+            .zip(yi)
+            .map(|(a, b)| c64::new(a, b))
+            .collect()
+    }
+
     /// The union pattern of several same-shape matrices, each scattered into it (so a linear
     /// combination of them is a plain combination of value arrays).
     pub fn on_common_pattern(mats: &[&Csc]) -> Vec<Csc> {

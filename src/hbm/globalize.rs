@@ -9,6 +9,7 @@
 //!
 //! If all fail, the error says what to change.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use faer::c64;
@@ -30,22 +31,16 @@ pub(super) fn linear_gap(
 ) -> Vec<f64> {
     let (nc, m) = (op.nodes(), 2 * harmonics + 1);
     let mut r = vec![0.0; nc * m];
-    let split = |z: &[c64]| -> (Vec<f64>, Vec<f64>) { z.iter().map(|v| (v.re, v.im)).unzip() };
     for k in 0..=harmonics {
-        let (re, im) = split(&free[&k]);
-        let (mut bre, mut bim) = (op.b_free.mul_vec(&re), op.b_free.mul_vec(&im));
+        let mut bz = op.b_free.mul_complex(&free[&k]);
         if op.b_prescribed.ncols > 0 {
-            let (pre, pim) = split(&motion[&k]);
-            for (a, b) in bre.iter_mut().zip(op.b_prescribed.mul_vec(&pre)) {
-                *a += b;
-            }
-            for (a, b) in bim.iter_mut().zip(op.b_prescribed.mul_vec(&pim)) {
+            for (a, b) in bz.iter_mut().zip(op.b_prescribed.mul_complex(&motion[&k])) {
                 *a += b;
             }
         }
-        for i in 0..nc {
+        for (i, z) in bz.into_iter().enumerate() {
             let g0 = if k == 0 { op.g0[i] } else { 0.0 };
-            fourier::set_phasor(&mut r[i * m..(i + 1) * m], k, c64::new(bre[i] - g0, bim[i]));
+            fourier::set_phasor(&mut r[i * m..(i + 1) * m], k, z - g0);
         }
     }
     r
@@ -81,7 +76,7 @@ struct Attempts<'a> {
     reasons: Vec<String>,
 }
 
-impl Attempts<'_> {
+impl<'a> Attempts<'a> {
     /// Newton settings for rung `h` of the ladder (the same oversampling ratio as at H).
     fn newton_settings(&self, h: usize, c: f64, smoothing: f64) -> NewtonSettings {
         let (top, samples) = (self.settings.harmonics, self.settings.samples);
@@ -100,11 +95,12 @@ impl Attempts<'_> {
         }
     }
 
-    fn problem_at(&self, h: usize) -> std::borrow::Cow<'_, ReducedProblem> {
+    /// The problem at rung h: the full one borrowed, a truncation owned.
+    fn problem_at(&self, h: usize) -> Cow<'a, ReducedProblem> {
         if h == self.problem.harmonics {
-            std::borrow::Cow::Borrowed(self.problem)
+            Cow::Borrowed(self.problem)
         } else {
-            std::borrow::Cow::Owned(self.problem.truncate(h))
+            Cow::Owned(self.problem.truncate(h))
         }
     }
 
@@ -127,7 +123,7 @@ impl Attempts<'_> {
     /// fold in μ, where no nearby smoothed solution exists), the exact law is tried from the
     /// last point reached.
     fn smoothed(&mut self, h: usize, c: f64, start: &[f64]) -> NewtonOutcome {
-        let problem = self.problem_at(h).into_owned();
+        let problem = self.problem_at(h);
         let mut settings = self.newton_settings(h, c, 0.0);
         let force = reduced::linear_force(&problem, settings.samples, c);
         let floor = 0.1 * self.settings.tolerance * force;

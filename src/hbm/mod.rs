@@ -230,16 +230,7 @@ impl LinearResponse {
             if lam.iter().all(|l| l.norm() == 0.0) {
                 continue;
             }
-            let (re, im): (Vec<f64>, Vec<f64>) = lam.iter().map(|l| (l.re, l.im)).unzip();
-            let (bre, bim) = (
-                op.b_free.mul_transpose_vec(&re),
-                op.b_free.mul_transpose_vec(&im),
-            );
-            let rhs: Vec<c64> = bre
-                .iter()
-                .zip(&bim)
-                .map(|(&a, &b)| c64::new(a, b))
-                .collect();
+            let rhs = op.b_free.mul_transpose_complex(&lam);
             for (zi, di) in z.iter_mut().zip(lu.solve(&rhs)) {
                 *zi += di;
             }

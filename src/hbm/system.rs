@@ -110,16 +110,11 @@ impl System {
     /// Z_k x for a complex vector (residual checks).
     pub fn apply(&self, k: usize, x: &[c64]) -> Vec<c64> {
         let kw = k as f64 * self.omega;
-        let (re, im): (Vec<f64>, Vec<f64>) = x.iter().map(|z| (z.re, z.im)).unzip();
-        let (kr, ki) = (self.k_ff.mul_vec(&re), self.k_ff.mul_vec(&im));
-        let (mr, mi) = (self.m_ff.mul_vec(&re), self.m_ff.mul_vec(&im));
+        let (kx, mx) = (self.k_ff.mul_complex(x), self.m_ff.mul_complex(x));
         let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
-        (0..x.len())
-            .map(|i| {
-                let real = c64::new(kr[i] - kw * kw * mr[i], ki[i] - kw * kw * mi[i]);
-                let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
-                real + c64::new(0.0, kw) * damp
-            })
+        kx.iter()
+            .zip(&mx)
+            .map(|(&kv, &mv)| kv - mv * (kw * kw) + c64::new(0.0, kw) * (kv * beta + mv * alpha))
             .collect()
     }
 
