@@ -215,19 +215,7 @@ fn quickstart_is_off_resonance_and_at_1_khz_warns_of_the_brackets_first_bending_
 // HBCONTACT_REQUIRE_PARAVIEW=1, as .ci/run sets).
 #[test]
 fn paraview_opens_and_warps_the_mode_series() {
-    let have = |cmd: &str| {
-        std::process::Command::new("sh")
-            .arg("-c")
-            .arg(format!("command -v {cmd}"))
-            .output()
-            .map(|o| o.status.success())
-            .unwrap_or(false)
-    };
-    if !(have("pvbatch") && have("xvfb-run")) {
-        if std::env::var("HBCONTACT_REQUIRE_PARAVIEW").as_deref() == Ok("1") {
-            panic!("pvbatch or xvfb-run missing but HBCONTACT_REQUIRE_PARAVIEW=1");
-        }
-        eprintln!("SKIPPED: pvbatch/xvfb-run not installed");
+    if !common::paraview_available() {
         return;
     }
     let out = common::temp_out("modes-paraview");
@@ -242,31 +230,14 @@ fn paraview_opens_and_warps_the_mode_series() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let png = out.with_extension("png");
-    let mut last = None;
-    // xvfb-run -a can race for a display on a busy machine (other runs' X servers): a few
-    // attempts, a little apart.
-    for attempt in 0..5u64 {
-        if attempt > 0 {
-            let pause = 500 * attempt + u64::from(std::process::id() % 500);
-            std::thread::sleep(std::time::Duration::from_millis(pause));
-        }
-        let s = std::process::Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1024x768x24", "pvbatch"])
-            .env("PARAVIEW_CHECK_SCALE", "0.02")
-            .arg(common::root().join("tests/scripts/paraview_check.py"))
-            .arg(out.join("modes.pvd"))
-            .arg(&png)
-            .arg("mode_shape")
-            .arg("3")
-            .output()
-            .expect("xvfb-run runs");
-        let ok = s.status.success();
-        last = Some(s);
-        if ok {
-            break;
-        }
-    }
-    let s = last.expect("one attempt");
+    let (pvd, scalars) = (out.join("modes.pvd"), "mode_shape");
+    let args = [
+        pvd.as_os_str(),
+        png.as_os_str(),
+        scalars.as_ref(),
+        "3".as_ref(),
+    ];
+    let s = common::render_with_paraview(&args, &[("PARAVIEW_CHECK_SCALE", "0.02")], 5);
     assert!(
         s.status.success(),
         "pvbatch failed:\n{}{}",

@@ -547,21 +547,7 @@ fn summary_lists_the_effects_and_harmonics_computed() {
 /// quickstart and half_disc render; cause not found yet, meshio reads that series fine.)
 #[test]
 fn paraview_opens_warps_and_renders_the_series() {
-    let have = |cmd: &str| {
-        Command::new("sh")
-            .arg("-c")
-            .arg(format!("command -v {cmd}"))
-            .output()
-            .map(|o| o.status.success())
-            .unwrap_or(false)
-    };
-    if !(have("pvbatch") && have("xvfb-run")) {
-        if std::env::var("HBCONTACT_REQUIRE_PARAVIEW").as_deref() == Ok("1") {
-            panic!("pvbatch or xvfb-run missing but HBCONTACT_REQUIRE_PARAVIEW=1 (.ci/run installs them)");
-        }
-        eprintln!(
-            "SKIPPED: pvbatch/xvfb-run not installed (apt-get install paraview xvfb; .ci/run does)"
-        );
+    if !common::paraview_available() {
         return;
     }
     let out = common::temp_out("half-disc-paraview");
@@ -573,26 +559,15 @@ fn paraview_opens_warps_and_renders_the_series() {
         out.to_str().unwrap(),
     ]);
     let png = out.with_extension("png");
-    // xvfb-run -a can race for a display on a busy machine: a few attempts.
-    let mut status = None;
-    for _ in 0..3 {
-        let s = Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1024x768x24", "pvbatch"])
-            .arg(common::root().join("tests/scripts/paraview_check.py"))
-            .arg(out.join("series.pvd"))
-            .arg(&png)
-            .arg("displacement")
-            .arg("16")
-            .arg(out.join("obstacle.pvd"))
-            .output()
-            .unwrap();
-        let ok = s.status.success();
-        status = Some(s);
-        if ok {
-            break;
-        }
-    }
-    let status = status.unwrap();
+    let (series, obstacle) = (out.join("series.pvd"), out.join("obstacle.pvd"));
+    let args = [
+        series.as_os_str(),
+        png.as_os_str(),
+        "displacement".as_ref(),
+        "16".as_ref(),
+        obstacle.as_os_str(),
+    ];
+    let status = common::render_with_paraview(&args, &[], 3);
     assert!(
         status.status.success(),
         "pvbatch failed:\n{}{}",

@@ -72,3 +72,58 @@ pub fn read_json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
+
+/// Whether pvbatch and xvfb-run are installed; a missing one panics when
+/// HBCONTACT_REQUIRE_PARAVIEW=1 (as .ci/run sets) and is a printed skip otherwise.
+pub fn paraview_available() -> bool {
+    let have = |cmd: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!("command -v {cmd}"))
+            .output()
+            .map(|o| o.status.success())
+            .unwrap_or(false)
+    };
+    if have("pvbatch") && have("xvfb-run") {
+        return true;
+    }
+    if std::env::var("HBCONTACT_REQUIRE_PARAVIEW").as_deref() == Ok("1") {
+        panic!(
+            "pvbatch or xvfb-run missing but HBCONTACT_REQUIRE_PARAVIEW=1 (.ci/run installs them)"
+        );
+    }
+    eprintln!(
+        "SKIPPED: pvbatch/xvfb-run not installed (apt-get install paraview xvfb; .ci/run does)"
+    );
+    false
+}
+
+/// tests/scripts/paraview_check.py under `xvfb-run -a pvbatch` with `args` and `env`, up to
+/// `attempts` times a little apart (xvfb-run -a can race for a display with other runs' X
+/// servers on a busy machine); the last attempt's output.
+pub fn render_with_paraview(
+    args: &[&std::ffi::OsStr],
+    env: &[(&str, &str)],
+    attempts: u64,
+) -> Output {
+    let mut last = None;
+    for attempt in 0..attempts {
+        if attempt > 0 {
+            let pause = 500 * attempt + u64::from(std::process::id() % 500);
+            std::thread::sleep(std::time::Duration::from_millis(pause));
+        }
+        let o = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1024x768x24", "pvbatch"])
+            .envs(env.iter().copied())
+            .arg(root().join("tests/scripts/paraview_check.py"))
+            .args(args)
+            .output()
+            .expect("xvfb-run runs");
+        let ok = o.status.success();
+        last = Some(o);
+        if ok {
+            break;
+        }
+    }
+    last.expect("at least one attempt")
+}
