@@ -1,6 +1,7 @@
 //! What the command line adds to the library: its reporter and how results are shown.
 
 pub mod reporter;
+pub mod study;
 
 use hbcontact::hbm::IterationLog;
 use hbcontact::pipeline::{CheckReport, RunResult};

@@ -56,7 +56,10 @@ fn run_one(
                     .into(),
         });
     }
-    let options = RunOptions { out: Some(out) };
+    let options = RunOptions {
+        out: Some(out),
+        ..Default::default()
+    };
     let summary = run(&p, &options, reporter)?.summary;
     // What the setting costs: every stage but meshing, which a study's cache makes free.
     let st = &summary.stage_seconds;

@@ -30,6 +30,8 @@ pub use summary::{summary_schema, Summary};
 pub struct RunOptions {
     /// Overrides `output.directory`.
     pub out: Option<PathBuf>,
+    /// Write `summary.json` only, not the VTU series, CSV histories and mesh (study points).
+    pub summary_only: bool,
 }
 
 /// A finished run: where its files are and what it reports.
@@ -59,9 +61,11 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut summary = stages.run("write", || {
         let samples = hb_settings(p).samples;
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
-        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
-        report::write_amplitudes(staged.path(), &model, &solution)?;
-        stages::copy_mesh(&mesh_info, staged.path())?;
+        if !options.summary_only {
+            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            report::write_amplitudes(staged.path(), &model, &solution)?;
+            stages::copy_mesh(&mesh_info, staged.path())?;
+        }
         Ok(summary::harmonic_balance(
             p, mesh_info, &model, &solution, &sampled,
         ))
@@ -96,8 +100,10 @@ pub fn run_transient(
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
-        sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
-        stages::copy_mesh(&mesh_info, staged.path())?;
+        if !options.summary_only {
+            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            stages::copy_mesh(&mesh_info, staged.path())?;
+        }
         Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
     })?;
     summary.stage_seconds = stages.times;
