@@ -4,7 +4,6 @@
 //! `summary.json`) that says what was simulated, how big it was, how accurate and what each
 //! stage cost.
 
-pub mod accuracy;
 pub mod model;
 pub mod report;
 pub mod stages;
