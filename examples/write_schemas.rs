@@ -1,7 +1,8 @@
 //! Regenerate the committed JSON Schemas from the code:
 //! `cargo run --release --example write_schemas` writes `docs/pipeline.schema.json` (the
-//! pipeline YAML) and `docs/summary.schema.json` (a run's summary.json); `hbcontact schema
-//! pipeline|summary` prints the same. `tests/docs.rs` fails when the committed files and the
+//! pipeline YAML), `docs/summary.schema.json` (a run's summary.json) and
+//! `docs/study.schema.json` (a study YAML); `hbcontact schema pipeline|summary|study` prints
+//! the same. `tests/docs.rs` fails when the committed files and the
 //! code disagree.
 
 use std::path::PathBuf;
@@ -12,6 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (name, schema) in [
         ("pipeline.schema.json", hbcontact::config::pipeline_schema()),
         ("summary.schema.json", hbcontact::pipeline::summary_schema()),
+        ("study.schema.json", hbcontact::study::study_schema()),
     ] {
         let path = docs.join(name);
         std::fs::write(&path, serde_json::to_string_pretty(&schema)? + "\n")?;
