@@ -98,9 +98,7 @@ pub fn write_scripts(
         quote(&cwd.to_string_lossy()),
         quote(&exe.to_string_lossy())
     );
-    let submit = format!(
-        "#!/bin/bash\n# Submit the study's job array, then its merge job once every array task has ended.\n# Prints the merge job's id.\nset -euo pipefail\ncd \"$(dirname \"$0\")\"\narray=$(sbatch --parsable array.sbatch)\nsbatch --parsable --dependency=afterany:\"${{array%%;*}}\" merge.sbatch\n"
-    );
+    let submit = "#!/bin/bash\n# Submit the study's job array, then its merge job once every array task has ended.\n# Prints the merge job's id.\nset -euo pipefail\ncd \"$(dirname \"$0\")\"\narray=$(sbatch --parsable array.sbatch)\nsbatch --parsable --dependency=afterany:\"${array%%;*}\" merge.sbatch\n".to_string();
     let scripts = SlurmScripts {
         array: dir.join("array.sbatch"),
         merge: dir.join("merge.sbatch"),
