@@ -27,6 +27,7 @@ build:
 bench: venv build
 	$(CARGO) bench --bench stages
 	$(CARGO) bench --bench contact
+	$(CARGO) bench --bench study
 
 lint:
 	$(CARGO) fmt --check

@@ -26,6 +26,7 @@ fn main() {
         let p = load_pipeline(&scene, &[format!("harmonic_balance.harmonics={h}")]).ok()?;
         let options = RunOptions {
             out: Some(work.join(format!("hb-h{h}"))),
+            ..Default::default()
         };
         let t = Instant::now();
         match pipeline::run(&p, &options, &Silent) {
@@ -54,6 +55,7 @@ fn main() {
     };
     let options = RunOptions {
         out: Some(work.join("transient")),
+        ..Default::default()
     };
     let t = Instant::now();
     let transient = match pipeline::run_transient(&p, &options, &Silent) {

@@ -1,8 +1,9 @@
 //! Regenerate the committed JSON Schemas from the code:
 //! `cargo run --release --example write_schemas` writes `docs/pipeline.schema.json` (the
 //! pipeline YAML), `docs/summary.schema.json` (a run's summary.json), `docs/modes.schema.json`
-//! (modes.json) and `docs/compare.schema.json` (compare.json); `hbcontact schema
-//! pipeline|summary|modes|compare` prints the same. `tests/docs.rs` fails when the committed files and the
+//! (modes.json), `docs/compare.schema.json` (compare.json) and `docs/study.schema.json` (a
+//! study YAML); `hbcontact schema pipeline|summary|modes|compare|study` prints the same.
+//! `tests/docs.rs` fails when the committed files and the
 //! code disagree.
 
 use std::path::PathBuf;
@@ -21,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "compare.schema.json",
             hbcontact::pipeline::compare::compare_schema(),
         ),
+        ("study.schema.json", hbcontact::study::study_schema()),
     ] {
         let path = docs.join(name);
         std::fs::write(&path, serde_json::to_string_pretty(&schema)? + "\n")?;

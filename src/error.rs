@@ -46,6 +46,14 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+
+    /// A study finished, but some of its points failed (each with its error in the table).
+    #[error("{failed} of {total} study points failed; their errors are in {}", table.display())]
+    StudyIncomplete {
+        failed: usize,
+        total: usize,
+        table: PathBuf,
+    },
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
@@ -70,6 +78,33 @@ impl Error {
         match self {
             Error::InStage { source, .. } => source.root(),
             e => e,
+        }
+    }
+
+    /// The process exit code for this error: 2 bad input (pipeline, study, geometry, mesh,
+    /// gmsh), 3 a model that cannot be solved, 4 not converged, 5 writing results failed,
+    /// 6 a study in which some points failed.
+    pub fn exit_code(&self) -> u8 {
+        match self.root() {
+            Error::Config { .. } | Error::Input(_) | Error::Gmsh(_) | Error::Mesh { .. } => 2,
+            Error::Model(_) => 3,
+            Error::NotConverged(_) => 4,
+            Error::Io { .. } => 5,
+            Error::StudyIncomplete { .. } => 6,
+            Error::InStage { .. } => 1,
+        }
+    }
+
+    /// The error's class as a study table names it (`bad_input`, `model`, `not_converged`,
+    /// `io`, `study_incomplete`), one per exit code.
+    pub fn class(&self) -> &'static str {
+        match self.exit_code() {
+            2 => "bad_input",
+            3 => "model",
+            4 => "not_converged",
+            5 => "io",
+            6 => "study_incomplete",
+            _ => "internal",
         }
     }
 

@@ -19,6 +19,7 @@ pub mod mesh;
 pub mod output;
 pub mod pipeline;
 pub mod progress;
+pub mod study;
 pub mod transient;
 
 pub use error::{Error, Result};

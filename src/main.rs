@@ -1,6 +1,7 @@
 //! The `hbcontact` command. `main` is the only place that prints an error and picks the exit
 //! code: 0 success, 2 bad input (pipeline, geometry, mesh, gmsh), 3 a model that cannot be
-//! solved as set up, 4 the nonlinear solver did not converge, 5 writing results failed.
+//! solved as set up, 4 the nonlinear solver did not converge, 5 writing results failed, 6 a
+//! study finished but some of its points failed (their errors are in its study.csv).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -64,6 +65,12 @@ enum Command {
         /// order 1, 2.
         #[arg(long = "ladder", value_name = "KEY=V1,V2,...")]
         ladders: Vec<String>,
+        /// Compare with a time-marching run instead of each ladder's last rung.
+        #[arg(long)]
+        transient_reference: bool,
+        /// Print the cheapest setting whose relative error is at most this, per measure.
+        #[arg(long)]
+        tolerance: Option<f64>,
     },
     /// Natural frequencies with the scene's supports (contact open), mode shapes as a VTU
     /// series and effective modal masses, written to `<output.directory>-modes` (or `--out`).
@@ -89,12 +96,61 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Run a parameter study (studies/*.yaml): its points in parallel, or one shard of them,
+    /// then study.csv, plots and manifest.json; `--slurm` writes a Slurm job array instead.
+    Study(StudyArgs),
     /// Print the JSON Schema of a pipeline YAML (`pipeline`), summary.json (`summary`),
-    /// modes.json (`modes`) or compare.json (`compare`).
+    /// modes.json (`modes`), compare.json (`compare`) or a study file (`study`).
     Schema {
         #[arg(value_enum)]
         which: SchemaKind,
     },
+}
+
+#[derive(clap::Args)]
+struct StudyArgs {
+    /// The study YAML (studies/*.yaml).
+    study: PathBuf,
+    /// Override a pipeline value for every point (repeatable), after the study's `set`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Results directory instead of the study's `out` (default output/<name>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Points run at once (default: the study's `threads`, else one per core).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Run one slice `i/n` of the points and write no table (a Slurm array task).
+    #[arg(long, value_name = "I/N", conflicts_with = "merge")]
+    shard: Option<String>,
+    /// Join the shards' points into study.csv, plots and manifest.json (runs nothing).
+    #[arg(long)]
+    merge: bool,
+    /// Write slurm/array.sbatch (one shard per array task), slurm/merge.sbatch and
+    /// slurm/submit.sh under the results directory, and run nothing.
+    #[arg(long, conflicts_with_all = ["shard", "merge"])]
+    slurm: bool,
+    /// Array tasks for --slurm.
+    #[arg(long, default_value_t = 4)]
+    shards: usize,
+    /// Slurm partition (--slurm).
+    #[arg(long)]
+    partition: Option<String>,
+    /// Slurm time limit per task, e.g. 00:30:00 (--slurm).
+    #[arg(long)]
+    time: Option<String>,
+    /// Slurm memory per task, e.g. 2G (--slurm).
+    #[arg(long)]
+    mem: Option<String>,
+    /// Cores per array task; each shard runs that many points at once (--slurm).
+    #[arg(long, default_value_t = 1)]
+    cpus_per_task: usize,
+    /// Accuracy studies: print the cheapest setting within this relative error, per measure.
+    #[arg(long)]
+    tolerance: Option<f64>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -107,16 +163,12 @@ enum SchemaKind {
     Modes,
     /// compare.json (docs/compare.schema.json)
     Compare,
+    /// A study YAML (docs/study.schema.json).
+    Study,
 }
 
 fn exit_code(e: &Error) -> u8 {
-    match e.root() {
-        Error::Config { .. } | Error::Input(_) | Error::Gmsh(_) | Error::Mesh { .. } => 2,
-        Error::Model(_) => 3,
-        Error::NotConverged(_) => 4,
-        Error::Io { .. } => 5,
-        Error::InStage { .. } => unreachable!("root() looks through stage context"),
-    }
+    e.exit_code()
 }
 
 /// Exit code after SIGINT, SIGTERM or SIGHUP (128 + SIGINT, the shell's convention).
@@ -136,7 +188,13 @@ fn main() -> ExitCode {
         Command::Run(c) => run(c, Mode::Run),
         Command::Transient(c) => run(c, Mode::Transient),
         Command::Check { common, json } => check(common, *json),
-        Command::Accuracy { common, ladders } => accuracy(common, ladders),
+        Command::Accuracy {
+            common,
+            ladders,
+            transient_reference,
+            tolerance,
+        } => accuracy(common, ladders, *transient_reference, *tolerance),
+        Command::Study(args) => study(args),
         Command::Schema { which } => schema(*which),
         Command::Modes { common, count } => modes(common, *count),
         Command::Compare {
@@ -172,7 +230,10 @@ fn reporter(quiet: bool) -> Box<dyn Reporter> {
 
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions { out: c.out.clone() };
+    let options = RunOptions {
+        out: c.out.clone(),
+        ..Default::default()
+    };
     let reporter = reporter(c.quiet);
     let result = match mode {
         Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
@@ -187,7 +248,10 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
 fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions { out: c.out.clone() };
+    let options = RunOptions {
+        out: c.out.clone(),
+        ..Default::default()
+    };
     let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
     if json {
         println!("{}", to_json(&report)?);
@@ -210,6 +274,7 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
         SchemaKind::Summary => pipeline::summary_schema(),
         SchemaKind::Modes => pipeline::modes::modes_schema(),
         SchemaKind::Compare => pipeline::compare::compare_schema(),
+        SchemaKind::Study => hbcontact::study::study_schema(),
     };
     println!("{}", to_json(&schema)?);
     Ok(())
@@ -218,7 +283,10 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
 /// `hbcontact modes`: the table on stdout, the files in `<output.directory>-modes`.
 fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions { out: c.out.clone() };
+    let options = RunOptions {
+        out: c.out.clone(),
+        ..Default::default()
+    };
     let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.quiet))?;
     if !c.quiet {
         cli::show_modes(&result);
@@ -243,26 +311,119 @@ fn compare(
     Ok(())
 }
 
-fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
-    use hbcontact::pipeline::accuracy::{study, table, Ladder};
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let mut parsed = Vec::new();
-    for l in ladders {
-        let Some((key, values)) = l.split_once('=') else {
-            return Err(Error::Config {
-                path: c.pipeline.clone(),
-                message: format!("--ladder {l}: expected KEY=V1,V2,... (e.g. harmonic_balance.harmonics=5,10,20)"),
-            });
-        };
-        parsed.push(Ladder {
-            key: key.trim().to_string(),
-            values: values
-                .split(',')
-                .map(|v| v.trim().to_string())
-                .filter(|v| !v.is_empty())
-                .collect(),
+/// `hbcontact study`: run (or one shard, or merge, or write Slurm scripts).
+fn study(a: &StudyArgs) -> hbcontact::Result<()> {
+    use hbcontact::study::{self, Shard, StudyOptions};
+    let spec = study::load_study(&a.study, &a.set)?;
+    let bad = |message: String| Error::Config {
+        path: a.study.clone(),
+        message,
+    };
+    if a.threads == Some(0) {
+        return Err(bad("--threads: at least 1".into()));
+    }
+    let options = StudyOptions {
+        out: a.out.clone(),
+        threads: a.threads,
+        shard: a
+            .shard
+            .as_deref()
+            .map(Shard::parse)
+            .transpose()
+            .map_err(bad)?,
+    };
+    if a.slurm {
+        return slurm(a, &spec, &options);
+    }
+    let report = if a.merge {
+        study::merge(&spec, &options)?
+    } else {
+        study::run(&spec, &options, &*reporter(a.quiet))?
+    };
+    if !a.quiet {
+        if let Some(acc) = &report.accuracy {
+            cli::study::show_accuracy(acc);
+        }
+        cli::study::show_study(&report);
+    }
+    if let (Some(acc), Some(t)) = (&report.accuracy, a.tolerance) {
+        cli::study::show_tolerance(acc, t);
+    }
+    report.complete().map(|_| ())
+}
+
+fn slurm(
+    a: &StudyArgs,
+    spec: &hbcontact::study::Study,
+    options: &hbcontact::study::StudyOptions,
+) -> hbcontact::Result<()> {
+    use hbcontact::study::slurm::{write_scripts, SlurmOptions};
+    if a.shards == 0 || a.cpus_per_task == 0 {
+        return Err(Error::Config {
+            path: a.study.clone(),
+            message: "--shards and --cpus-per-task: at least 1".into(),
         });
     }
+    hbcontact::study::plan::plan(spec)?;
+    let out = hbcontact::study::output_dir(spec, options);
+    let o = SlurmOptions {
+        shards: a.shards,
+        partition: a.partition.clone(),
+        time: a.time.clone(),
+        mem: a.mem.clone(),
+        cpus_per_task: a.cpus_per_task,
+    };
+    let scripts = write_scripts(&a.study, &spec.name, &out, &a.set, &o)?;
+    if !a.quiet {
+        eprintln!(
+            "wrote {}, {} and {}; submit with: bash {}",
+            scripts.array.display(),
+            scripts.merge.display(),
+            scripts.submit.display(),
+            scripts.submit.display()
+        );
+    }
+    Ok(())
+}
+
+/// `--ladder key=v1,v2,...` into a ladder of numbers.
+fn ladder(path: &std::path::Path, l: &str) -> hbcontact::Result<hbcontact::study::spec::Ladder> {
+    let bad = || {
+        Error::Config {
+        path: path.to_path_buf(),
+        message: format!(
+            "--ladder {}: expected KEY=V1,V2,... of numbers (e.g. harmonic_balance.harmonics=5,10,20)",
+            hbcontact::error::excerpt(l)
+        ),
+    }
+    };
+    let (key, values) = l.split_once('=').ok_or_else(bad)?;
+    let values = values
+        .split(',')
+        .map(str::trim)
+        .filter(|v| !v.is_empty())
+        .map(|v| v.parse::<f64>().map_err(|_| bad()))
+        .collect::<hbcontact::Result<Vec<f64>>>()?;
+    Ok(hbcontact::study::spec::Ladder {
+        key: key.trim().to_string(),
+        values,
+    })
+}
+
+/// `hbcontact accuracy`: an accuracy study built from the command line.
+fn accuracy(
+    c: &Common,
+    ladders: &[String],
+    transient_reference: bool,
+    tolerance: Option<f64>,
+) -> hbcontact::Result<()> {
+    use hbcontact::study::spec::{Accuracy, Design, Ladder, Reference, WriteLevel};
+    use hbcontact::study::{self, StudyOptions};
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let mut parsed = ladders
+        .iter()
+        .map(|l| ladder(&c.pipeline, l))
+        .collect::<hbcontact::Result<Vec<_>>>()?;
     if parsed.is_empty() {
         let h = pipeline.harmonic_balance.harmonics.max(1);
         if pipeline.contact.is_some() {
@@ -271,13 +432,13 @@ fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
                 values: [h / 4, h / 2, h, 2 * h]
                     .iter()
                     .filter(|&&v| v >= 1)
-                    .map(|v| v.to_string())
+                    .map(|&v| v as f64)
                     .collect(),
             });
         }
         parsed.push(Ladder {
             key: "geometry.order".into(),
-            values: vec!["1".into(), "2".into()],
+            values: vec![1.0, 2.0],
         });
     }
     let out = c.out.clone().unwrap_or_else(|| {
@@ -285,10 +446,37 @@ fn accuracy(c: &Common, ladders: &[String]) -> hbcontact::Result<()> {
         d.push("-accuracy");
         PathBuf::from(d)
     });
-    let rungs = study(&c.pipeline, &c.set, &parsed, &out, &*reporter(c.quiet))?;
-    if !c.quiet {
-        println!("{}", table(&rungs));
-        eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
+    let spec = study::Study {
+        name: format!("{}-accuracy", pipeline.name),
+        source: c.pipeline.clone(),
+        pipeline: c.pipeline.clone(),
+        set: c.set.clone(),
+        design: Design::Grid,
+        parameters: Vec::new(),
+        outputs: study::Output::defaults(),
+        probe: None,
+        write: WriteLevel::Summary,
+        full_points: Vec::new(),
+        threads: Some(1),
+        out: out.clone(),
+        accuracy: Some(Accuracy {
+            reference: if transient_reference {
+                Reference::Transient
+            } else {
+                Reference::Finest
+            },
+            ladders: parsed,
+        }),
+    };
+    let report = study::run(&spec, &StudyOptions::default(), &*reporter(c.quiet))?;
+    if let Some(acc) = &report.accuracy {
+        if !c.quiet {
+            cli::study::show_accuracy(acc);
+            eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
+        }
+        if let Some(t) = tolerance {
+            cli::study::show_tolerance(acc, t);
+        }
     }
-    Ok(())
+    report.complete().map(|_| ())
 }

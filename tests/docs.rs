@@ -68,6 +68,27 @@ fn committed_modes_and_compare_schemas_are_the_generated_ones() {
     );
 }
 
+/// TEST GOAL: the study file's schema in docs/ is the one `hbcontact schema study` prints,
+/// and docs/study.md names every key of it.
+#[test]
+fn committed_study_schema_is_the_generated_one_and_documented() {
+    let schema = hbcontact::study::study_schema();
+    assert_committed("study.schema.json", &schema);
+    let definitions = schema.get("definitions").cloned().unwrap_or(Value::Null);
+    let mut paths = BTreeSet::new();
+    key_paths(&schema, &definitions, "", &mut paths);
+    assert!(paths.contains("accuracy.ladders.key"), "{paths:?}");
+    let doc = read(&root().join("docs/study.md"));
+    let missing: Vec<&String> = paths
+        .iter()
+        .filter(|p| !doc.contains(&format!("`{p}`")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/study.md does not document these study keys (write each as `key.path`): {missing:?}"
+    );
+}
+
 /// Every key path of the schema (`a.b.c`; list items add no segment), following `$ref`,
 /// `allOf`/`anyOf`/`oneOf` and `items`. Maps with free keys (`additionalProperties` schemas)
 /// end the path.

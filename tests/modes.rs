@@ -36,6 +36,7 @@ fn cantilever_modes_match_euler_bernoulli_and_effective_masses_sum_toward_the_fr
     let out = common::temp_out("modes-cantilever");
     let options = RunOptions {
         out: Some(out.clone()),
+        ..Default::default()
     };
     let result = pipeline::modes(&p, &options, 8, &Silent).unwrap_or_else(|e| panic!("{e}"));
     let modes = &result.summary.modes;
@@ -95,7 +96,10 @@ fn cantilever_modes_match_euler_bernoulli_and_effective_masses_sum_toward_the_fr
 fn first_frequency() -> f64 {
     let p = common::scene("cantilever", &[]);
     let out = common::temp_out("modes-f1");
-    let options = RunOptions { out: Some(out) };
+    let options = RunOptions {
+        out: Some(out),
+        ..Default::default()
+    };
     let result = pipeline::modes(&p, &options, 1, &Silent).unwrap_or_else(|e| panic!("{e}"));
     result.summary.modes[0].frequency_hz
 }
@@ -108,6 +112,7 @@ fn run_at(tag: &str, frequency: f64, overrides: &[&str]) -> pipeline::Summary {
     let p = common::scene("cantilever", &all);
     let options = RunOptions {
         out: Some(common::temp_out(tag)),
+        ..Default::default()
     };
     pipeline::run(&p, &options, &Silent)
         .unwrap_or_else(|e| panic!("{e}"))
@@ -180,6 +185,7 @@ fn quickstart_is_off_resonance_and_at_1_khz_warns_of_the_brackets_first_bending_
         let p = common::scene("quickstart", overrides);
         let options = RunOptions {
             out: Some(common::temp_out(tag)),
+            ..Default::default()
         };
         pipeline::run(&p, &options, &Silent)
             .unwrap_or_else(|e| panic!("{e}"))

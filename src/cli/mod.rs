@@ -1,6 +1,7 @@
 //! What the command line adds to the library: its reporter and how results are shown.
 
 pub mod reporter;
+pub mod study;
 
 /// `println!` that ignores a closed stdout (`hbcontact modes … | head`) instead of panicking.
 macro_rules! outln {

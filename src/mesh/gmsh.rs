@@ -618,6 +618,22 @@ fn verify_cached(msh: &Path) -> std::result::Result<(), String> {
     }
 }
 
+/// An exclusive advisory lock (flock) on `<mesh>.msh.lock`, held until dropped: separate
+/// opens conflict, so it orders threads of one process as well as processes.
+fn lock_entry(msh: &Path) -> Result<std::fs::File> {
+    let mut name = msh.as_os_str().to_owned();
+    name.push(".lock");
+    let path = PathBuf::from(name);
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|e| Error::io(&path, e))?;
+    file.lock().map_err(|e| Error::io(&path, e))?;
+    Ok(file)
+}
+
 /// Remove a cached mesh and its checksum (so that it is made again).
 pub fn evict(msh: &Path) {
     let _ = std::fs::remove_file(msh);
@@ -700,6 +716,10 @@ pub fn mesh_geometry_with(
         "{stem}-{}.msh",
         cache_key(request, &contents, &version)
     ));
+    // One mesher per cache entry at a time, across threads and processes (a study's points,
+    // Slurm shards on a shared file system): the others wait here, then find it cached.
+    std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
+    let _lock = lock_entry(&msh)?;
     if msh.is_file() {
         match verify_cached(&msh) {
             Ok(()) => {
@@ -718,7 +738,6 @@ pub fn mesh_geometry_with(
             }
         }
     }
-    std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
     let estimate = estimate_elements(&cmd, request, cache_dir, limits, reporter)?;
     if estimate > limits.max_elements as f64 {
         return Err(too_many_elements(request, limits, estimate));

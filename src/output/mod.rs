@@ -2,6 +2,7 @@
 //! histories and JSON summaries (`tables`), all staged in a temporary directory that is renamed
 //! into place only when complete (`staging`).
 
+pub mod plot;
 pub mod staging;
 pub mod tables;
 pub mod vtu;

@@ -4,7 +4,6 @@
 //! `summary.json`) that says what was simulated, how big it was, how accurate and what each
 //! stage cost.
 
-pub mod accuracy;
 pub mod compare;
 pub mod model;
 pub mod modes;
@@ -34,6 +33,8 @@ pub use summary::{summary_schema, Summary};
 pub struct RunOptions {
     /// Overrides `output.directory`.
     pub out: Option<PathBuf>,
+    /// Write `summary.json` only, not the VTU series, CSV histories and mesh (study points).
+    pub summary_only: bool,
 }
 
 /// A finished run: where its files are and what it reports.
@@ -68,12 +69,14 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
             .as_ref()
             .map_or(hb_settings(p).samples, |c| c.samples);
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
-        let written = sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
-        report::write_amplitudes(staged.path(), &model, &solution)?;
-        stages::copy_mesh(&mesh_info, staged.path())?;
-        let mut summary = summary::harmonic_balance(p, mesh_info, &model, &solution, &sampled);
-        summary.max_von_mises = Some(written.max_von_mises);
-        Ok(summary)
+        if !options.summary_only {
+            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            report::write_amplitudes(staged.path(), &model, &solution)?;
+            stages::copy_mesh(&mesh_info, staged.path())?;
+        }
+        Ok(summary::harmonic_balance(
+            p, mesh_info, &model, &solution, &sampled,
+        ))
     })?;
     let (check, warnings) = resonance;
     summary.resonance = check;
@@ -108,11 +111,11 @@ pub fn run_transient(
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
-        let written = sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
-        stages::copy_mesh(&mesh_info, staged.path())?;
-        let mut summary = summary::transient(p, mesh_info, &model, &result, &sampled);
-        summary.max_von_mises = Some(written.max_von_mises);
-        Ok(summary)
+        if !options.summary_only {
+            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            stages::copy_mesh(&mesh_info, staged.path())?;
+        }
+        Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
     })?;
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;

@@ -261,9 +261,6 @@ impl Sampled {
 pub struct SeriesWritten {
     /// The frames' file names.
     pub files: Vec<String>,
-    /// The largest cell von Mises stress over the frames [Pa] (cell stresses are recovered
-    /// for every frame, written or not).
-    pub max_von_mises: f64,
 }
 
 fn vector3(u: &[f64]) -> Vec<f64> {
@@ -284,15 +281,13 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Write one VTU per snapshot and the `.pvd`; returns the file names and the largest von
-/// Mises stress.
+/// Write one VTU per snapshot and the `.pvd`; returns the file names.
 pub fn write_series(
     dir: &Path,
     model: &Model,
     sampled: &Sampled,
     fields: &[FieldName],
 ) -> Result<SeriesWritten> {
-    let mut max_von_mises = 0.0f64;
     let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
@@ -358,26 +353,23 @@ pub fn write_series(
                 });
             }
         }
-        let (cells, max) = stress_fields(model, &s.displacement, fields);
-        max_von_mises = max_von_mises.max(max);
+        let cells = stress_fields(model, &s.displacement, fields);
         let name = format!("frame_{j:04}.vtu");
         write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
         entries.push((s.time, name.clone()));
         files.push(name);
     }
     write_pvd(&dir.join("series.pvd"), &entries)?;
-    Ok(SeriesWritten {
-        files,
-        max_von_mises,
-    })
+    Ok(SeriesWritten { files })
 }
 
-/// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`), and its
-/// largest von Mises stress.
-fn stress_fields(model: &Model, u: &[f64], fields: &[FieldName]) -> (Vec<Field>, f64) {
+/// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`); the
+/// summary's largest von Mises stress is computed where the summary is.
+fn stress_fields(model: &Model, u: &[f64], fields: &[FieldName]) -> Vec<Field> {
+    if !fields.contains(&FieldName::Stress) && !fields.contains(&FieldName::VonMises) {
+        return Vec::new();
+    }
     let stresses = fem::cell_stresses(&model.mesh, &model.material, u);
-    let von_mises: Vec<f64> = stresses.iter().map(|t| t.von_mises()).collect();
-    let max = von_mises.iter().copied().fold(0.0, f64::max);
     let mut cells = Vec::new();
     if fields.contains(&FieldName::Stress) {
         cells.push(Field {
@@ -393,10 +385,10 @@ fn stress_fields(model: &Model, u: &[f64], fields: &[FieldName]) -> (Vec<Field>,
         cells.push(Field {
             name: "von_mises".into(),
             components: 1,
-            values: von_mises,
+            values: stresses.iter().map(|t| t.von_mises()).collect(),
         });
     }
-    (cells, max)
+    cells
 }
 
 /// `amplitudes.vtu`: the cos/sin amplitude field of every computed harmonic (`static` for

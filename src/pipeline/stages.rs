@@ -104,12 +104,15 @@ impl<'a> Stages<'a> {
     }
 }
 
-/// Mesh the geometry (or reuse the cache under the output's parent) and read it.
-pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, MeshInfo)> {
-    let cache_dir = out
-        .parent()
+/// The mesh cache a run writing to `out` uses: `.mesh-cache` beside `out`.
+pub fn mesh_cache_dir(out: &Path) -> PathBuf {
+    out.parent()
         .map(|d| d.join(".mesh-cache"))
-        .unwrap_or_else(|| PathBuf::from(".mesh-cache"));
+        .unwrap_or_else(|| PathBuf::from(".mesh-cache"))
+}
+
+/// What to ask gmsh for, and within which limits.
+pub fn mesh_request(p: &Pipeline) -> (mesh::gmsh::MeshRequest, mesh::gmsh::MeshLimits) {
     let request = mesh::gmsh::MeshRequest {
         geo: p.geometry.file.clone(),
         parameters: p.geometry.parameters.clone(),
@@ -122,6 +125,13 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
         max_elements: p.geometry.max_elements,
         timeout: std::time::Duration::from_secs_f64(p.geometry.gmsh_timeout),
     };
+    (request, limits)
+}
+
+/// Mesh the geometry (or reuse the cache under the output's parent) and read it.
+pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, MeshInfo)> {
+    let cache_dir = mesh_cache_dir(out);
+    let (request, limits) = mesh_request(p);
     let reporter = stages.reporter;
     let mut meshed = stages.run("mesh", || {
         mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)

@@ -227,6 +227,9 @@ pub struct ContactSummary {
     /// still moves with H (impact peaks converge slowly; the mean and the amplitudes fast).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_change_from_half_h: Option<f64>,
+    /// Share of (contact node, history sample) pairs that are closed (`closed_opening_tolerance`):
+    /// 0 never touching, 1 every node closed all period.
+    pub contact_fraction: f64,
     /// The harmonic-balance contact solve (harmonic balance only).
     #[serde(flatten)]
     pub solver: Option<ContactSolve>,
@@ -266,6 +269,10 @@ pub struct ProbeAmplitudes {
     pub first_harmonic_x: f64,
     pub half_peak_to_peak_y: f64,
     pub first_harmonic_y: f64,
+    /// Amplitude of u_x's harmonics 1, 2, … up to the pipeline's H (and below half the
+    /// history's samples).
+    pub harmonics_x: Vec<f64>,
+    pub harmonics_y: Vec<f64>,
 }
 
 impl ProbeAmplitudes {
@@ -363,8 +370,36 @@ fn series_stats(sampled: &Sampled) -> ContactSummary {
         max_sampled_penetration: 0.0,
         peak_contact_force_half_h: None,
         peak_change_from_half_h: None,
+        contact_fraction: contact_fraction(sampled),
         solver: None,
     }
+}
+
+/// Share of (contact node, sample) pairs of the history that are closed.
+fn contact_fraction(sampled: &Sampled) -> f64 {
+    let tolerance = sampled.closed_tolerance;
+    let (mut closed, mut all) = (0usize, 0usize);
+    for state in &sampled.history.contact {
+        closed += (0..state.gap.len())
+            .filter(|&i| state.closed(i, tolerance))
+            .count();
+        all += state.gap.len();
+    }
+    if all == 0 {
+        0.0
+    } else {
+        closed as f64 / all as f64
+    }
+}
+
+/// Largest cell von Mises stress over the output frames [Pa].
+fn max_von_mises(model: &Model, sampled: &Sampled) -> f64 {
+    sampled
+        .frames
+        .iter()
+        .flat_map(|s| crate::fem::cell_stresses(&model.mesh, &model.material, &s.displacement))
+        .map(|t| t.von_mises())
+        .fold(0.0, f64::max)
 }
 
 /// Half the peak-to-peak range of a series (what a gauge shows as amplitude).
@@ -379,16 +414,24 @@ fn half_range(series: &[f64]) -> f64 {
 pub fn probe_amplitudes(
     model: &Model,
     displacements: &[Vec<f64>],
+    harmonics: usize,
 ) -> BTreeMap<String, ProbeAmplitudes> {
     let count = displacements.len().max(1) as f64;
-    let measure = |series: &[f64]| -> (f64, f64) {
+    let top = harmonics
+        .min((displacements.len() / 2).saturating_sub(1))
+        .max(1);
+    let amplitude = |series: &[f64], k: usize| -> f64 {
         let (mut a, mut b) = (0.0, 0.0);
         for (j, s) in series.iter().enumerate() {
-            let phase = 2.0 * std::f64::consts::PI * j as f64 / count;
+            let phase = 2.0 * std::f64::consts::PI * (k * j) as f64 / count;
             a += s * phase.cos();
             b += s * phase.sin();
         }
-        (half_range(series), 2.0 * (a * a + b * b).sqrt() / count)
+        2.0 * (a * a + b * b).sqrt() / count
+    };
+    let measure = |series: &[f64]| -> (f64, Vec<f64>) {
+        let spectrum = (1..=top).map(|k| amplitude(series, k)).collect();
+        (half_range(series), spectrum)
     };
     model
         .probes
@@ -401,13 +444,15 @@ pub fn probe_amplitudes(
                     .map(|u| nodes.iter().map(|&i| u[2 * i + c]).sum::<f64>() / n)
                     .collect()
             };
-            let (px, fx) = measure(&component(0));
-            let (py, fy) = measure(&component(1));
+            let (px, hx) = measure(&component(0));
+            let (py, hy) = measure(&component(1));
             let amplitudes = ProbeAmplitudes {
                 half_peak_to_peak_x: px,
-                first_harmonic_x: fx,
+                first_harmonic_x: hx[0],
                 half_peak_to_peak_y: py,
-                first_harmonic_y: fy,
+                first_harmonic_y: hy[0],
+                harmonics_x: hx,
+                harmonics_y: hy,
             };
             (name.clone(), amplitudes)
         })
@@ -450,8 +495,9 @@ pub fn harmonic_balance(
     Summary {
         linear_residuals: Some(solution.residuals.clone()),
         contact,
-        probes: probe_amplitudes(model, &history.displacement),
+        probes: probe_amplitudes(model, &history.displacement, p.harmonic_balance.harmonics),
         warnings: solution.warnings.clone(),
+        max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(p, RunMode::HarmonicBalance, mesh, model, Some(solution))
     }
 }
@@ -490,7 +536,11 @@ pub fn transient(
         .collect();
     Summary {
         contact,
-        probes: probe_amplitudes(model, &sampled.history.displacement),
+        probes: probe_amplitudes(
+            model,
+            &sampled.history.displacement,
+            p.harmonic_balance.harmonics,
+        ),
         warnings,
         transient: Some(TransientInfo {
             dt: result.dt,
@@ -500,6 +550,7 @@ pub fn transient(
             periodicity_error: result.periodicity_error,
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
+        max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(p, RunMode::Transient, mesh, model, None)
     }
 }

@@ -1,0 +1,48 @@
+//! How the command line shows a study: counts, timings, where the table went, and for accuracy
+//! studies the Markdown table and the cheapest settings meeting `--tolerance`.
+
+use hbcontact::study::accuracy::AccuracyReport;
+use hbcontact::study::StudyReport;
+
+pub fn show_study(report: &StudyReport) {
+    if let Some(e) = &report.execution {
+        eprintln!(
+            "ran {} points ({} done before, skipped) on {} threads; meshing {} geometries took {:.2} s, the points {:.2} s",
+            e.ran, e.skipped, e.threads, e.geometries, e.meshing_seconds, e.points_seconds
+        );
+    }
+    match &report.table {
+        Some(table) => eprintln!(
+            "{} points: {} ok, {} failed, {} missing; wrote {} (plots and manifest.json beside it)",
+            report.points,
+            report.ok,
+            report.failed,
+            report.missing,
+            table.display()
+        ),
+        None => eprintln!(
+            "shard done ({} points); join the shards with --merge",
+            report.points
+        ),
+    }
+}
+
+/// The accuracy table on stdout.
+pub fn show_accuracy(report: &AccuracyReport) {
+    println!("errors against {}", report.reference_name());
+    println!("{}", report.markdown());
+}
+
+/// The cheapest rung meeting the tolerance, per measure.
+pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
+    println!("cheapest setting with relative error ≤ {tolerance:e}:");
+    for c in report.cheapest(tolerance) {
+        match c.rung {
+            Some((key, value, error, secs)) => println!(
+                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s)",
+                c.measure.name()
+            ),
+            None => println!("  {:<22} no rung meets it", c.measure.name()),
+        }
+    }
+}

@@ -1,0 +1,386 @@
+//! Plots as SVG and PNG: line and scatter series with labels on linear or logarithmic axes
+//! (`Figure`), and heat maps of a value over a two-parameter grid (`HeatMap`). Drawn with
+//! `plotters` into SVG; the PNG is the same SVG rasterized by `resvg` with the DejaVu Sans
+//! font compiled in (assets/fonts), so both look alike and need no system fonts.
+//!
+//! Small on purpose: a study's output-against-parameter plots, the accuracy study's Pareto
+//! plot, and later frequency-response curves and time histories all use it.
+//!
+//! ```no_run
+//! use hbcontact::output::plot::{Axis, Figure};
+//! let fig = Figure::new("probe amplitude", Axis::linear("gap [m]"), Axis::log("amplitude [m]"))
+//!     .line("H = 10", vec![(1e-7, 2e-6), (2e-7, 1.5e-6)])
+//!     .dashed("reference", vec![(1e-7, 2.1e-6), (2e-7, 1.6e-6)]);
+//! fig.save(std::path::Path::new("out/amplitude")).unwrap(); // amplitude.svg, amplitude.png
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::{Error, Result};
+
+const WIDTH: u32 = 720;
+const HEIGHT: u32 = 480;
+const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+/// One axis: its label (with the unit, e.g. `gap [m]`) and whether it is logarithmic.
+#[derive(Clone, Debug)]
+pub struct Axis {
+    pub label: String,
+    pub log: bool,
+}
+
+impl Axis {
+    pub fn linear(label: impl Into<String>) -> Self {
+        Axis {
+            label: label.into(),
+            log: false,
+        }
+    }
+    pub fn log(label: impl Into<String>) -> Self {
+        Axis {
+            label: label.into(),
+            log: true,
+        }
+    }
+}
+
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Style {
+    /// Solid line through the points, with markers.
+    Line,
+    /// Markers only.
+    Scatter,
+    /// Dashed line without markers (references, asymptotes).
+    Dashed,
+}
+
+#[derive(Clone, Debug)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+    pub style: Style,
+}
+
+/// A 2-D plot of labelled series; the legend sits inside the frame.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    pub title: String,
+    pub x: Axis,
+    pub y: Axis,
+    pub series: Vec<Series>,
+}
+
+fn plot_error(e: impl std::fmt::Display) -> Error {
+    Error::Model(format!("internal: plot: {e}"))
+}
+
+impl Figure {
+    pub fn new(title: impl Into<String>, x: Axis, y: Axis) -> Self {
+        Figure {
+            title: title.into(),
+            x,
+            y,
+            series: Vec::new(),
+        }
+    }
+
+    pub fn add(mut self, label: impl Into<String>, points: Vec<(f64, f64)>, style: Style) -> Self {
+        self.series.push(Series {
+            label: label.into(),
+            points,
+            style,
+        });
+        self
+    }
+    pub fn line(self, label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        self.add(label, points, Style::Line)
+    }
+    pub fn scatter(self, label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        self.add(label, points, Style::Scatter)
+    }
+    pub fn dashed(self, label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        self.add(label, points, Style::Dashed)
+    }
+
+    /// The points that can be drawn: finite, and positive on a log axis.
+    fn drawable(&self, s: &Series) -> Vec<(f64, f64)> {
+        let ok = |v: f64, log: bool| v.is_finite() && (!log || v > 0.0);
+        s.points
+            .iter()
+            .copied()
+            .filter(|&(x, y)| ok(x, self.x.log) && ok(y, self.y.log))
+            .collect()
+    }
+
+    /// The figure as an SVG document.
+    pub fn svg(&self) -> Result<String> {
+        let mut text = String::new();
+        {
+            let root = SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)).into_drawing_area();
+            root.fill(&WHITE).map_err(plot_error)?;
+            let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
+            let xr = range(all.iter().map(|p| p.0), self.x.log);
+            let yr = range(all.iter().map(|p| p.1), self.y.log);
+            match (self.x.log, self.y.log) {
+                (false, false) => self.draw(&root, xr.0..xr.1, yr.0..yr.1)?,
+                (true, false) => self.draw(&root, (xr.0..xr.1).log_scale(), yr.0..yr.1)?,
+                (false, true) => self.draw(&root, xr.0..xr.1, (yr.0..yr.1).log_scale())?,
+                (true, true) => {
+                    self.draw(&root, (xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())?
+                }
+            }
+            root.present().map_err(plot_error)?;
+        }
+        Ok(text)
+    }
+
+    fn draw<X, Y>(&self, root: &DrawingArea<SVGBackend, Shift>, x: X, y: Y) -> Result<()>
+    where
+        X: AsRangedCoord<Value = f64>,
+        Y: AsRangedCoord<Value = f64>,
+        X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+        Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    {
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(78)
+            .build_cartesian_2d(x, y)
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x.label.as_str())
+            .y_desc(self.y.label.as_str())
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(plot_error)?;
+        for (i, s) in self.series.iter().enumerate() {
+            let colour = PALETTE[i % PALETTE.len()];
+            let pts = self.drawable(s);
+            let entry = match s.style {
+                Style::Line => {
+                    chart
+                        .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+                        .map_err(plot_error)?;
+                    chart
+                        .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                        .map_err(plot_error)?
+                }
+                Style::Scatter => chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                    .map_err(plot_error)?,
+                Style::Dashed => chart
+                    .draw_series(DashedLineSeries::new(pts, 8, 5, colour.stroke_width(2)))
+                    .map_err(plot_error)?,
+            };
+            let dashed = s.style == Style::Dashed;
+            entry.label(s.label.as_str()).legend(move |(x, y)| {
+                if dashed {
+                    PathElement::new(vec![(x, y), (x + 8, y)], colour.stroke_width(2))
+                } else {
+                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                }
+            });
+        }
+        if self.series.iter().any(|s| !s.label.is_empty()) {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(plot_error)?;
+        }
+        Ok(())
+    }
+
+    /// Write `<stem>.svg` and `<stem>.png`.
+    pub fn save(&self, stem: &Path) -> Result<()> {
+        save_both(stem, &self.svg()?)
+    }
+}
+
+/// A value over a grid of two parameters, one coloured cell per grid point with its value
+/// written in it (blank: no value, e.g. a failed point).
+#[derive(Clone, Debug)]
+pub struct HeatMap {
+    pub title: String,
+    pub x: Axis,
+    pub y: Axis,
+    pub xs: Vec<f64>,
+    pub ys: Vec<f64>,
+    /// `values[j][i]` at (`xs[i]`, `ys[j]`); NaN where there is none.
+    pub values: Vec<Vec<f64>>,
+}
+
+impl HeatMap {
+    pub fn svg(&self) -> Result<String> {
+        let mut text = String::new();
+        {
+            let root = SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)).into_drawing_area();
+            root.fill(&WHITE).map_err(plot_error)?;
+            let (nx, ny) = (self.xs.len().max(1), self.ys.len().max(1));
+            let xs = self.xs.clone();
+            let ys = self.ys.clone();
+            let label = |vals: &[f64], v: f64| -> String {
+                let i = v.floor();
+                if v - i > 0.45 && v - i < 0.55 && i >= 0.0 && (i as usize) < vals.len() {
+                    tick(vals[i as usize])
+                } else {
+                    String::new()
+                }
+            };
+            let mut chart = ChartBuilder::on(&root)
+                .caption(&self.title, ("sans-serif", 18))
+                .margin(12)
+                .x_label_area_size(48)
+                .y_label_area_size(78)
+                .build_cartesian_2d(0.0..nx as f64, 0.0..ny as f64)
+                .map_err(plot_error)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_labels(4 * nx + 1)
+                .y_labels(4 * ny + 1)
+                .x_desc(self.x.label.as_str())
+                .y_desc(self.y.label.as_str())
+                .x_label_formatter(&|v| label(&xs, *v))
+                .y_label_formatter(&|v| label(&ys, *v))
+                .draw()
+                .map_err(plot_error)?;
+            let finite = self
+                .values
+                .iter()
+                .flatten()
+                .copied()
+                .filter(|v| v.is_finite());
+            let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+            for (j, row) in self.values.iter().enumerate() {
+                for (i, &v) in row.iter().enumerate() {
+                    if !v.is_finite() {
+                        continue;
+                    }
+                    let t = if hi > lo { (v - lo) / (hi - lo) } else { 0.5 };
+                    let (x, y) = (i as f64, j as f64);
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(x, y), (x + 1.0, y + 1.0)],
+                            colour_scale(t).filled(),
+                        )))
+                        .map_err(plot_error)?;
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            tick(v),
+                            (x + 0.3, y + 0.55),
+                            ("sans-serif", 13),
+                        )))
+                        .map_err(plot_error)?;
+                }
+            }
+            root.present().map_err(plot_error)?;
+        }
+        Ok(text)
+    }
+
+    /// Write `<stem>.svg` and `<stem>.png`.
+    pub fn save(&self, stem: &Path) -> Result<()> {
+        save_both(stem, &self.svg()?)
+    }
+}
+
+/// Light blue (t = 0) to light red (t = 1), pale enough for black text.
+fn colour_scale(t: f64) -> RGBColor {
+    let t = t.clamp(0.0, 1.0);
+    let mix = |a: f64, b: f64| (a + (b - a) * t).round() as u8;
+    RGBColor(mix(158.0, 244.0), mix(202.0, 165.0), mix(225.0, 130.0))
+}
+
+/// A tick label: plain for moderate magnitudes, otherwise `1.5e-7`.
+pub fn tick(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if (1e-2..1e4).contains(&a) {
+        let s = format!("{v:.3}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        let s = format!("{v:.2e}");
+        match s.split_once('e') {
+            Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
+            None => s,
+        }
+    }
+}
+
+/// The axis range of some values, padded; decades on a log axis.
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if !lo.is_finite() {
+        return if log { (1e-3, 1.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        let (l, h) = (lo.log10().floor(), hi.log10().ceil());
+        (10f64.powf(l), 10f64.powf(if h > l { h } else { l + 1.0 }))
+    } else if hi > lo {
+        let pad = 0.05 * (hi - lo);
+        (lo - pad, hi + pad)
+    } else {
+        let pad = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        (lo - pad, hi + pad)
+    }
+}
+
+/// An SVG document rasterized to PNG bytes (text in the compiled-in DejaVu Sans).
+pub fn svg_to_png(svg: &str) -> Result<Vec<u8>> {
+    let mut options = resvg::usvg::Options::default();
+    {
+        let db = options.fontdb_mut();
+        db.load_font_data(FONT.to_vec());
+        db.set_sans_serif_family("DejaVu Sans");
+    }
+    let tree = resvg::usvg::Tree::from_str(svg, &options).map_err(plot_error)?;
+    let size = tree.size().to_int_size();
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height())
+        .ok_or_else(|| plot_error("empty image"))?;
+    resvg::render(
+        &tree,
+        resvg::tiny_skia::Transform::default(),
+        &mut pixmap.as_mut(),
+    );
+    pixmap.encode_png().map_err(plot_error)
+}
+
+fn with_extension(stem: &Path, ext: &str) -> PathBuf {
+    let mut name = stem.as_os_str().to_owned();
+    name.push(".");
+    name.push(ext);
+    PathBuf::from(name)
+}
+
+fn save_both(stem: &Path, svg: &str) -> Result<()> {
+    let svg_path = with_extension(stem, "svg");
+    std::fs::write(&svg_path, svg).map_err(|e| Error::io(&svg_path, e))?;
+    let png_path = with_extension(stem, "png");
+    std::fs::write(&png_path, svg_to_png(svg)?).map_err(|e| Error::io(&png_path, e))
+}

@@ -1,0 +1,340 @@
+//! What accuracy costs, as a study: ladders of settings (harmonics H, samples N, contact
+//! parameter c, mesh size, element order, …), each rung's relative error against a reference
+//! in several measures, and its wall time.
+//!
+//! Relative error of measure m at a rung: e_m = |m − m_ref| / |m_ref|, where m_ref is the
+//! ladder's last rung (`reference: finest`) or a time-marching run of the pipeline
+//! (`reference: transient`). Measures: the probe's first-harmonic amplitude and peak-to-peak
+//! range, the mean and the peak total contact force. Wall time excludes meshing (the cache
+//! makes it free after the first rung). A failed rung is tabulated with its error and the
+//! others go on. Outputs: `accuracy.csv`, `accuracy.svg|png` (the Pareto plot of the probe's
+//! first-harmonic error against wall time, reference named in the title) and
+//! `plots/pareto_<measure>.svg|png`, and `manifest.json`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::execute::Execution;
+use super::outputs::Output;
+use super::plan::Mode;
+use super::spec::{Accuracy, Reference, Study};
+use super::table::{csv_field, csv_number, slug, Row, Staged};
+use crate::output::plot::{tick, Axis, Figure};
+use crate::output::tables::write_json;
+use crate::{Error, Result};
+
+/// The measures compared, in table order.
+pub const MEASURES: [Output; 4] = [
+    Output::ProbeFirstHarmonic,
+    Output::ProbePeakToPeak,
+    Output::MeanContactForce,
+    Output::PeakContactForce,
+];
+
+/// One rung of a ladder (or the transient reference).
+#[derive(Clone, Debug, Serialize)]
+pub struct Rung {
+    /// The ladder's key (`reference` for the transient reference run).
+    pub key: String,
+    pub value: f64,
+    pub status: String,
+    pub exit_class: Option<String>,
+    pub message: Option<String>,
+    /// Wall time without meshing [s].
+    pub seconds: f64,
+    pub free_dofs: f64,
+    pub newton_iterations: f64,
+    /// The measures' values, in `MEASURES` order.
+    pub values: Vec<f64>,
+    /// Their relative errors against the reference (NaN: no reference or no value).
+    pub errors: Vec<f64>,
+    pub is_reference: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct AccuracyReport {
+    pub reference: Reference,
+    pub rungs: Vec<Rung>,
+}
+
+/// The cheapest rung meeting `tolerance` in one measure.
+#[derive(Clone, Debug)]
+pub struct Cheapest {
+    pub measure: Output,
+    /// (ladder key, value, error, seconds); None when no rung meets the tolerance.
+    pub rung: Option<(String, f64, f64, f64)>,
+}
+
+fn rung(row: &Row, key: String, value: f64) -> Rung {
+    let r = row.record.as_ref();
+    Rung {
+        key,
+        value,
+        status: row.status().to_string(),
+        exit_class: r.and_then(|r| r.exit_class.clone()),
+        message: r.and_then(|r| r.error.clone()),
+        seconds: row.output(&Output::WallTime),
+        free_dofs: row.output(&Output::FreeDofs),
+        newton_iterations: row.output(&Output::NewtonIterations),
+        values: MEASURES.iter().map(|m| row.output(m)).collect(),
+        errors: vec![f64::NAN; MEASURES.len()],
+        is_reference: false,
+    }
+}
+
+fn relative(v: f64, reference: f64) -> f64 {
+    if reference == 0.0 && v == 0.0 {
+        0.0
+    } else {
+        ((v - reference) / reference).abs()
+    }
+}
+
+/// The rungs with their errors, from the study's rows (ladders in order, then the transient
+/// reference if there is one).
+pub fn evaluate(spec: &Accuracy, rows: &[Row]) -> AccuracyReport {
+    let transient = rows
+        .iter()
+        .find(|r| r.point.mode == Mode::Transient)
+        .map(|r| rung(r, "reference".into(), f64::NAN));
+    let mut rungs = Vec::new();
+    let mut at = 0;
+    for ladder in &spec.ladders {
+        let mut ladder_rungs: Vec<Rung> = rows[at..at + ladder.values.len()]
+            .iter()
+            .zip(&ladder.values)
+            .map(|(row, &v)| rung(row, ladder.key.clone(), v))
+            .collect();
+        at += ladder.values.len();
+        let reference = match spec.reference {
+            Reference::Finest => ladder_rungs.last_mut().map(|r| {
+                r.is_reference = true;
+                r.values.clone()
+            }),
+            Reference::Transient => transient.as_ref().map(|t| t.values.clone()),
+        };
+        if let Some(reference) = reference {
+            for r in &mut ladder_rungs {
+                r.errors = r
+                    .values
+                    .iter()
+                    .zip(&reference)
+                    .map(|(&v, &m)| relative(v, m))
+                    .collect();
+            }
+        }
+        rungs.extend(ladder_rungs);
+    }
+    if let Some(mut t) = transient {
+        t.is_reference = true;
+        t.errors = vec![0.0; MEASURES.len()];
+        rungs.push(t);
+    }
+    AccuracyReport {
+        reference: spec.reference,
+        rungs,
+    }
+}
+
+impl AccuracyReport {
+    /// Per measure, the rung of least wall time whose error is at most `tolerance` (the
+    /// reference itself does not count).
+    pub fn cheapest(&self, tolerance: f64) -> Vec<Cheapest> {
+        MEASURES
+            .iter()
+            .enumerate()
+            .map(|(m, measure)| Cheapest {
+                measure: *measure,
+                rung: self
+                    .rungs
+                    .iter()
+                    .filter(|r| !r.is_reference && r.errors[m] <= tolerance)
+                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+                    .map(|r| (r.key.clone(), r.value, r.errors[m], r.seconds)),
+            })
+            .collect()
+    }
+
+    /// What the errors are measured against, for titles and messages.
+    pub fn reference_name(&self) -> String {
+        match self.reference {
+            Reference::Transient => "a time-marching (transient) run".into(),
+            Reference::Finest => {
+                let names: Vec<String> = self
+                    .rungs
+                    .iter()
+                    .filter(|r| r.is_reference)
+                    .map(|r| format!("{} = {}", short(&r.key), tick(r.value)))
+                    .collect();
+                format!("the finest rung ({})", names.join(", "))
+            }
+        }
+    }
+
+    /// A Markdown table of every rung.
+    pub fn markdown(&self) -> String {
+        let mut s = String::from("| setting | value | wall time [s] | probe 1st-harmonic amplitude [m] | error | probe peak-to-peak error | mean contact force error | peak contact force error | Newton its | free dofs | status |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+        let e = |v: f64| {
+            if v.is_finite() {
+                format!("{v:.2e}")
+            } else {
+                "-".into()
+            }
+        };
+        for r in &self.rungs {
+            let value = if r.key == "reference" {
+                "transient".into()
+            } else {
+                tick(r.value)
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {value} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                r.key,
+                r.seconds,
+                e(r.values[0]),
+                e(r.errors[0]),
+                e(r.errors[1]),
+                e(r.errors[2]),
+                e(r.errors[3]),
+                if r.newton_iterations.is_finite() {
+                    format!("{}", r.newton_iterations)
+                } else {
+                    "-".into()
+                },
+                if r.free_dofs.is_finite() {
+                    format!("{}", r.free_dofs)
+                } else {
+                    "-".into()
+                },
+                r.status,
+            );
+        }
+        s
+    }
+
+    /// `accuracy.csv`.
+    pub fn csv(&self) -> String {
+        let mut s =
+            String::from("ladder,value,status,exit_class,wall_time,free_dofs,newton_iterations");
+        for m in &MEASURES {
+            let _ = write!(s, ",{0},error_{0}", m.name());
+        }
+        s.push_str(",error\n");
+        for r in &self.rungs {
+            let value = if r.key == "reference" {
+                "transient".into()
+            } else {
+                csv_number(r.value)
+            };
+            let _ = write!(
+                s,
+                "{},{value},{},{},{},{},{}",
+                csv_field(&r.key),
+                r.status,
+                r.exit_class.clone().unwrap_or_default(),
+                csv_number(r.seconds),
+                csv_number(r.free_dofs),
+                csv_number(r.newton_iterations)
+            );
+            for (v, e) in r.values.iter().zip(&r.errors) {
+                let _ = write!(s, ",{},{}", csv_number(*v), csv_number(*e));
+            }
+            let _ = writeln!(s, ",{}", csv_field(r.message.as_deref().unwrap_or("")));
+        }
+        s
+    }
+
+    /// The Pareto plot of measure `m`: relative error against wall time, one line per ladder.
+    pub fn pareto(&self, m: usize) -> Figure {
+        let title = format!(
+            "error of {} vs wall time; reference: {}",
+            MEASURES[m].name(),
+            self.reference_name()
+        );
+        let mut fig = Figure::new(
+            title,
+            Axis::log("wall time without meshing [s]"),
+            Axis::log(format!("relative error of {}", MEASURES[m].name())),
+        );
+        let mut keys: Vec<&str> = Vec::new();
+        for r in &self.rungs {
+            if r.key != "reference" && !keys.contains(&r.key.as_str()) {
+                keys.push(&r.key);
+            }
+        }
+        for key in keys {
+            let pts = self
+                .rungs
+                .iter()
+                .filter(|r| r.key == key && !r.is_reference)
+                .map(|r| (r.seconds, r.errors[m]))
+                .collect();
+            fig = fig.line(short(key), pts);
+        }
+        fig
+    }
+}
+
+/// `harmonic_balance.harmonics` → `harmonics`, for legends.
+fn short(key: &str) -> &str {
+    key.rsplit('.')
+        .find(|s| s.parse::<usize>().is_err())
+        .unwrap_or(key)
+}
+
+#[derive(Serialize)]
+struct Manifest<'a> {
+    study: &'a str,
+    pipeline: &'a Path,
+    hbcontact_version: &'static str,
+    kind: &'static str,
+    reference: String,
+    rungs: usize,
+    failed: usize,
+    files: Vec<String>,
+    execution: Option<&'a Execution>,
+}
+
+/// Write `accuracy.csv`, the Pareto plots and `manifest.json` (staged, moved in at the end).
+pub fn publish(
+    study: &Study,
+    out: &Path,
+    report: &AccuracyReport,
+    execution: Option<&Execution>,
+) -> Result<PathBuf> {
+    let staged = Staged::new(out)?;
+    let table = staged.dir.join("accuracy.csv");
+    std::fs::write(&table, report.csv()).map_err(|e| Error::io(&table, e))?;
+    report.pareto(0).save(&staged.dir.join("accuracy"))?;
+    let mut files = vec![
+        "accuracy.csv".to_string(),
+        "accuracy.svg".into(),
+        "accuracy.png".into(),
+    ];
+    for (m, measure) in MEASURES.iter().enumerate() {
+        if report.rungs.iter().any(|r| r.errors[m] > 0.0) {
+            let stem = format!("pareto_{}", slug(&measure.name()));
+            report
+                .pareto(m)
+                .save(&staged.dir.join("plots").join(&stem))?;
+            files.extend([format!("plots/{stem}.svg"), format!("plots/{stem}.png")]);
+        }
+    }
+    let manifest = Manifest {
+        study: &study.name,
+        pipeline: &study.pipeline,
+        hbcontact_version: env!("CARGO_PKG_VERSION"),
+        kind: "accuracy",
+        reference: report.reference_name(),
+        rungs: report.rungs.len(),
+        failed: report.rungs.iter().filter(|r| r.status != "ok").count(),
+        files,
+        execution,
+    };
+    write_json(&staged.dir.join("manifest.json"), &manifest)?;
+    staged.publish()?;
+    Ok(out.join("accuracy.csv"))
+}

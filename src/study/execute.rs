@@ -1,0 +1,277 @@
+//! Running a study's points on the cores of one machine.
+//!
+//! Thread split: `threads` points run at once on a rayon pool of that size; while more than
+//! one runs, faer's sparse factorizations are sequential (`faer::Par::Seq`), so the cores are
+//! shared between points and never oversubscribed. With one thread, points run one after
+//! another and faer keeps its default (every core). Small 2-D meshes factor in milliseconds, so
+//! points-in-parallel is where the speed-up is (benches/study.rs measures both).
+//!
+//! Each point writes `points/<key>/summary.json` (and the full series when asked) through
+//! `pipeline::run`, then `point.json`: its outputs or its error and exit class. A point whose
+//! `point.json` says ok (for the same probe, and in full if full is wanted) is done and skipped.
+//! Meshes are made once per distinct geometry before the points run, into the cache the points
+//! share (`points/.mesh-cache`, its entries locked while written).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::outputs::Output;
+use super::plan::{describe, point_dir, Mode, Point};
+use crate::output::tables::write_json;
+use crate::pipeline::{self, stages, RunOptions, Summary};
+use crate::progress::{Reporter, Silent};
+use crate::{Error, Result};
+
+/// What a point left behind (`points/<key>/point.json`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PointRecord {
+    pub key: String,
+    pub mode: Mode,
+    /// `ok` or `failed`.
+    pub status: String,
+    /// `bad_input`, `model`, `not_converged`, `io` or `internal` (failed points).
+    pub exit_class: Option<String>,
+    pub exit_code: Option<u8>,
+    pub error: Option<String>,
+    /// The probe the outputs are of (None: the pipeline's first).
+    pub probe: Option<String>,
+    /// Every output a study can ask for, by name (NaN written as null).
+    pub outputs: BTreeMap<String, Option<f64>>,
+    pub full: bool,
+    /// Wall time of the whole point, meshing included [s].
+    pub seconds: f64,
+    pub warnings: Vec<String>,
+}
+
+impl PointRecord {
+    pub fn ok(&self) -> bool {
+        self.status == "ok"
+    }
+    pub fn output(&self, o: &Output) -> f64 {
+        self.outputs
+            .get(&o.name())
+            .copied()
+            .flatten()
+            .unwrap_or(f64::NAN)
+    }
+}
+
+/// The point's record, if it has one that reads.
+pub fn read_record(out: &Path, key: &str) -> Option<PointRecord> {
+    let path = point_dir(out, key).join("point.json");
+    let text = std::fs::read_to_string(path).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+/// Whether a point needs running: no ok record for this probe, or not in full when wanted.
+pub fn is_done(out: &Path, point: &Point, probe: Option<&str>) -> bool {
+    read_record(out, &point.key).is_some_and(|r| {
+        r.ok() && r.key == point.key && r.probe.as_deref() == probe && (r.full || !point.full)
+    })
+}
+
+/// Every output of the catalogue for this summary (probe harmonics up to those computed).
+fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>> {
+    let mut outputs: Vec<Output> = [
+        "probe_first_harmonic",
+        "probe_first_harmonic_x",
+        "probe_first_harmonic_y",
+        "probe_peak_to_peak",
+        "probe_peak_to_peak_x",
+        "probe_peak_to_peak_y",
+        "peak_contact_force",
+        "mean_contact_force",
+        "contact_fraction",
+        "max_von_mises",
+        "newton_iterations",
+        "free_dofs",
+        "wall_time",
+    ]
+    .iter()
+    .filter_map(|n| Output::parse(n).ok())
+    .collect();
+    let harmonics = s
+        .probes
+        .values()
+        .map(|a| a.harmonics_x.len())
+        .max()
+        .unwrap_or(0);
+    outputs.extend((1..=harmonics).map(Output::ProbeHarmonic));
+    outputs
+        .iter()
+        .map(|o| {
+            let v = o.value(s, probe);
+            (o.name(), v.is_finite().then_some(v))
+        })
+        .collect()
+}
+
+/// Run one point and write its record; a failure is recorded, never returned (only failing to
+/// write the record is an error).
+fn run_point(out: &Path, point: &Point, probe: Option<&str>) -> Result<PointRecord> {
+    let dir = point_dir(out, &point.key);
+    let options = RunOptions {
+        out: Some(dir.clone()),
+        summary_only: !point.full,
+    };
+    let start = Instant::now();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match point.mode {
+        Mode::HarmonicBalance => pipeline::run(&point.pipeline, &options, &Silent),
+        Mode::Transient => pipeline::run_transient(&point.pipeline, &options, &Silent),
+    }));
+    let seconds = start.elapsed().as_secs_f64();
+    let base = PointRecord {
+        key: point.key.clone(),
+        mode: point.mode,
+        status: "ok".into(),
+        exit_class: None,
+        exit_code: None,
+        error: None,
+        probe: probe.map(str::to_string),
+        outputs: BTreeMap::new(),
+        full: point.full,
+        seconds,
+        warnings: Vec::new(),
+    };
+    let record = match result {
+        Ok(Ok(r)) => PointRecord {
+            outputs: all_outputs(&r.summary, probe),
+            warnings: r.summary.warnings.clone(),
+            ..base
+        },
+        Ok(Err(e)) => PointRecord {
+            status: "failed".into(),
+            exit_class: Some(e.class().into()),
+            exit_code: Some(e.exit_code()),
+            error: Some(e.to_string()),
+            ..base
+        },
+        Err(_) => PointRecord {
+            status: "failed".into(),
+            exit_class: Some("internal".into()),
+            exit_code: Some(1),
+            error: Some("internal error (a panic); please report it with the study file".into()),
+            ..base
+        },
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    write_json(&dir.join("point.json"), &record)?;
+    Ok(record)
+}
+
+/// Mesh every distinct geometry of `points` once (in parallel), into the points' shared
+/// cache. Failures are left for the points themselves to report. Returns the seconds spent.
+fn premesh(out: &Path, points: &[&Point]) -> f64 {
+    let start = Instant::now();
+    let cache = stages::mesh_cache_dir(&point_dir(out, "any"));
+    let mut seen = std::collections::BTreeSet::new();
+    let requests: Vec<_> = points
+        .iter()
+        .map(|p| stages::mesh_request(&p.pipeline))
+        .filter(|(r, _)| seen.insert(format!("{r:?}")))
+        .collect();
+    requests.par_iter().for_each(|(request, limits)| {
+        let _ = crate::mesh::gmsh::mesh_geometry_with(request, limits, &cache, &Silent);
+    });
+    start.elapsed().as_secs_f64()
+}
+
+/// How the run went.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Execution {
+    /// Points run now (the others were done before or belong to other shards).
+    pub ran: usize,
+    /// Points skipped because an earlier run had done them.
+    pub skipped: usize,
+    pub threads: usize,
+    /// Distinct geometries meshed (or found cached) before the points ran.
+    pub geometries: usize,
+    pub meshing_seconds: f64,
+    /// Wall time of running the points (after meshing).
+    pub points_seconds: f64,
+}
+
+/// Points run at once: the option, else one per core.
+pub fn thread_count(requested: Option<usize>) -> usize {
+    requested
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
+}
+
+/// Run the points not done yet, `threads` at once, telling `reporter` about each.
+pub fn execute(
+    out: &Path,
+    points: &[&Point],
+    probe: Option<&str>,
+    threads: usize,
+    reporter: &dyn Reporter,
+) -> Result<Execution> {
+    let todo: Vec<&Point> = points
+        .iter()
+        .copied()
+        .filter(|p| !is_done(out, p, probe))
+        .collect();
+    let mut execution = Execution {
+        skipped: points.len() - todo.len(),
+        ran: todo.len(),
+        threads,
+        ..Default::default()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("study-{i}"))
+        .build()
+        .map_err(|e| Error::Model(format!("internal: cannot start {threads} threads: {e}")))?;
+    let faer_before = faer::get_global_parallelism();
+    if threads > 1 {
+        faer::set_global_parallelism(faer::Par::Seq);
+    }
+    execution.geometries = {
+        let mut seen = std::collections::BTreeSet::new();
+        todo.iter()
+            .filter(|p| seen.insert(format!("{:?}", stages::mesh_request(&p.pipeline).0)))
+            .count()
+    };
+    reporter.stage("mesh");
+    execution.meshing_seconds = pool.install(|| premesh(out, &todo));
+    reporter.stage_done("mesh", execution.meshing_seconds);
+    let start = Instant::now();
+    let total = todo.len() as u64;
+    let done = AtomicU64::new(0);
+    reporter.progress("points", 0, Some(total), "");
+    let results: Vec<Result<PointRecord>> = pool.install(|| {
+        todo.par_iter()
+            .map(|p| {
+                let record = run_point(out, p, probe);
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                let status = match &record {
+                    Ok(r) if r.ok() => format!("point {} done ({})", p.index, describe(&p.values)),
+                    _ => format!("point {} FAILED ({})", p.index, describe(&p.values)),
+                };
+                reporter.progress("points", n, Some(total), &status);
+                record
+            })
+            .collect()
+    });
+    reporter.task_done("points");
+    faer::set_global_parallelism(faer_before);
+    execution.points_seconds = start.elapsed().as_secs_f64();
+    for r in results {
+        r?;
+    }
+    Ok(execution)
+}
+
+/// The table's directory for merged or single-process results.
+pub fn results_files(out: &Path) -> [PathBuf; 3] {
+    [
+        out.join("study.csv"),
+        out.join("manifest.json"),
+        out.join("plots"),
+    ]
+}

@@ -1,0 +1,154 @@
+//! What a study tabulates for each point, read from the run's typed `Summary` right after the
+//! run (never from summary.json). Each output has a column name, a unit for the axes, and a
+//! value (NaN when the run does not have it, e.g. a contact force without contact).
+//!
+//! Probe outputs are of the study's probe group's mean displacement: `probe_first_harmonic`
+//! is the larger first-harmonic amplitude of u_x and u_y, `probe_harmonic_K` the same for
+//! harmonic K, `probe_peak_to_peak` the larger peak-to-peak range of the two.
+
+use super::super::pipeline::Summary;
+
+/// One tabulated quantity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    ProbeFirstHarmonic,
+    ProbeFirstHarmonicX,
+    ProbeFirstHarmonicY,
+    /// The amplitude of harmonic K (≥ 1) of the probe (the larger of x and y).
+    ProbeHarmonic(usize),
+    ProbePeakToPeak,
+    ProbePeakToPeakX,
+    ProbePeakToPeakY,
+    PeakContactForce,
+    MeanContactForce,
+    ContactFraction,
+    MaxVonMises,
+    NewtonIterations,
+    FreeDofs,
+    /// Wall time of the point's run without meshing (which the cache makes free) [s].
+    WallTime,
+    // Natural frequencies (`natural_frequency_K`) go here once `Summary` carries the modes
+    // (work under way in src/fem/modes.rs): a variant, its name, unit and `value` arm.
+}
+
+/// The fixed names, in documentation order (`probe_harmonic_K` comes on top).
+const NAMED: [(Output, &str, &str); 13] = [
+    (Output::ProbeFirstHarmonic, "probe_first_harmonic", "m"),
+    (Output::ProbeFirstHarmonicX, "probe_first_harmonic_x", "m"),
+    (Output::ProbeFirstHarmonicY, "probe_first_harmonic_y", "m"),
+    (Output::ProbePeakToPeak, "probe_peak_to_peak", "m"),
+    (Output::ProbePeakToPeakX, "probe_peak_to_peak_x", "m"),
+    (Output::ProbePeakToPeakY, "probe_peak_to_peak_y", "m"),
+    (Output::PeakContactForce, "peak_contact_force", "N"),
+    (Output::MeanContactForce, "mean_contact_force", "N"),
+    (Output::ContactFraction, "contact_fraction", "-"),
+    (Output::MaxVonMises, "max_von_mises", "Pa"),
+    (Output::NewtonIterations, "newton_iterations", "-"),
+    (Output::FreeDofs, "free_dofs", "-"),
+    (Output::WallTime, "wall_time", "s"),
+];
+
+impl Output {
+    /// The default outputs of a study.
+    pub fn defaults() -> Vec<Output> {
+        vec![
+            Output::ProbeFirstHarmonic,
+            Output::ProbePeakToPeak,
+            Output::PeakContactForce,
+            Output::MeanContactForce,
+            Output::ContactFraction,
+            Output::MaxVonMises,
+            Output::NewtonIterations,
+            Output::WallTime,
+        ]
+    }
+
+    /// Every name a study accepts (for messages and docs).
+    pub fn all_names() -> Vec<String> {
+        let mut names: Vec<String> = NAMED.iter().map(|(_, n, _)| n.to_string()).collect();
+        names.push("probe_harmonic_K".into());
+        names
+    }
+
+    pub fn parse(name: &str) -> std::result::Result<Output, String> {
+        if let Some((o, _, _)) = NAMED.iter().find(|(_, n, _)| *n == name) {
+            return Ok(*o);
+        }
+        if let Some(k) = name.strip_prefix("probe_harmonic_") {
+            return match k.parse::<usize>() {
+                Ok(k) if k >= 1 => Ok(Output::ProbeHarmonic(k)),
+                _ => Err("the harmonic K of probe_harmonic_K is a whole number ≥ 1".into()),
+            };
+        }
+        let names = Output::all_names();
+        let hint = names
+            .iter()
+            .max_by(|a, b| strsim::jaro_winkler(a, name).total_cmp(&strsim::jaro_winkler(b, name)))
+            .map(|n| format!("did you mean `{n}`? "))
+            .unwrap_or_default();
+        Err(format!("unknown output; {hint}known: {}", names.join(", ")))
+    }
+
+    /// The column name.
+    pub fn name(&self) -> String {
+        match self {
+            Output::ProbeHarmonic(k) => format!("probe_harmonic_{k}"),
+            o => NAMED
+                .iter()
+                .find(|(n, _, _)| n == o)
+                .map_or_else(String::new, |(_, name, _)| name.to_string()),
+        }
+    }
+
+    pub fn unit(&self) -> &'static str {
+        match self {
+            Output::ProbeHarmonic(_) => "m",
+            o => NAMED
+                .iter()
+                .find(|(n, _, _)| n == o)
+                .map_or("-", |(_, _, u)| u),
+        }
+    }
+
+    /// `name [unit]` for an axis.
+    pub fn axis_label(&self) -> String {
+        format!("{} [{}]", self.name(), self.unit())
+    }
+
+    /// The value for a finished run; `probe` is the probe group (None: the first).
+    pub fn value(&self, s: &Summary, probe: Option<&str>) -> f64 {
+        let p = match probe {
+            Some(name) => s.probes.get(name),
+            None => s.probes.values().next(),
+        };
+        let probe =
+            |f: &dyn Fn(&crate::pipeline::summary::ProbeAmplitudes) -> f64| p.map_or(f64::NAN, f);
+        let contact = s.contact.as_ref();
+        match self {
+            Output::ProbeFirstHarmonic => probe(&|a| a.first_harmonic()),
+            Output::ProbeFirstHarmonicX => probe(&|a| a.first_harmonic_x),
+            Output::ProbeFirstHarmonicY => probe(&|a| a.first_harmonic_y),
+            Output::ProbeHarmonic(k) => probe(&|a| {
+                let at = |v: &[f64]| v.get(k - 1).copied().unwrap_or(f64::NAN);
+                at(&a.harmonics_x).max(at(&a.harmonics_y))
+            }),
+            Output::ProbePeakToPeak => {
+                probe(&|a| 2.0 * a.half_peak_to_peak_x.max(a.half_peak_to_peak_y))
+            }
+            Output::ProbePeakToPeakX => probe(&|a| 2.0 * a.half_peak_to_peak_x),
+            Output::ProbePeakToPeakY => probe(&|a| 2.0 * a.half_peak_to_peak_y),
+            Output::PeakContactForce => contact.map_or(f64::NAN, |c| c.peak_contact_force),
+            Output::MeanContactForce => contact.map_or(f64::NAN, |c| c.mean_contact_force),
+            Output::ContactFraction => contact.map_or(f64::NAN, |c| c.contact_fraction),
+            Output::MaxVonMises => s.max_von_mises.unwrap_or(f64::NAN),
+            Output::NewtonIterations => contact
+                .and_then(|c| c.solver.as_ref())
+                .map_or(f64::NAN, |c| c.newton_iterations as f64),
+            Output::FreeDofs => s.sizes.free_dofs as f64,
+            Output::WallTime => {
+                let st = &s.stage_seconds;
+                st.total() - st.get("mesh")
+            }
+        }
+    }
+}

@@ -1,0 +1,332 @@
+//! A parameter study's results: `study.csv` (one row per point: parameters, outputs, status,
+//! exit class, error, key), plots of each output against each parameter (lines for grids, one
+//! per value of the other parameter; a heat map per output for two-parameter grids; points for
+//! lists and Latin hypercubes), and `manifest.json`. Built from the points' records only, so a
+//! one-process run and merged shards give the same table.
+//!
+//! Publishing is staged: everything is written into `<out>/.results.partial-<pid>` and moved
+//! into place at the end, manifest last; the previous study's results are removed when a
+//! study starts, so none is ever left looking current.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::execute::{read_record, results_files, Execution, PointRecord};
+use super::outputs::Output;
+use super::plan::Point;
+use super::spec::{Design, Study};
+use crate::output::plot::{tick, Axis, Figure, HeatMap};
+use crate::output::tables::write_json;
+use crate::{Error, Result};
+
+/// One row of the table.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub point: Point,
+    /// None: not run yet (a shard missing from a merge).
+    pub record: Option<PointRecord>,
+}
+
+impl Row {
+    pub fn status(&self) -> &str {
+        self.record
+            .as_ref()
+            .map_or("missing", |r| r.status.as_str())
+    }
+    pub fn output(&self, o: &Output) -> f64 {
+        self.record.as_ref().map_or(f64::NAN, |r| r.output(o))
+    }
+}
+
+/// The rows of every point, from their records.
+pub fn rows(out: &Path, points: &[Point]) -> Vec<Row> {
+    points
+        .iter()
+        .map(|p| Row {
+            point: p.clone(),
+            record: read_record(out, &p.key).filter(|r| r.key == p.key),
+        })
+        .collect()
+}
+
+/// A CSV field, quoted when it holds a comma, quote or line break.
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// A number as the CSV writes it: shortest round-trip form, empty for NaN.
+pub fn csv_number(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:e}")
+    } else {
+        String::new()
+    }
+}
+
+/// The table as CSV text.
+pub fn csv(study: &Study, rows: &[Row]) -> String {
+    let mut s = String::from("point");
+    for p in &study.parameters {
+        let _ = write!(s, ",{}", csv_field(&p.key));
+    }
+    for o in &study.outputs {
+        let _ = write!(s, ",{}", o.name());
+    }
+    s.push_str(",status,exit_class,error,key\n");
+    for row in rows {
+        let _ = write!(s, "{}", row.point.index);
+        for (_, v) in &row.point.values {
+            let _ = write!(s, ",{}", csv_number(*v));
+        }
+        for o in &study.outputs {
+            let _ = write!(s, ",{}", csv_number(row.output(o)));
+        }
+        let r = row.record.as_ref();
+        let class = r.and_then(|r| r.exit_class.clone()).unwrap_or_default();
+        let error = r.and_then(|r| r.error.clone()).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            ",{},{},{},{}",
+            row.status(),
+            class,
+            csv_field(&error),
+            row.point.key
+        );
+    }
+    s
+}
+
+/// A file-name-safe version of a label.
+pub fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+/// The plots of one output against each parameter (and its heat map), into `dir`.
+fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    let params = &study.parameters;
+    let two_grid = study.design == Design::Grid && params.len() == 2;
+    for (j, p) in params.iter().enumerate() {
+        let title = format!("{}: {} against {}", study.name, o.name(), p.label);
+        let mut fig = Figure::new(
+            title,
+            Axis::linear(p.axis_label()),
+            Axis::linear(o.axis_label()),
+        );
+        let point = |r: &Row| (r.point.values[j].1, r.output(o));
+        if two_grid {
+            let other = &params[1 - j];
+            for &v in &other.values {
+                let mut pts: Vec<(f64, f64)> = rows
+                    .iter()
+                    .filter(|r| r.point.values[1 - j].1 == v)
+                    .map(point)
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let unit = other
+                    .unit
+                    .as_deref()
+                    .map(|u| format!(" {u}"))
+                    .unwrap_or_default();
+                fig = fig.line(format!("{} = {}{unit}", other.label, tick(v)), pts);
+            }
+        } else if study.design == Design::Grid && params.len() == 1 {
+            fig = fig.line(o.name(), rows.iter().map(point).collect());
+        } else {
+            fig = fig.scatter("points", rows.iter().map(point).collect());
+        }
+        let stem = dir.join(format!("{}_vs_{}", o.name(), slug(&p.label)));
+        fig.save(&stem)?;
+        files.push(stem);
+    }
+    if two_grid {
+        let (px, py) = (&params[0], &params[1]);
+        let values = py
+            .values
+            .iter()
+            .map(|&y| {
+                px.values
+                    .iter()
+                    .map(|&x| {
+                        rows.iter()
+                            .find(|r| r.point.values[0].1 == x && r.point.values[1].1 == y)
+                            .map_or(f64::NAN, |r| r.output(o))
+                    })
+                    .collect()
+            })
+            .collect();
+        let map = HeatMap {
+            title: format!("{}: {} [{}]", study.name, o.name(), o.unit()),
+            x: Axis::linear(px.axis_label()),
+            y: Axis::linear(py.axis_label()),
+            xs: px.values.clone(),
+            ys: py.values.clone(),
+            values,
+        };
+        let stem = dir.join(format!("{}_heatmap", o.name()));
+        map.save(&stem)?;
+        files.push(stem);
+    }
+    Ok(files)
+}
+
+/// What `manifest.json` says.
+#[derive(Serialize)]
+struct Manifest<'a> {
+    study: &'a str,
+    study_file: &'a Path,
+    pipeline: &'a Path,
+    hbcontact_version: &'static str,
+    kind: &'static str,
+    points: usize,
+    ok: usize,
+    failed: usize,
+    missing: usize,
+    parameters: Vec<ManifestParameter<'a>>,
+    outputs: Vec<String>,
+    files: Vec<String>,
+    /// This process's run (absent after `--merge`).
+    execution: Option<&'a Execution>,
+    point_keys: Vec<&'a str>,
+}
+
+#[derive(Serialize)]
+struct ManifestParameter<'a> {
+    key: &'a str,
+    label: &'a str,
+    unit: Option<&'a str>,
+}
+
+/// Counts of ok, failed and missing rows.
+pub fn counts(rows: &[Row]) -> (usize, usize, usize) {
+    let ok = rows.iter().filter(|r| r.status() == "ok").count();
+    let failed = rows.iter().filter(|r| r.status() == "failed").count();
+    (ok, failed, rows.len() - ok - failed)
+}
+
+/// Remove a previous study's table, plots and manifest.
+pub fn clear_results(out: &Path) -> Result<()> {
+    for path in results_files(out).iter().chain(
+        [
+            out.join("accuracy.csv"),
+            out.join("accuracy.svg"),
+            out.join("accuracy.png"),
+        ]
+        .iter(),
+    ) {
+        let gone = if path.is_dir() {
+            std::fs::remove_dir_all(path)
+        } else {
+            std::fs::remove_file(path)
+        };
+        match gone {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::io(path, e)),
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// A staging directory for results, moved into `out` by `Staged::publish`.
+pub struct Staged {
+    pub dir: PathBuf,
+    out: PathBuf,
+}
+
+impl Staged {
+    pub fn new(out: &Path) -> Result<Self> {
+        let dir = out.join(format!(".results.partial-{}", std::process::id()));
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        }
+        std::fs::create_dir_all(dir.join("plots")).map_err(|e| Error::io(&dir, e))?;
+        Ok(Staged {
+            dir,
+            out: out.to_path_buf(),
+        })
+    }
+
+    /// Move every staged entry into `out`, `manifest.json` last.
+    pub fn publish(self) -> Result<()> {
+        let mut names: Vec<_> = std::fs::read_dir(&self.dir)
+            .map_err(|e| Error::io(&self.dir, e))?
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        names.sort_by_key(|n| n == "manifest.json");
+        for name in names {
+            let (from, to) = (self.dir.join(&name), self.out.join(&name));
+            if to.is_dir() {
+                std::fs::remove_dir_all(&to).map_err(|e| Error::io(&to, e))?;
+            }
+            std::fs::rename(&from, &to).map_err(|e| Error::io(&to, e))?;
+        }
+        std::fs::remove_dir_all(&self.dir).map_err(|e| Error::io(&self.dir, e))
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Write the table, plots and manifest of a parameter study.
+pub fn publish(
+    study: &Study,
+    out: &Path,
+    rows: &[Row],
+    execution: Option<&Execution>,
+) -> Result<PathBuf> {
+    let staged = Staged::new(out)?;
+    let table = staged.dir.join("study.csv");
+    std::fs::write(&table, csv(study, rows)).map_err(|e| Error::io(&table, e))?;
+    let mut files = vec!["study.csv".to_string()];
+    for o in &study.outputs {
+        if rows.iter().any(|r| r.output(o).is_finite()) {
+            for stem in plot_output(study, rows, o, &staged.dir.join("plots"))? {
+                let name = stem.file_name().map(|n| n.to_string_lossy().to_string());
+                files.extend(
+                    name.iter()
+                        .flat_map(|n| [format!("plots/{n}.svg"), format!("plots/{n}.png")]),
+                );
+            }
+        }
+    }
+    let (ok, failed, missing) = counts(rows);
+    let manifest = Manifest {
+        study: &study.name,
+        study_file: &study.source,
+        pipeline: &study.pipeline,
+        hbcontact_version: env!("CARGO_PKG_VERSION"),
+        kind: "parameters",
+        points: rows.len(),
+        ok,
+        failed,
+        missing,
+        parameters: study
+            .parameters
+            .iter()
+            .map(|p| ManifestParameter {
+                key: &p.key,
+                label: &p.label,
+                unit: p.unit.as_deref(),
+            })
+            .collect(),
+        outputs: study.outputs.iter().map(Output::name).collect(),
+        files,
+        execution,
+        point_keys: rows.iter().map(|r| r.point.key.as_str()).collect(),
+    };
+    write_json(&staged.dir.join("manifest.json"), &manifest)?;
+    staged.publish()?;
+    Ok(out.join("study.csv"))
+}

@@ -1,0 +1,374 @@
+//! Parameter studies (`hbcontact study`): the table does not depend on how the points were
+//! run (threads, shards, Slurm), failures are recorded without stopping the rest, done points
+//! are skipped on a rerun, bad parameter names are refused before anything runs, and the
+//! accuracy study's errors fall along the H ladder on the strip.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn run(args: &[&str]) -> Output {
+    common::hbcontact(args)
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).to_string()
+}
+
+fn run_ok(args: &[&str]) -> Output {
+    let o = run(args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    o
+}
+
+/// A study file written for the test (under the test's output directory), varying the strip.
+fn strip_study(dir: &Path, body: &str) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join("study.yaml");
+    let pipeline = common::root().join("pipelines/strip_wall.yaml");
+    let text = format!(
+        "name: test\npipeline: {}\nset: {{geometry.parameters.lc: 0.0025, harmonic_balance.harmonics: 8}}\n{body}",
+        pipeline.display()
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+const GAP_GRID: &str = "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n  - {key: boundaries.loads.0.harmonics.0.cos.0, values: [1.0e5, 1.5e5], unit: Pa}\n";
+
+/// study.csv without the wall-time column (the one value that differs between runs).
+fn table_without_times(csv: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
+    let rows: Vec<Vec<String>> = text
+        .lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let time = rows[0].iter().position(|c| c == "wall_time");
+    rows.into_iter()
+        .map(|mut r| {
+            if let Some(i) = time {
+                r.remove(i);
+            }
+            r
+        })
+        .collect()
+}
+
+fn column(rows: &[Vec<String>], name: &str) -> Vec<String> {
+    let i = rows[0].iter().position(|c| c == name).unwrap();
+    rows[1..].iter().map(|r| r[i].clone()).collect()
+}
+
+/// TEST GOAL: running the points two at a time gives the same table (parameters, outputs,
+/// status, keys) as running them one after another, and both write plots and a manifest.
+#[test]
+fn parallel_study_table_equals_serial_table() {
+    let dir = common::temp_out("study-parallel");
+    let study = strip_study(&dir, GAP_GRID);
+    let study = study.to_str().unwrap();
+    let (serial, parallel) = (dir.join("serial"), dir.join("parallel"));
+    run_ok(&[
+        "study",
+        study,
+        "-q",
+        "--threads",
+        "1",
+        "--out",
+        serial.to_str().unwrap(),
+    ]);
+    run_ok(&[
+        "study",
+        study,
+        "-q",
+        "--threads",
+        "2",
+        "--out",
+        parallel.to_str().unwrap(),
+    ]);
+    let (a, b) = (
+        table_without_times(&serial.join("study.csv")),
+        table_without_times(&parallel.join("study.csv")),
+    );
+    assert_eq!(a.len(), 5, "header and 4 points: {a:?}");
+    assert_eq!(a, b);
+    assert!(column(&a, "status").iter().all(|s| s == "ok"), "{a:?}");
+    let manifest = common::read_json(&parallel.join("manifest.json"));
+    assert_eq!(manifest["points"], 4);
+    assert_eq!(manifest["execution"]["threads"], 2);
+    assert_eq!(manifest["execution"]["geometries"], 2, "one mesh per gap");
+    for f in [
+        "probe_first_harmonic_vs_gap.svg",
+        "probe_first_harmonic_vs_gap.png",
+        "peak_contact_force_heatmap.png",
+    ] {
+        assert!(parallel.join("plots").join(f).is_file(), "{f} missing");
+    }
+    let svg =
+        std::fs::read_to_string(parallel.join("plots/probe_first_harmonic_vs_gap.svg")).unwrap();
+    assert!(
+        svg.contains("gap [m]") && svg.contains("cos [Pa] = ") || svg.contains(" Pa"),
+        "axis label with unit and a legend naming the other parameter"
+    );
+}
+
+/// TEST GOAL: a point that fails (its Newton is allowed no iteration) is in the table as
+/// failed with its error message and exit class `not_converged`; the other point completes;
+/// the exit code (6) says some points failed.
+#[test]
+fn failed_point_is_recorded_and_the_others_complete() {
+    let dir = common::temp_out("study-failure");
+    let study = strip_study(
+        &dir,
+        "design: list\nparameters:\n  - {key: harmonic_balance.solver.max_iterations, values: [200, 0]}\n",
+    );
+    let out = dir.join("out");
+    let o = run(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(6), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("1 of 2 study points failed"),
+        "{}",
+        stderr(&o)
+    );
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[1].contains(",ok,,,"), "{csv}");
+    assert!(
+        lines[2].contains(",failed,not_converged,") && lines[2].contains("max_iterations = 0"),
+        "{csv}"
+    );
+}
+
+/// TEST GOAL: rerunning a finished study runs nothing (every point is found by its key), and
+/// after one point's record is removed, exactly that point runs again.
+#[test]
+fn rerun_skips_points_already_done() {
+    let dir = common::temp_out("study-resume");
+    let study = strip_study(&dir, GAP_GRID);
+    let (study, out) = (study.to_str().unwrap(), dir.join("out"));
+    let out_s = out.to_str().unwrap();
+    run_ok(&["study", study, "-q", "--out", out_s]);
+    let first = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    run_ok(&["study", study, "-q", "--out", out_s]);
+    let m = common::read_json(&out.join("manifest.json"));
+    assert_eq!(
+        (
+            m["execution"]["ran"].as_u64(),
+            m["execution"]["skipped"].as_u64()
+        ),
+        (Some(0), Some(4))
+    );
+    assert_eq!(
+        first,
+        std::fs::read_to_string(out.join("study.csv")).unwrap(),
+        "the same table, times included"
+    );
+    let key = &m["point_keys"][2];
+    std::fs::remove_file(
+        out.join("points")
+            .join(key.as_str().unwrap())
+            .join("point.json"),
+    )
+    .unwrap();
+    run_ok(&["study", study, "-q", "--out", out_s]);
+    let m = common::read_json(&out.join("manifest.json"));
+    assert_eq!(
+        (
+            m["execution"]["ran"].as_u64(),
+            m["execution"]["skipped"].as_u64()
+        ),
+        (Some(1), Some(3))
+    );
+}
+
+/// TEST GOAL: two shards (`--shard 0/2`, `--shard 1/2`) then `--merge` give the table a
+/// one-process run gives; a merge before the second shard ran reports the missing points
+/// (exit 6) and tabulates them as `missing`.
+#[test]
+fn merged_shards_equal_one_run() {
+    let dir = common::temp_out("study-shards");
+    let study = strip_study(&dir, GAP_GRID);
+    let study = study.to_str().unwrap();
+    let (one, sharded) = (dir.join("one"), dir.join("sharded"));
+    let s = sharded.to_str().unwrap();
+    run_ok(&["study", study, "-q", "--out", one.to_str().unwrap()]);
+    run_ok(&["study", study, "-q", "--shard", "0/2", "--out", s]);
+    assert!(
+        !sharded.join("study.csv").exists(),
+        "a shard writes no table"
+    );
+    let early = run(&["study", study, "-q", "--merge", "--out", s]);
+    assert_eq!(early.status.code(), Some(6), "{}", stderr(&early));
+    let partial = table_without_times(&sharded.join("study.csv"));
+    assert_eq!(
+        column(&partial, "status"),
+        ["ok", "missing", "ok", "missing"]
+    );
+    run_ok(&["study", study, "-q", "--shard", "1/2", "--out", s]);
+    run_ok(&["study", study, "-q", "--merge", "--out", s]);
+    assert_eq!(
+        table_without_times(&one.join("study.csv")),
+        table_without_times(&sharded.join("study.csv"))
+    );
+}
+
+/// TEST GOAL: a parameter the .geo does not define, or a pipeline key that does not exist, is
+/// refused with exit 2 before any point runs, naming the study file and suggesting the fix.
+#[test]
+fn unknown_parameter_names_are_rejected_with_exit_2() {
+    let dir = common::temp_out("study-unknown");
+    for (key, expect) in [
+        ("geometry.parameters.gapp", "gap"),
+        ("harmonic_balance.harmoncs", "harmoncs"),
+    ] {
+        let study = strip_study(
+            &dir,
+            &format!("parameters:\n  - {{key: {key}, values: [1, 2]}}\n"),
+        );
+        let out = dir.join("out");
+        let o = run(&[
+            "study",
+            study.to_str().unwrap(),
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{key}: {err}");
+        assert!(
+            err.contains("study.yaml") && err.contains(expect),
+            "{key}: {err}"
+        );
+        assert!(
+            !out.join("points").exists()
+                || std::fs::read_dir(out.join("points")).unwrap().count() == 0
+        );
+    }
+    let study = strip_study(&dir, "parameters:\n  - {key: geometry.parameters.gap, values: [1e-7]}\noutputs: [probe_amplitude]\n");
+    let o = run(&["study", study.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("outputs[0]") && stderr(&o).contains("did you mean"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// TEST GOAL: on the strip, the accuracy study's errors against the finest rung fall as H
+/// rises (5, 10, 20 → 40) in the probe's first-harmonic amplitude and peak-to-peak range (the
+/// contact forces' errors are not monotone at H = 5: a coarse series can land close by luck);
+/// every rung has a wall time; `--tolerance` names a cheapest setting per measure; the Pareto
+/// plot names the reference.
+#[test]
+fn accuracy_study_errors_fall_along_the_h_ladder_on_the_strip() {
+    let dir = common::temp_out("study-accuracy");
+    let study = strip_study(
+        &dir,
+        "accuracy:\n  ladders:\n    - {key: harmonic_balance.harmonics, values: [5, 10, 20, 40]}\n",
+    );
+    let out = dir.join("out");
+    let o = run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--tolerance",
+        "1e-2",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("probe_first_harmonic   harmonic_balance.harmonics ="),
+        "{stdout}"
+    );
+    let rows = table_without_times(&out.join("accuracy.csv"));
+    let errors = |name: &str| -> Vec<f64> {
+        column(&rows, name)
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    for measure in ["error_probe_first_harmonic", "error_probe_peak_to_peak"] {
+        let e = errors(measure);
+        assert!(
+            e[0] > e[1] && e[1] > e[2] && e[3] == 0.0,
+            "{measure}: {e:?}"
+        );
+    }
+    let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    assert!(text.lines().skip(1).all(|l| l
+        .split(',')
+        .nth(4)
+        .is_some_and(|t| t.parse::<f64>().unwrap() > 0.0)));
+    let svg = std::fs::read_to_string(out.join("accuracy.svg")).unwrap();
+    assert!(
+        svg.contains("reference: the finest rung (harmonics = 40)"),
+        "{svg}"
+    );
+    assert!(out.join("accuracy.png").is_file());
+}
+
+/// TEST GOAL: the Slurm path: `--slurm` writes a job array and a dependent merge job; on a
+/// running cluster (.ci/run starts a one-node one) the merged table equals the one-process
+/// run. Skipped, saying why, when sbatch or a controller is missing, unless
+/// HBCONTACT_REQUIRE_SLURM=1.
+#[test]
+fn slurm_job_array_merges_into_the_one_process_table() {
+    let dir = common::temp_out("study-slurm");
+    let study = strip_study(&dir, GAP_GRID);
+    let study = study.to_str().unwrap();
+    let (one, cluster) = (dir.join("one"), dir.join("cluster"));
+    let c = cluster.to_str().unwrap();
+    run_ok(&[
+        "study", study, "-q", "--slurm", "--shards", "3", "--time", "00:10:00", "--mem", "1G",
+        "--out", c,
+    ]);
+    let array = std::fs::read_to_string(cluster.join("slurm/array.sbatch")).unwrap();
+    assert!(
+        array.contains("#SBATCH --array=0-2")
+            && array.contains("--shard \"${SLURM_ARRAY_TASK_ID}/3\""),
+        "{array}"
+    );
+    assert!(array.contains("#SBATCH --time=00:10:00") && array.contains("#SBATCH --mem=1G"));
+    let submit = std::fs::read_to_string(cluster.join("slurm/submit.sh")).unwrap();
+    assert!(submit.contains("--dependency=afterany:"), "{submit}");
+    let cluster_up = std::process::Command::new("sinfo")
+        .arg("-h")
+        .output()
+        .is_ok_and(|o| o.status.success() && !o.stdout.is_empty());
+    if !cluster_up {
+        if std::env::var("HBCONTACT_REQUIRE_SLURM").as_deref() == Ok("1") {
+            panic!("no Slurm cluster answers (sinfo) but HBCONTACT_REQUIRE_SLURM=1 (.ci/run starts one)");
+        }
+        eprintln!("SKIPPED the cluster run: no Slurm controller answers `sinfo` (apt-get install slurm-wlm munge; .ci/run starts a one-node cluster)");
+        return;
+    }
+    run_ok(&["study", study, "-q", "--out", one.to_str().unwrap()]);
+    let submitted = std::process::Command::new("bash")
+        .arg(cluster.join("slurm/submit.sh"))
+        .output()
+        .unwrap();
+    assert!(
+        submitted.status.success(),
+        "{}",
+        String::from_utf8_lossy(&submitted.stderr)
+    );
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
+    while !cluster.join("manifest.json").exists() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the merge job did not finish in 5 minutes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    }
+    assert_eq!(
+        table_without_times(&one.join("study.csv")),
+        table_without_times(&cluster.join("study.csv"))
+    );
+}
