@@ -146,6 +146,7 @@ fn main() {
             samples: 64,
             c_scale: 1.0,
             tolerance: 1e-8,
+            max_seconds: 3600.0,
             max_iterations: 10,
         };
         let mut solution = None;

@@ -512,3 +512,207 @@ fn undamped_contact_near_resonance_converges_or_names_damping() {
         assert!(r.stderr.contains("damping.beta"), "{}", r.stderr);
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Meshes and geometry: bad input names its cause (exit 2), suspicious input warns.
+
+/// `hbcontact check` with overrides; (exit code, stderr).
+fn check(path: &str, sets: &[&str]) -> (Option<i32>, String) {
+    let mut args = vec!["check", path];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let out = common::hbcontact(&args);
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    )
+}
+
+/// TEST GOAL: thin cells of aspect ratio 50 (a 0.2 m × 2 mm strip in 40 × 20 cells) run with
+/// a warning naming the ratio, and the probe's first harmonic is within 2.5% of the same strip
+/// in cells of aspect 5 (400 × 20) (measured 1.25e-2: what the thin cells cost).
+#[test]
+fn thin_high_aspect_elements_converge_with_a_warning_and_agree_with_stubby_ones() {
+    let thin = run(&pipeline("thin_elements"), "thin", &[]);
+    let warned = thin
+        .warnings()
+        .into_iter()
+        .any(|w| w.contains("aspect ratio 50.0"));
+    assert!(warned, "{:?}", thin.warnings());
+    let stubby = run(
+        &pipeline("thin_elements"),
+        "thin-ref",
+        &["geometry.parameters.nx=400"],
+    );
+    assert!(!stubby.warnings().iter().any(|w| w.contains("aspect ratio")));
+    let d = relative(thin.probe_x(), stubby.probe_x());
+    eprintln!("aspect 50 against aspect 5: probe {d:.2e}");
+    assert!(d < 2.5e-2, "{d:e}");
+}
+
+/// TEST GOAL: the issue's 1 m × 1e-12 m strip, once blamed on a resonance (exit 3), is
+/// refused by `check` as a degenerate mesh (exit 2) naming the aspect ratio and the key to
+/// raise; a frequency beyond the mesh's resolution is refused by `check` naming the
+/// resolvable frequency and the mesh size that would resolve it.
+#[test]
+fn degenerate_cells_and_unresolvable_frequencies_are_refused_by_check() {
+    let (code, err) = check(
+        "pipelines/reference_strip.yaml",
+        &["geometry.parameters.H=1e-12"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("aspect ratio") && err.contains("geometry.max_aspect_ratio"),
+        "{err}"
+    );
+    assert!(!err.contains("resonan"), "{err}");
+    let (code, err) = check(
+        "pipelines/quickstart.yaml",
+        &["harmonic_balance.frequency=1e7"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("resolves") && err.contains("geometry.mesh_size"),
+        "{err}"
+    );
+    let (code, err) = check(
+        "pipelines/quickstart.yaml",
+        &["harmonic_balance.frequency=1e5"],
+    );
+    assert_eq!(code, Some(0), "{err}");
+}
+
+/// TEST GOAL: an inverted quadratic cell (a mid-side node moved 1 m across the cantilever)
+/// is bad input, exit 2, naming the cell, never a model or solve error.
+#[test]
+fn an_inverted_cell_is_bad_input() {
+    let dir = common::temp_out("hard-inverted");
+    let out = dir.join("run");
+    let (code, err) = check(&pipeline("undamped_resonance"), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    // Mesh into a cache of our own, then move the last node (a mid-side node of the surface).
+    let out_arg = out.to_string_lossy().to_string();
+    let o = common::hbcontact(&[
+        "check",
+        &pipeline("undamped_resonance"),
+        "--quiet",
+        "--out",
+        &out_arg,
+    ]);
+    assert!(o.status.success());
+    let cached = std::fs::read_dir(dir.join(".mesh-cache"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|e| e == "msh"))
+        .expect("a cached mesh");
+    let text = std::fs::read_to_string(&cached).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let end = lines.iter().position(|l| l == "$EndNodes").unwrap();
+    let xyz: Vec<f64> = lines[end - 1]
+        .split_whitespace()
+        .map(|t| t.parse().unwrap())
+        .collect();
+    lines[end - 1] = format!("{} {} {}", xyz[0] + 1.0, xyz[1], xyz[2]);
+    let bad = dir.join("inverted.msh");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    let file = format!("geometry.file={}", bad.display());
+    let r = run(&pipeline("undamped_resonance"), "inverted-run", &[&file]);
+    assert_eq!(r.code(), Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("inverted"), "{}", r.stderr);
+}
+
+/// TEST GOAL: two overlapping bodies that share no node are refused (exit 2) naming the
+/// parts and `geometry.allow_disconnected`, which lets them through; an empty named group
+/// warns, and is refused where the pipeline names it.
+#[test]
+fn disconnected_bodies_and_empty_groups_are_named() {
+    let two = "geometry.file=tests/data/two_bodies.geo";
+    let (code, err) = check("pipelines/strip_wall.yaml", &[two]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("2 disconnected parts") && err.contains("geometry.allow_disconnected"));
+    let (code, err) = check(
+        "pipelines/strip_wall.yaml",
+        &[two, "geometry.allow_disconnected=true"],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let dir = common::temp_out("hard-empty-group");
+    std::fs::create_dir_all(&dir).unwrap();
+    let geo = std::fs::read_to_string(common::root().join("geometries/strip_wall.geo"))
+        .unwrap()
+        .replace(
+            "Physical Surface(\"body\") = {1};",
+            "Physical Surface(\"body\") = {};",
+        );
+    let empty = dir.join("empty_body.geo");
+    std::fs::write(&empty, geo).unwrap();
+    let file = format!("geometry.file={}", empty.display());
+    let (code, err) = check("pipelines/strip_wall.yaml", &[&file]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("`body`") && err.contains("empty"), "{err}");
+    let (code, err) = check(
+        "pipelines/strip_wall.yaml",
+        &[&file, "output.probes=[body]"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("`body`") && err.contains("empty"), "{err}");
+}
+
+/// TEST GOAL: a body starting 5 mm inside the wall (2.5% of its size) warns naming the
+/// strain; a ×1e6 load that drives the tip 4 mm into a wall 0.1 µm away warns of the
+/// sampled penetration's strain (issue #9: neither warned).
+#[test]
+fn deep_initial_and_sampled_penetrations_warn_naming_the_strain() {
+    let r = run(
+        "pipelines/strip_wall.yaml",
+        "deep-start",
+        &["geometry.parameters.gap=-5e-3"],
+    );
+    let w = r.warnings();
+    assert!(
+        w.iter()
+            .any(|w| w.contains("inside the obstacle") && w.contains("2.50%")),
+        "{w:?}"
+    );
+    let r = run(
+        "pipelines/strip_wall.yaml",
+        "deep-load",
+        &["boundaries.loads.0.harmonics.0.cos.0=1.5e11"],
+    );
+    let w = r.warnings();
+    assert!(
+        w.iter()
+            .any(|w| w.contains("penetrates the obstacle") && w.contains("strain")),
+        "{w:?}"
+    );
+    let plain = run("pipelines/strip_wall.yaml", "deep-none", &[]);
+    assert!(!plain.warnings().iter().any(|w| w.contains("penetrat")));
+}
+
+/// TEST GOAL: with `harmonic_balance.solver.max_iterations = 0` the contact solve stops
+/// (exit 4) saying it ran out of iterations and to raise that key, not that it met a fold;
+/// a time budget `max_seconds` that has run out ends the solve with a diagnosis naming it.
+#[test]
+fn an_exhausted_newton_budget_is_diagnosed_as_such() {
+    let r = run(
+        "pipelines/strip_wall.yaml",
+        "budget-iterations",
+        &["harmonic_balance.solver.max_iterations=0"],
+    );
+    assert_eq!(r.code(), Some(4), "{}", r.stderr);
+    assert!(r
+        .stderr
+        .contains("raise harmonic_balance.solver.max_iterations"));
+    assert!(!r.stderr.contains("fold"), "{}", r.stderr);
+    let r = run(
+        "pipelines/strip_wall.yaml",
+        "budget-time",
+        &["harmonic_balance.solver.max_seconds=1e-9"],
+    );
+    assert_eq!(r.code(), Some(4), "{}", r.stderr);
+    assert!(r
+        .stderr
+        .contains("raise harmonic_balance.solver.max_seconds"));
+    assert!(!r.stderr.contains("NaN"), "{}", r.stderr);
+}

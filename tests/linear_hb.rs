@@ -21,6 +21,7 @@ fn settings(h: usize) -> HbSettings {
         samples: 64,
         c_scale: 1.0,
         tolerance: 1e-10,
+        max_seconds: 3600.0,
         max_iterations: 50,
     }
 }

@@ -46,6 +46,10 @@ pub struct Geometry {
     pub max_elements: u64,
     /// Time limit of one gmsh run, in seconds.
     pub gmsh_timeout: f64,
+    /// Refuse cells whose aspect ratio exceeds this (`pipeline::sanity`).
+    pub max_aspect_ratio: f64,
+    /// Accept a mesh of several disconnected parts.
+    pub allow_disconnected: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -135,6 +139,8 @@ pub struct SolverSpec {
     pub max_iterations: usize,
     /// The complementarity parameter c as a multiple of the automatic scale 1/mean|G_0,ii|.
     pub c_scale: f64,
+    /// Wall-time budget of the contact solve [s].
+    pub max_seconds: f64,
 }
 
 impl Default for SolverSpec {
@@ -143,6 +149,7 @@ impl Default for SolverSpec {
             tolerance: 1e-8,
             max_iterations: 200,
             c_scale: 1.0,
+            max_seconds: 3600.0,
         }
     }
 }

@@ -90,6 +90,15 @@ struct RawGeometry {
     /// beyond it. Default: 600.
     #[serde(default)]
     gmsh_timeout: Option<f64>,
+    /// Refuse a mesh with a cell whose aspect ratio (longest edge² over the area, halved for
+    /// triangles: a/b for an a × b rectangle or its halves) exceeds this, ≥ 1; above 20 a run
+    /// warns. Default: 1000.
+    #[serde(default)]
+    max_aspect_ratio: Option<f64>,
+    /// Accept a mesh whose cells form several disconnected parts (each then needs its own
+    /// support or contact). Default: false (refused, exit code 2).
+    #[serde(default)]
+    allow_disconnected: bool,
 }
 
 /// The 2-D model of the out-of-plane direction.
@@ -258,6 +267,10 @@ struct RawSolver {
     /// contact nodes' mean static compliance), > 0. Default: 1.
     #[serde(default)]
     c_scale: Option<f64>,
+    /// Wall-time budget of the whole contact solve (every attempt), in seconds, > 0: beyond it
+    /// the solve stops (exit code 4) saying so. Default: 3600.
+    #[serde(default)]
+    max_seconds: Option<f64>,
 }
 
 /// The periodic steady state sought.
@@ -831,6 +844,18 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
             format!("geometry.gmsh_timeout = {gmsh_timeout} s: at most 1e7 s (about 4 months)"),
         ));
     }
+    let max_aspect_ratio = g
+        .max_aspect_ratio
+        .unwrap_or(crate::pipeline::sanity::DEFAULT_MAX_ASPECT);
+    if !(max_aspect_ratio >= 1.0) {
+        return Err(config_error(
+            path,
+            format!(
+                "geometry.max_aspect_ratio = {} must be at least 1",
+                show(max_aspect_ratio)
+            ),
+        ));
+    }
     Ok(Geometry {
         file,
         parameters: g.parameters,
@@ -840,6 +865,8 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         gmsh,
         max_elements,
         gmsh_timeout,
+        max_aspect_ratio,
+        allow_disconnected: g.allow_disconnected,
     })
 }
 
@@ -1033,6 +1060,9 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
         }
         if let Some(c) = s.c_scale {
             solver.c_scale = positive(path, "harmonic_balance.solver.c_scale", c)?;
+        }
+        if let Some(t) = s.max_seconds {
+            solver.max_seconds = positive(path, "harmonic_balance.solver.max_seconds", t)?;
         }
     }
     Ok(HarmonicBalance {

@@ -62,7 +62,7 @@ pub fn physical_derivatives(
     let det = j00 * j11 - j01 * j10;
     if !(det > 0.0) || !det.is_finite() {
         let p = coords[0];
-        return Err(Error::Model(format!(
+        return Err(Error::Input(format!(
             "cell {index} ({:?}, first node at ({}, {})) is inverted or degenerate (Jacobian determinant {det:e}): remesh, or check the mid-side nodes of curved edges",
             cell.kind, p[0], p[1]
         )));

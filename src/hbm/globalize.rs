@@ -7,10 +7,13 @@
 //! 3. both again with c ten times smaller (a softer penalty on the gap: the c that converges
 //!    is a band).
 //!
-//! If all fail, the error says what to change.
+//! If all fail, the error says what to change. Two budgets bound the whole: each Newton run
+//! stops at `max_iterations`, and no new run starts once `max_seconds` of wall time are
+//! spent; a failure that ran out of either budget says so (rather than blaming the scene).
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
 
 use faer::c64;
 
@@ -74,6 +77,17 @@ struct Attempts<'a> {
     iterations: usize,
     log: Vec<IterationLog>,
     reasons: Vec<String>,
+    /// When the time budget ends.
+    deadline: Instant,
+    /// The budget a failed run ran out of, if any.
+    exhausted: Option<Budget>,
+}
+
+/// The budgets of one contact solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Budget {
+    Iterations,
+    Time,
 }
 
 impl<'a> Attempts<'a> {
@@ -110,7 +124,25 @@ impl<'a> Attempts<'a> {
         settings: &NewtonSettings,
         start: &[f64],
     ) -> NewtonOutcome {
+        if Instant::now() >= self.deadline {
+            self.exhausted = Some(Budget::Time);
+            return NewtonOutcome {
+                multipliers: start.to_vec(),
+                converged: false,
+                iterations: 0,
+                relative_residual: f64::NAN,
+                log: Vec::new(),
+                reason: format!(
+                    "the time budget harmonic_balance.solver.max_seconds = {} s ran out",
+                    self.settings.max_seconds
+                ),
+            };
+        }
         let o = reduced::newton(problem, settings, start, self.reporter);
+        // The pipeline's own limit (not a smoothing level's shorter one) was what ran out.
+        if !o.converged && o.iterations >= self.settings.max_iterations {
+            self.exhausted.get_or_insert(Budget::Iterations);
+        }
         self.iterations += o.iterations;
         self.log.extend(o.log.iter().cloned());
         o
@@ -137,6 +169,8 @@ impl<'a> Attempts<'a> {
             let o = self.run(&problem, &settings, &x);
             if o.converged {
                 (x, last) = (o.multipliers, mu);
+            } else if self.exhausted.is_some() {
+                break; // out of budget: no fold to report
             } else if ratio.sqrt() > 0.95 {
                 fold = Some(last / force);
                 break;
@@ -214,10 +248,16 @@ pub(super) fn solve_contact(
         iterations: 0,
         log: Vec::new(),
         reasons: Vec::new(),
+        deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
+        exhausted: None,
     };
-    let found = [c, 0.1 * c]
-        .into_iter()
-        .find_map(|c_try| attempts.at(c_try).map(|(o, ladder)| (o, ladder, c_try)));
+    let found = [c, 0.1 * c].into_iter().find_map(|c_try| {
+        // Out of time: no further attempt can start.
+        if attempts.exhausted == Some(Budget::Time) {
+            return None;
+        }
+        attempts.at(c_try).map(|(o, ladder)| (o, ladder, c_try))
+    });
     reporter.task_done("contact Newton");
     let Some((outcome, ladder, c)) = found else {
         let failed = NewtonOutcome {
@@ -228,7 +268,12 @@ pub(super) fn solve_contact(
             log: attempts.log,
             reason: attempts.reasons.join("; "),
         };
-        return Err(stall_diagnosis(system, settings, &failed));
+        return Err(stall_diagnosis(
+            system,
+            settings,
+            &failed,
+            attempts.exhausted,
+        ));
     };
     let (samples, mut outcome, knob_check) = knobs::adapt_samples(
         problem,
@@ -255,9 +300,25 @@ pub(super) fn solve_contact(
     })
 }
 
-fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutcome) -> Error {
+fn stall_diagnosis(
+    system: &System,
+    settings: &HbSettings,
+    outcome: &NewtonOutcome,
+    exhausted: Option<Budget>,
+) -> Error {
     let mut advice = Vec::new();
     let h = settings.harmonics;
+    match exhausted {
+        Some(Budget::Iterations) => advice.push(format!(
+            "raise harmonic_balance.solver.max_iterations (now {}, the default 200): it ran out before the Newton converged",
+            settings.max_iterations
+        )),
+        Some(Budget::Time) => advice.push(format!(
+            "raise harmonic_balance.solver.max_seconds (now {} s): the solve ran out of time",
+            settings.max_seconds
+        )),
+        None => {}
+    }
     if settings.samples < 16 * h {
         advice.push(format!(
             "raise harmonic_balance.samples (now {}; 16·H = {} converges reliably)",
@@ -285,12 +346,21 @@ fn stall_diagnosis(system: &System, settings: &HbSettings, outcome: &NewtonOutco
     }
     advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
     let last = outcome.log.last();
+    let what = match exhausted {
+        Some(Budget::Iterations) => "ran out of iterations",
+        Some(Budget::Time) => "ran out of time",
+        None => "stalled",
+    };
     Error::NotConverged(format!(
-        "the contact Newton stalled after {} iterations: {}; relative residual {:.3e}, {} active \
+        "the contact Newton {what} after {} iterations: {}; relative residual {}, {} active \
          samples. To fix: {}",
         outcome.iterations,
         outcome.reason,
-        outcome.relative_residual,
+        if outcome.relative_residual.is_finite() {
+            format!("{:.3e}", outcome.relative_residual)
+        } else {
+            "not evaluated".to_string()
+        },
         last.map_or(0, |l| l.active_samples),
         advice.join("; ")
     ))

@@ -44,6 +44,8 @@ pub struct HbSettings {
     pub c_scale: f64,
     pub tolerance: f64,
     pub max_iterations: usize,
+    /// Wall-time budget of the contact solve [s], checked before each Newton run.
+    pub max_seconds: f64,
 }
 
 impl HbSettings {

@@ -376,6 +376,11 @@ impl Reader<'_> {
             .into_iter()
             .map(|(k, v)| (k, v.into_iter().collect()))
             .collect();
+        // A named group with no elements (an empty list in the .geo) stays, empty, so that
+        // it is reported rather than silently missing.
+        for name in self.names.values() {
+            self.mesh.node_groups.entry(name.clone()).or_default();
+        }
         orient_cells(path, &mut self.mesh)?;
         Ok(self.mesh)
     }

@@ -9,6 +9,7 @@ pub mod model;
 pub mod modes;
 pub mod report;
 pub mod resonance;
+pub mod sanity;
 pub mod stages;
 pub mod summary;
 
@@ -58,9 +59,13 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
+    let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    warnings.extend(sanity::check_initial_penetration(&model));
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
+    stages.run("check", || finite_solution(&solution))?;
+    warnings.extend(sanity::check_contact_result(&model, &solution));
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
         // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
@@ -78,12 +83,25 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
             p, mesh_info, &model, &solution, &sampled,
         ))
     })?;
-    let (check, warnings) = resonance;
+    let (check, resonance_warnings) = resonance;
     summary.resonance = check;
+    summary.warnings.extend(resonance_warnings);
     summary.warnings.extend(warnings);
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
+}
+
+/// A solution with a non-finite coefficient is a model error (inputs of extreme magnitude
+/// whose products overflow), never output.
+fn finite_solution(solution: &crate::hbm::Solution) -> Result<()> {
+    let finite = |v: &Vec<faer::c64>| v.iter().all(|z| z.re.is_finite() && z.im.is_finite());
+    if solution.free.values().all(finite) && solution.motion.values().all(finite) {
+        return Ok(());
+    }
+    Err(crate::Error::Model(
+        "the solution holds non-finite values: the loads, sizes or material constants are of such extreme magnitudes that their products overflow; rescale the units (e.g. mm–N–s) or check the magnitudes".into(),
+    ))
 }
 
 /// The directory time-marching results go to: `--out`, else `output.directory` with
@@ -106,7 +124,9 @@ pub fn run_transient(
     crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
+    let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
+    warnings.extend(sanity::check_initial_penetration(&model));
     let (marching, result) = stages::march(p, &model, &mut stages)?;
     let staged = StagedDir::create(&out)?;
     let mut summary = stages.run("write", || {
@@ -117,6 +137,7 @@ pub fn run_transient(
         }
         Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
     })?;
+    summary.warnings.extend(warnings);
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
@@ -153,6 +174,9 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
     let (mesh, info) = stages::mesh(p, &out, &mut stages)?;
     let set = stages.run("check", || {
         model::check_groups(p, &mesh)?;
+        for w in sanity::check_mesh(p, &mesh)? {
+            reporter.warning(&w);
+        }
         p.contact
             .as_ref()
             .map(|spec| crate::contact::geometry::build_contact_set(&mesh, spec))

@@ -101,9 +101,20 @@ fn node_group<'m>(
     field: &str,
     group: &str,
 ) -> Result<&'m Vec<usize>> {
-    mesh.node_groups
+    let nodes = mesh
+        .node_groups
         .get(group)
-        .ok_or_else(|| missing_group(p, field, group, mesh))
+        .ok_or_else(|| missing_group(p, field, group, mesh))?;
+    if nodes.is_empty() {
+        return Err(Error::Config {
+            path: p.source.clone(),
+            message: format!(
+                "{field}: the physical group `{group}` of {} is empty (no elements): give it its curves, points or surfaces in the .geo",
+                p.geometry.file.display()
+            ),
+        });
+    }
+    Ok(nodes)
 }
 
 /// Check that every group the pipeline names exists (the `check` command and `build`).

@@ -176,6 +176,7 @@ pub fn hb_settings(p: &Pipeline) -> HbSettings {
         c_scale: hb.solver.c_scale,
         tolerance: hb.solver.tolerance,
         max_iterations: hb.solver.max_iterations,
+        max_seconds: hb.solver.max_seconds,
     }
 }
 
