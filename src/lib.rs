@@ -20,6 +20,7 @@ pub mod output;
 pub mod pipeline;
 pub mod progress;
 pub mod study;
+pub mod sweep;
 pub mod transient;
 
 pub use error::{Error, Result};

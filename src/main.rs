@@ -47,6 +47,9 @@ enum Command {
     /// March in time from rest to the periodic state (the cross-check) and write the results
     /// to `<output.directory>-transient` (or `--out`), beside the harmonic-balance result.
     Transient(Common),
+    /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
+    /// block), written to `<output.directory>/sweep` (or `--out`): sweep.csv and sweep.json.
+    Sweep(Common),
     /// Validate the pipeline and the geometry's groups without solving.
     Check {
         #[command(flatten)]
@@ -186,6 +189,7 @@ fn main() -> ExitCode {
     });
     let result = match &cli.command {
         Command::Run(c) => run(c, Mode::Run),
+        Command::Sweep(c) => sweep(c),
         Command::Transient(c) => run(c, Mode::Transient),
         Command::Check { common, json } => check(common, *json),
         Command::Accuracy {
@@ -241,6 +245,20 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     };
     if !c.quiet {
         cli::show_run(&result);
+    }
+    Ok(())
+}
+
+/// `hbcontact sweep`: the curve's table on stdout is sweep.csv; the folds and the end.
+fn sweep(c: &Common) -> hbcontact::Result<()> {
+    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let options = RunOptions {
+        out: c.out.clone(),
+        ..Default::default()
+    };
+    let result = hbcontact::sweep::run(&pipeline, &options, &*reporter(c.quiet))?;
+    if !c.quiet {
+        cli::show_sweep(&result);
     }
     Ok(())
 }

@@ -18,6 +18,27 @@ use hbcontact::pipeline::{CheckReport, ModesResult, RunResult};
 
 /// After a run: warnings, the contact Newton's log, where the results went and what was
 /// simulated (stderr), then the headline (stdout).
+/// The end of `hbcontact sweep`: points, folds, where it stopped, wall time.
+pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
+    let s = &result.summary;
+    println!(
+        "{}: {} points from {:.4} Hz toward {:.4} Hz (H = {})",
+        s.name, s.points, s.from_hz, s.to_hz, s.harmonics
+    );
+    for f in &s.folds {
+        println!(
+            "  fold at {:.4} Hz (after point {}), probe first harmonic {:.4e} m",
+            f.frequency_hz, f.after, f.amplitude
+        );
+    }
+    match &s.stopped {
+        Some(why) => println!("  stopped early: {why}"),
+        None => println!("  reached {:.4} Hz", s.to_hz),
+    }
+    println!("  wall time: {:.3} s", s.stage_seconds.total());
+    println!("  wrote {}/sweep.csv and sweep.json", result.dir.display());
+}
+
 pub fn show_run(result: &RunResult) {
     let s = &result.summary;
     for w in &s.warnings {

@@ -25,6 +25,8 @@ pub struct Pipeline {
     pub harmonic_balance: HarmonicBalance,
     pub contact: Option<ContactSpec>,
     pub transient: TransientSpec,
+    /// `hbcontact sweep`'s range and steps; `None` when the pipeline has no `sweep` block.
+    pub sweep: Option<SweepSpec>,
     pub output: OutputSpec,
 }
 
@@ -203,6 +205,32 @@ impl Default for TransientSpec {
             periodic_tolerance: 1e-6,
             max_periods: 2000,
             courant: 0.8,
+        }
+    }
+}
+
+/// A frequency sweep: the range [Hz] and the arc-length steps (fractions of the span).
+#[derive(Clone, Debug)]
+pub struct SweepSpec {
+    pub from_hz: f64,
+    pub to_hz: f64,
+    pub step: f64,
+    pub min_step: f64,
+    pub max_step: f64,
+    pub max_points: usize,
+    pub max_change: f64,
+}
+
+impl Default for SweepSpec {
+    fn default() -> Self {
+        SweepSpec {
+            from_hz: 0.0,
+            to_hz: 0.0,
+            step: 0.01,
+            min_step: 1e-5,
+            max_step: 0.05,
+            max_points: 500,
+            max_change: 0.1,
         }
     }
 }

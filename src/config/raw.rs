@@ -47,6 +47,9 @@ struct RawPipeline {
     /// Default: each key's default.
     #[serde(default)]
     transient: Option<RawTransient>,
+    /// Settings of `hbcontact sweep` (a frequency-response curve by continuation).
+    #[serde(default)]
+    sweep: Option<RawSweep>,
     /// What is written and where. Default: each key's default.
     #[serde(default)]
     output: Option<RawOutput>,
@@ -371,6 +374,35 @@ struct RawTransient {
     /// Fraction of the stable time step used, in (0, 1]. Default: 0.8.
     #[serde(default)]
     courant: Option<f64>,
+}
+
+/// Settings of `hbcontact sweep`: the fundamental frequency runs from `from` to `to` along the
+/// response curve (through its folds), in arc-length steps measured with the frequency span
+/// as 1.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "Sweep")]
+struct RawSweep {
+    /// Start frequency [Hz], > 0 (the curve starts with a single-frequency solve there).
+    from: f64,
+    /// End frequency [Hz], > 0, ≠ from (below `from` sweeps down).
+    to: f64,
+    /// Initial arc-length step, a fraction of the span, in (0, 1]. Default: 0.01.
+    #[serde(default)]
+    step: Option<f64>,
+    /// Smallest step before the sweep stops with a diagnosis, > 0. Default: 1e-5.
+    #[serde(default)]
+    min_step: Option<f64>,
+    /// Largest step, ≥ step. Default: 0.05.
+    #[serde(default)]
+    max_step: Option<f64>,
+    /// At most this many points, ≥ 2. Default: 500.
+    #[serde(default)]
+    max_points: Option<usize>,
+    /// Largest relative change of the contact gaps (without contact: of the response) from
+    /// one point to the next, > 0. Default: 0.1.
+    #[serde(default)]
+    max_change: Option<f64>,
 }
 
 /// A field written to the VTU snapshots.
@@ -726,6 +758,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         check_contact_harmonics(path, &boundaries, harmonic_balance.harmonics)?;
     }
     let transient = validate_transient(path, raw.transient)?;
+    let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
     let output = validate_output(path, raw.output, &raw.name)?;
     Ok(Pipeline {
         name: raw.name,
@@ -737,6 +770,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         harmonic_balance,
         contact,
         transient,
+        sweep,
         output,
     })
 }
@@ -1144,6 +1178,57 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
     }
     Ok(spec)
 }
+
+fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
+    let mut spec = SweepSpec {
+        from_hz: positive(path, "sweep.from", s.from)?,
+        to_hz: positive(path, "sweep.to", s.to)?,
+        ..SweepSpec::default()
+    };
+    if spec.from_hz == spec.to_hz {
+        return Err(config_error(
+            path,
+            "sweep.from and sweep.to are equal: give a frequency range (for one frequency, use `hbcontact run`)",
+        ));
+    }
+    if let Some(v) = s.step {
+        spec.step = positive(path, "sweep.step", v)?.min(1.0);
+    }
+    if let Some(v) = s.min_step {
+        spec.min_step = positive(path, "sweep.min_step", v)?;
+    }
+    if let Some(v) = s.max_step {
+        spec.max_step = positive(path, "sweep.max_step", v)?;
+    }
+    if let Some(v) = s.max_change {
+        spec.max_change = positive(path, "sweep.max_change", v)?;
+    }
+    if let Some(v) = s.max_points {
+        spec.max_points = v;
+    }
+    if spec.max_points < 2 || spec.max_points > MAX_SWEEP_POINTS {
+        return Err(config_error(
+            path,
+            format!(
+                "sweep.max_points = {} must lie in [2, {MAX_SWEEP_POINTS}]",
+                spec.max_points
+            ),
+        ));
+    }
+    if !(spec.min_step <= spec.step && spec.step <= spec.max_step) {
+        return Err(config_error(
+            path,
+            format!(
+                "sweep: min_step ({}) ≤ step ({}) ≤ max_step ({}) must hold",
+                spec.min_step, spec.step, spec.max_step
+            ),
+        ));
+    }
+    Ok(spec)
+}
+
+/// The most points one sweep may take (each is a set of factorizations).
+const MAX_SWEEP_POINTS: usize = 100_000;
 
 fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result<OutputSpec> {
     let out = output.unwrap_or(RawOutput {

@@ -50,7 +50,7 @@ pub(super) fn linear_gap(
 }
 
 /// c = c_scale / mean|G_0,ii|: a stiffness of the order of the contact nodes' own.
-fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Result<f64> {
+pub(super) fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Result<f64> {
     let nc = problem.nodes;
     let mean_compliance = (0..nc)
         .map(|i| problem.compliance[0][i * nc + i].re.abs())

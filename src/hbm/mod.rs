@@ -20,6 +20,7 @@ pub mod knobs;
 pub mod reduced;
 pub mod solution;
 pub mod step;
+pub mod sweep;
 pub mod system;
 
 use std::collections::BTreeMap;
@@ -79,8 +80,36 @@ pub fn solve(
     settings: &HbSettings,
     reporter: &dyn Reporter,
 ) -> Result<Solution> {
-    let harmonics = harmonics_to_compute(system, contact, settings)?;
     let mut timings = Timings::default();
+    let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
+    let contact_solution = match (contact, problem) {
+        (Some(op), Some(problem)) => {
+            let solution = timed(&mut timings.newton, || {
+                globalize::solve_contact(system, &problem, settings, reporter)
+            })?;
+            timed(&mut timings.recover, || {
+                linear.recover(op, &solution.multipliers, solution.coefficients())
+            });
+            linear
+                .warnings
+                .extend(knobs::warnings(&solution.knob_check, solution.samples));
+            Some(solution)
+        }
+        _ => None,
+    };
+    Ok(linear.into_solution(system, contact_solution, timings))
+}
+
+/// Everything of a solve at the system's ω before the contact Newton: the factorizations,
+/// the linear response and, with contact, the reduced problem (G_k and r).
+fn prepare(
+    system: &System,
+    contact: Option<&ContactOperator>,
+    settings: &HbSettings,
+    reporter: &dyn Reporter,
+    timings: &mut Timings,
+) -> Result<(LinearResponse, Option<ReducedProblem>)> {
+    let harmonics = harmonics_to_compute(system, contact, settings)?;
     let mut linear = LinearResponse::default();
     for (i, &k) in harmonics.iter().enumerate() {
         let total = Some(harmonics.len() as u64);
@@ -93,40 +122,15 @@ pub fn solve(
         }
     }
     reporter.task_done("factor");
-    let contact_solution = match contact {
-        None => None,
-        Some(op) => {
-            let problem = timed(&mut timings.reduce, || ReducedProblem {
-                nodes: op.nodes(),
-                harmonics: settings.harmonics,
-                linear_gap: globalize::linear_gap(
-                    op,
-                    settings.harmonics,
-                    &linear.free,
-                    &linear.motion,
-                ),
-                compliance: std::mem::take(&mut linear.compliance),
-            });
-            let solution = timed(&mut timings.newton, || {
-                globalize::solve_contact(system, &problem, settings, reporter)
-            })?;
-            timed(&mut timings.recover, || linear.recover(op, &solution));
-            linear
-                .warnings
-                .extend(knobs::warnings(&solution.knob_check, solution.samples));
-            Some(solution)
-        }
-    };
-    Ok(Solution {
-        omega: system.omega,
-        free: linear.free,
-        motion: linear.motion,
-        contact: contact_solution,
-        residuals: linear.residuals,
-        complex_arithmetic: system.rayleigh.is_some() && harmonics.iter().any(|&k| k > 0),
-        timings,
-        warnings: linear.warnings,
-    })
+    let problem = contact.map(|op| {
+        timed(&mut timings.reduce, || ReducedProblem {
+            nodes: op.nodes(),
+            harmonics: settings.harmonics,
+            linear_gap: globalize::linear_gap(op, settings.harmonics, &linear.free, &linear.motion),
+            compliance: std::mem::take(&mut linear.compliance),
+        })
+    });
+    Ok((linear, problem))
 }
 
 /// Contact scenes compute every harmonic up to H (contact couples them); linear scenes only
@@ -166,7 +170,8 @@ struct LinearResponse {
     motion: BTreeMap<usize, Vec<c64>>,
     residuals: BTreeMap<usize, f64>,
     warnings: Vec<String>,
-    /// The factorizations of Z_k, kept for the recovery (24) (contact scenes only).
+    /// The factorizations of Z_k, kept for the recovery (24) and the sweep's ω-derivatives
+    /// (contact scenes only).
     factors: BTreeMap<usize, SparseLu>,
     /// G_k = B Z_k⁻¹ Bᵀ per harmonic (row-major nc × nc).
     compliance: Vec<Vec<c64>>,
@@ -218,16 +223,16 @@ impl LinearResponse {
         Ok(())
     }
 
-    /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic.
-    fn recover(&mut self, op: &ContactOperator, contact: &ContactSolution) {
-        let m = contact.coefficients();
+    /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic; `multipliers`
+    /// node-major with `m` coefficients per node.
+    fn recover(&mut self, op: &ContactOperator, multipliers: &[f64], m: usize) {
         let nc = op.nodes();
         for (&k, lu) in &self.factors {
             let Some(z) = self.free.get_mut(&k) else {
                 continue;
             };
             let lam: Vec<c64> = (0..nc)
-                .map(|j| fourier::phasor(&contact.multipliers[j * m..(j + 1) * m], k))
+                .map(|j| fourier::phasor(&multipliers[j * m..(j + 1) * m], k))
                 .collect();
             if lam.iter().all(|l| l.norm() == 0.0) {
                 continue;
@@ -236,6 +241,28 @@ impl LinearResponse {
             for (zi, di) in z.iter_mut().zip(lu.solve(&rhs)) {
                 *zi += di;
             }
+        }
+    }
+}
+
+impl LinearResponse {
+    /// The solution these responses make, with the contact part (if any) already recovered.
+    fn into_solution(
+        self,
+        system: &System,
+        contact: Option<ContactSolution>,
+        timings: Timings,
+    ) -> Solution {
+        let complex = system.rayleigh.is_some() && self.free.keys().any(|&k| k > 0);
+        Solution {
+            omega: system.omega,
+            free: self.free,
+            motion: self.motion,
+            contact,
+            residuals: self.residuals,
+            complex_arithmetic: complex,
+            timings,
+            warnings: self.warnings,
         }
     }
 }

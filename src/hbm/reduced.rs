@@ -138,13 +138,13 @@ pub struct NewtonOutcome {
 
 /// The complementarity residual (23) at one λ, with what the Jacobian and the scale need.
 #[derive(Clone)]
-struct Evaluation {
-    x: Vec<f64>,
-    residual: Vec<f64>,
+pub(super) struct Evaluation {
+    pub(super) x: Vec<f64>,
+    pub(super) residual: Vec<f64>,
     /// Peak |λ| over the samples.
     peak: f64,
     /// Per node and sample: the slope φ_μ'(c g − λ) ∈ [0, 1] (1 where contact is active).
-    slopes: Vec<f64>,
+    pub(super) slopes: Vec<f64>,
 }
 
 impl Evaluation {
@@ -155,9 +155,9 @@ impl Evaluation {
 }
 
 /// R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)) and its pieces.
-struct Residual<'a> {
+pub(super) struct Residual<'a> {
     problem: &'a ReducedProblem,
-    sampler: Sampler,
+    pub(super) sampler: Sampler,
     c: f64,
     smoothing: f64,
     /// The force the linear solution's sampled penetration implies (c · max r): with the
@@ -166,7 +166,7 @@ struct Residual<'a> {
 }
 
 impl<'a> Residual<'a> {
-    fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
+    pub(super) fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
         Residual {
             problem,
             sampler: Sampler::new(problem.harmonics, settings.samples),
@@ -186,7 +186,7 @@ impl<'a> Residual<'a> {
         }
     }
 
-    fn evaluate(&self, x: Vec<f64>) -> Evaluation {
+    pub(super) fn evaluate(&self, x: Vec<f64>) -> Evaluation {
         let (nc, m, ns) = (
             self.problem.nodes,
             self.problem.coefficients(),
@@ -223,7 +223,7 @@ impl<'a> Residual<'a> {
     }
 
     /// ‖R‖∞ over the force scale.
-    fn relative(&self, e: &Evaluation) -> f64 {
+    pub(super) fn relative(&self, e: &Evaluation) -> f64 {
         let scale = self.linear_force.max(e.peak).max(f64::MIN_POSITIVE);
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }

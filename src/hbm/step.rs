@@ -126,7 +126,7 @@ pub fn direction(
 }
 
 /// A_i for every node, concatenated (nc · M²).
-fn activity_blocks(sampler: &Sampler, nodes: usize, slopes: &[f64]) -> Vec<f64> {
+pub fn activity_blocks(sampler: &Sampler, nodes: usize, slopes: &[f64]) -> Vec<f64> {
     let (m, n) = (sampler.coefficients(), sampler.samples);
     let mut blocks = vec![0.0; nodes * m * m];
     for i in 0..nodes {
@@ -147,6 +147,16 @@ pub fn dense_step(
     blocks: &[f64],
     residual: &[f64],
 ) -> Option<Vec<f64>> {
+    let jac = dense_jacobian(problem, c, blocks);
+    let dim = jac.nrows();
+    let rhs = Mat::<f64>::from_fn(dim, 1, |r, _| -residual[r]);
+    let x = jac.partial_piv_lu().solve(&rhs);
+    let out: Vec<f64> = (0..dim).map(|r| x[(r, 0)]).collect();
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// J = I − A + c A G formed densely, column block by column block (dim × dim).
+pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f64> {
     let (nc, m) = (problem.nodes, problem.coefficients());
     let dim = nc * m;
     let mut jac = Mat::<f64>::identity(dim, dim);
@@ -172,10 +182,7 @@ pub fn dense_step(
             }
         }
     }
-    let rhs = Mat::<f64>::from_fn(dim, 1, |r, _| -residual[r]);
-    let x = jac.partial_piv_lu().solve(&rhs);
-    let out: Vec<f64> = (0..dim).map(|r| x[(r, 0)]).collect();
-    out.iter().all(|v| v.is_finite()).then_some(out)
+    jac
 }
 
 /// The step without forming J: restarted GMRES on J v = v − A v + c A G v (products by FFT

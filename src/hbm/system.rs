@@ -20,6 +20,7 @@ pub struct HarmonicInput {
 }
 
 /// K, M (and D) split into free–free and free–prescribed blocks, on one shared pattern.
+#[derive(Clone)]
 pub struct System {
     pub dofs: DofMap,
     pub omega: f64,
@@ -116,6 +117,30 @@ impl System {
             .zip(&mx)
             .map(|(&kv, &mv)| kv - mv * (kw * kw) + c64::new(0.0, kw) * (kv * beta + mv * alpha))
             .collect()
+    }
+
+    /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = −2k²ω M + ik(αM + βK): how the dynamic
+    /// stiffness of harmonic k acting on the state changes with ω (the sweep's R_ω).
+    pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
+        let kf = k as f64;
+        let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+        let rate = |kx: Vec<c64>, mx: Vec<c64>| -> Vec<c64> {
+            kx.iter()
+                .zip(&mx)
+                .map(|(&kv, &mv)| {
+                    mv * (-2.0 * kf * kf * self.omega)
+                        + c64::new(0.0, kf) * (kv * beta + mv * alpha)
+                })
+                .collect()
+        };
+        let mut out = rate(self.k_ff.mul_complex(x), self.m_ff.mul_complex(x));
+        if motion.iter().any(|z| z.norm() > 0.0) {
+            let fp = rate(self.k_fp.mul_complex(motion), self.m_fp.mul_complex(motion));
+            for (o, v) in out.iter_mut().zip(fp) {
+                *o += v;
+            }
+        }
+        out
     }
 
     /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k.

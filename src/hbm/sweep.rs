@@ -1,0 +1,727 @@
+//! Frequency-response curves: pseudo-arclength continuation of the contact solution in
+//! (λ, ω), which passes the folds contact bends a resonance into (docs/method.md, "Sweeps").
+//!
+//! Glossary and formulas:
+//! - R(λ, ω) = 0 the complementarity residual (23) at ω, J = ∂R/∂λ its Newton matrix;
+//! - R_ω = ∂R/∂ω = Q D P (c ∂g/∂ω) at fixed λ, exact from the kept factorizations:
+//!   ∂g_k/∂ω = B ∂z_k/∂ω,  ∂z_k/∂ω = −Z_k⁻¹ (∂Z_k/∂ω z_k + ∂Z_k,fp/∂ω u_p,k),
+//!   ∂Z_k/∂ω = −2k²ω M + ik(αM + βK) (two solves per harmonic: the recovery and this);
+//! - y = (λ/F, ω/Ω) the scaled unknowns: F a force scale (c × the 2-norm of the first point's
+//!   linear-gap coefficients, so ‖λ/F‖ is of order one), Ω the sweep's span |ω_end − ω_start|;
+//!   s the arc length in y;
+//! - direction τ: at the first point the tangent, [J F, R_ω Ω; (0, ±1)ᵀ] τ = [0; 1]
+//!   normalised; after that the secant from the previous point, normalised. The contact law
+//!   makes R only piecewise smooth in λ (samples switch between open and closed), so J-based
+//!   tangents flip at kinks; the secant follows the curve through them;
+//! - predictor y_p = y + Δs τ; corrector on R = 0 and τᵀ(y − y_p) = 0. Where the curve is a
+//!   graph over ω (|τ_ω| ≥ `GRAPH_SLOPE`) the corrector keeps ω = ω_p and iterates on λ alone
+//!   (one set of factorizations per point); near a fold ω is an unknown, and Z_k is refactored
+//!   numerically (the symbolic analysis is shared) at every corrector iterate;
+//! - folds: sign changes of the secants' ω-components, at the point where ω turns back; a
+//!   back-and-forth within `KINK` of the span over a few points is a kink of
+//!   the sampled law (one sample switching), not reported.
+//!
+//! Step control: a corrector that fails, needs more than `MAX_CORRECTOR` iterations, lands
+//! farther than Δs from the predictor (a jump to another branch) or changes the contact gaps
+//! by more than `max_change` (relative) rejects the step and halves Δs; an easy step (≤ 3
+//! iterations) grows it by 1.5, up to the maximum.
+
+use std::time::Instant;
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+
+use super::fourier::{phasor, set_phasor};
+use super::reduced::{NewtonSettings, Residual};
+use super::step::{self, StepMethod};
+use super::{globalize, knobs, measure_complementarity, prepare};
+use super::{ContactSolution, HbSettings, LinearResponse, ReducedProblem, Solution, System};
+use super::{NewtonOutcome, Timings};
+use crate::contact::ContactOperator;
+use crate::progress::Reporter;
+use crate::{Error, Result};
+
+/// |τ_ω| above which the corrector keeps ω fixed (the curve is a graph over ω there).
+const GRAPH_SLOPE: f64 = 0.2;
+/// A corrector that lands farther than this many steps from its predictor jumped to another
+/// branch (a kink of the sampled law bends the curve by less).
+const JUMP: f64 = 3.0;
+/// Corrector iterations before a step is rejected.
+const MAX_CORRECTOR: usize = 12;
+
+/// What to sweep and how finely (the solver's view; the pipeline validates it).
+#[derive(Clone, Debug)]
+pub struct SweepSettings {
+    /// Start and end of the sweep [rad/s] (either order).
+    pub omega_start: f64,
+    pub omega_end: f64,
+    /// Initial, smallest and largest arc-length step, as fractions of the scaled curve
+    /// (ω span = 1).
+    pub step: f64,
+    pub min_step: f64,
+    pub max_step: f64,
+    /// At most this many points.
+    pub max_points: usize,
+    /// Largest relative change of the contact gaps' (or, without contact, the response's)
+    /// coefficients from one point to the next.
+    pub max_change: f64,
+}
+
+/// How one point's corrector ran.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Corrector {
+    /// The first point: the single-frequency solve with its globalization.
+    Cold,
+    /// Newton in λ at the predicted ω.
+    FixedFrequency,
+    /// Bordered Newton in (λ, ω) on the arc-length constraint.
+    Arclength,
+    /// No contact: the linear response at ω.
+    Linear,
+}
+
+/// One accepted point of the curve (the solution itself goes to the caller's callback).
+#[derive(Clone, Debug)]
+pub struct PointInfo {
+    pub index: usize,
+    pub omega: f64,
+    pub corrector: Corrector,
+    /// Newton iterations of the corrector (0 for a linear point).
+    pub newton_iterations: usize,
+    /// Sets of factorizations this point cost (its rejected attempts included).
+    pub factorizations: usize,
+    /// The arc-length step that reached it.
+    pub step: f64,
+    /// τ_ω, the ω-component of the unit tangent (negative on a branch that runs back).
+    pub tangent_omega: f64,
+    /// Wall time of this point, rejected attempts included [s].
+    pub seconds: f64,
+}
+
+/// A turning point of the curve.
+#[derive(Clone, Debug, serde::Serialize, schemars::JsonSchema)]
+pub struct Fold {
+    /// The point where ω turns back (within one step of the fold).
+    pub after: usize,
+    /// That point's ω [rad/s].
+    pub omega: f64,
+}
+
+/// How a sweep ended.
+#[derive(Clone, Debug, Default)]
+pub struct SweepOutcome {
+    pub points: usize,
+    pub folds: Vec<Fold>,
+    /// Why the sweep stopped before the end (`None`: it reached the end frequency).
+    pub stopped: Option<String>,
+    pub timings: Timings,
+}
+
+/// The receiver of each accepted point and its recovered solution.
+pub type OnPoint<'a> = dyn FnMut(&PointInfo, &Solution) -> Result<()> + 'a;
+
+/// Sweep ω from `omega_start` to `omega_end`, calling `on_point` for every accepted point.
+/// `system.omega` is changed along the way. Errors only when the first point cannot be
+/// solved or the callback fails; a sweep that cannot go on stops with `stopped` set.
+pub fn sweep(
+    system: &mut System,
+    contact: Option<&ContactOperator>,
+    hb: &HbSettings,
+    s: &SweepSettings,
+    reporter: &dyn Reporter,
+    on_point: &mut OnPoint,
+) -> Result<SweepOutcome> {
+    match contact {
+        Some(op) => Continuation::start(system, op, hb, s, reporter)?.run(on_point),
+        None => linear_sweep(system, hb, s, reporter, on_point),
+    }
+}
+
+/// Everything at one ω: the factorizations, the linear response and the reduced problem.
+struct Frame {
+    omega: f64,
+    linear: LinearResponse,
+    problem: ReducedProblem,
+}
+
+/// A converged point: its multipliers, ω, unit tangent and contact gaps.
+struct Point {
+    x: Vec<f64>,
+    omega: f64,
+    tangent: Vec<f64>,
+    gaps: Vec<f64>,
+}
+
+impl Point {
+    fn tangent_omega(&self) -> f64 {
+        self.tangent[self.x.len()]
+    }
+}
+
+struct Continuation<'a> {
+    system: &'a mut System,
+    op: &'a ContactOperator,
+    hb: &'a HbSettings,
+    s: &'a SweepSettings,
+    reporter: &'a dyn Reporter,
+    newton: NewtonSettings,
+    /// F and Ω of the scaling.
+    force: f64,
+    span: f64,
+    direction: f64,
+    timings: Timings,
+    factorizations: usize,
+    first: Option<ContactSolution>,
+}
+
+impl<'a> Continuation<'a> {
+    /// The cold first point (the single-frequency solve, knob checks included) fixes c and N
+    /// for the whole curve.
+    fn start(
+        system: &'a mut System,
+        op: &'a ContactOperator,
+        hb: &'a HbSettings,
+        s: &'a SweepSettings,
+        reporter: &'a dyn Reporter,
+    ) -> Result<Self> {
+        system.omega = s.omega_start;
+        let mut timings = Timings::default();
+        let (_, problem) = prepare(system, Some(op), hb, reporter, &mut timings)?;
+        let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
+        let first = globalize::solve_contact(system, &problem, hb, reporter)?;
+        let norm = problem.linear_gap.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let force = (first.c * norm).max(f64::MIN_POSITIVE);
+        let newton = NewtonSettings {
+            samples: first.samples,
+            c: first.c,
+            tolerance: hb.tolerance,
+            max_iterations: MAX_CORRECTOR,
+            method: StepMethod::Auto,
+            smoothing: 0.0,
+            min_iterations: 0,
+        };
+        Ok(Continuation {
+            system,
+            op,
+            hb,
+            s,
+            reporter,
+            newton,
+            force,
+            span: (s.omega_end - s.omega_start).abs(),
+            direction: (s.omega_end - s.omega_start).signum(),
+            timings,
+            factorizations: 1,
+            first: Some(first),
+        })
+    }
+
+    /// The frame at ω (one set of factorizations and the reduction).
+    fn frame(&mut self, omega: f64) -> Result<Frame> {
+        self.system.omega = omega;
+        self.factorizations += 1;
+        let (linear, problem) = prepare(
+            self.system,
+            Some(self.op),
+            self.hb,
+            self.reporter,
+            &mut self.timings,
+        )?;
+        let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
+        Ok(Frame {
+            omega,
+            linear,
+            problem,
+        })
+    }
+
+    fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
+        let clock = Instant::now();
+        let first = self
+            .first
+            .take()
+            .ok_or_else(|| Error::Model("internal".into()))?;
+        let frame = self.frame(self.s.omega_start)?;
+        let initial = [vec![0.0; first.multipliers.len()], vec![self.direction]].concat();
+        let tangent = self.tangent(&frame, &first.multipliers, &initial)?;
+        let mut point = Point {
+            gaps: frame.problem.gap(&first.multipliers),
+            x: first.multipliers.clone(),
+            omega: frame.omega,
+            tangent,
+        };
+        let mut outcome = SweepOutcome::default();
+        let info = PointInfo {
+            index: 0,
+            omega: self.s.omega_start,
+            corrector: Corrector::Cold,
+            newton_iterations: first.newton.iterations,
+            factorizations: self.factorizations,
+            step: 0.0,
+            tangent_omega: point.tangent_omega(),
+            seconds: clock.elapsed().as_secs_f64(),
+        };
+        self.emit(&info, &point.x, frame, first.newton.clone(), on_point)?;
+        let mut ds = self.s.step;
+        let mut index = 1;
+        while index < self.s.max_points {
+            if self.beyond_end(&point) {
+                break;
+            }
+            let clock = Instant::now();
+            self.factorizations = 0;
+            let (next, info) = loop {
+                match self.step(&point, ds) {
+                    Ok((next, frame, corrector, iterations)) => {
+                        let info = PointInfo {
+                            index,
+                            omega: next.omega,
+                            corrector,
+                            newton_iterations: iterations,
+                            factorizations: self.factorizations,
+                            step: ds,
+                            tangent_omega: next.tangent_omega(),
+                            seconds: clock.elapsed().as_secs_f64(),
+                        };
+                        if iterations <= 3 {
+                            ds = (1.5 * ds).min(self.s.max_step);
+                        }
+                        break (Some((next, frame)), info);
+                    }
+                    Err(why) if ds * 0.5 >= self.s.min_step => {
+                        self.reporter.progress(
+                            "sweep",
+                            index as u64,
+                            None,
+                            &format!("Δs/2: {why}"),
+                        );
+                        ds *= 0.5;
+                    }
+                    Err(why) => {
+                        outcome.stopped = Some(format!(
+                            "at {:.6} Hz the continuation found no next point down to the \
+                             smallest step {:.1e} ({why}); lower sweep.min_step, raise \
+                             harmonic_balance.harmonics or add damping",
+                            hz(point.omega),
+                            self.s.min_step
+                        ));
+                        break (
+                            None,
+                            PointInfo {
+                                index,
+                                ..info_stub()
+                            },
+                        );
+                    }
+                }
+            };
+            let Some((next, frame)) = next else { break };
+            if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
+                outcome.folds.push(fold(index - 1, &point));
+            }
+            let newton = NewtonOutcome {
+                multipliers: Vec::new(),
+                converged: true,
+                iterations: info.newton_iterations,
+                relative_residual: 0.0,
+                log: Vec::new(),
+                reason: String::new(),
+            };
+            self.emit(&info, &next.x, frame, newton, on_point)?;
+            let status = format!("{:.3} Hz", hz(next.omega));
+            self.reporter.progress("sweep", index as u64, None, &status);
+            point = next;
+            index += 1;
+        }
+        self.reporter.task_done("sweep");
+        outcome.points = index;
+        outcome.folds = without_kinks(std::mem::take(&mut outcome.folds), KINK * self.span);
+        outcome.timings = self.timings;
+        Ok(outcome)
+    }
+
+    /// Past the end frequency, moving away from it.
+    fn beyond_end(&self, p: &Point) -> bool {
+        let past = (p.omega - self.s.omega_end) * self.direction >= 0.0;
+        let before = (p.omega - self.s.omega_start) * self.direction < 0.0;
+        let onward = p.tangent_omega() * self.direction;
+        (past && onward > 0.0) || (before && onward < 0.0)
+    }
+
+    /// Predictor and corrector from `p` with arc-length step `ds`.
+    fn step(
+        &mut self,
+        p: &Point,
+        ds: f64,
+    ) -> std::result::Result<(Point, Frame, Corrector, usize), String> {
+        let n = p.x.len();
+        let t = &p.tangent;
+        let mut omega_p = p.omega + ds * t[n] * self.span;
+        // Land on the end frequency rather than past it.
+        let end = self.s.omega_end;
+        if (omega_p - end) * self.direction > 0.0 && (p.omega - end) * self.direction < 0.0 {
+            omega_p = end;
+        }
+        let x_p: Vec<f64> = (0..n).map(|i| p.x[i] + ds * t[i] * self.force).collect();
+        let (x, frame, corrector, iterations) = if t[n].abs() >= GRAPH_SLOPE {
+            let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
+            let o = super::reduced::newton(&frame.problem, &self.newton, &x_p, self.reporter);
+            if !o.converged {
+                return Err(format!("fixed-ω corrector: {}", o.reason));
+            }
+            (
+                o.multipliers,
+                frame,
+                Corrector::FixedFrequency,
+                o.iterations,
+            )
+        } else {
+            let (x, frame, it) = self.arclength(&x_p, omega_p, t)?;
+            (x, frame, Corrector::Arclength, it)
+        };
+        // Distance from the predictor in the scaled metric.
+        let dist = ((0..n)
+            .map(|i| ((x[i] - x_p[i]) / self.force).powi(2))
+            .sum::<f64>()
+            + ((frame.omega - omega_p) / self.span).powi(2))
+        .sqrt();
+        if dist > JUMP * ds {
+            return Err(format!(
+                "the corrector moved {dist:.2e} from the predictor, more than {JUMP} steps of {ds:.2e}"
+            ));
+        }
+        let mut secant: Vec<f64> = (0..n)
+            .map(|i| (x[i] - p.x[i]) / self.force)
+            .chain([(frame.omega - p.omega) / self.span])
+            .collect();
+        let length = secant.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(length > 0.0) {
+            return Err("the corrector returned to the same point".into());
+        }
+        secant.iter_mut().for_each(|v| *v /= length);
+        let gaps = frame.problem.gap(&x);
+        let change = relative_change(&p.gaps, &gaps);
+        if change > self.s.max_change && ds > self.s.min_step {
+            return Err(format!("the contact gaps changed by {change:.2e}"));
+        }
+        let point = Point {
+            x,
+            omega: frame.omega,
+            tangent: secant,
+            gaps,
+        };
+        Ok((point, frame, corrector, iterations))
+    }
+
+    /// Bordered Newton in (λ, ω) from the predictor, Z_k refactored at every iterate.
+    fn arclength(
+        &mut self,
+        x_p: &[f64],
+        omega_p: f64,
+        t: &[f64],
+    ) -> std::result::Result<(Vec<f64>, Frame, usize), String> {
+        let n = x_p.len();
+        let (mut x, mut omega) = (x_p.to_vec(), omega_p);
+        for iteration in 0..=MAX_CORRECTOR {
+            let frame = self.frame(omega).map_err(|e| e.to_string())?;
+            let residual = Residual::new(&frame.problem, &self.newton);
+            let e = residual.evaluate(x.clone());
+            if residual.relative(&e) <= self.newton.tolerance && iteration > 0 {
+                return Ok((x, frame, iteration));
+            }
+            let (jac, r_omega) = self.linearization(&frame, &residual, &e);
+            let constraint: f64 = (0..n)
+                .map(|i| t[i] * (x[i] - x_p[i]) / self.force)
+                .sum::<f64>()
+                + t[n] * (omega - omega_p) / self.span;
+            let rhs: Vec<f64> = e.residual.iter().copied().chain([constraint]).collect();
+            let d = self
+                .bordered_solve(&jac, &r_omega, t, &rhs)
+                .ok_or("the bordered corrector matrix is singular")?;
+            for i in 0..n {
+                x[i] -= d[i] * self.force;
+            }
+            omega -= d[n] * self.span;
+            if !(omega > 0.0) {
+                return Err("the corrector left ω > 0".into());
+            }
+        }
+        Err(format!(
+            "the arc-length corrector did not converge in {MAX_CORRECTOR} iterations"
+        ))
+    }
+
+    /// J and R_ω at the evaluation `e` on `frame`.
+    fn linearization(
+        &self,
+        frame: &Frame,
+        residual: &Residual,
+        e: &super::reduced::Evaluation,
+    ) -> (Mat<f64>, Vec<f64>) {
+        let m = frame.problem.coefficients();
+        let blocks = step::activity_blocks(&residual.sampler, frame.problem.nodes, &e.slopes);
+        let jac = step::dense_jacobian(&frame.problem, self.newton.c, &blocks);
+        let dg = gap_rate(self.system, self.op, &frame.linear, &e.x, self.hb.harmonics);
+        let mut r_omega = vec![0.0; dg.len()];
+        for i in 0..frame.problem.nodes {
+            let a_i = &blocks[i * m * m..(i + 1) * m * m];
+            for a in 0..m {
+                r_omega[i * m + a] = (0..m)
+                    .map(|b| a_i[a * m + b] * self.newton.c * dg[i * m + b])
+                    .sum();
+            }
+        }
+        (jac, r_omega)
+    }
+
+    /// Solve [J F, R_ω Ω; τᵀ] d = rhs in the scaled unknowns.
+    fn bordered_solve(
+        &self,
+        jac: &Mat<f64>,
+        r_omega: &[f64],
+        t: &[f64],
+        rhs: &[f64],
+    ) -> Option<Vec<f64>> {
+        let n = r_omega.len();
+        let a = Mat::<f64>::from_fn(n + 1, n + 1, |i, j| match (i < n, j < n) {
+            (true, true) => jac[(i, j)] * self.force,
+            (true, false) => r_omega[i] * self.span,
+            (false, _) => t[j],
+        });
+        let b = Mat::<f64>::from_fn(n + 1, 1, |i, _| rhs[i]);
+        let d = a.partial_piv_lu().solve(&b);
+        let out: Vec<f64> = (0..=n).map(|i| d[(i, 0)]).collect();
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// The unit tangent at the first point, oriented along `previous`.
+    fn tangent(&self, frame: &Frame, x: &[f64], previous: &[f64]) -> Result<Vec<f64>> {
+        let residual = Residual::new(&frame.problem, &self.newton);
+        let e = residual.evaluate(x.to_vec());
+        let (jac, r_omega) = self.linearization(frame, &residual, &e);
+        let n = x.len();
+        let rhs: Vec<f64> = (0..n).map(|_| 0.0).chain([1.0]).collect();
+        let t = self
+            .bordered_solve(&jac, &r_omega, previous, &rhs)
+            .ok_or_else(|| {
+                Error::NotConverged(format!(
+                    "at {:.6} Hz the continuation's tangent is undefined (a singular bordered \
+                     matrix: a branch point); start the sweep slightly off this frequency",
+                    hz(frame.omega)
+                ))
+            })?;
+        let norm = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let sign = if t.iter().zip(previous).map(|(a, b)| a * b).sum::<f64>() < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        Ok(t.iter().map(|v| sign * v / norm).collect())
+    }
+
+    /// Recover the point's whole field and hand it to the callback.
+    fn emit(
+        &mut self,
+        info: &PointInfo,
+        x: &[f64],
+        frame: Frame,
+        newton: NewtonOutcome,
+        on_point: &mut OnPoint,
+    ) -> Result<()> {
+        let problem = &frame.problem;
+        let gaps = problem.gap(x);
+        let samples = self.newton.samples;
+        let contact = ContactSolution {
+            harmonics: self.hb.harmonics,
+            samples,
+            c: self.newton.c,
+            multipliers: x.to_vec(),
+            complementarity: measure_complementarity(problem, x, &gaps, samples),
+            gaps,
+            newton,
+            ladder: vec![self.hb.harmonics],
+            knob_check: knobs::KnobCheck {
+                samples_initial: samples,
+                samples_changes: Vec::new(),
+                c_alternative: self.newton.c,
+                c_change: None,
+                iterations: 0,
+            },
+        };
+        let m = problem.coefficients();
+        let mut linear = frame.linear;
+        linear.recover(self.op, x, m);
+        self.system.omega = frame.omega;
+        let solution = linear.into_solution(self.system, Some(contact), Timings::default());
+        on_point(info, &solution)
+    }
+}
+
+fn info_stub() -> PointInfo {
+    PointInfo {
+        index: 0,
+        omega: 0.0,
+        corrector: Corrector::Cold,
+        newton_iterations: 0,
+        factorizations: 0,
+        step: 0.0,
+        tangent_omega: 0.0,
+        seconds: 0.0,
+    }
+}
+
+fn hz(omega: f64) -> f64 {
+    omega / (2.0 * std::f64::consts::PI)
+}
+
+/// Two turning points closer than this fraction of the span in ω, a few points apart, are a
+/// kink of the sampled contact law (a sample switching), not a fold of the curve.
+const KINK: f64 = 1e-3;
+
+/// Drop pairs of consecutive folds within `width` in ω and 3 points of each other.
+fn without_kinks(folds: Vec<Fold>, width: f64) -> Vec<Fold> {
+    let mut out: Vec<Fold> = Vec::new();
+    for f in folds {
+        match out.last() {
+            Some(l) if f.after - l.after <= 3 && (f.omega - l.omega).abs() < width => {
+                out.pop();
+            }
+            _ => out.push(f),
+        }
+    }
+    out
+}
+
+/// The fold at point `at`, where ω turns back (the secants before and after it disagree in
+/// the sign of their ω-component).
+fn fold(at: usize, a: &Point) -> Fold {
+    Fold {
+        after: at,
+        omega: a.omega,
+    }
+}
+
+/// ‖b − a‖ / max(‖a‖, ‖b‖).
+fn relative_change(a: &[f64], b: &[f64]) -> f64 {
+    let diff = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
+    let norm = a
+        .iter()
+        .map(|x| x * x)
+        .sum::<f64>()
+        .max(b.iter().map(|x| x * x).sum());
+    if norm > 0.0 {
+        (diff / norm).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// ∂g/∂ω at fixed λ (node-major coefficients), by two solves per harmonic.
+fn gap_rate(
+    system: &System,
+    op: &ContactOperator,
+    linear: &LinearResponse,
+    x: &[f64],
+    harmonics: usize,
+) -> Vec<f64> {
+    let (nc, m) = (op.nodes(), 2 * harmonics + 1);
+    let mut dg = vec![0.0; nc * m];
+    for (&k, lu) in &linear.factors {
+        let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
+        let mut z = linear.free[&k].clone();
+        if lam.iter().any(|l| l.norm() > 0.0) {
+            let dz = lu.solve(&op.b_free.mul_transpose_complex(&lam));
+            for (a, b) in z.iter_mut().zip(dz) {
+                *a += b;
+            }
+        }
+        let rate = system.omega_derivative(k, &z, &linear.motion[&k]);
+        let dz = lu.solve(&rate);
+        let bdz = op.b_free.mul_complex(&dz);
+        for (i, v) in bdz.into_iter().enumerate() {
+            set_phasor(&mut dg[i * m..(i + 1) * m], k, -v);
+        }
+    }
+    dg
+}
+
+/// Without contact the curve is the linear response, a graph over ω: steps in ω shrink where
+/// the response changes fast (near a resonance) and grow where it does not.
+fn linear_sweep(
+    system: &mut System,
+    hb: &HbSettings,
+    s: &SweepSettings,
+    reporter: &dyn Reporter,
+    on_point: &mut OnPoint,
+) -> Result<SweepOutcome> {
+    let span = (s.omega_end - s.omega_start).abs();
+    let direction = (s.omega_end - s.omega_start).signum();
+    let mut outcome = SweepOutcome::default();
+    let solve_at = |system: &mut System, omega: f64, timings: &mut Timings| {
+        system.omega = omega;
+        let (linear, _) = prepare(system, None, hb, reporter, timings)?;
+        Ok::<_, Error>(linear.into_solution(system, None, Timings::default()))
+    };
+    let clock = Instant::now();
+    let mut omega = s.omega_start;
+    let mut current = solve_at(system, omega, &mut outcome.timings)?;
+    let mut info = PointInfo {
+        omega,
+        corrector: Corrector::Linear,
+        factorizations: 1,
+        tangent_omega: direction,
+        seconds: clock.elapsed().as_secs_f64(),
+        ..info_stub()
+    };
+    on_point(&info, &current)?;
+    let mut ds = s.step;
+    let mut index = 1;
+    while index < s.max_points && (omega - s.omega_end) * direction < 0.0 {
+        let clock = Instant::now();
+        let mut tries = 0;
+        let next = loop {
+            let w = if ((omega + direction * ds * span) - s.omega_end) * direction > 0.0 {
+                s.omega_end
+            } else {
+                omega + direction * ds * span
+            };
+            tries += 1;
+            let candidate = solve_at(system, w, &mut outcome.timings)?;
+            let change = response_change(&current, &candidate);
+            if change <= s.max_change || ds * 0.5 < s.min_step {
+                if change < 0.3 * s.max_change {
+                    ds = (1.5 * ds).min(s.max_step);
+                }
+                break (w, candidate);
+            }
+            ds *= 0.5;
+        };
+        (omega, current) = next;
+        info = PointInfo {
+            index,
+            omega,
+            factorizations: tries,
+            step: ds,
+            seconds: clock.elapsed().as_secs_f64(),
+            ..info
+        };
+        on_point(&info, &current)?;
+        reporter.progress("sweep", index as u64, None, &format!("{:.3} Hz", hz(omega)));
+        index += 1;
+    }
+    reporter.task_done("sweep");
+    outcome.points = index;
+    Ok(outcome)
+}
+
+/// Relative change of the free dofs' harmonic amplitudes between two linear solutions.
+fn response_change(a: &Solution, b: &Solution) -> f64 {
+    let flat = |s: &Solution| -> Vec<f64> {
+        s.free
+            .values()
+            .flat_map(|z| z.iter().flat_map(|v| [v.re, v.im]))
+            .collect()
+    };
+    relative_change(&flat(a), &flat(b))
+}

@@ -1,0 +1,185 @@
+//! `hbcontact sweep`: frequency-response curves by continuation (docs/method.md, "Sweeps").
+
+mod common;
+
+use hbcontact::pipeline::{self, RunOptions};
+use hbcontact::sweep::{self, SweepSummary};
+use hbcontact::Silent;
+
+fn run_sweep(name: &str, overrides: &[&str], tag: &str) -> SweepSummary {
+    let p = common::scene(name, overrides);
+    let options = RunOptions {
+        out: Some(common::temp_out(tag)),
+        ..Default::default()
+    };
+    let result = sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    assert!(result.dir.join("sweep.csv").is_file());
+    result.summary
+}
+
+/// The probe's first-harmonic amplitude of a single-frequency `run` at `hz`.
+fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
+    let mut all: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    all.push(format!("harmonic_balance.frequency={hz}"));
+    let refs: Vec<&str> = all.iter().map(String::as_str).collect();
+    let p = common::scene(name, &refs);
+    let options = RunOptions {
+        out: Some(common::temp_out(tag)),
+        summary_only: true,
+    };
+    let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    r.summary
+        .probes
+        .values()
+        .next()
+        .expect("a probe")
+        .first_harmonic()
+}
+
+/// TEST GOAL: without contact the sweep is the linear FRF: every point equals a single-
+/// frequency run at its frequency to round-off, the steps shrink toward the resonance, and
+/// the peak lies at the first natural frequency `modes` reports (within the half-power band,
+/// ζ = 0.23% here). Reference: the linear response of a damped mode peaks at ω_n √(1 − 2ζ²).
+#[test]
+fn linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequency() {
+    let p = common::scene("cantilever", &[]);
+    let mut text = std::fs::read_to_string(&p.source).unwrap();
+    text.push_str("sweep: {from: 15.0, to: 20.0, max_change: 0.05}\n");
+    let path = common::root().join("output/test-runs/cantilever_sweep.yaml");
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let geometries = format!("{}/", common::root().join("geometries").display());
+    std::fs::write(&path, text.replace("geometries/", &geometries)).unwrap();
+    let p = hbcontact::config::load_pipeline(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let options = RunOptions {
+        out: Some(common::temp_out("sweep-linear")),
+        ..Default::default()
+    };
+    let s = sweep::run(&p, &options, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .summary;
+    assert!(s.stopped.is_none(), "{:?}", s.stopped);
+    assert!(s.folds.is_empty(), "{:?}", s.folds);
+    let last = s.rows.last().unwrap();
+    assert!(
+        (last.frequency_hz - 20.0).abs() < 1e-9,
+        "ends at {}",
+        last.frequency_hz
+    );
+    let peak = s
+        .rows
+        .iter()
+        .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
+        .unwrap();
+    let modes = pipeline::modes(
+        &p,
+        &RunOptions {
+            out: Some(common::temp_out("sweep-linear-modes")),
+            ..Default::default()
+        },
+        1,
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let f1 = modes.summary.modes[0].frequency_hz;
+    let zeta = 0.5 / (2.0 * 2.0 * std::f64::consts::PI * f1);
+    let off = (peak.frequency_hz - f1).abs() / f1;
+    println!(
+        "{} points, peak {:.4} Hz vs f1 {f1:.4} Hz ({off:.2e}), ζ = {zeta:.2e}",
+        s.points, peak.frequency_hz
+    );
+    assert!(off < zeta, "peak {} Hz, f1 {f1} Hz", peak.frequency_hz);
+    // Point by point: the first row, the peak and the last row.
+    for (i, row) in [&s.rows[0], peak, last].into_iter().enumerate() {
+        let p1 = hbcontact::config::load_pipeline(
+            &path,
+            &[format!("harmonic_balance.frequency={}", row.frequency_hz)],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let r = pipeline::run(
+            &p1,
+            &RunOptions {
+                out: Some(common::temp_out(&format!("sweep-linear-point-{i}"))),
+                summary_only: true,
+            },
+            &Silent,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let single = r.summary.probes.values().next().unwrap().first_harmonic();
+        let rel = (row.values[0] - single).abs() / single;
+        println!(
+            "{:.4} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",
+            row.frequency_hz, row.values[0]
+        );
+        assert!(rel < 1e-10, "{} Hz: {rel}", row.frequency_hz);
+    }
+    // Steps shrink toward the resonance: the rows near the peak are closer than at the ends.
+    let spacing = |i: usize| (s.rows[i + 1].frequency_hz - s.rows[i].frequency_hz).abs();
+    let ip = peak.index.min(s.rows.len() - 2);
+    assert!(
+        spacing(ip) < 0.2 * spacing(0),
+        "{} vs {}",
+        spacing(ip),
+        spacing(0)
+    );
+}
+
+/// TEST GOAL: on the strip against the wall (5% damping) the continuation follows the
+/// resonance the wall stiffens past the linear natural frequency (1361.6 Hz), through the fold
+/// where it turns back and the fold where it rejoins the non-contacting branch, and reaches the
+/// end frequency; a point below the resonance (where the state is unique) equals a
+/// single-frequency run there within the knobs' tolerance (N may differ: 2e-3).
+#[test]
+fn strip_sweep_passes_both_folds_of_the_stiffened_resonance_and_reaches_the_end() {
+    let overrides = ["geometry.parameters.lc=0.025"];
+    let s = run_sweep("strip_sweep", &overrides, "sweep-strip");
+    assert!(s.stopped.is_none(), "{:?}", s.stopped);
+    let last = s.rows.last().unwrap();
+    assert!((last.frequency_hz - 1800.0).abs() < 1e-6);
+    let peak = s
+        .rows
+        .iter()
+        .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
+        .unwrap();
+    println!(
+        "{} points; peak {:.1} Hz; folds {:?}",
+        s.points,
+        peak.frequency_hz,
+        s.folds
+            .iter()
+            .map(|f| (f.frequency_hz, f.amplitude))
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        peak.frequency_hz > 1.1 * 1361.6,
+        "peak at {}",
+        peak.frequency_hz
+    );
+    let top = s
+        .folds
+        .iter()
+        .find(|f| (f.frequency_hz - peak.frequency_hz).abs() < 0.01 * peak.frequency_hz)
+        .expect("a fold where the stiffened resonance turns back");
+    let down = s
+        .folds
+        .iter()
+        .find(|f| f.after > top.after && f.frequency_hz < top.frequency_hz - 20.0)
+        .expect("a fold where the curve rejoins the non-contacting branch");
+    assert!(down.amplitude < 0.7 * top.amplitude);
+    let below = s
+        .rows
+        .iter()
+        .find(|r| r.frequency_hz > 1100.0 && r.values[3] > 0.0)
+        .expect("a contacting point below the resonance");
+    let single = single_run(
+        "strip_sweep",
+        &overrides,
+        below.frequency_hz,
+        "sweep-strip-point",
+    );
+    let rel = (below.values[0] - single).abs() / single;
+    println!(
+        "{:.2} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",
+        below.frequency_hz, below.values[0]
+    );
+    assert!(rel < 2e-3, "{rel}");
+}
