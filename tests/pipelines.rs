@@ -863,6 +863,29 @@ fn quiet_prints_nothing_but_errors() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("harmonic_balance.frequency"));
 }
 
+/// TEST GOAL: a closed stdout is not a crash: `hbcontact schema summary` and `check --json`
+/// writing into a pipe whose reader is already gone (as `| head -c1` leaves it) end with exit
+/// 0 and no panic message (before, `println!` panicked: exit 101, "failed printing to stdout").
+#[test]
+fn a_closed_stdout_ends_the_command_cleanly_without_a_panic() {
+    for args in [
+        vec!["schema", "summary"],
+        vec!["check", "pipelines/strip_wall.yaml", "--json"],
+    ] {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+            .args(&args)
+            .current_dir(common::root())
+            .stdout(writer)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
+
 /// TEST GOAL: a run removes the `.partial-<pid>` folders that dead runs left next to its
 /// output (here a fake `x.partial-<pid>` of a pid with no /proc entry) and says so, and keeps
 /// the partial folder of a run that is still alive (this test's own pid).
