@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+#[macro_use]
 mod cli;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -86,13 +87,14 @@ enum Command {
     },
     /// Differences between a harmonic-balance result and a time-marching one of the same
     /// scene (probe amplitudes, contact forces, harmonics), printed and written as
-    /// compare.json and compare.csv into HB_DIR (or `--out`).
+    /// compare.json and compare.csv into HB_DIR (or `--out`), with overlay plots of both in
+    /// its plots/ (compare_*.svg and .png).
     Compare {
         /// The `hbcontact run` result directory.
         hb_dir: PathBuf,
         /// The `hbcontact transient` result directory (`<dir>-transient`).
         transient_dir: PathBuf,
-        /// Write compare.json and compare.csv here instead of HB_DIR.
+        /// Write compare.json, compare.csv and plots/compare_* here instead of HB_DIR.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print nothing but errors.
@@ -272,10 +274,10 @@ fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
     };
     let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
     if json {
-        println!("{}", to_json(&report)?);
+        outln!("{}", to_json(&report)?);
     } else if !c.quiet {
         cli::show_check(&report);
-        println!("ok: {} is valid", c.pipeline.display());
+        outln!("ok: {} is valid", c.pipeline.display());
     }
     Ok(())
 }
@@ -294,7 +296,7 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
         SchemaKind::Compare => pipeline::compare::compare_schema(),
         SchemaKind::Study => hbcontact::study::study_schema(),
     };
-    println!("{}", to_json(&schema)?);
+    outln!("{}", to_json(&schema)?);
     Ok(())
 }
 
@@ -312,7 +314,8 @@ fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
     Ok(())
 }
 
-/// `hbcontact compare`: the differences on stdout, compare.json and compare.csv written.
+/// `hbcontact compare`: the differences on stdout, compare.json, compare.csv and the overlay
+/// plots written.
 fn compare(
     hb: &std::path::Path,
     transient: &std::path::Path,
@@ -324,7 +327,10 @@ fn compare(
     pipeline::compare::write(&comparison, dir)?;
     if !quiet {
         cli::show_compare(&comparison);
-        eprintln!("wrote {}/compare.json and compare.csv", dir.display());
+        eprintln!(
+            "wrote {}/compare.json, compare.csv and the overlays plots/compare_*.svg (and .png)",
+            dir.display()
+        );
     }
     Ok(())
 }

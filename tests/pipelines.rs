@@ -194,9 +194,11 @@ fn complementarity_bound(name: &str) -> f64 {
     }
 }
 
-/// Every `pipelines/*.yaml` runs as shipped and writes a complete, readable result whose
-/// values agree: meshio's frames with probes.csv, probes.csv with summary.json; contact scenes
-/// converge with their complementarity violation below a bound.
+/// TEST GOAL: every `pipelines/*.yaml` runs as shipped and writes a complete, readable
+/// result whose values agree: meshio's frames with probes.csv, probes.csv with summary.json;
+/// contact scenes converge with their complementarity violation below a bound. Every scene
+/// draws a plot per probe group, contact scenes the force and pressure plots too (printing
+/// the `plots` stage time; tests/plots.rs checks what they show).
 #[test]
 fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
     let mut names: Vec<String> = std::fs::read_dir(common::root().join("pipelines"))
@@ -239,6 +241,24 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
             "{name}: frames plus amplitudes.vtu (and obstacle.vtu)"
         );
         assert_eq!(out.join("obstacle.vtu").exists(), contact);
+        let stages = &summary["stage_seconds"];
+        println!(
+            "{name}: plots stage {:.3} s, write {:.3} s, run total {:.3} s",
+            stages["plots"].as_f64().unwrap(),
+            stages["write"].as_f64().unwrap(),
+            stages["total"].as_f64().unwrap()
+        );
+        let plots = out.join("plots");
+        for probe in summary["probes"].as_object().unwrap().keys() {
+            assert!(plots.join(format!("probe_{probe}.svg")).is_file(), "{name}");
+            assert!(plots.join(format!("probe_{probe}.png")).is_file(), "{name}");
+        }
+        for stem in ["contact_force", "contact_pressure"] {
+            for ext in ["svg", "png"] {
+                let file = plots.join(format!("{stem}.{ext}"));
+                assert_eq!(file.is_file(), contact, "{}", file.display());
+            }
+        }
         if contact {
             let c = &summary["contact"];
             for key in [
@@ -861,6 +881,29 @@ fn quiet_prints_nothing_but_errors() {
     ]);
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("harmonic_balance.frequency"));
+}
+
+/// TEST GOAL: a closed stdout is not a crash: `hbcontact schema summary` and `check --json`
+/// writing into a pipe whose reader is already gone (as `| head -c1` leaves it) end with exit
+/// 0 and no panic message (before, `println!` panicked: exit 101, "failed printing to stdout").
+#[test]
+fn a_closed_stdout_ends_the_command_cleanly_without_a_panic() {
+    for args in [
+        vec!["schema", "summary"],
+        vec!["check", "pipelines/strip_wall.yaml", "--json"],
+    ] {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+            .args(&args)
+            .current_dir(common::root())
+            .stdout(writer)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
 }
 
 /// TEST GOAL: a run removes the `.partial-<pid>` folders that dead runs left next to its

@@ -1,14 +1,30 @@
 //! What the command line adds to the library: its reporter and how results are shown.
 
+/// `println!` through `print_line`: a closed stdout (`hbcontact schema summary | head -c1`)
+/// ends nothing and panics nothing. Defined before the modules so that they see it.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::print_line(format_args!($($arg)*))
+    };
+}
+
 pub mod reporter;
 pub mod study;
 
-/// `println!` that ignores a closed stdout (`hbcontact modes … | head`) instead of panicking.
-macro_rules! outln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
-    }};
+/// Write one line to the locked stdout. A reader that went away (BrokenPipe: `| head`) is
+/// not an error of ours: the line is dropped and the command ends normally, its exit code
+/// being that of its work; any other write error is said once on stderr.
+pub fn print_line(args: std::fmt::Arguments) {
+    use std::io::Write as _;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static WARNED: AtomicBool = AtomicBool::new(false);
+    let mut out = std::io::stdout().lock();
+    let result = out.write_fmt(args).and_then(|_| out.write_all(b"\n"));
+    if let Err(e) = result {
+        if e.kind() != std::io::ErrorKind::BrokenPipe && !WARNED.swap(true, Ordering::Relaxed) {
+            eprintln!("warning: writing to stdout: {e}");
+        }
+    }
 }
 
 use hbcontact::hbm::IterationLog;
@@ -21,22 +37,22 @@ use hbcontact::pipeline::{CheckReport, ModesResult, RunResult};
 /// The end of `hbcontact sweep`: points, folds, where it stopped, wall time.
 pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     let s = &result.summary;
-    println!(
+    outln!(
         "{}: {} points from {:.4} Hz toward {:.4} Hz (H = {})",
         s.name, s.points, s.from_hz, s.to_hz, s.harmonics
     );
     for f in &s.folds {
-        println!(
+        outln!(
             "  fold at {:.4} Hz (after point {}), probe first harmonic {:.4e} m",
             f.frequency_hz, f.after, f.amplitude
         );
     }
     match &s.stopped {
-        Some(why) => println!("  stopped early: {why}"),
-        None => println!("  reached {:.4} Hz", s.to_hz),
+        Some(why) => outln!("  stopped early: {why}"),
+        None => outln!("  reached {:.4} Hz", s.to_hz),
     }
-    println!("  wall time: {:.3} s", s.stage_seconds.total());
-    println!("  wrote {}/sweep.csv and sweep.json", result.dir.display());
+    outln!("  wall time: {:.3} s", s.stage_seconds.total());
+    outln!("  wrote {}/sweep.csv and sweep.json", result.dir.display());
 }
 
 pub fn show_run(result: &RunResult) {
@@ -184,7 +200,7 @@ fn show_newton_log(log: &[IterationLog]) {
 /// `check`'s findings: the mesh, its groups and the contact candidates.
 pub fn show_check(report: &CheckReport) {
     let m = &report.mesh;
-    println!(
+    outln!(
         "mesh: {} nodes, {} cells, order {}, shortest edge {:.3e} m ({})",
         m.nodes,
         m.cells,
@@ -192,14 +208,16 @@ pub fn show_check(report: &CheckReport) {
         m.min_edge_length,
         if m.cache_hit { "cached" } else { "meshed" }
     );
-    println!("groups:");
+    outln!("groups:");
     for (name, g) in &report.groups {
-        println!(
+        outln!(
             "  {name:<16} {:>7} nodes {:>7} edges {:>7} cells",
-            g.nodes, g.edges, g.cells
+            g.nodes,
+            g.edges,
+            g.cells
         );
     }
     if let (Some(kept), Some(candidates)) = (report.contact_nodes, report.contact_candidates) {
-        println!("contact: {kept} of {candidates} boundary nodes face the obstacle");
+        outln!("contact: {kept} of {candidates} boundary nodes face the obstacle");
     }
 }

@@ -29,20 +29,20 @@ pub fn show_study(report: &StudyReport) {
 
 /// The accuracy table on stdout.
 pub fn show_accuracy(report: &AccuracyReport) {
-    println!("errors against {}", report.reference_name());
-    println!("{}", report.markdown());
+    outln!("errors against {}", report.reference_name());
+    outln!("{}", report.markdown());
 }
 
 /// The cheapest rung meeting the tolerance, per measure.
 pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
-    println!("cheapest setting with relative error ≤ {tolerance:e}:");
+    outln!("cheapest setting with relative error ≤ {tolerance:e}:");
     for c in report.cheapest(tolerance) {
         match c.rung {
-            Some((key, value, error, secs)) => println!(
+            Some((key, value, error, secs)) => outln!(
                 "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s)",
                 c.measure.name()
             ),
-            None => println!("  {:<22} no rung meets it", c.measure.name()),
+            None => outln!("  {:<22} no rung meets it", c.measure.name()),
         }
     }
 }

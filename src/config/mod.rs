@@ -253,4 +253,6 @@ pub struct OutputSpec {
     pub fields: Vec<FieldName>,
     /// Named node groups whose displacement is reported as probe time histories.
     pub probes: Vec<String>,
+    /// Draw the run's plots into `plots/`.
+    pub plots: bool,
 }

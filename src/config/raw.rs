@@ -450,6 +450,10 @@ struct RawOutput {
     /// Node groups whose displacement histories go to `probes.csv`. Default: none.
     #[serde(default)]
     probes: Vec<String>,
+    /// Draw the run's plots (`plots/`: probe displacement, total contact force, contact
+    /// pressure at the peak; SVG and PNG). Default: true.
+    #[serde(default)]
+    plots: Option<bool>,
 }
 
 /// The JSON Schema (draft 07) of the pipeline YAML, generated from the types above.
@@ -1237,6 +1241,7 @@ fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result
         max_frames: None,
         fields: None,
         probes: Vec::new(),
+        plots: None,
     });
     let frames = out.frames.unwrap_or(24);
     if frames == 0 {
@@ -1282,5 +1287,6 @@ fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result
         frames,
         fields,
         probes: out.probes,
+        plots: out.plots.unwrap_or(true),
     })
 }

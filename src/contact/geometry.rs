@@ -1,6 +1,8 @@
 //! Contact candidates against a rigid obstacle: for each node of the tagged body boundary, the
 //! closest obstacle point, the unit normal n_i pointing from the body into the obstacle, and
-//! the initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload).
+//! the initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload);
+//! the obstacle's outline for the output; and the arc length s_i of boundary nodes along the
+//! boundary's edges (for plots against position on the contact boundary).
 
 use crate::config::{ContactSpec, ObstacleSpec};
 use std::collections::HashMap;
@@ -463,4 +465,77 @@ fn mesh_size(mesh: &Mesh2d) -> f64 {
     } else {
         1.0
     }
+}
+
+/// Arc length s_i [m] of each of `nodes` along the undeformed edges of the boundary group
+/// `boundary` (a 3-node edge as two straight pieces through its middle node): the shortest
+/// distance along the edges from a start node, which on an open curve is its end with the
+/// smallest x (then y), so s runs from that end to the other; a closed curve starts at its
+/// node of smallest x. A group of several separate curves is measured curve after curve, each
+/// starting where the previous one's largest s ended. Nodes not on the group's edges get NaN.
+pub fn arc_lengths(mesh: &Mesh2d, boundary: &str, nodes: &[usize]) -> Vec<f64> {
+    let mut neighbours: HashMap<usize, Vec<(usize, f64)>> = HashMap::new();
+    let length = |a: usize, b: usize| {
+        let d = sub(mesh.nodes[b], mesh.nodes[a]);
+        dot(d, d).sqrt()
+    };
+    for e in mesh.edge_groups.get(boundary).into_iter().flatten() {
+        let pieces: &[[usize; 2]] = match e.nodes.as_slice() {
+            [a, b, m] => &[[*a, *m], [*m, *b]],
+            [a, b, ..] => &[[*a, *b]],
+            _ => &[],
+        };
+        for &[a, b] in pieces {
+            neighbours.entry(a).or_default().push((b, length(a, b)));
+            neighbours.entry(b).or_default().push((a, length(a, b)));
+        }
+    }
+    let mut s: HashMap<usize, f64> = HashMap::new();
+    let mut offset = 0.0;
+    loop {
+        let left = neighbours.keys().filter(|n| !s.contains_key(n));
+        let ends = left.clone().filter(|n| neighbours[n].len() == 1);
+        let leftmost = |a: &&usize, b: &&usize| {
+            let (p, q) = (mesh.nodes[**a], mesh.nodes[**b]);
+            p[0].total_cmp(&q[0])
+                .then(p[1].total_cmp(&q[1]))
+                .then(a.cmp(b))
+        };
+        let Some(&start) = ends.min_by(leftmost).or_else(|| left.min_by(leftmost)) else {
+            break;
+        };
+        let reached = distances_from(&neighbours, start);
+        let end = reached.values().fold(0.0f64, |a, &d| a.max(d));
+        s.extend(reached.into_iter().map(|(n, d)| (n, offset + d)));
+        offset += end;
+    }
+    nodes
+        .iter()
+        .map(|n| s.get(n).copied().unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// Dijkstra: the shortest distance along the graph from `start` to every node it reaches.
+fn distances_from(
+    neighbours: &HashMap<usize, Vec<(usize, f64)>>,
+    start: usize,
+) -> HashMap<usize, f64> {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    // Non-negative finite f64 order like their bit patterns, so the heap can key on the bits.
+    let mut heap = BinaryHeap::from([Reverse((0f64.to_bits(), start))]);
+    let mut done: HashMap<usize, f64> = HashMap::new();
+    while let Some(Reverse((bits, n))) = heap.pop() {
+        if done.contains_key(&n) {
+            continue;
+        }
+        let d = f64::from_bits(bits);
+        done.insert(n, d);
+        for &(m, w) in neighbours.get(&n).into_iter().flatten() {
+            if !done.contains_key(&m) {
+                heap.push(Reverse(((d + w).to_bits(), m)));
+            }
+        }
+    }
+    done
 }

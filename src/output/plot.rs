@@ -65,6 +65,8 @@ pub enum Style {
     Scatter,
     /// Dashed line without markers (references, asymptotes).
     Dashed,
+    /// Solid line without markers (densely sampled time histories).
+    Curve,
 }
 
 #[derive(Clone, Debug)]
@@ -81,6 +83,9 @@ pub struct Figure {
     pub x: Axis,
     pub y: Axis,
     pub series: Vec<Series>,
+    /// Stretch a linear y axis to include 0 (profiles whose variation is small next to
+    /// their level).
+    pub y_from_zero: bool,
 }
 
 fn plot_error(e: impl std::fmt::Display) -> Error {
@@ -94,7 +99,14 @@ impl Figure {
             x,
             y,
             series: Vec::new(),
+            y_from_zero: false,
         }
+    }
+
+    /// See `y_from_zero`.
+    pub fn from_zero(mut self) -> Self {
+        self.y_from_zero = true;
+        self
     }
 
     pub fn add(mut self, label: impl Into<String>, points: Vec<(f64, f64)>, style: Style) -> Self {
@@ -114,6 +126,9 @@ impl Figure {
     pub fn dashed(self, label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
         self.add(label, points, Style::Dashed)
     }
+    pub fn curve(self, label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        self.add(label, points, Style::Curve)
+    }
 
     /// The points that can be drawn: finite, and positive on a log axis.
     fn drawable(&self, s: &Series) -> Vec<(f64, f64)> {
@@ -131,9 +146,7 @@ impl Figure {
         {
             let root = SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_error)?;
-            let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
-            let xr = range(all.iter().map(|p| p.0), self.x.log);
-            let yr = range(all.iter().map(|p| p.1), self.y.log);
+            let (xr, yr) = self.ranges();
             match (self.x.log, self.y.log) {
                 (false, false) => self.draw(&root, xr.0..xr.1, yr.0..yr.1)?,
                 (true, false) => self.draw(&root, (xr.0..xr.1).log_scale(), yr.0..yr.1)?,
@@ -145,6 +158,16 @@ impl Figure {
             root.present().map_err(plot_error)?;
         }
         Ok(text)
+    }
+
+    /// The x and y axis ranges of the drawable points (see `range`).
+    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
+        let zero = (self.y_from_zero && !self.y.log).then_some(0.0);
+        (
+            range(all.iter().map(|p| p.0), self.x.log),
+            range(all.iter().map(|p| p.1).chain(zero), self.y.log),
+        )
     }
 
     fn draw<X, Y>(&self, root: &DrawingArea<SVGBackend, Shift>, x: X, y: Y) -> Result<()>
@@ -188,20 +211,29 @@ impl Figure {
                 Style::Dashed => chart
                     .draw_series(DashedLineSeries::new(pts, 8, 5, colour.stroke_width(2)))
                     .map_err(plot_error)?,
+                Style::Curve => chart
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_error)?,
             };
-            let dashed = s.style == Style::Dashed;
-            entry.label(s.label.as_str()).legend(move |(x, y)| {
-                if dashed {
-                    PathElement::new(vec![(x, y), (x + 8, y)], colour.stroke_width(2))
-                } else {
-                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
-                }
-            });
+            let style = s.style;
+            entry
+                .label(s.label.as_str())
+                .legend(move |(x, y)| match style {
+                    Style::Scatter => Circle::new((x + 8, y), 4, colour.filled()).into_dyn(),
+                    Style::Dashed => {
+                        PathElement::new(vec![(x, y), (x + 8, y)], colour.stroke_width(2))
+                            .into_dyn()
+                    }
+                    Style::Line | Style::Curve => {
+                        PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                            .into_dyn()
+                    }
+                });
         }
         if self.series.iter().any(|s| !s.label.is_empty()) {
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
+                .position(self.legend_corner())
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)
                 .label_font(("sans-serif", 13))
@@ -214,6 +246,34 @@ impl Figure {
     /// Write `<stem>.svg` and `<stem>.png`.
     pub fn save(&self, stem: &Path) -> Result<()> {
         save_both(stem, &self.svg()?)
+    }
+
+    /// The frame corner whose quarter-width, quarter-height box holds the fewest points (on
+    /// the axes' own scales), so the legend covers as little data as it can; upper right on
+    /// a tie.
+    fn legend_corner(&self) -> SeriesLabelPosition {
+        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
+        let scale = |v: f64, log: bool| if log { v.log10() } else { v };
+        let unit = |(lo, hi): (f64, f64), log: bool| {
+            let (lo, hi) = (scale(lo, log), scale(hi, log));
+            move |v: f64| (scale(v, log) - lo) / (hi - lo)
+        };
+        let (xr, yr) = self.ranges();
+        let (ux, uy) = (unit(xr, self.x.log), unit(yr, self.y.log));
+        let corners = [
+            (SeriesLabelPosition::UpperRight, true, true),
+            (SeriesLabelPosition::UpperLeft, false, true),
+            (SeriesLabelPosition::LowerRight, true, false),
+            (SeriesLabelPosition::LowerLeft, false, false),
+        ];
+        let inside = |&(x, y): &(f64, f64), right: bool, top: bool| {
+            let (u, v) = (ux(x), uy(y));
+            (if right { u > 0.65 } else { u < 0.35 }) && (if top { v > 0.7 } else { v < 0.3 })
+        };
+        corners
+            .into_iter()
+            .min_by_key(|&(_, right, top)| all.iter().filter(|p| inside(p, right, top)).count())
+            .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
     }
 }
 

@@ -14,8 +14,9 @@
 //! step), and the first three harmonics of the total contact force (TM from
 //! `contact_steps.csv`, every step).
 //!
-//! Plot hook: `Comparison::overlays` keeps both time series of every compared signal, for
-//! the shared plotting module (`output::plot`, to come) to overlay; nothing here draws.
+//! Overlays: `Comparison::overlays` keeps both time series of every probe column, of the
+//! opening of the contact node with the largest HB force (`contact.csv`; time marching at its
+//! frames) and of the total contact force; `write` draws them (`plots::write_overlays`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -56,7 +57,10 @@ pub struct Series {
 /// Both solvers' series of one signal, for plotting.
 #[derive(Clone, Debug)]
 pub struct Overlay {
+    /// Names the plot file (`compare_<quantity>`), e.g. `probe_ux`.
     pub quantity: String,
+    /// For a person (plot title and axis), e.g. `probe u_x`.
+    pub title: String,
     pub unit: String,
     pub harmonic_balance: Series,
     pub transient: Series,
@@ -283,6 +287,7 @@ fn compare_probes(hb: &ResultDir, tm: &ResultDir, omega: f64, c: &mut Comparison
         ));
         c.overlays.push(Overlay {
             quantity: name.clone(),
+            title: name.replace("_ux", " u_x").replace("_uy", " u_y"),
             unit: "m".into(),
             harmonic_balance: Series {
                 times: t_hb.clone(),
@@ -351,17 +356,47 @@ fn compare_contact(hb: &ResultDir, tm: &ResultDir, omega: f64, c: &mut Compariso
     }
     c.overlays.push(Overlay {
         quantity: "total_force".into(),
+        title: "total contact force".into(),
         unit: "N".into(),
         harmonic_balance: s_hb,
         transient: s_tm,
     });
+    if let Some(o) = opening_overlay(hb_contact, tm_contact) {
+        c.overlays.push(o);
+    }
     Ok(())
 }
 
+/// The opening of the contact node whose HB law force peaks highest (`nodeN_opening` of both
+/// `contact.csv`), or `None` when the files share no such node.
+fn opening_overlay(hb: &Table, tm: &Table) -> Option<Overlay> {
+    let peak = |v: &Vec<f64>| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (node, _) = hb
+        .iter()
+        .filter_map(|(k, v)| Some((k.strip_suffix("_force")?.strip_prefix("node")?, peak(v))))
+        .filter(|(n, _)| tm.contains_key(&format!("node{n}_opening")))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let column = format!("node{node}_opening");
+    let series = |t: &Table| {
+        Some(Series {
+            times: t.get("time")?.clone(),
+            values: t.get(&column)?.clone(),
+        })
+    };
+    Some(Overlay {
+        quantity: format!("node{node}_opening"),
+        title: format!("opening of node {node} (largest force)"),
+        unit: "m".into(),
+        harmonic_balance: series(hb)?,
+        transient: series(tm)?,
+    })
+}
+
 /// Write `compare.json` and `compare.csv` into `dir` (each written under a temporary name and
-/// renamed).
+/// renamed), and the overlays into `dir/plots` (`compare_<quantity>.svg` and `.png`).
 pub fn write(c: &Comparison, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    super::plots::write_overlays(c, &dir.join("plots"))?;
     write_json(&dir.join("compare.json"), c)?;
     let mut csv = String::from(
         "quantity,unit,harmonic_balance,transient,difference,relative,phase_difference_deg\n",

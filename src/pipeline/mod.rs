@@ -7,6 +7,7 @@
 pub mod compare;
 pub mod model;
 pub mod modes;
+pub mod plots;
 pub mod report;
 pub mod resonance;
 pub mod sanity;
@@ -67,7 +68,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     stages.run("check", || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
     let staged = StagedDir::create(&out)?;
-    let mut summary = stages.run("write", || {
+    let summary = stages.run("write", || {
         // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
         let samples = solution
             .contact
@@ -79,10 +80,11 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
             report::write_amplitudes(staged.path(), &model, &solution)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
-        Ok(summary::harmonic_balance(
-            p, mesh_info, &model, &solution, &sampled,
-        ))
+        let summary = summary::harmonic_balance(p, mesh_info, &model, &solution, &sampled);
+        Ok((summary, sampled))
     })?;
+    let (mut summary, sampled) = summary;
+    run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
     let (check, resonance_warnings) = resonance;
     summary.resonance = check;
     summary.warnings.extend(resonance_warnings);
@@ -102,6 +104,27 @@ fn finite_solution(solution: &crate::hbm::Solution) -> Result<()> {
     Err(crate::Error::Model(
         "the solution holds non-finite values: the loads, sizes or material constants are of such extreme magnitudes that their products overflow; rescale the units (e.g. mm–N–s) or check the magnitudes".into(),
     ))
+}
+
+/// Stage `plots`: the run's plots into `plots/` of the staged output, unless the run writes
+/// its summary only or `output.plots` is false.
+fn run_plots(
+    p: &Pipeline,
+    options: &RunOptions,
+    model: &Model,
+    sampled: &Sampled,
+    staged: &StagedDir,
+    stages: &mut Stages,
+) -> Result<()> {
+    if options.summary_only || !p.output.plots {
+        return Ok(());
+    }
+    let boundary = p.contact.as_ref().map(|c| c.boundary.as_str());
+    let period = 1.0 / p.harmonic_balance.frequency;
+    let dir = staged.path().join("plots");
+    stages.run("plots", || {
+        plots::write_run_plots(&dir, model, sampled, boundary, period).map(|_| ())
+    })
 }
 
 /// The directory time-marching results go to: `--out`, else `output.directory` with
@@ -129,15 +152,17 @@ pub fn run_transient(
     warnings.extend(sanity::check_initial_penetration(&model));
     let (marching, result) = stages::march(p, &model, &mut stages)?;
     let staged = StagedDir::create(&out)?;
-    let mut summary = stages.run("write", || {
+    let (mut summary, sampled) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
         if !options.summary_only {
             sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
-        Ok(summary::transient(p, mesh_info, &model, &result, &sampled))
+        let summary = summary::transient(p, mesh_info, &model, &result, &sampled);
+        Ok((summary, sampled))
     })?;
     summary.warnings.extend(warnings);
+    run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })

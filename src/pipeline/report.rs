@@ -281,6 +281,20 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The pressure [Pa] of contact node i (in `ContactSet::nodes` order) carrying `force` [N]:
+/// the force over its tributary area (tributary length × thickness); 0 without area.
+pub fn nodal_pressure(model: &Model, i: usize, force: f64) -> f64 {
+    let Some(c) = &model.contact else {
+        return 0.0;
+    };
+    let area = c.set.tributary[i] * model.material.thickness;
+    if area > 0.0 {
+        force / area
+    } else {
+        0.0
+    }
+}
+
 /// Write one VTU per snapshot and the `.pvd`; returns the file names.
 pub fn write_series(
     dir: &Path,
@@ -327,12 +341,7 @@ pub fn write_series(
                 opening[n] = -state.gap[i];
                 force[n] = state.force[i];
                 series[n] = state.series[i];
-                let area = c.set.tributary[i] * model.material.thickness;
-                pressure[n] = if area > 0.0 {
-                    state.force[i] / area
-                } else {
-                    0.0
-                };
+                pressure[n] = nodal_pressure(model, i, state.force[i]);
                 status[n] = if state.closed(i, sampled.closed_tolerance) {
                     1.0
                 } else {

@@ -1,0 +1,221 @@
+//! The plots a run draws into `plots/` of its output directory, and the overlays `compare`
+//! draws of a harmonic-balance and a time-marching result; SVG and PNG each, through
+//! `output::plot`.
+//!
+//! Per run, over the one period it writes (harmonic balance: the steady period at the
+//! history's N samples; time marching: the last marched period):
+//! - `probe_<group>`: the mean displacement u_x(t), u_y(t) [m] of each probe group;
+//! - `contact_force` (contact scenes): the total pressing force of the contact law
+//!   F(t) = Σ_i F_i(t), F_i = max(0, c g_i − λ_i) [N] (≥ 0, what `contact.csv` holds), and
+//!   dashed the raw Fourier series −Σ_i λ_i(t) (harmonic balance: where it dips below zero
+//!   is the truncation ripple); time marching: F at every step, and at the output frames;
+//! - `contact_pressure` (contact scenes): p_i = F_i / (L_i × thickness) [Pa] against the arc
+//!   length s_i along the contact boundary [m] (`contact::geometry::arc_lengths`), at the
+//!   history instant of the largest total force (time marching: the output frame of the
+//!   largest total force; per-node forces are kept only at the frames), its values also in
+//!   `contact_pressure.csv`.
+//!
+//! Glossary: t/T time over the period T = 1/f; λ_i the contact multipliers (≤ 0 pressing);
+//! g_i the normal gap (> 0 penetrating); L_i the tributary boundary length of node i.
+//! Every curve is closed over the period: its first sample is repeated at t/T = 1.
+
+use std::path::{Path, PathBuf};
+
+use super::compare::{Comparison, Overlay};
+use super::model::Model;
+use super::report::{nodal_pressure, Sampled};
+use crate::contact::geometry::arc_lengths;
+use crate::output::plot::{tick, Axis, Figure, Style};
+use crate::output::tables::write_csv;
+use crate::{Error, Result};
+
+/// Histories with at least this many points are drawn as plain curves, shorter ones with a
+/// marker at every sample (the time-marching frames).
+const DENSE: usize = 64;
+
+fn style(points: usize) -> Style {
+    if points >= DENSE {
+        Style::Curve
+    } else {
+        Style::Line
+    }
+}
+
+fn time_axis(period: f64) -> Axis {
+    Axis::linear(format!("t/T [-], period T = {} s", tick(period)))
+}
+
+/// (t/T, v) points closed over the period.
+fn over_period(times: &[f64], values: &[f64], period: f64) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = times
+        .iter()
+        .zip(values)
+        .map(|(&t, &v)| (t / period, v))
+        .collect();
+    if let Some(&(t0, v0)) = pts.first() {
+        pts.push((t0 + 1.0, v0));
+    }
+    pts
+}
+
+/// Draw the run's plots into `dir` (created); returns the files written. `boundary` is the
+/// contact boundary group (contact scenes).
+pub fn write_run_plots(
+    dir: &Path,
+    model: &Model,
+    sampled: &Sampled,
+    boundary: Option<&str>,
+    period: f64,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let mut figures = probe_figures(model, sampled, period);
+    if let (Some(_), Some(boundary)) = (&model.contact, boundary) {
+        if !sampled.history.contact.is_empty() {
+            figures.push(("contact_force".into(), force_figure(sampled, period)));
+            let (fig, rows) = pressure_figure(model, sampled, boundary, period);
+            let header = ["node", "arc_length", "pressure", "force", "opening"];
+            let header: Vec<String> = header.iter().map(|h| h.to_string()).collect();
+            write_csv(&dir.join("contact_pressure.csv"), &header, &rows)?;
+            figures.push(("contact_pressure".into(), fig));
+        }
+    }
+    let mut files = Vec::new();
+    for (stem, fig) in figures {
+        fig.save(&dir.join(&stem))?;
+        files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
+    }
+    Ok(files)
+}
+
+/// `probe_<group>`: each probe group's mean u_x and u_y over the period.
+fn probe_figures(model: &Model, sampled: &Sampled, period: f64) -> Vec<(String, Figure)> {
+    let h = &sampled.history;
+    model
+        .probes
+        .iter()
+        .map(|(name, nodes)| {
+            let n = nodes.len().max(1) as f64;
+            let mean = |c: usize| -> Vec<f64> {
+                h.displacement
+                    .iter()
+                    .map(|u| nodes.iter().map(|&i| u[2 * i + c]).sum::<f64>() / n)
+                    .collect()
+            };
+            let s = style(h.times.len());
+            let fig = Figure::new(
+                format!("probe {name}: mean displacement over one period"),
+                time_axis(period),
+                Axis::linear("displacement [m]"),
+            )
+            .add("u_x", over_period(&h.times, &mean(0), period), s)
+            .add("u_y", over_period(&h.times, &mean(1), period), s);
+            (format!("probe_{name}"), fig)
+        })
+        .collect()
+}
+
+/// `contact_force`: the law's total force and (dashed) the raw series, or for time marching
+/// the force at every step and at the frames.
+fn force_figure(sampled: &Sampled, period: f64) -> Figure {
+    let h = &sampled.history;
+    let fig = Figure::new(
+        "total contact force over one period",
+        time_axis(period),
+        Axis::linear("total contact force [N]"),
+    );
+    let law = over_period(&h.times, &h.total_force(), period);
+    match &sampled.steps {
+        Some(steps) => fig
+            .curve(
+                "contact law, every time step",
+                over_period(&steps.times, &steps.total_force, period),
+            )
+            .scatter("contact law, output frames", law),
+        None => fig.curve("contact law max(0, c g - λ)", law).dashed(
+            "Fourier series of λ",
+            over_period(&h.times, &h.total_force_series(), period),
+        ),
+    }
+}
+
+/// `contact_pressure`: the pressure along the boundary at the instant of the largest total
+/// force, and its rows (node, s, p, F, opening) sorted by arc length.
+fn pressure_figure(
+    model: &Model,
+    sampled: &Sampled,
+    boundary: &str,
+    period: f64,
+) -> (Figure, Vec<Vec<f64>>) {
+    let h = &sampled.history;
+    let totals = h.total_force();
+    let peak = (0..totals.len())
+        .max_by(|&a, &b| totals[a].total_cmp(&totals[b]))
+        .unwrap_or(0);
+    let state = &h.contact[peak];
+    let nodes = model.contact.as_ref().map_or(&[][..], |c| &c.set.nodes[..]);
+    let s = arc_lengths(&model.mesh, boundary, nodes);
+    let mut rows: Vec<Vec<f64>> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| {
+            let f = state.force[i];
+            vec![
+                n as f64,
+                s[i],
+                nodal_pressure(model, i, f),
+                f,
+                -state.gap[i],
+            ]
+        })
+        .collect();
+    rows.sort_by(|a, b| a[1].total_cmp(&b[1]));
+    let instant = if sampled.steps.is_some() {
+        "the output frame of largest total force"
+    } else {
+        "the largest total force"
+    };
+    let fig = Figure::new(
+        format!(
+            "contact pressure at t/T = {:.3}, {instant} ({:.4e} N)",
+            h.times[peak] / period,
+            totals[peak]
+        ),
+        Axis::linear(format!("arc length along {boundary} [m]")),
+        Axis::linear("contact pressure [Pa]"),
+    )
+    .line("contact law", rows.iter().map(|r| (r[1], r[2])).collect())
+    .from_zero();
+    (fig, rows)
+}
+
+/// `compare`'s overlays: one figure per compared signal, harmonic balance against time
+/// marching over one period, as `compare_<quantity>` in `dir` (created); returns the files.
+pub fn write_overlays(c: &Comparison, dir: &Path) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let period = 1.0 / c.frequency_hz;
+    let mut files = Vec::new();
+    for o in &c.overlays {
+        let stem = format!("compare_{}", o.quantity);
+        overlay_figure(o, period).save(&dir.join(&stem))?;
+        files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
+    }
+    Ok(files)
+}
+
+fn overlay_figure(o: &Overlay, period: f64) -> Figure {
+    let (hb, tm) = (&o.harmonic_balance, &o.transient);
+    Figure::new(
+        format!("{}: harmonic balance against time marching", o.title),
+        time_axis(period),
+        Axis::linear(format!("{} [{}]", o.title, o.unit)),
+    )
+    .curve(
+        "harmonic balance",
+        over_period(&hb.times, &hb.values, period),
+    )
+    .add(
+        "time marching",
+        over_period(&tm.times, &tm.values, period),
+        style(tm.times.len()),
+    )
+}
