@@ -372,3 +372,49 @@ fn slurm_job_array_merges_into_the_one_process_table() {
         table_without_times(&cluster.join("study.csv"))
     );
 }
+
+/// TEST GOAL: a study meshes each distinct geometry with exactly one gmsh process (the
+/// element estimate and the mesh in one gmsh session), plus one `gmsh --version` per
+/// hbcontact process: counted by a logging `python` in front of the venv's.
+#[test]
+fn each_geometry_is_meshed_by_one_gmsh_process() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = common::temp_out("study-gmsh-processes");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let log = dir.join("python.log");
+    let _ = std::fs::remove_file(&log);
+    let python = bin.join("python");
+    std::fs::write(
+        &python,
+        format!(
+            "#!/bin/sh\necho \"$1\" >> '{}'\nexec '{}' \"$@\"\n",
+            log.display(),
+            common::venv_python().display()
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&python, std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::copy(common::root().join(".venv/bin/gmsh"), bin.join("gmsh")).unwrap();
+    let study = strip_study(
+        &dir,
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 1.5e-7, 2.0e-7]}\n",
+    );
+    let (out, gmsh) = (dir.join("out"), bin.join("gmsh"));
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--set",
+        &format!("geometry.gmsh={}", gmsh.display()),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let calls = std::fs::read_to_string(&log).unwrap();
+    let sessions = calls.lines().filter(|l| *l == "-c").count();
+    assert_eq!(
+        (sessions, calls.lines().count()),
+        (3, 4),
+        "3 geometries, one session each, and one --version: {calls}"
+    );
+}
