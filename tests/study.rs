@@ -263,8 +263,9 @@ fn unknown_parameter_names_are_rejected_with_exit_2() {
 
 /// TEST GOAL: on the strip, the accuracy study's errors against the finest rung fall as H
 /// rises (5, 10, 20 → 40) in the probe's first-harmonic amplitude and peak-to-peak range (the
-/// contact forces' errors are not monotone at H = 5: a coarse series can land close by luck);
-/// every rung has a wall time; `--tolerance` names a cheapest setting per measure; the Pareto
+/// contact forces' errors are not monotone at H = 5: a coarse series can land close by luck)
+/// and in the displacement L2 over space and period (every node, the mesh being the same);
+/// every rung has a wall time and a peak memory; `--tolerance` names a cheapest setting per measure; the Pareto
 /// plot names the reference.
 #[test]
 fn accuracy_study_errors_fall_along_the_h_ladder_on_the_strip() {
@@ -294,13 +295,27 @@ fn accuracy_study_errors_fall_along_the_h_ladder_on_the_strip() {
             .map(|v| v.parse().unwrap())
             .collect()
     };
-    for measure in ["error_probe_first_harmonic", "error_probe_peak_to_peak"] {
+    for measure in [
+        "error_probe_first_harmonic",
+        "error_probe_peak_to_peak",
+        "error_displacement_l2",
+    ] {
         let e = errors(measure);
         assert!(
             e[0] > e[1] && e[1] > e[2] && e[3] == 0.0,
             "{measure}: {e:?}"
         );
     }
+    let nodes = errors("displacement_l2_nodes");
+    assert!(
+        nodes.iter().all(|&n| n > 100.0 && n == nodes[3]),
+        "same mesh on every rung: every node compared, {nodes:?}"
+    );
+    let memory = errors("peak_memory");
+    assert!(
+        memory.iter().all(|&m| m > 1.0 && m < 4096.0),
+        "peak memory [MB] per rung: {memory:?}"
+    );
     let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
     assert!(text.lines().skip(1).all(|l| l
         .split(',')
@@ -416,5 +431,93 @@ fn each_geometry_is_meshed_by_one_gmsh_process() {
         (sessions, calls.lines().count()),
         (3, 4),
         "3 geometries, one session each, and one --version: {calls}"
+    );
+}
+
+/// TEST GOAL: `natural_frequency_K` outputs follow Euler–Bernoulli on the slender cantilever
+/// (plane strain, clamped–free): f₁ = (1.8751²/2π)·√(E'I/(ρA))/L² with E' = E/(1 − ν²) and
+/// I/A = h²/12, so f₁ ∝ h/L²: doubling h doubles f₁, L → 0.8 L multiplies it by 1/0.64, and
+/// f₂/f₁ = (4.6941/1.8751)² = 6.27 (reference: Blevins, Formulas for Natural Frequency and Mode
+/// Shape, table 8-1; within 2 %, the beam's shear and rotary inertia lower f₂ a little).
+#[test]
+fn natural_frequencies_follow_euler_bernoulli_as_the_cantilever_changes() {
+    let dir = common::temp_out("study-natural-frequencies");
+    std::fs::create_dir_all(&dir).unwrap();
+    let study = dir.join("study.yaml");
+    let text = format!(
+        "name: test\npipeline: {}\ndesign: list\nparameters:\n  - {{key: geometry.parameters.L, values: [1.0, 1.0, 0.8]}}\n  - {{key: geometry.parameters.H, values: [0.02, 0.04, 0.02]}}\noutputs: [natural_frequency_1, natural_frequency_2, probe_first_harmonic]\n",
+        common::root().join("pipelines/cantilever.yaml").display()
+    );
+    std::fs::write(&study, text).unwrap();
+    let out = dir.join("out");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("study.csv"));
+    let f = |name: &str| -> Vec<f64> {
+        column(&rows, name)
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (f1, f2) = (f("natural_frequency_1"), f("natural_frequency_2"));
+    let (e, nu, rho) = (210.0e9_f64, 0.3_f64, 7800.0_f64);
+    let beam = |l: f64, h: f64| {
+        1.8751_f64.powi(2) / (2.0 * std::f64::consts::PI)
+            * (e / (1.0 - nu * nu) * h * h / 12.0 / rho).sqrt()
+            / (l * l)
+    };
+    for (i, (l, h)) in [(1.0, 0.02), (1.0, 0.04), (0.8, 0.02)].iter().enumerate() {
+        let expected = beam(*l, *h);
+        assert!(
+            (f1[i] / expected - 1.0).abs() < 0.01,
+            "L = {l}, h = {h}: f1 = {} Hz, Euler–Bernoulli {expected} Hz",
+            f1[i]
+        );
+    }
+    assert!((f1[1] / f1[0] / 2.0 - 1.0).abs() < 0.01, "{f1:?}");
+    assert!((f1[2] / f1[0] * 0.64 - 1.0).abs() < 0.01, "{f1:?}");
+    let ratio = f2[0] / f1[0];
+    assert!((ratio / 6.267 - 1.0).abs() < 0.02, "f2/f1 = {ratio}");
+}
+
+/// TEST GOAL: along a mesh-size ladder the meshes differ, so the displacement L2 error is
+/// summed over the nodes both meshes have (fewer than the coarse mesh's nodes, at least the
+/// geometry's points), is finite and positive for the coarse rung and zero for the reference.
+#[test]
+fn displacement_l2_error_across_different_meshes_uses_their_shared_nodes() {
+    let dir = common::temp_out("study-accuracy-meshes");
+    let study = strip_study(
+        &dir,
+        "accuracy:\n  ladders:\n    - {key: geometry.parameters.lc, values: [0.005, 0.0025]}\n",
+    );
+    let out = dir.join("out");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("accuracy.csv"));
+    let number = |name: &str| -> Vec<f64> {
+        column(&rows, name)
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (e, nodes, dofs) = (
+        number("error_displacement_l2"),
+        number("displacement_l2_nodes"),
+        number("free_dofs"),
+    );
+    assert!(e[0] > 0.0 && e[0] < 1.0 && e[1] == 0.0, "{e:?}");
+    assert!(
+        nodes[0] >= 5.0 && nodes[0] < dofs[0] / 2.0 && nodes[1] > dofs[0] / 2.0,
+        "shared nodes {nodes:?}, free dofs {dofs:?}"
     );
 }

@@ -38,11 +38,16 @@ pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
     println!("cheapest setting with relative error ≤ {tolerance:e}:");
     for c in report.cheapest(tolerance) {
         match c.rung {
-            Some((key, value, error, secs)) => println!(
-                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s)",
-                c.measure.name()
+            Some((key, value, error, secs, memory)) => println!(
+                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {})",
+                c.measure,
+                if memory.is_finite() {
+                    format!("peak memory {memory:.0} MB")
+                } else {
+                    "peak memory not measured".into()
+                }
             ),
-            None => println!("  {:<22} no rung meets it", c.measure.name()),
+            None => println!("  {:<22} no rung meets it", c.measure),
         }
     }
 }

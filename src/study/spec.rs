@@ -205,6 +205,20 @@ pub struct Study {
     pub accuracy: Option<Accuracy>,
 }
 
+impl Study {
+    /// The natural frequencies the outputs ask for: 1..=K for the largest `natural_frequency_K`.
+    pub fn natural_frequencies(&self) -> usize {
+        self.outputs
+            .iter()
+            .filter_map(|o| match o {
+                Output::NaturalFrequency(k) => Some(*k),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(0)
+    }
+}
+
 fn bad(path: &Path, message: impl Into<String>) -> Error {
     Error::Config {
         path: path.to_path_buf(),
