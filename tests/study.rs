@@ -521,3 +521,81 @@ fn displacement_l2_error_across_different_meshes_uses_their_shared_nodes() {
         "shared nodes {nodes:?}, free dofs {dofs:?}"
     );
 }
+
+/// TEST GOAL: a parameter may take string values (`contact.mass: [redistributed, lumped]`):
+/// in a grid with a numeric gap every point runs with its mass model (lumped and redistributed
+/// give different amplitudes), the plots against the gap have a line per mass model and no
+/// heat map is drawn over a string axis; in a list, strings holding a comma or a quote (here
+/// geometry files so named) are quoted in study.csv (RFC 4180), and a Latin hypercube refuses
+/// values (exit 2).
+#[test]
+fn string_valued_parameters_vary_keys_whose_values_are_words() {
+    let dir = common::temp_out("study-strings");
+    let study = strip_study(
+        &dir,
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n  - {key: contact.mass, values: [redistributed, lumped]}\n",
+    );
+    let out = dir.join("grid");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("study.csv"));
+    assert_eq!(
+        column(&rows, "contact.mass"),
+        ["redistributed", "lumped", "redistributed", "lumped"]
+    );
+    let amplitude = column(&rows, "probe_first_harmonic");
+    assert!(
+        amplitude[0] != amplitude[1] && amplitude[2] != amplitude[3],
+        "the mass model changes the answer: {amplitude:?}"
+    );
+    let svg = std::fs::read_to_string(out.join("plots/probe_first_harmonic_vs_gap.svg")).unwrap();
+    assert!(svg.contains("mass = lumped") && svg.contains("mass = redistributed"));
+    assert!(!out.join("plots/probe_first_harmonic_heatmap.svg").exists());
+
+    // Geometry files named with a comma and with quotes: strings the CSV must quote.
+    let geo = common::root().join("geometries/strip_wall.geo");
+    let (one, two) = (dir.join("strip, one.geo"), dir.join("strip \"two\".geo"));
+    std::fs::copy(&geo, &one).unwrap();
+    std::fs::copy(&geo, &two).unwrap();
+    let study = strip_study(
+        &dir,
+        &format!(
+            "design: list\nparameters:\n  - {{key: geometry.file, values: ['{}', '{}']}}\n  - {{key: contact.mass, values: [lumped, redistributed]}}\n",
+            one.display(),
+            two.display()
+        ),
+    );
+    let out = dir.join("list");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let quoted = |path: &Path| format!("\"{}\"", path.display().to_string().replace('"', "\"\""));
+    assert!(
+        lines[1].starts_with(&format!("0,{},lumped,", quoted(&one))),
+        "{csv}"
+    );
+    assert!(
+        lines[2].starts_with(&format!("1,{},redistributed,", quoted(&two))),
+        "{csv}"
+    );
+    assert!(lines[1..].iter().all(|l| l.contains(",ok,")), "{csv}");
+
+    let study = strip_study(
+        &dir,
+        "design: {latin_hypercube: {samples: 2}}\nparameters:\n  - {key: contact.mass, values: [lumped, redistributed]}\n",
+    );
+    let o = run(&["study", study.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("range"), "{}", stderr(&o));
+}
