@@ -349,47 +349,15 @@ fn timed_out(what: &str, timeout: Duration) -> Error {
 /// stdin and stdout when `interactive` (else stdin is empty), then wait for its end. Its group
 /// is killed when `talk` stops with an error of ours or the time is up.
 fn converse<T>(
-    mut c: Command,
+    c: Command,
     what: &str,
     timeout: Duration,
     reporter: &dyn Reporter,
     interactive: bool,
     talk: impl FnOnce(&mut Conversation) -> std::result::Result<T, Stop>,
 ) -> Result<(GmshOutput, std::result::Result<T, Stop>)> {
-    // SAFETY: getpid has no preconditions.
-    let me = unsafe { libc::getpid() };
-    c.process_group(0)
-        .stdin(if interactive {
-            Stdio::piped()
-        } else {
-            Stdio::null()
-        })
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    // SAFETY: the closure runs in the forked child before exec and calls only the
-    // async-signal-safe system calls prctl and getppid, allocating nothing. PR_SET_PDEATHSIG
-    // is the only way to make gmsh die when hbcontact is killed by a signal it cannot catch
-    // (SIGKILL, the OOM killer), where no handler of ours can run.
-    unsafe {
-        c.pre_exec(move || {
-            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            // The parent may have died before prctl took effect.
-            if libc::getppid() != me {
-                return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
-            }
-            Ok(())
-        });
-    }
-    let mut child = c
-        .spawn()
-        .map_err(|e| Error::Gmsh(format!("cannot start {what}: {e}")))?;
-    let pgid = child.id() as i32;
-    if let Ok(mut running) = RUNNING.lock() {
-        running.push(pgid);
-    }
-    let mut guard = RunningGuard { pgid, ended: false };
+    let (mut child, mut guard) = spawn_bounded(c, what, interactive)?;
+    let pgid = guard.pgid;
     let (stdin, stdout, stderr) = (child.stdin.take(), child.stdout.take(), child.stderr.take());
     let start = Instant::now();
     let (status, talked, out_text, err_text) = std::thread::scope(|scope| {
@@ -434,6 +402,49 @@ fn converse<T>(
         stderr: err_text,
     };
     Ok((output, talked))
+}
+
+/// Start gmsh in its own process group, dying with this process (a parent-death signal), its
+/// stdout and stderr piped (and stdin when `interactive`), registered for `kill_running`.
+fn spawn_bounded(
+    mut c: Command,
+    what: &str,
+    interactive: bool,
+) -> Result<(std::process::Child, RunningGuard)> {
+    // SAFETY: getpid has no preconditions.
+    let me = unsafe { libc::getpid() };
+    c.process_group(0)
+        .stdin(if interactive {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    // SAFETY: the closure runs in the forked child before exec and calls only the
+    // async-signal-safe system calls prctl and getppid, allocating nothing. PR_SET_PDEATHSIG
+    // is the only way to make gmsh die when hbcontact is killed by a signal it cannot catch
+    // (SIGKILL, the OOM killer), where no handler of ours can run.
+    unsafe {
+        c.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // The parent may have died before prctl took effect.
+            if libc::getppid() != me {
+                return Err(std::io::Error::from_raw_os_error(libc::ESRCH));
+            }
+            Ok(())
+        });
+    }
+    let child = c
+        .spawn()
+        .map_err(|e| Error::Gmsh(format!("cannot start {what}: {e}")))?;
+    let pgid = child.id() as i32;
+    if let Ok(mut running) = RUNNING.lock() {
+        running.push(pgid);
+    }
+    Ok((child, RunningGuard { pgid, ended: false }))
 }
 
 /// gmsh's stdout: each line reported as progress and passed on to the conversation.
