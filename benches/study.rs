@@ -6,6 +6,10 @@
 //!
 //! `cargo bench --bench study` (part of `make bench`). Times come from one run on a shared
 //! machine: compare the ratios, not absolute seconds across runs.
+//!
+//! `cargo bench --bench study -- accuracy` instead runs the shipped accuracy study
+//! (studies/strip_accuracy.yaml, rungs one at a time) from an empty directory and prints its
+//! table: the wall times and peak memories of the README's accuracy table.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,6 +21,10 @@ const POINTS: usize = 32;
 
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    if std::env::args().any(|a| a == "accuracy") {
+        accuracy(&root);
+        return;
+    }
     let work = root.join("output/bench-study");
     let _ = std::fs::remove_dir_all(&work);
     if let Err(e) = std::fs::create_dir_all(&work) {
@@ -109,4 +117,36 @@ fn copy_cache(from: &std::path::Path, out: &std::path::Path) -> std::io::Result<
         std::fs::copy(entry.path(), dst.join(entry.file_name()))?;
     }
     Ok(())
+}
+
+/// The shipped accuracy study, from scratch, with its table and the machine's load.
+fn accuracy(root: &std::path::Path) {
+    let out = root.join("output/bench-accuracy");
+    let _ = std::fs::remove_dir_all(&out);
+    let spec = match study::load_study(&root.join("studies/strip_accuracy.yaml"), &[]) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("{e}");
+            return;
+        }
+    };
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let options = StudyOptions {
+        out: Some(out),
+        threads: None,
+        shard: None,
+    };
+    match study::run(&spec, &options, &Silent) {
+        Ok(report) => {
+            if let Some(a) = report.accuracy {
+                println!(
+                    "studies/strip_accuracy.yaml; load average before: {}",
+                    load.trim()
+                );
+                println!("errors against {}", a.reference_name());
+                println!("{}", a.markdown());
+            }
+        }
+        Err(e) => eprintln!("{e}"),
+    }
 }

@@ -263,8 +263,9 @@ fn unknown_parameter_names_are_rejected_with_exit_2() {
 
 /// TEST GOAL: on the strip, the accuracy study's errors against the finest rung fall as H
 /// rises (5, 10, 20 → 40) in the probe's first-harmonic amplitude and peak-to-peak range (the
-/// contact forces' errors are not monotone at H = 5: a coarse series can land close by luck);
-/// every rung has a wall time; `--tolerance` names a cheapest setting per measure; the Pareto
+/// contact forces' errors are not monotone at H = 5: a coarse series can land close by luck)
+/// and in the displacement L2 over space and period (every node, the mesh being the same);
+/// every rung has a wall time and a peak memory; `--tolerance` names a cheapest setting per measure; the Pareto
 /// plot names the reference.
 #[test]
 fn accuracy_study_errors_fall_along_the_h_ladder_on_the_strip() {
@@ -294,13 +295,27 @@ fn accuracy_study_errors_fall_along_the_h_ladder_on_the_strip() {
             .map(|v| v.parse().unwrap())
             .collect()
     };
-    for measure in ["error_probe_first_harmonic", "error_probe_peak_to_peak"] {
+    for measure in [
+        "error_probe_first_harmonic",
+        "error_probe_peak_to_peak",
+        "error_displacement_l2",
+    ] {
         let e = errors(measure);
         assert!(
             e[0] > e[1] && e[1] > e[2] && e[3] == 0.0,
             "{measure}: {e:?}"
         );
     }
+    let nodes = errors("displacement_l2_nodes");
+    assert!(
+        nodes.iter().all(|&n| n > 100.0 && n == nodes[3]),
+        "same mesh on every rung: every node compared, {nodes:?}"
+    );
+    let memory = errors("peak_memory");
+    assert!(
+        memory.iter().all(|&m| m > 1.0 && m < 4096.0),
+        "peak memory [MB] per rung: {memory:?}"
+    );
     let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
     assert!(text.lines().skip(1).all(|l| l
         .split(',')
@@ -371,4 +386,274 @@ fn slurm_job_array_merges_into_the_one_process_table() {
         table_without_times(&one.join("study.csv")),
         table_without_times(&cluster.join("study.csv"))
     );
+}
+
+/// TEST GOAL: a study meshes each distinct geometry with exactly one gmsh process (the
+/// element estimate and the mesh in one gmsh session), plus one `gmsh --version` per
+/// hbcontact process: counted by a logging `python` in front of the venv's.
+#[test]
+fn each_geometry_is_meshed_by_one_gmsh_process() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = common::temp_out("study-gmsh-processes");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let log = dir.join("python.log");
+    let _ = std::fs::remove_file(&log);
+    let python = bin.join("python");
+    std::fs::write(
+        &python,
+        format!(
+            "#!/bin/sh\necho \"$1\" >> '{}'\nexec '{}' \"$@\"\n",
+            log.display(),
+            common::venv_python().display()
+        ),
+    )
+    .unwrap();
+    std::fs::set_permissions(&python, std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::copy(common::root().join(".venv/bin/gmsh"), bin.join("gmsh")).unwrap();
+    let study = strip_study(
+        &dir,
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 1.5e-7, 2.0e-7]}\n",
+    );
+    let (out, gmsh) = (dir.join("out"), bin.join("gmsh"));
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--set",
+        &format!("geometry.gmsh={}", gmsh.display()),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let calls = std::fs::read_to_string(&log).unwrap();
+    let sessions = calls.lines().filter(|l| *l == "-c").count();
+    assert_eq!(
+        (sessions, calls.lines().count()),
+        (3, 4),
+        "3 geometries, one session each, and one --version: {calls}"
+    );
+}
+
+/// TEST GOAL: `natural_frequency_K` outputs follow Euler–Bernoulli on the slender cantilever
+/// (plane strain, clamped–free): f₁ = (1.8751²/2π)·√(E'I/(ρA))/L² with E' = E/(1 − ν²) and
+/// I/A = h²/12, so f₁ ∝ h/L²: doubling h doubles f₁, L → 0.8 L multiplies it by 1/0.64, and
+/// f₂/f₁ = (4.6941/1.8751)² = 6.27 (reference: Blevins, Formulas for Natural Frequency and Mode
+/// Shape, table 8-1). Measured: f₁ within 0.05 % of the formula, f₂/f₁ = 6.254 (the beam's
+/// shear and rotary inertia lower f₂ by 0.2 %); asserted within 0.2 % and 0.5 %.
+#[test]
+fn natural_frequencies_follow_euler_bernoulli_as_the_cantilever_changes() {
+    let dir = common::temp_out("study-natural-frequencies");
+    std::fs::create_dir_all(&dir).unwrap();
+    let study = dir.join("study.yaml");
+    let text = format!(
+        "name: test\npipeline: {}\ndesign: list\nparameters:\n  - {{key: geometry.parameters.L, values: [1.0, 1.0, 0.8]}}\n  - {{key: geometry.parameters.H, values: [0.02, 0.04, 0.02]}}\noutputs: [natural_frequency_1, natural_frequency_2, probe_first_harmonic]\n",
+        common::root().join("pipelines/cantilever.yaml").display()
+    );
+    std::fs::write(&study, text).unwrap();
+    let out = dir.join("out");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("study.csv"));
+    let f = |name: &str| -> Vec<f64> {
+        column(&rows, name)
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (f1, f2) = (f("natural_frequency_1"), f("natural_frequency_2"));
+    let (e, nu, rho) = (210.0e9_f64, 0.3_f64, 7800.0_f64);
+    let beam = |l: f64, h: f64| {
+        1.8751_f64.powi(2) / (2.0 * std::f64::consts::PI)
+            * (e / (1.0 - nu * nu) * h * h / 12.0 / rho).sqrt()
+            / (l * l)
+    };
+    for (i, (l, h)) in [(1.0, 0.02), (1.0, 0.04), (0.8, 0.02)].iter().enumerate() {
+        let expected = beam(*l, *h);
+        assert!(
+            (f1[i] / expected - 1.0).abs() < 0.002,
+            "L = {l}, h = {h}: f1 = {} Hz, Euler–Bernoulli {expected} Hz",
+            f1[i]
+        );
+    }
+    assert!((f1[1] / f1[0] / 2.0 - 1.0).abs() < 0.002, "{f1:?}");
+    assert!((f1[2] / f1[0] * 0.64 - 1.0).abs() < 0.002, "{f1:?}");
+    let ratio = f2[0] / f1[0];
+    assert!((ratio / 6.267 - 1.0).abs() < 0.005, "f2/f1 = {ratio}");
+}
+
+/// TEST GOAL: along a mesh-size ladder the meshes differ, so the displacement L2 error is
+/// summed over the nodes both meshes have (fewer than the coarse mesh's nodes, at least the
+/// geometry's points), is finite and positive for the coarse rung and zero for the reference.
+#[test]
+fn displacement_l2_error_across_different_meshes_uses_their_shared_nodes() {
+    let dir = common::temp_out("study-accuracy-meshes");
+    let study = strip_study(
+        &dir,
+        "accuracy:\n  ladders:\n    - {key: geometry.parameters.lc, values: [0.005, 0.0025]}\n",
+    );
+    let out = dir.join("out");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("accuracy.csv"));
+    let number = |name: &str| -> Vec<f64> {
+        column(&rows, name)
+            .iter()
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (e, nodes, dofs) = (
+        number("error_displacement_l2"),
+        number("displacement_l2_nodes"),
+        number("free_dofs"),
+    );
+    assert!(e[0] > 0.0 && e[0] < 1.0 && e[1] == 0.0, "{e:?}");
+    assert!(
+        nodes[0] >= 5.0 && nodes[0] < dofs[0] / 2.0 && nodes[1] > dofs[0] / 2.0,
+        "shared nodes {nodes:?}, free dofs {dofs:?}"
+    );
+}
+
+/// TEST GOAL: a parameter may take string values (`contact.mass: [redistributed, lumped]`):
+/// in a grid with a numeric gap every point runs with its mass model (lumped and redistributed
+/// give different amplitudes), the plots against the gap have a line per mass model and no
+/// heat map is drawn over a string axis; in a list, strings holding a comma or a quote (here
+/// geometry files so named) are quoted in study.csv (RFC 4180), and a Latin hypercube refuses
+/// values (exit 2).
+#[test]
+fn string_valued_parameters_vary_keys_whose_values_are_words() {
+    let dir = common::temp_out("study-strings");
+    let study = strip_study(
+        &dir,
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n  - {key: contact.mass, values: [redistributed, lumped]}\n",
+    );
+    let out = dir.join("grid");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("study.csv"));
+    assert_eq!(
+        column(&rows, "contact.mass"),
+        ["redistributed", "lumped", "redistributed", "lumped"]
+    );
+    let amplitude = column(&rows, "probe_first_harmonic");
+    assert!(
+        amplitude[0] != amplitude[1] && amplitude[2] != amplitude[3],
+        "the mass model changes the answer: {amplitude:?}"
+    );
+    let svg = std::fs::read_to_string(out.join("plots/probe_first_harmonic_vs_gap.svg")).unwrap();
+    assert!(svg.contains("mass = lumped") && svg.contains("mass = redistributed"));
+    assert!(!out.join("plots/probe_first_harmonic_heatmap.svg").exists());
+
+    // Geometry files named with a comma and with quotes: strings the CSV must quote.
+    let geo = common::root().join("geometries/strip_wall.geo");
+    let (one, two) = (dir.join("strip, one.geo"), dir.join("strip \"two\".geo"));
+    std::fs::copy(&geo, &one).unwrap();
+    std::fs::copy(&geo, &two).unwrap();
+    let study = strip_study(
+        &dir,
+        &format!(
+            "design: list\nparameters:\n  - {{key: geometry.file, values: ['{}', '{}']}}\n  - {{key: contact.mass, values: [lumped, redistributed]}}\n",
+            one.display(),
+            two.display()
+        ),
+    );
+    let out = dir.join("list");
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let quoted = |path: &Path| format!("\"{}\"", path.display().to_string().replace('"', "\"\""));
+    assert!(
+        lines[1].starts_with(&format!("0,{},lumped,", quoted(&one))),
+        "{csv}"
+    );
+    assert!(
+        lines[2].starts_with(&format!("1,{},redistributed,", quoted(&two))),
+        "{csv}"
+    );
+    assert!(lines[1..].iter().all(|l| l.contains(",ok,")), "{csv}");
+
+    let study = strip_study(
+        &dir,
+        "design: {latin_hypercube: {samples: 2}}\nparameters:\n  - {key: contact.mass, values: [lumped, redistributed]}\n",
+    );
+    let o = run(&["study", study.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("range"), "{}", stderr(&o));
+}
+
+/// TEST GOAL: the README's accuracy table is what the shipped study
+/// (studies/strip_accuracy.yaml) computes: every rung, in order, with its first-harmonic,
+/// peak-to-peak and displacement L2 errors within a factor 2 of the README's (the references
+/// exactly 0). Reads the table from README.md, so the README cannot drift from the study.
+#[test]
+fn shipped_strip_accuracy_study_errors_are_the_readme_table() {
+    let readme = std::fs::read_to_string(common::root().join("README.md")).unwrap();
+    let header = "| probe 1st-harmonic error | probe peak-to-peak error | displacement L2 error |";
+    let at = readme.find(header).expect("the README's accuracy table");
+    let table: Vec<Vec<String>> = readme[at..]
+        .lines()
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .map(|l| {
+            l.trim_matches('|')
+                .split('|')
+                .map(|c| c.trim().to_string())
+                .collect()
+        })
+        .collect();
+    let out = common::temp_out("study-shipped-accuracy");
+    run_ok(&[
+        "study",
+        "studies/strip_accuracy.yaml",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let rows = table_without_times(&out.join("accuracy.csv"));
+    assert_eq!(rows.len() - 1, table.len(), "one README row per rung");
+    let columns = [
+        (4, "error_probe_first_harmonic"),
+        (5, "error_probe_peak_to_peak"),
+        (6, "error_displacement_l2"),
+    ];
+    for (i, readme_row) in table.iter().enumerate() {
+        assert_eq!(column(&rows, "ladder")[i], readme_row[0]);
+        let value: f64 = column(&rows, "value")[i].parse().unwrap();
+        assert_eq!(
+            value,
+            readme_row[1].parse::<f64>().unwrap(),
+            "{readme_row:?}"
+        );
+        for (c, name) in columns {
+            let measured: f64 = column(&rows, name)[i].parse().unwrap();
+            let ok = match readme_row[c].as_str() {
+                "(reference)" => measured == 0.0,
+                written => {
+                    let r = measured / written.parse::<f64>().unwrap();
+                    (0.5..=2.0).contains(&r)
+                }
+            };
+            assert!(ok, "{name} of {readme_row:?}: measured {measured}");
+        }
+    }
 }

@@ -38,11 +38,16 @@ pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
     outln!("cheapest setting with relative error ≤ {tolerance:e}:");
     for c in report.cheapest(tolerance) {
         match c.rung {
-            Some((key, value, error, secs)) => outln!(
-                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s)",
-                c.measure.name()
+            Some((key, value, error, secs, memory)) => outln!(
+                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {})",
+                c.measure,
+                if memory.is_finite() {
+                    format!("peak memory {memory:.0} MB")
+                } else {
+                    "peak memory not measured".into()
+                }
             ),
-            None => outln!("  {:<22} no rung meets it", c.measure.name()),
+            None => outln!("  {:<22} no rung meets it", c.measure),
         }
     }
 }

@@ -4,13 +4,20 @@
 //! mesh beyond `MeshLimits::max_elements` is refused; gmsh runs in its own process group with a
 //! time limit, its whole group is killed on timeout, and it dies with hbcontact (a parent-death
 //! signal; `kill_running` for SIGINT/SIGTERM handlers).
+//!
+//! One gmsh process per geometry: the pip wheel's gmsh (a Python script) is not run as a
+//! command per step but as one session (`SESSION_DRIVER`, its Python API): started with the
+//! mesh's command line, it opens the geometry once and answers `unroll`, `mesh SCALE PATH` on
+//! stdin, so the estimate, its refusal and the mesh happen in one process (starting Python and
+//! loading gmsh cost about 0.3 s, more than meshing a small geometry). A native gmsh binary
+//! runs one command per step (`-0`, trial meshes, the mesh). Both make the same file.
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
+use std::sync::{mpsc, Mutex};
 use std::time::{Duration, Instant};
 
 use sha2::{Digest, Sha256};
@@ -165,13 +172,15 @@ static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicU
 
 static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
-/// `gmsh --version`, remembered per command.
+/// `gmsh --version`, remembered per command (asked once even when threads mesh at once: the
+/// lock is held while gmsh answers).
 pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
     let key = cmd.describe();
-    if let Ok(cache) = VERSIONS.lock() {
-        if let Some((_, v)) = cache.iter().find(|(k, _)| *k == key) {
-            return Ok(v.clone());
-        }
+    let mut cache = VERSIONS
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, v)) = cache.iter().find(|(k, _)| *k == key) {
+        return Ok(v.clone());
     }
     let mut c = cmd.command();
     c.arg("--version");
@@ -189,9 +198,7 @@ pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
             text.trim()
         )));
     }
-    if let Ok(mut cache) = VERSIONS.lock() {
-        cache.push((key, version.clone()));
-    }
+    cache.push((key, version.clone()));
     Ok(version)
 }
 
@@ -275,15 +282,143 @@ fn describe_status(status: &std::process::ExitStatus) -> String {
 /// any child it starts along), killed with its group after `timeout`, and dying with this
 /// process; each stdout line goes to the reporter as progress of the task "gmsh".
 pub fn run_gmsh(
-    mut c: Command,
+    c: Command,
     what: &str,
     timeout: Duration,
     reporter: &dyn Reporter,
 ) -> Result<GmshOutput> {
+    converse(c, what, timeout, reporter, false, |_| Ok(())).map(|(output, _)| output)
+}
+
+/// Why a conversation with a gmsh session stopped early.
+enum Stop {
+    /// gmsh failed or ended: the message is made from all it printed and its exit status.
+    Gmsh,
+    /// An error of ours: a refusal, a timeout, an unreadable trial mesh.
+    Error(Error),
+}
+
+/// The stdin and stdout lines of a running gmsh session (`converse`).
+struct Conversation<'a> {
+    stdin: Option<std::process::ChildStdin>,
+    lines: mpsc::Receiver<String>,
+    deadline: Instant,
+    timeout: Duration,
+    what: &'a str,
+}
+
+impl Conversation<'_> {
+    /// Send `command` (none: only wait) and wait for the answer `hbcontact:ok`; an answer
+    /// `hbcontact:failed`, a line with "Error", or gmsh ending fail it.
+    fn ask(&mut self, command: &str) -> std::result::Result<(), Stop> {
+        if !command.is_empty() {
+            let stdin = self.stdin.as_mut().ok_or(Stop::Gmsh)?;
+            writeln!(stdin, "{command}")
+                .and_then(|_| stdin.flush())
+                .map_err(|_| Stop::Gmsh)?;
+        }
+        let mut error = false;
+        loop {
+            let left = self.deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.starts_with("hbcontact:") => {
+                    return match (line.trim_end() == "hbcontact:ok", error) {
+                        (true, false) => Ok(()),
+                        _ => Err(Stop::Gmsh),
+                    }
+                }
+                Ok(line) => error |= line.contains("Error"),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    return Err(Stop::Error(timed_out(self.what, self.timeout)))
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => return Err(Stop::Gmsh),
+            }
+        }
+    }
+}
+
+fn timed_out(what: &str, timeout: Duration) -> Error {
+    Error::Gmsh(format!(
+        "{what} did not finish within geometry.gmsh_timeout = {} s and was killed (with its process group); the mesh is probably too fine: a larger geometry.mesh_size or larger size parameters, or raise geometry.gmsh_timeout",
+        timeout.as_secs_f64()
+    ))
+}
+
+/// Start gmsh bounded (own process group, parent-death signal, `timeout` for the whole run,
+/// stdout lines reported as progress of the task "gmsh"), let `talk` converse with it over
+/// stdin and stdout when `interactive` (else stdin is empty), then wait for its end. Its group
+/// is killed when `talk` stops with an error of ours or the time is up.
+fn converse<T>(
+    c: Command,
+    what: &str,
+    timeout: Duration,
+    reporter: &dyn Reporter,
+    interactive: bool,
+    talk: impl FnOnce(&mut Conversation) -> std::result::Result<T, Stop>,
+) -> Result<(GmshOutput, std::result::Result<T, Stop>)> {
+    let (mut child, mut guard) = spawn_bounded(c, what, interactive)?;
+    let pgid = guard.pgid;
+    let (stdin, stdout, stderr) = (child.stdin.take(), child.stdout.take(), child.stderr.take());
+    let start = Instant::now();
+    let (status, talked, out_text, err_text) = std::thread::scope(|scope| {
+        let (sender, lines) = mpsc::channel();
+        let out_reader = scope.spawn(move || read_stdout(stdout, reporter, sender));
+        let err_reader = scope.spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut err) = stderr {
+                let _ = err.read_to_end(&mut bytes);
+            }
+            String::from_utf8_lossy(&bytes).into_owned()
+        });
+        let mut conversation = Conversation {
+            stdin,
+            lines,
+            deadline: start + timeout,
+            timeout,
+            what,
+        };
+        let talked = talk(&mut conversation);
+        // Closing stdin ends a session; gmsh failing on its own ends by itself.
+        drop(conversation);
+        if let Err(Stop::Error(_)) = talked {
+            kill_group(pgid);
+        }
+        let status = wait_bounded(&mut child, pgid, start + timeout, what, timeout);
+        if status.is_err() {
+            // Readers end when every writer of the pipes is gone: kill the whole group.
+            kill_group(pgid);
+        }
+        let out_text = out_reader.join().unwrap_or_default();
+        let err_text = err_reader.join().unwrap_or_default();
+        (status, talked, out_text, err_text)
+    });
+    reporter.task_done("gmsh");
+    let status = status?;
+    guard.ended = true;
+    drop(guard);
+    let output = GmshOutput {
+        status,
+        stdout: out_text,
+        stderr: err_text,
+    };
+    Ok((output, talked))
+}
+
+/// Start gmsh in its own process group, dying with this process (a parent-death signal), its
+/// stdout and stderr piped (and stdin when `interactive`), registered for `kill_running`.
+fn spawn_bounded(
+    mut c: Command,
+    what: &str,
+    interactive: bool,
+) -> Result<(std::process::Child, RunningGuard)> {
     // SAFETY: getpid has no preconditions.
     let me = unsafe { libc::getpid() };
     c.process_group(0)
-        .stdin(Stdio::null())
+        .stdin(if interactive {
+            Stdio::piped()
+        } else {
+            Stdio::null()
+        })
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
     // SAFETY: the closure runs in the forked child before exec and calls only the
@@ -302,106 +437,123 @@ pub fn run_gmsh(
             Ok(())
         });
     }
-    let mut child = c
+    let child = c
         .spawn()
         .map_err(|e| Error::Gmsh(format!("cannot start {what}: {e}")))?;
     let pgid = child.id() as i32;
     if let Ok(mut running) = RUNNING.lock() {
         running.push(pgid);
     }
-    let mut guard = RunningGuard { pgid, ended: false };
-    let stdout = child.stdout.take();
-    let stderr = child.stderr.take();
-    let start = Instant::now();
-    let (status, out_text, err_text) = std::thread::scope(|scope| {
-        let out_reader = scope.spawn(move || {
-            let mut text = String::new();
-            if let Some(out) = stdout {
-                for (i, line) in BufReader::new(out)
-                    .lines()
-                    .map_while(|l| l.ok())
-                    .enumerate()
-                {
-                    let status: String = line.trim().chars().take(100).collect();
-                    reporter.progress("gmsh", i as u64 + 1, None, &status);
-                    text.push_str(&line);
-                    text.push('\n');
-                }
-            }
-            text
-        });
-        let err_reader = scope.spawn(move || {
-            let mut bytes = Vec::new();
-            if let Some(mut err) = stderr {
-                let _ = err.read_to_end(&mut bytes);
-            }
-            String::from_utf8_lossy(&bytes).into_owned()
-        });
-        let status = loop {
-            match child.try_wait() {
-                Ok(Some(status)) => break Ok(status),
-                Ok(None) => {}
-                Err(e) => break Err(Error::Gmsh(format!("waiting for {what}: {e}"))),
-            }
-            if start.elapsed() > timeout {
-                kill_group(pgid);
-                let _ = child.wait();
-                break Err(Error::Gmsh(format!(
-                    "{what} did not finish within geometry.gmsh_timeout = {} s and was killed (with its process group); the mesh is probably too fine: a larger geometry.mesh_size or larger size parameters, or raise geometry.gmsh_timeout",
-                    timeout.as_secs_f64()
-                )));
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        };
-        if status.is_err() {
-            // Readers end when every writer of the pipes is gone: kill the whole group.
-            kill_group(pgid);
-        }
-        let out_text = out_reader.join().unwrap_or_default();
-        let err_text = err_reader.join().unwrap_or_default();
-        (status, out_text, err_text)
-    });
-    reporter.task_done("gmsh");
-    let status = status?;
-    guard.ended = true;
-    drop(guard);
-    Ok(GmshOutput {
-        status,
-        stdout: out_text,
-        stderr: err_text,
-    })
+    Ok((child, RunningGuard { pgid, ended: false }))
 }
 
-/// The gmsh command meshing `request` in 2-D into `out`, sizes scaled by `scale` (`-clscale`).
-fn mesh_command(cmd: &GmshCommand, request: &MeshRequest, out: &Path, scale: f64) -> Command {
-    let mut c = cmd.command();
-    c.arg(&request.geo)
-        .arg("-2")
-        .arg("-order")
-        .arg(request.order.to_string());
-    push_parameters(&mut c, request);
+/// gmsh's stdout: each line reported as progress and passed on to the conversation.
+fn read_stdout(
+    stdout: Option<std::process::ChildStdout>,
+    reporter: &dyn Reporter,
+    sender: mpsc::Sender<String>,
+) -> String {
+    let mut text = String::new();
+    if let Some(out) = stdout {
+        for (i, line) in BufReader::new(out)
+            .lines()
+            .map_while(|l| l.ok())
+            .enumerate()
+        {
+            let status: String = line.trim().chars().take(100).collect();
+            reporter.progress("gmsh", i as u64 + 1, None, &status);
+            text.push_str(&line);
+            text.push('\n');
+            let _ = sender.send(line);
+        }
+    }
+    text
+}
+
+/// Wait for gmsh's end until `deadline`, then kill its group.
+fn wait_bounded(
+    child: &mut std::process::Child,
+    pgid: i32,
+    deadline: Instant,
+    what: &str,
+    timeout: Duration,
+) -> Result<std::process::ExitStatus> {
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => return Ok(status),
+            Ok(None) => {}
+            Err(e) => return Err(Error::Gmsh(format!("waiting for {what}: {e}"))),
+        }
+        if Instant::now() > deadline {
+            kill_group(pgid);
+            let _ = child.wait();
+            return Err(timed_out(what, timeout));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The gmsh command line meshing `request` in 2-D into `out`, sizes scaled by `scale`
+/// (`-clscale`), without the program.
+fn mesh_args(request: &MeshRequest, out: &Path, scale: f64) -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = vec![request.geo.clone().into(), "-2".into()];
+    args.extend(["-order".into(), request.order.to_string().into()]);
+    args.extend(parameter_args(request));
     if let Some(h) = request.mesh_size {
-        c.arg("-clmax").arg(format!("{h:e}"));
+        args.extend(["-clmax".into(), format!("{h:e}").into()]);
     }
     if scale != 1.0 {
-        c.arg("-clscale").arg(format!("{scale:e}"));
+        args.extend(["-clscale".into(), format!("{scale:e}").into()]);
     }
-    c.args(["-format", "msh41", "-save_all", "0", "-nopopup", "-o"])
-        .arg(out);
-    c
+    for a in ["-format", "msh41", "-save_all", "0", "-nopopup", "-o"] {
+        args.push(a.into());
+    }
+    args.push(out.into());
+    args
 }
 
-fn push_parameters(c: &mut Command, request: &MeshRequest) {
+fn parameter_args(request: &MeshRequest) -> Vec<std::ffi::OsString> {
+    let mut args: Vec<std::ffi::OsString> = Vec::new();
     for (k, v) in &request.parameters {
-        c.arg("-setnumber").arg(k).arg(format!("{v:e}"));
+        args.extend(["-setnumber".into(), k.into(), format!("{v:e}").into()]);
     }
     if request.quads {
-        c.arg("-setnumber").arg("quads").arg("1");
+        args.extend(["-setnumber".into(), "quads".into(), "1".into()]);
     }
+    args
 }
 
-/// Run gmsh and turn a failure into an error that says what happened, even when gmsh printed
-/// nothing (killed by a signal).
+/// The message of a failed gmsh run: its lines with "Error" (else its last lines) and how it
+/// ended, even when it printed nothing (killed by a signal).
+fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Error {
+    let text = format!("{}{}", o.stdout, o.stderr);
+    let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
+    let mut shown = if errors.is_empty() {
+        let tail: Vec<&str> = text
+            .lines()
+            .filter(|l| !l.trim().is_empty() && !l.starts_with("hbcontact:"))
+            .rev()
+            .take(10)
+            .collect();
+        tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+    } else {
+        errors.join("\n")
+    };
+    if !o.status.success() {
+        if !shown.is_empty() {
+            shown.push('\n');
+        }
+        shown.push_str(&describe_status(&o.status));
+    } else if shown.is_empty() {
+        shown = format!("gmsh wrote no mesh file {}", out.display());
+    }
+    Error::Gmsh(format!(
+        "meshing {} failed:\n{shown}",
+        request.geo.display()
+    ))
+}
+
+/// Run one gmsh command to its end and check that it wrote `out` without an error.
 fn run_checked(
     c: Command,
     cmd: &GmshCommand,
@@ -411,39 +563,155 @@ fn run_checked(
     reporter: &dyn Reporter,
 ) -> Result<()> {
     let result = run_gmsh(c, &cmd.describe(), limits.timeout, reporter).and_then(|o| {
-        let text = format!("{}{}", o.stdout, o.stderr);
-        let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
-        if o.status.success() && errors.is_empty() && out.is_file() {
-            return Ok(());
-        }
-        let mut shown = if errors.is_empty() {
-            let tail: Vec<&str> = text
-                .lines()
-                .filter(|l| !l.trim().is_empty())
-                .rev()
-                .take(10)
-                .collect();
-            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        let errors = format!("{}{}", o.stdout, o.stderr).contains("Error");
+        if o.status.success() && !errors && out.is_file() {
+            Ok(())
         } else {
-            errors.join("\n")
-        };
-        if !o.status.success() {
-            if !shown.is_empty() {
-                shown.push('\n');
-            }
-            shown.push_str(&describe_status(&o.status));
-        } else if shown.is_empty() {
-            shown = format!("gmsh wrote no mesh file {}", out.display());
+            Err(failure(request, &o, out))
         }
-        Err(Error::Gmsh(format!(
-            "meshing {} failed:\n{shown}",
-            request.geo.display()
-        )))
     });
     if result.is_err() {
         let _ = std::fs::remove_file(out);
     }
     result
+}
+
+/// The two steps the estimate and the mesh take from gmsh.
+trait GmshSteps {
+    /// Write the unrolled geometry (what gmsh `-0` writes) to `path`.
+    fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop>;
+    /// Mesh in 2-D with every size scaled by `scale` into `path`.
+    fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop>;
+}
+
+/// A native gmsh: one command per step.
+struct Commands<'a> {
+    cmd: &'a GmshCommand,
+    request: &'a MeshRequest,
+    limits: &'a MeshLimits,
+    reporter: &'a dyn Reporter,
+}
+
+impl GmshSteps for Commands<'_> {
+    fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop> {
+        let mut c = self.cmd.command();
+        c.arg(&self.request.geo).arg("-0");
+        c.args(parameter_args(self.request));
+        c.args(["-nopopup", "-o"]).arg(path);
+        run_checked(c, self.cmd, self.request, path, self.limits, self.reporter)
+            .map_err(Stop::Error)
+    }
+    fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop> {
+        let mut c = self.cmd.command();
+        c.args(mesh_args(self.request, path, scale));
+        run_checked(c, self.cmd, self.request, path, self.limits, self.reporter)
+            .map_err(Stop::Error)
+    }
+}
+
+/// The pip wheel's gmsh: one session answering each step.
+struct Session<'c, 'a>(&'c mut Conversation<'a>);
+
+impl GmshSteps for Session<'_, '_> {
+    fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop> {
+        self.0.ask(&format!("unroll {}", path.display()))
+    }
+    fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop> {
+        self.0.ask(&format!("mesh {scale:e} {}", path.display()))
+    }
+}
+
+/// The Python program of a gmsh session, run by the venv's python with the gmsh command line
+/// of the mesh (`mesh_args`): it drops `-2` and `-o OUT`, initializes gmsh's API with the
+/// other options (exactly as the gmsh command line sets them), opens the geometry, and
+/// answers `hbcontact:ok` (or prints the error and `hbcontact:failed`) to each line on stdin:
+/// `unroll PATH` (gmsh `-0`), `mesh SCALE PATH` (`-2 -clscale SCALE -o PATH`). End of input
+/// ends it. Its meshes are byte for byte the command line's.
+const SESSION_DRIVER: &str = r#"
+import sys
+import gmsh
+args = sys.argv[1:]
+geo = args.pop(0)
+if "-o" in args:
+    i = args.index("-o")
+    del args[i:i + 2]
+args = [a for a in args if a != "-2"]
+def answer(word):
+    sys.stdout.write("hbcontact:" + word + "\n")
+    sys.stdout.flush()
+gmsh.initialize(["gmsh"] + args)
+try:
+    gmsh.open(geo)
+    answer("ok")
+    for line in sys.stdin:
+        word, _, rest = line.rstrip("\n").partition(" ")
+        if word == "unroll":
+            gmsh.write(rest)
+        elif word == "mesh":
+            scale, _, path = rest.partition(" ")
+            gmsh.option.setNumber("Mesh.MeshSizeFactor", float(scale))
+            gmsh.model.mesh.clear()
+            gmsh.model.mesh.generate(2)
+            gmsh.write(path)
+        else:
+            break
+        answer("ok")
+except Exception as e:
+    sys.stdout.write("Error : %s\n" % e)
+    answer("failed")
+    sys.exit(1)
+gmsh.finalize()
+"#;
+
+/// The session command for `cmd` (None: not the pip wheel's Python script).
+fn session_command(cmd: &GmshCommand, request: &MeshRequest, out: &Path) -> Option<Command> {
+    let python = cmd
+        .program
+        .file_name()?
+        .to_string_lossy()
+        .starts_with("python");
+    if !python || cmd.prefix_args.len() != 1 {
+        return None;
+    }
+    let mut c = Command::new(&cmd.program);
+    c.arg("-c")
+        .arg(SESSION_DRIVER)
+        .args(mesh_args(request, out, 1.0));
+    Some(c)
+}
+
+/// Run `steps` against gmsh for `request`: in one session when gmsh is the pip wheel, else one
+/// command per step. `out` is the mesh the steps aim at (on the session's command line).
+fn with_gmsh<T>(
+    cmd: &GmshCommand,
+    request: &MeshRequest,
+    limits: &MeshLimits,
+    reporter: &dyn Reporter,
+    out: &Path,
+    steps: impl FnOnce(&mut dyn GmshSteps) -> std::result::Result<T, Stop>,
+) -> Result<T> {
+    let Some(c) = session_command(cmd, request, out) else {
+        let mut commands = Commands {
+            cmd,
+            request,
+            limits,
+            reporter,
+        };
+        return steps(&mut commands).map_err(|stop| match stop {
+            Stop::Error(e) => e,
+            Stop::Gmsh => Error::Gmsh(format!("meshing {} failed", request.geo.display())),
+        });
+    };
+    let what = cmd.describe();
+    let (output, talked) = converse(c, &what, limits.timeout, reporter, true, |conversation| {
+        conversation.ask("")?;
+        steps(&mut Session(conversation))
+    })?;
+    match talked {
+        Ok(t) if output.status.success() => Ok(t),
+        Ok(_) | Err(Stop::Gmsh) => Err(failure(request, &output, out)),
+        Err(Stop::Error(e)) => Err(e),
+    }
 }
 
 /// The elements a trial mesh aims at: enough that gmsh's per-curve minimum node counts are
@@ -546,13 +814,22 @@ pub fn estimate_elements(
     reporter: &dyn Reporter,
 ) -> Result<f64> {
     let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let out = scratch.join(format!("estimate-{}-{unique}.msh", std::process::id()));
+    with_gmsh(cmd, request, limits, reporter, &out, |steps| {
+        estimate_with(steps, request, scratch)
+    })
+}
+
+/// The estimate (`estimate_elements`) through `steps`.
+fn estimate_with(
+    steps: &mut dyn GmshSteps,
+    request: &MeshRequest,
+    scratch: &Path,
+) -> std::result::Result<f64, Stop> {
+    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let base = format!("estimate-{}-{unique}", std::process::id());
     let unrolled = scratch.join(format!("{base}.geo_unrolled"));
-    let mut c = cmd.command();
-    c.arg(&request.geo).arg("-0");
-    push_parameters(&mut c, request);
-    c.args(["-nopopup", "-o"]).arg(&unrolled);
-    run_checked(c, cmd, request, &unrolled, limits, reporter)?;
+    steps.unroll(&unrolled)?;
     let text = std::fs::read_to_string(&unrolled).unwrap_or_default();
     let _ = std::fs::remove_file(&unrolled);
     let extent = parse_unrolled(&text);
@@ -575,11 +852,10 @@ pub fn estimate_elements(
     let trial = scratch.join(format!("{base}.msh"));
     let mut estimate = 0.0;
     for _ in 0..4 {
-        let c = mesh_command(cmd, request, &trial, scale);
-        run_checked(c, cmd, request, &trial, limits, reporter)?;
-        let cells = super::msh::read_msh(&trial).map(|m| m.cells.len());
+        let meshed = steps.mesh(scale, &trial);
+        let cells = meshed.map(|()| super::msh::read_msh(&trial).map(|m| m.cells.len()));
         let _ = std::fs::remove_file(&trial);
-        let n = cells? as f64;
+        let n = cells?.map_err(Stop::Error)? as f64;
         estimate = n * scale * scale;
         if n >= TRIAL_ELEMENTS / 8.0 || scale <= 1.0 {
             break;
@@ -738,15 +1014,21 @@ pub fn mesh_geometry_with(
             }
         }
     }
-    let estimate = estimate_elements(&cmd, request, cache_dir, limits, reporter)?;
-    if estimate > limits.max_elements as f64 {
-        return Err(too_many_elements(request, limits, estimate));
-    }
     // Unique per call: threads of one process (parallel tests, studies) may mesh at once.
     let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let tmp = cache_dir.join(format!("{stem}.tmp-{}-{unique}.msh", std::process::id()));
-    let c = mesh_command(&cmd, request, &tmp, 1.0);
-    run_checked(c, &cmd, request, &tmp, limits, reporter)?;
+    // The estimate, and its refusal, come before the mesh, in the same gmsh session.
+    let meshed = with_gmsh(&cmd, request, limits, reporter, &tmp, |steps| {
+        let estimate = estimate_with(steps, request, cache_dir)?;
+        if estimate > limits.max_elements as f64 {
+            return Err(Stop::Error(too_many_elements(request, limits, estimate)));
+        }
+        steps.mesh(1.0, &tmp)
+    });
+    if let Err(e) = meshed {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
     // The checksum goes first, so a mesh in the cache always has one (a crash in between
     // leaves a checksum without its mesh, which is harmless).
     let bytes = std::fs::read(&tmp).map_err(|e| Error::io(&tmp, e))?;

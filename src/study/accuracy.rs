@@ -5,33 +5,59 @@
 //! Relative error of measure m at a rung: e_m = |m − m_ref| / |m_ref|, where m_ref is the
 //! ladder's last rung (`reference: finest`) or a time-marching run of the pipeline
 //! (`reference: transient`). Measures: the probe's first-harmonic amplitude and peak-to-peak
-//! range, the mean and the peak total contact force. Wall time excludes meshing (the cache
-//! makes it free after the first rung). A failed rung is tabulated with its error and the
-//! others go on. Outputs: `accuracy.csv`, `accuracy.svg|png` (the Pareto plot of the probe's
-//! first-harmonic error against wall time, reference named in the title) and
+//! range, the mean and the peak total contact force, and the displacement over space and
+//! period (`displacement_l2`, below). Wall time excludes meshing (the cache makes it free
+//! after the first rung) and writing (rungs write their harmonic amplitudes); peak memory is
+//! the run's peak resident memory (execute.rs). A failed rung is tabulated with its error and
+//! the others go on. Outputs: `accuracy.csv`, `accuracy.svg|png` (the Pareto plot of the
+//! probe's first-harmonic error against wall time, reference named in the title) and
 //! `plots/pareto_<measure>.svg|png`, and `manifest.json`.
+//!
+//! Displacement L2 error over space and period, from the harmonic amplitudes on the nodes
+//! (`amplitudes.vtu`: a_0 = `static`, a_k, b_k = `harmonic_k_cos`, `harmonic_k_sin`) by
+//! Parseval, (1/T)∫|u|² dt = |a_0|² + ½ Σ_k (|a_k|² + |b_k|²), a harmonic one side lacks
+//! counting as zero:
+//!   e_L2 = √( Σ_n (1/T)∫|u_n − u_ref,n|² dt ) / √( Σ_n (1/T)∫|u_ref,n|² dt ),
+//! summed over nodes n, each weighted equally. Over every node when the rung's mesh is the
+//! reference's (ladders of H, N, c); over the nodes both meshes have (same coordinates to
+//! 1e-9 of the reference's size: at least the geometry's points, where probes sit) when the
+//! mesh differs (ladders of mesh size or order); `displacement_l2_nodes` says how many. Not
+//! available against a transient reference (the time marching keeps no amplitudes).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::displacement::{read_amplitudes, relative_l2};
 use super::execute::Execution;
 use super::outputs::Output;
-use super::plan::Mode;
+use super::plan::{point_dir, Mode};
 use super::spec::{Accuracy, Reference, Study};
 use super::table::{csv_field, csv_number, slug, Row, Staged};
 use crate::output::plot::{tick, Axis, Figure};
 use crate::output::tables::write_json;
 use crate::{Error, Result};
 
-/// The measures compared, in table order.
+/// The measures compared by value, in table order.
 pub const MEASURES: [Output; 4] = [
     Output::ProbeFirstHarmonic,
     Output::ProbePeakToPeak,
     Output::MeanContactForce,
     Output::PeakContactForce,
 ];
+
+/// Every error measure, in table order: `MEASURES`, then the displacement L2 error.
+pub const ERROR_NAMES: [&str; 5] = [
+    "probe_first_harmonic",
+    "probe_peak_to_peak",
+    "mean_contact_force",
+    "peak_contact_force",
+    "displacement_l2",
+];
+
+/// Index of the displacement L2 error in `Rung::errors`.
+const L2: usize = 4;
 
 /// One rung of a ladder (or the transient reference).
 #[derive(Clone, Debug, Serialize)]
@@ -42,14 +68,22 @@ pub struct Rung {
     pub status: String,
     pub exit_class: Option<String>,
     pub message: Option<String>,
-    /// Wall time without meshing [s].
+    /// Wall time without meshing and writing [s].
     pub seconds: f64,
+    /// Peak resident memory of the run [MB] (NaN: not measured).
+    pub peak_memory: f64,
     pub free_dofs: f64,
     pub newton_iterations: f64,
     /// The measures' values, in `MEASURES` order.
     pub values: Vec<f64>,
-    /// Their relative errors against the reference (NaN: no reference or no value).
+    /// Relative errors against the reference in `ERROR_NAMES` order (NaN: no reference or
+    /// no value).
     pub errors: Vec<f64>,
+    /// Nodes the displacement L2 error summed over (0: none).
+    pub l2_nodes: usize,
+    /// The rung's point directory (its `amplitudes.vtu`).
+    #[serde(skip)]
+    pub dir: PathBuf,
     pub is_reference: bool,
 }
 
@@ -62,12 +96,13 @@ pub struct AccuracyReport {
 /// The cheapest rung meeting `tolerance` in one measure.
 #[derive(Clone, Debug)]
 pub struct Cheapest {
-    pub measure: Output,
-    /// (ladder key, value, error, seconds); None when no rung meets the tolerance.
-    pub rung: Option<(String, f64, f64, f64)>,
+    pub measure: &'static str,
+    /// (ladder key, value, error, seconds, peak memory [MB]); None when no rung meets the
+    /// tolerance.
+    pub rung: Option<(String, f64, f64, f64, f64)>,
 }
 
-fn rung(row: &Row, key: String, value: f64) -> Rung {
+fn rung(out: &Path, row: &Row, key: String, value: f64) -> Rung {
     let r = row.record.as_ref();
     Rung {
         key,
@@ -75,11 +110,14 @@ fn rung(row: &Row, key: String, value: f64) -> Rung {
         status: row.status().to_string(),
         exit_class: r.and_then(|r| r.exit_class.clone()),
         message: r.and_then(|r| r.error.clone()),
-        seconds: row.output(&Output::WallTime),
+        seconds: row.output(&Output::SolveTime),
+        peak_memory: row.output(&Output::PeakMemory),
         free_dofs: row.output(&Output::FreeDofs),
         newton_iterations: row.output(&Output::NewtonIterations),
         values: MEASURES.iter().map(|m| row.output(m)).collect(),
-        errors: vec![f64::NAN; MEASURES.len()],
+        errors: vec![f64::NAN; ERROR_NAMES.len()],
+        l2_nodes: 0,
+        dir: point_dir(out, &row.point.key),
         is_reference: false,
     }
 }
@@ -92,20 +130,20 @@ fn relative(v: f64, reference: f64) -> f64 {
     }
 }
 
-/// The rungs with their errors, from the study's rows (ladders in order, then the transient
-/// reference if there is one).
-pub fn evaluate(spec: &Accuracy, rows: &[Row]) -> AccuracyReport {
+/// The rungs with their errors, from the study's rows and the rungs' amplitudes under `out`
+/// (ladders in order, then the transient reference if there is one).
+pub fn evaluate(spec: &Accuracy, rows: &[Row], out: &Path) -> AccuracyReport {
     let transient = rows
         .iter()
         .find(|r| r.point.mode == Mode::Transient)
-        .map(|r| rung(r, "reference".into(), f64::NAN));
+        .map(|r| rung(out, r, "reference".into(), f64::NAN));
     let mut rungs = Vec::new();
     let mut at = 0;
     for ladder in &spec.ladders {
         let mut ladder_rungs: Vec<Rung> = rows[at..at + ladder.values.len()]
             .iter()
             .zip(&ladder.values)
-            .map(|(row, &v)| rung(row, ladder.key.clone(), v))
+            .map(|(row, &v)| rung(out, row, ladder.key.clone(), v))
             .collect();
         at += ladder.values.len();
         let reference = match spec.reference {
@@ -122,14 +160,19 @@ pub fn evaluate(spec: &Accuracy, rows: &[Row]) -> AccuracyReport {
                     .iter()
                     .zip(&reference)
                     .map(|(&v, &m)| relative(v, m))
+                    .chain([f64::NAN])
                     .collect();
             }
+        }
+        if spec.reference == Reference::Finest {
+            displacement_errors(&mut ladder_rungs);
         }
         rungs.extend(ladder_rungs);
     }
     if let Some(mut t) = transient {
         t.is_reference = true;
-        t.errors = vec![0.0; MEASURES.len()];
+        t.errors = vec![0.0; ERROR_NAMES.len()];
+        t.errors[L2] = f64::NAN;
         rungs.push(t);
     }
     AccuracyReport {
@@ -138,21 +181,49 @@ pub fn evaluate(spec: &Accuracy, rows: &[Row]) -> AccuracyReport {
     }
 }
 
+/// Each rung's displacement L2 error against its ladder's reference rung (the one marked
+/// `is_reference`), from their `amplitudes.vtu`.
+fn displacement_errors(rungs: &mut [Rung]) {
+    let Some(reference) = rungs
+        .iter()
+        .find(|r| r.is_reference && r.status == "ok")
+        .and_then(|r| read_amplitudes(&r.dir.join("amplitudes.vtu")))
+    else {
+        return;
+    };
+    for r in rungs.iter_mut().filter(|r| r.status == "ok") {
+        if let Some((e, nodes)) =
+            read_amplitudes(&r.dir.join("amplitudes.vtu")).and_then(|a| relative_l2(&a, &reference))
+        {
+            r.errors[L2] = e;
+            r.l2_nodes = nodes;
+        }
+    }
+}
+
 impl AccuracyReport {
     /// Per measure, the rung of least wall time whose error is at most `tolerance` (the
     /// reference itself does not count).
     pub fn cheapest(&self, tolerance: f64) -> Vec<Cheapest> {
-        MEASURES
+        ERROR_NAMES
             .iter()
             .enumerate()
             .map(|(m, measure)| Cheapest {
-                measure: *measure,
+                measure,
                 rung: self
                     .rungs
                     .iter()
                     .filter(|r| !r.is_reference && r.errors[m] <= tolerance)
                     .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
-                    .map(|r| (r.key.clone(), r.value, r.errors[m], r.seconds)),
+                    .map(|r| {
+                        (
+                            r.key.clone(),
+                            r.value,
+                            r.errors[m],
+                            r.seconds,
+                            r.peak_memory,
+                        )
+                    }),
             })
             .collect()
     }
@@ -175,7 +246,7 @@ impl AccuracyReport {
 
     /// A Markdown table of every rung.
     pub fn markdown(&self) -> String {
-        let mut s = String::from("| setting | value | wall time [s] | probe 1st-harmonic amplitude [m] | error | probe peak-to-peak error | mean contact force error | peak contact force error | Newton its | free dofs | status |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+        let mut s = String::from("| setting | value | wall time [s] | peak memory [MB] | probe 1st-harmonic amplitude [m] | error | probe peak-to-peak error | mean contact force error | peak contact force error | displacement L2 error | Newton its | free dofs | status |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         let e = |v: f64| {
             if v.is_finite() {
                 format!("{v:.2e}")
@@ -191,14 +262,20 @@ impl AccuracyReport {
             };
             let _ = writeln!(
                 s,
-                "| {} | {value} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {value} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.key,
                 r.seconds,
+                if r.peak_memory.is_finite() {
+                    format!("{:.0}", r.peak_memory)
+                } else {
+                    "-".into()
+                },
                 e(r.values[0]),
                 e(r.errors[0]),
                 e(r.errors[1]),
                 e(r.errors[2]),
                 e(r.errors[3]),
+                e(r.errors[L2]),
                 if r.newton_iterations.is_finite() {
                     format!("{}", r.newton_iterations)
                 } else {
@@ -217,12 +294,13 @@ impl AccuracyReport {
 
     /// `accuracy.csv`.
     pub fn csv(&self) -> String {
-        let mut s =
-            String::from("ladder,value,status,exit_class,wall_time,free_dofs,newton_iterations");
+        let mut s = String::from(
+            "ladder,value,status,exit_class,wall_time,peak_memory,free_dofs,newton_iterations",
+        );
         for m in &MEASURES {
             let _ = write!(s, ",{0},error_{0}", m.name());
         }
-        s.push_str(",error\n");
+        s.push_str(",error_displacement_l2,displacement_l2_nodes,error\n");
         for r in &self.rungs {
             let value = if r.key == "reference" {
                 "transient".into()
@@ -231,18 +309,25 @@ impl AccuracyReport {
             };
             let _ = write!(
                 s,
-                "{},{value},{},{},{},{},{}",
+                "{},{value},{},{},{},{},{},{}",
                 csv_field(&r.key),
                 r.status,
                 r.exit_class.clone().unwrap_or_default(),
                 csv_number(r.seconds),
+                csv_number(r.peak_memory),
                 csv_number(r.free_dofs),
                 csv_number(r.newton_iterations)
             );
             for (v, e) in r.values.iter().zip(&r.errors) {
                 let _ = write!(s, ",{},{}", csv_number(*v), csv_number(*e));
             }
-            let _ = writeln!(s, ",{}", csv_field(r.message.as_deref().unwrap_or("")));
+            let _ = writeln!(
+                s,
+                ",{},{},{}",
+                csv_number(r.errors[L2]),
+                r.l2_nodes,
+                csv_field(r.message.as_deref().unwrap_or(""))
+            );
         }
         s
     }
@@ -251,13 +336,13 @@ impl AccuracyReport {
     pub fn pareto(&self, m: usize) -> Figure {
         let title = format!(
             "error of {} vs wall time; reference: {}",
-            MEASURES[m].name(),
+            ERROR_NAMES[m],
             self.reference_name()
         );
         let mut fig = Figure::new(
             title,
-            Axis::log("wall time without meshing [s]"),
-            Axis::log(format!("relative error of {}", MEASURES[m].name())),
+            Axis::log("wall time without meshing and writing [s]"),
+            Axis::log(format!("relative error of {}", ERROR_NAMES[m])),
         );
         let mut keys: Vec<&str> = Vec::new();
         for r in &self.rungs {
@@ -314,9 +399,9 @@ pub fn publish(
         "accuracy.svg".into(),
         "accuracy.png".into(),
     ];
-    for (m, measure) in MEASURES.iter().enumerate() {
+    for (m, measure) in ERROR_NAMES.iter().enumerate() {
         if report.rungs.iter().any(|r| r.errors[m] > 0.0) {
-            let stem = format!("pareto_{}", slug(&measure.name()));
+            let stem = format!("pareto_{}", slug(measure));
             report
                 .pareto(m)
                 .save(&staged.dir.join("plots").join(&stem))?;

@@ -8,7 +8,16 @@
 //!
 //! Each point writes `points/<key>/summary.json` (and the full series when asked) through
 //! `pipeline::run`, then `point.json`: its outputs or its error and exit class. A point whose
-//! `point.json` says ok (for the same probe, and in full if full is wanted) is done and skipped.
+//! `point.json` says ok (for the same probe, in full if full is wanted, and with what `Needs`
+//! asks) is done and skipped.
+//!
+//! Beyond the summary (`Needs`): natural frequencies (after the run, from the same mesh and
+//! model: `pipeline::modes::natural_modes`, K and M of the free dofs, the contact open); the
+//! peak resident memory (Linux: writing "5" to /proc/self/clear_refs resets VmHWM, the peak
+//! RSS, to the current RSS; VmHWM in /proc/self/status after the run is the run's peak, so it
+//! is measured only when points run one at a time); and the harmonic amplitudes on every
+//! node (`amplitudes.vtu`, kept from a full write whose frame series is then removed), which
+//! the accuracy study's displacement L2 error reads.
 //! Meshes are made once per distinct geometry before the points run, into the cache the points
 //! share (`points/.mesh-cache`, its entries locked while written).
 
@@ -22,8 +31,10 @@ use serde::{Deserialize, Serialize};
 
 use super::outputs::Output;
 use super::plan::{describe, point_dir, Mode, Point};
+use crate::config::Pipeline;
 use crate::output::tables::write_json;
-use crate::pipeline::{self, stages, RunOptions, Summary};
+use crate::pipeline::modes::natural_modes;
+use crate::pipeline::{self, build, stages, Purpose, RunOptions, Stages, Summary};
 use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
 
@@ -43,6 +54,9 @@ pub struct PointRecord {
     /// Every output a study can ask for, by name (NaN written as null).
     pub outputs: BTreeMap<String, Option<f64>>,
     pub full: bool,
+    /// `amplitudes.vtu` kept beside the summary (accuracy rungs).
+    #[serde(default)]
+    pub amplitudes: bool,
     /// Wall time of the whole point, meshing included [s].
     pub seconds: f64,
     pub warnings: Vec<String>,
@@ -68,10 +82,31 @@ pub fn read_record(out: &Path, key: &str) -> Option<PointRecord> {
     serde_json::from_str(&text).ok()
 }
 
-/// Whether a point needs running: no ok record for this probe, or not in full when wanted.
-pub fn is_done(out: &Path, point: &Point, probe: Option<&str>) -> bool {
+/// What the points are asked for beyond their summary.
+#[derive(Clone, Debug, Default)]
+pub struct Needs {
+    /// The probe group of the probe outputs (None: the pipeline's first).
+    pub probe: Option<String>,
+    /// Natural frequencies 1..=modes (0: none).
+    pub modes: usize,
+    /// Measure each point's peak resident memory (only meaningful one point at a time).
+    pub peak_memory: bool,
+    /// Keep the harmonic amplitudes on every node (`amplitudes.vtu`).
+    pub amplitudes: bool,
+}
+
+/// Whether a point is done: an ok record for this probe, in full when wanted, with what
+/// `needs` asks.
+pub fn is_done(out: &Path, point: &Point, needs: &Needs) -> bool {
+    let has = |r: &PointRecord, name: String| r.outputs.contains_key(&name);
     read_record(out, &point.key).is_some_and(|r| {
-        r.ok() && r.key == point.key && r.probe.as_deref() == probe && (r.full || !point.full)
+        r.ok()
+            && r.key == point.key
+            && r.probe == needs.probe
+            && (r.full || !point.full)
+            && (1..=needs.modes).all(|k| has(&r, Output::NaturalFrequency(k).name()))
+            && (!needs.peak_memory || has(&r, Output::PeakMemory.name()))
+            && (r.amplitudes || !needs.amplitudes || point.mode == Mode::Transient)
     })
 }
 
@@ -91,6 +126,7 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
         "newton_iterations",
         "free_dofs",
         "wall_time",
+        "solve_time",
     ]
     .iter()
     .filter_map(|n| Output::parse(n).ok())
@@ -113,16 +149,24 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
 
 /// Run one point and write its record; a failure is recorded, never returned (only failing to
 /// write the record is an error).
-fn run_point(out: &Path, point: &Point, probe: Option<&str>) -> Result<PointRecord> {
+fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     let dir = point_dir(out, &point.key);
+    let amplitudes = needs.amplitudes && point.mode == Mode::HarmonicBalance;
     let options = RunOptions {
         out: Some(dir.clone()),
-        summary_only: !point.full,
+        summary_only: !point.full && !amplitudes,
     };
+    let probe = needs.probe.as_deref();
+    let memory = needs.peak_memory.then(reset_peak_memory);
     let start = Instant::now();
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match point.mode {
-        Mode::HarmonicBalance => pipeline::run(&point.pipeline, &options, &Silent),
-        Mode::Transient => pipeline::run_transient(&point.pipeline, &options, &Silent),
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let run = match point.mode {
+            Mode::HarmonicBalance => pipeline::run(&point.pipeline, &options, &Silent),
+            Mode::Transient => pipeline::run_transient(&point.pipeline, &options, &Silent),
+        }?;
+        let peak = memory.map(|reset| reset.and_then(|()| peak_memory_mb()));
+        let modes = natural_frequencies(&point.pipeline, &dir, needs.modes)?;
+        Ok::<_, Error>((run, peak, modes))
     }));
     let seconds = start.elapsed().as_secs_f64();
     let base = PointRecord {
@@ -135,15 +179,29 @@ fn run_point(out: &Path, point: &Point, probe: Option<&str>) -> Result<PointReco
         probe: probe.map(str::to_string),
         outputs: BTreeMap::new(),
         full: point.full,
+        amplitudes: false,
         seconds,
         warnings: Vec::new(),
     };
     let record = match result {
-        Ok(Ok(r)) => PointRecord {
-            outputs: all_outputs(&r.summary, probe),
-            warnings: r.summary.warnings.clone(),
-            ..base
-        },
+        Ok(Ok((r, peak, modes))) => {
+            let mut outputs = all_outputs(&r.summary, probe);
+            if let Some(peak) = peak {
+                outputs.insert(Output::PeakMemory.name(), peak);
+            }
+            for (k, f) in modes.iter().enumerate() {
+                outputs.insert(Output::NaturalFrequency(k + 1).name(), Some(*f));
+            }
+            if amplitudes && !point.full {
+                keep_only_amplitudes(&dir);
+            }
+            PointRecord {
+                outputs,
+                amplitudes,
+                warnings: r.summary.warnings.clone(),
+                ..base
+            }
+        }
         Ok(Err(e)) => PointRecord {
             status: "failed".into(),
             exit_class: Some(e.class().into()),
@@ -162,6 +220,55 @@ fn run_point(out: &Path, point: &Point, probe: Option<&str>) -> Result<PointReco
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     write_json(&dir.join("point.json"), &record)?;
     Ok(record)
+}
+
+/// The `count` lowest natural frequencies [Hz] of the model the point's run solved (its
+/// mesh from the cache), as `hbcontact modes` computes them.
+fn natural_frequencies(p: &Pipeline, dir: &Path, count: usize) -> Result<Vec<f64>> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let mut stages = Stages::new(p, &Silent);
+    let (mesh, _) = stages::mesh(p, dir, &mut stages)?;
+    let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    let modes = stages.run("modes", || natural_modes(&model, count))?;
+    Ok(modes
+        .iter()
+        .map(|(w2, _)| w2.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
+        .collect())
+}
+
+/// Reset this process's peak resident memory (VmHWM) to its current RSS: Linux's
+/// `echo 5 > /proc/self/clear_refs`. None where that is unavailable.
+fn reset_peak_memory() -> Option<()> {
+    std::fs::write("/proc/self/clear_refs", "5").ok()
+}
+
+/// This process's peak resident memory since the last reset [MB] (VmHWM of
+/// /proc/self/status, in kB).
+fn peak_memory_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Remove a full write's frame series, mesh and histories, keeping `amplitudes.vtu` and the
+/// summary (an accuracy rung needs no more).
+fn keep_only_amplitudes(dir: &Path) {
+    let keep = ["amplitudes.vtu", "summary.json", "point.json"];
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let name = entry.file_name();
+        if keep.iter().any(|k| name == *k) {
+            continue;
+        }
+        let path = entry.path();
+        let _ = if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+    }
 }
 
 /// Mesh every distinct geometry of `points` once (in parallel), into the points' shared
@@ -207,14 +314,14 @@ pub fn thread_count(requested: Option<usize>) -> usize {
 pub fn execute(
     out: &Path,
     points: &[&Point],
-    probe: Option<&str>,
+    needs: &Needs,
     threads: usize,
     reporter: &dyn Reporter,
 ) -> Result<Execution> {
     let todo: Vec<&Point> = points
         .iter()
         .copied()
-        .filter(|p| !is_done(out, p, probe))
+        .filter(|p| !is_done(out, p, needs))
         .collect();
     let mut execution = Execution {
         skipped: points.len() - todo.len(),
@@ -247,7 +354,7 @@ pub fn execute(
     let results: Vec<Result<PointRecord>> = pool.install(|| {
         todo.par_iter()
             .map(|p| {
-                let record = run_point(out, p, probe);
+                let record = run_point(out, p, needs);
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 let status = match &record {
                     Ok(r) if r.ok() => format!("point {} done ({})", p.index, describe(&p.values)),

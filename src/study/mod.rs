@@ -13,6 +13,7 @@
 //! left (execute.rs); shard i/n = the unique points whose position p has p mod n = i.
 
 pub mod accuracy;
+pub mod displacement;
 pub mod execute;
 pub mod outputs;
 pub mod plan;
@@ -126,7 +127,15 @@ pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Re
     // Accuracy studies time their rungs, so they run one at a time unless told otherwise.
     let default_threads = study.accuracy.as_ref().map(|_| 1);
     let threads = execute::thread_count(options.threads.or(study.threads).or(default_threads));
-    let execution = execute::execute(&out, &mine, study.probe.as_deref(), threads, reporter)?;
+    let needs = execute::Needs {
+        probe: study.probe.clone(),
+        modes: study.natural_frequencies(),
+        // The process's peak is the point's only while points run one at a time.
+        peak_memory: threads == 1
+            && (study.accuracy.is_some() || study.outputs.contains(&Output::PeakMemory)),
+        amplitudes: study.accuracy.is_some(),
+    };
+    let execution = execute::execute(&out, &mine, &needs, threads, reporter)?;
     if options.shard.is_some() {
         return Ok(StudyReport {
             out,
@@ -161,7 +170,7 @@ fn finish(
     let (ok, failed, missing) = table::counts(&rows);
     let (table, accuracy) = match &study.accuracy {
         Some(spec) => {
-            let report = accuracy::evaluate(spec, &rows);
+            let report = accuracy::evaluate(spec, &rows, &out);
             let path = accuracy::publish(study, &out, &report, execution.as_ref())?;
             (path, Some(report))
         }

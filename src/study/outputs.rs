@@ -5,6 +5,12 @@
 //! Probe outputs are of the study's probe group's mean displacement: `probe_first_harmonic`
 //! is the larger first-harmonic amplitude of u_x and u_y, `probe_harmonic_K` the same for
 //! harmonic K, `probe_peak_to_peak` the larger peak-to-peak range of the two.
+//!
+//! Three outputs do not come from the summary but from the point's run (execute.rs):
+//! `natural_frequency_K` (the K-th lowest natural frequency f_K = ω_K/2π of the model `run`
+//! solves, its supports held and the contact open, as `hbcontact modes` computes it),
+//! `peak_memory` (the run's peak resident memory) and, for accuracy rungs, the harmonic
+//! amplitudes kept for the displacement L2 error.
 
 use super::super::pipeline::Summary;
 
@@ -27,12 +33,18 @@ pub enum Output {
     FreeDofs,
     /// Wall time of the point's run without meshing (which the cache makes free) [s].
     WallTime,
-    // Natural frequencies (`natural_frequency_K`) go here once `Summary` carries the modes
-    // (work under way in src/fem/modes.rs): a variant, its name, unit and `value` arm.
+    /// Wall time without meshing and writing (accuracy rungs write harmonic amplitudes that
+    /// other points do not) [s].
+    SolveTime,
+    /// The K-th lowest natural frequency (K ≥ 1) [Hz], computed after the run.
+    NaturalFrequency(usize),
+    /// Peak resident memory of the run [MB] (points run one at a time only).
+    PeakMemory,
 }
 
-/// The fixed names, in documentation order (`probe_harmonic_K` comes on top).
-const NAMED: [(Output, &str, &str); 13] = [
+/// The fixed names, in documentation order (`probe_harmonic_K` and `natural_frequency_K`
+/// come on top).
+const NAMED: [(Output, &str, &str); 15] = [
     (Output::ProbeFirstHarmonic, "probe_first_harmonic", "m"),
     (Output::ProbeFirstHarmonicX, "probe_first_harmonic_x", "m"),
     (Output::ProbeFirstHarmonicY, "probe_first_harmonic_y", "m"),
@@ -46,6 +58,8 @@ const NAMED: [(Output, &str, &str); 13] = [
     (Output::NewtonIterations, "newton_iterations", "-"),
     (Output::FreeDofs, "free_dofs", "-"),
     (Output::WallTime, "wall_time", "s"),
+    (Output::SolveTime, "solve_time", "s"),
+    (Output::PeakMemory, "peak_memory", "MB"),
 ];
 
 impl Output {
@@ -67,7 +81,13 @@ impl Output {
     pub fn all_names() -> Vec<String> {
         let mut names: Vec<String> = NAMED.iter().map(|(_, n, _)| n.to_string()).collect();
         names.push("probe_harmonic_K".into());
+        names.push("natural_frequency_K".into());
         names
+    }
+
+    /// Whether the value comes from the point's run rather than its summary.
+    pub fn from_run(&self) -> bool {
+        matches!(self, Output::NaturalFrequency(_) | Output::PeakMemory)
     }
 
     pub fn parse(name: &str) -> std::result::Result<Output, String> {
@@ -78,6 +98,17 @@ impl Output {
             return match k.parse::<usize>() {
                 Ok(k) if k >= 1 => Ok(Output::ProbeHarmonic(k)),
                 _ => Err("the harmonic K of probe_harmonic_K is a whole number ≥ 1".into()),
+            };
+        }
+        if let Some(k) = name.strip_prefix("natural_frequency_") {
+            return match k.parse::<usize>() {
+                Ok(k) if (1..=crate::pipeline::modes::MAX_MODES).contains(&k) => {
+                    Ok(Output::NaturalFrequency(k))
+                }
+                _ => Err(format!(
+                    "the mode K of natural_frequency_K is a whole number from 1 to {}",
+                    crate::pipeline::modes::MAX_MODES
+                )),
             };
         }
         let names = Output::all_names();
@@ -93,6 +124,7 @@ impl Output {
     pub fn name(&self) -> String {
         match self {
             Output::ProbeHarmonic(k) => format!("probe_harmonic_{k}"),
+            Output::NaturalFrequency(k) => format!("natural_frequency_{k}"),
             o => NAMED
                 .iter()
                 .find(|(n, _, _)| n == o)
@@ -103,6 +135,7 @@ impl Output {
     pub fn unit(&self) -> &'static str {
         match self {
             Output::ProbeHarmonic(_) => "m",
+            Output::NaturalFrequency(_) => "Hz",
             o => NAMED
                 .iter()
                 .find(|(n, _, _)| n == o)
@@ -115,7 +148,8 @@ impl Output {
         format!("{} [{}]", self.name(), self.unit())
     }
 
-    /// The value for a finished run; `probe` is the probe group (None: the first).
+    /// The value for a finished run; `probe` is the probe group (None: the first). NaN for
+    /// the outputs `from_run`.
     pub fn value(&self, s: &Summary, probe: Option<&str>) -> f64 {
         let p = match probe {
             Some(name) => s.probes.get(name),
@@ -149,6 +183,11 @@ impl Output {
                 let st = &s.stage_seconds;
                 st.total() - st.get("mesh")
             }
+            Output::SolveTime => {
+                let st = &s.stage_seconds;
+                st.total() - st.get("mesh") - st.get("write")
+            }
+            Output::NaturalFrequency(_) | Output::PeakMemory => f64::NAN,
         }
     }
 }

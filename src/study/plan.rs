@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
-use super::spec::{Design, Reference, Scale, Study};
+use super::spec::{Design, Reference, Scale, Study, Value};
 use crate::config::{load_pipeline, Pipeline};
 use crate::{Error, Result};
 
@@ -32,7 +32,7 @@ pub struct Point {
     pub index: usize,
     /// The varied parameters' values, in the study's parameter order (accuracy studies: the
     /// ladder's key and value).
-    pub values: Vec<(String, f64)>,
+    pub values: Vec<(String, Value)>,
     pub pipeline: Pipeline,
     pub mode: Mode,
     /// Hex SHA-256 (first 16 digits) of the resolved pipeline, the mode and the geometry file.
@@ -62,18 +62,18 @@ impl SplitMix {
 }
 
 /// The parameter values of every point, in table order.
-pub fn design_values(study: &Study) -> Vec<Vec<f64>> {
+pub fn design_values(study: &Study) -> Vec<Vec<Value>> {
     let params = &study.parameters;
     match &study.design {
         Design::Grid => {
-            let mut rows: Vec<Vec<f64>> = vec![Vec::new()];
+            let mut rows: Vec<Vec<Value>> = vec![Vec::new()];
             for p in params {
                 rows = rows
                     .iter()
                     .flat_map(|row| {
-                        p.values.iter().map(move |&v| {
+                        p.values.iter().map(move |v| {
                             let mut r = row.clone();
-                            r.push(v);
+                            r.push(v.clone());
                             r
                         })
                     })
@@ -84,45 +84,36 @@ pub fn design_values(study: &Study) -> Vec<Vec<f64>> {
         Design::List => {
             let n = params.first().map_or(0, |p| p.values.len());
             (0..n)
-                .map(|i| params.iter().map(|p| p.values[i]).collect())
+                .map(|i| params.iter().map(|p| p.values[i].clone()).collect())
                 .collect()
         }
         Design::LatinHypercube { samples, seed } => {
             let mut rng = SplitMix(*seed);
             let n = *samples;
-            let columns: Vec<Vec<f64>> = params
+            let columns: Vec<Vec<Value>> = params
                 .iter()
                 .map(|p| {
                     let mut perm: Vec<usize> = (0..n).collect();
                     for i in (1..n).rev() {
                         perm.swap(i, rng.below(i + 1));
                     }
-                    let (from, to, scale) =
-                        p.range.unwrap_or((p.values[0], p.values[0], Scale::Linear));
+                    // A hypercube's parameters all have a numeric range (spec.rs).
+                    let (from, to, scale) = p.range.unwrap_or((0.0, 0.0, Scale::Linear));
                     perm.iter()
                         .map(|&s| {
                             let u = (s as f64 + rng.unit()) / n as f64;
-                            match scale {
+                            Value::Number(match scale {
                                 Scale::Linear => from + u * (to - from),
                                 Scale::Log => (from.ln() + u * (to.ln() - from.ln())).exp(),
-                            }
+                            })
                         })
                         .collect()
                 })
                 .collect();
             (0..n)
-                .map(|i| columns.iter().map(|c| c[i]).collect())
+                .map(|i| columns.iter().map(|c| c[i].clone()).collect())
                 .collect()
         }
-    }
-}
-
-/// `KEY=VALUE` for a number: integers without a fraction (so `harmonics=10` stays an integer).
-pub fn assignment(key: &str, value: f64) -> String {
-    if value.fract() == 0.0 && value.abs() < 1e15 {
-        format!("{key}={}", value as i64)
-    } else {
-        format!("{key}={value:e}")
     }
 }
 
@@ -153,11 +144,11 @@ pub fn point_key(p: &Pipeline, mode: Mode) -> String {
 pub fn resolve(
     study: &Study,
     index: usize,
-    values: Vec<(String, f64)>,
+    values: Vec<(String, Value)>,
     mode: Mode,
 ) -> Result<Point> {
     let mut set = study.set.clone();
-    set.extend(values.iter().map(|(k, v)| assignment(k, *v)));
+    set.extend(values.iter().map(|(k, v)| v.assignment(k)));
     let in_study = |e: Error| Error::Config {
         path: study.source.clone(),
         message: format!("point {index} ({}): {e}", describe(&values)),
@@ -191,7 +182,7 @@ pub fn resolve(
 }
 
 /// `gap = 1e-7, drive = 2e5`.
-pub fn describe(values: &[(String, f64)]) -> String {
+pub fn describe(values: &[(String, Value)]) -> String {
     values
         .iter()
         .map(|(k, v)| format!("{k} = {v}"))
@@ -206,7 +197,7 @@ pub fn plan(study: &Study) -> Result<Vec<Point>> {
     if let Some(acc) = &study.accuracy {
         for ladder in &acc.ladders {
             for &v in &ladder.values {
-                let values = vec![(ladder.key.clone(), v)];
+                let values = vec![(ladder.key.clone(), Value::Number(v))];
                 points.push(resolve(study, points.len(), values, Mode::HarmonicBalance)?);
             }
         }

@@ -25,10 +25,12 @@ pub struct RawStudy {
     #[serde(default)]
     pub set: BTreeMap<String, serde_json::Value>,
     /// How the points are laid out. Default: `grid`.
-    #[serde(default)]
+    #[serde(default, with = "serde_yaml::with::singleton_map")]
+    #[schemars(with = "RawDesign")]
     pub design: RawDesign,
     /// The parameters varied: gmsh `.geo` parameters (`geometry.parameters.NAME`) or any
-    /// numeric pipeline key (`harmonic_balance.harmonics`, `boundaries.loads.0.harmonics.0.cos.0`).
+    /// pipeline key (`harmonic_balance.harmonics`, `boundaries.loads.0.harmonics.0.cos.0`;
+    /// with `values`, also keys whose values are words, e.g. `contact.mass`).
     #[serde(default)]
     pub parameters: Vec<RawParameter>,
     /// What to tabulate and plot for each point (see docs/study.md for the names). Default:
@@ -55,7 +57,7 @@ pub struct RawStudy {
 }
 
 /// The layout of the points.
-#[derive(Clone, Debug, Default, Deserialize, JsonSchema, PartialEq)]
+#[derive(Clone, Debug, Default, Deserialize, serde::Serialize, JsonSchema, PartialEq)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum RawDesign {
     /// Every combination of the parameters' values.
@@ -77,8 +79,9 @@ pub enum RawDesign {
 pub struct RawParameter {
     /// The pipeline key set, as after `--set` (e.g. `geometry.parameters.clearance`).
     pub key: String,
-    /// Explicit values (`grid`, `list`).
-    pub values: Option<Vec<f64>>,
+    /// Explicit values (`grid`, `list`): numbers, or strings for keys whose values are words
+    /// (`contact.mass: [redistributed, lumped]`).
+    pub values: Option<Vec<Value>>,
     /// A range instead of values (`grid`, `list`: `count` values; `latin_hypercube`: sampled).
     pub range: Option<RawRange>,
     /// Axis label; default the key's last word.
@@ -145,18 +148,64 @@ pub enum Reference {
     Transient,
 }
 
+/// A parameter's value: a number, or a string (`grid` and `list` designs).
+#[derive(Clone, Debug, PartialEq, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Value {
+    Number(f64),
+    Text(String),
+}
+
+impl Value {
+    pub fn number(&self) -> Option<f64> {
+        match self {
+            Value::Number(v) => Some(*v),
+            Value::Text(_) => None,
+        }
+    }
+
+    /// `KEY=VALUE` as `--set` reads it: integers without a fraction (so `harmonics=10` stays
+    /// an integer), strings quoted (so `"1"` or `"yes"` stay strings).
+    pub fn assignment(&self, key: &str) -> String {
+        match self {
+            Value::Number(v) if v.fract() == 0.0 && v.abs() < 1e15 => {
+                format!("{key}={}", *v as i64)
+            }
+            Value::Number(v) => format!("{key}={v:e}"),
+            Value::Text(t) => format!(
+                "{key}={}",
+                serde_json::to_string(t).unwrap_or_else(|_| t.clone())
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Number(v) => write!(f, "{v}"),
+            Value::Text(t) => f.write_str(t),
+        }
+    }
+}
+
 /// One varied parameter, validated.
 #[derive(Clone, Debug)]
 pub struct Parameter {
     pub key: String,
     pub label: String,
     pub unit: Option<String>,
-    pub values: Vec<f64>,
+    pub values: Vec<Value>,
     /// (from, to, scale) for a Latin hypercube.
     pub range: Option<(f64, f64, Scale)>,
 }
 
 impl Parameter {
+    /// Whether every value is a number (plots and heat maps need that).
+    pub fn numeric(&self) -> bool {
+        self.values.iter().all(|v| v.number().is_some())
+    }
+
     /// `label [unit]`.
     pub fn axis_label(&self) -> String {
         match &self.unit {
@@ -203,6 +252,20 @@ pub struct Study {
     pub threads: Option<usize>,
     pub out: PathBuf,
     pub accuracy: Option<Accuracy>,
+}
+
+impl Study {
+    /// The natural frequencies the outputs ask for: 1..=K for the largest `natural_frequency_K`.
+    pub fn natural_frequencies(&self) -> usize {
+        self.outputs
+            .iter()
+            .filter_map(|o| match o {
+                Output::NaturalFrequency(k) => Some(*k),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(0)
+    }
 }
 
 fn bad(path: &Path, message: impl Into<String>) -> Error {
@@ -370,7 +433,10 @@ fn parameter(path: &Path, i: usize, p: RawParameter, design: &Design) -> Result<
     };
     let values = match (&p.values, &p.range) {
         (Some(v), None) if !lhs => v.clone(),
-        (None, Some(r)) => spaced(r.from, r.to, r.count.unwrap_or(5), r.scale),
+        (None, Some(r)) => spaced(r.from, r.to, r.count.unwrap_or(5), r.scale)
+            .into_iter()
+            .map(Value::Number)
+            .collect(),
         (Some(_), None) => {
             return Err(bad(
                 path,
@@ -384,8 +450,9 @@ fn parameter(path: &Path, i: usize, p: RawParameter, design: &Design) -> Result<
             ))
         }
     };
-    if values.is_empty() || values.iter().any(|v| !v.is_finite()) {
-        return Err(bad(path, format!("{field}: needs finite values")));
+    let finite = |v: &Value| v.number().is_none_or(f64::is_finite);
+    if values.is_empty() || !values.iter().all(finite) {
+        return Err(bad(path, format!("{field}: needs values, numbers finite")));
     }
     let label = p.label.unwrap_or_else(|| {
         p.key

@@ -16,7 +16,7 @@ use serde::Serialize;
 use super::execute::{read_record, results_files, Execution, PointRecord};
 use super::outputs::Output;
 use super::plan::Point;
-use super::spec::{Design, Study};
+use super::spec::{Design, Study, Value};
 use crate::output::plot::{tick, Axis, Figure, HeatMap};
 use crate::output::tables::write_json;
 use crate::{Error, Result};
@@ -82,7 +82,11 @@ pub fn csv(study: &Study, rows: &[Row]) -> String {
     for row in rows {
         let _ = write!(s, "{}", row.point.index);
         for (_, v) in &row.point.values {
-            let _ = write!(s, ",{}", csv_number(*v));
+            let field = match v {
+                Value::Number(x) => csv_number(*x),
+                Value::Text(t) => csv_field(t),
+            };
+            let _ = write!(s, ",{field}");
         }
         for o in &study.outputs {
             let _ = write!(s, ",{}", csv_number(row.output(o)));
@@ -109,25 +113,28 @@ pub fn slug(s: &str) -> String {
         .collect()
 }
 
-/// The plots of one output against each parameter (and its heat map), into `dir`.
+/// The plots of one output against each numeric parameter (and its heat map when both
+/// parameters of a two-parameter grid are numeric), into `dir`. A parameter with string values
+/// is no axis; in a two-parameter grid it names the lines.
 fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let params = &study.parameters;
     let two_grid = study.design == Design::Grid && params.len() == 2;
-    for (j, p) in params.iter().enumerate() {
+    let x = |r: &Row, j: usize| r.point.values[j].1.number().unwrap_or(f64::NAN);
+    for (j, p) in params.iter().enumerate().filter(|(_, p)| p.numeric()) {
         let title = format!("{}: {} against {}", study.name, o.name(), p.label);
         let mut fig = Figure::new(
             title,
             Axis::linear(p.axis_label()),
             Axis::linear(o.axis_label()),
         );
-        let point = |r: &Row| (r.point.values[j].1, r.output(o));
+        let point = |r: &Row| (x(r, j), r.output(o));
         if two_grid {
             let other = &params[1 - j];
-            for &v in &other.values {
+            for v in &other.values {
                 let mut pts: Vec<(f64, f64)> = rows
                     .iter()
-                    .filter(|r| r.point.values[1 - j].1 == v)
+                    .filter(|r| r.point.values[1 - j].1 == *v)
                     .map(point)
                     .collect();
                 pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -136,7 +143,8 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
                     .as_deref()
                     .map(|u| format!(" {u}"))
                     .unwrap_or_default();
-                fig = fig.line(format!("{} = {}{unit}", other.label, tick(v)), pts);
+                let shown = v.number().map_or_else(|| v.to_string(), tick);
+                fig = fig.line(format!("{} = {shown}{unit}", other.label), pts);
             }
         } else if study.design == Design::Grid && params.len() == 1 {
             fig = fig.line(o.name(), rows.iter().map(point).collect());
@@ -147,17 +155,19 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
         fig.save(&stem)?;
         files.push(stem);
     }
-    if two_grid {
+    if two_grid && params.iter().all(|p| p.numeric()) {
         let (px, py) = (&params[0], &params[1]);
-        let values = py
-            .values
+        let numbers = |p: &super::spec::Parameter| -> Vec<f64> {
+            p.values.iter().filter_map(Value::number).collect()
+        };
+        let (xs, ys) = (numbers(px), numbers(py));
+        let values = ys
             .iter()
             .map(|&y| {
-                px.values
-                    .iter()
-                    .map(|&x| {
+                xs.iter()
+                    .map(|&xv| {
                         rows.iter()
-                            .find(|r| r.point.values[0].1 == x && r.point.values[1].1 == y)
+                            .find(|r| x(r, 0) == xv && x(r, 1) == y)
                             .map_or(f64::NAN, |r| r.output(o))
                     })
                     .collect()
@@ -167,8 +177,8 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
             title: format!("{}: {} [{}]", study.name, o.name(), o.unit()),
             x: Axis::linear(px.axis_label()),
             y: Axis::linear(py.axis_label()),
-            xs: px.values.clone(),
-            ys: py.values.clone(),
+            xs,
+            ys,
             values,
         };
         let stem = dir.join(format!("{}_heatmap", o.name()));
