@@ -39,12 +39,18 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     let s = &result.summary;
     outln!(
         "{}: {} points from {:.4} Hz toward {:.4} Hz (H = {})",
-        s.name, s.points, s.from_hz, s.to_hz, s.harmonics
+        s.name,
+        s.points,
+        s.from_hz,
+        s.to_hz,
+        s.harmonics
     );
     for f in &s.folds {
         outln!(
             "  fold at {:.4} Hz (after point {}), probe first harmonic {:.4e} m",
-            f.frequency_hz, f.after, f.amplitude
+            f.frequency_hz,
+            f.after,
+            f.amplitude
         );
     }
     match &s.stopped {
