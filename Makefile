@@ -28,6 +28,7 @@ bench: venv build
 	$(CARGO) bench --bench stages
 	$(CARGO) bench --bench contact
 	$(CARGO) bench --bench study
+	$(CARGO) bench --bench sweep
 
 lint:
 	$(CARGO) fmt --check

@@ -1,8 +1,9 @@
 //! Regenerate the committed JSON Schemas from the code:
 //! `cargo run --release --example write_schemas` writes `docs/pipeline.schema.json` (the
 //! pipeline YAML), `docs/summary.schema.json` (a run's summary.json), `docs/modes.schema.json`
-//! (modes.json), `docs/compare.schema.json` (compare.json) and `docs/study.schema.json` (a
-//! study YAML); `hbcontact schema pipeline|summary|modes|compare|study` prints the same.
+//! (modes.json), `docs/compare.schema.json` (compare.json), `docs/study.schema.json` (a study YAML) and
+//! `docs/sweep.schema.json` (sweep.json); `hbcontact schema
+//! pipeline|summary|modes|compare|study|sweep` prints the same.
 //! `tests/docs.rs` fails when the committed files and the
 //! code disagree.
 
@@ -23,6 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             hbcontact::pipeline::compare::compare_schema(),
         ),
         ("study.schema.json", hbcontact::study::study_schema()),
+        ("sweep.schema.json", hbcontact::sweep::sweep_schema()),
     ] {
         let path = docs.join(name);
         std::fs::write(&path, serde_json::to_string_pretty(&schema)? + "\n")?;

@@ -105,7 +105,8 @@ enum Command {
     /// then study.csv, plots and manifest.json; `--slurm` writes a Slurm job array instead.
     Study(StudyArgs),
     /// Print the JSON Schema of a pipeline YAML (`pipeline`), summary.json (`summary`),
-    /// modes.json (`modes`), compare.json (`compare`) or a study file (`study`).
+    /// modes.json (`modes`), compare.json (`compare`), a study file (`study`) or
+    /// sweep.json (`sweep`).
     Schema {
         #[arg(value_enum)]
         which: SchemaKind,
@@ -170,6 +171,8 @@ enum SchemaKind {
     Compare,
     /// A study YAML (docs/study.schema.json).
     Study,
+    /// sweep.json (docs/sweep.schema.json).
+    Sweep,
 }
 
 fn exit_code(e: &Error) -> u8 {
@@ -295,6 +298,7 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
         SchemaKind::Modes => pipeline::modes::modes_schema(),
         SchemaKind::Compare => pipeline::compare::compare_schema(),
         SchemaKind::Study => hbcontact::study::study_schema(),
+        SchemaKind::Sweep => hbcontact::sweep::sweep_schema(),
     };
     outln!("{}", to_json(&schema)?);
     Ok(())

@@ -68,6 +68,13 @@ fn committed_modes_and_compare_schemas_are_the_generated_ones() {
     );
 }
 
+/// TEST GOAL: the schema of a sweep's sweep.json in docs/ is the one the typed
+/// `SweepSummary` serializes to (`hbcontact schema sweep`).
+#[test]
+fn committed_sweep_schema_is_the_generated_one() {
+    assert_committed("sweep.schema.json", &hbcontact::sweep::sweep_schema());
+}
+
 /// TEST GOAL: the study file's schema in docs/ is the one `hbcontact schema study` prints,
 /// and docs/study.md names every key of it.
 #[test]

@@ -42,7 +42,7 @@ use crate::progress::Reporter;
 use crate::{Error, Result};
 
 /// |τ_ω| above which the corrector keeps ω fixed (the curve is a graph over ω there).
-const GRAPH_SLOPE: f64 = 0.2;
+const GRAPH_SLOPE: f64 = 0.05;
 /// A corrector that lands farther than this many steps from its predictor jumped to another
 /// branch (a kink of the sampled law bends the curve by less).
 const JUMP: f64 = 3.0;
@@ -364,22 +364,12 @@ impl<'a> Continuation<'a> {
             omega_p = end;
         }
         let x_p: Vec<f64> = (0..n).map(|i| p.x[i] + ds * t[i] * self.force).collect();
-        let (x, frame, corrector, iterations) = if t[n].abs() >= GRAPH_SLOPE {
-            let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
-            let o = super::reduced::newton(&frame.problem, &self.newton, &x_p, self.reporter);
-            if !o.converged {
-                return Err(format!("fixed-ω corrector: {}", o.reason));
-            }
-            (
-                o.multipliers,
-                frame,
-                Corrector::FixedFrequency,
-                o.iterations,
-            )
-        } else {
-            let (x, frame, it) = self.arclength(&x_p, omega_p, t)?;
-            (x, frame, Corrector::Arclength, it)
-        };
+        let clock = Instant::now();
+        let prepared = self.prepare_seconds();
+        let corrected = self.correct(&x_p, omega_p, t);
+        // The corrector's own time (Newton, bordered solves, ∂g/∂ω) without its factorizations.
+        self.timings.newton += clock.elapsed().as_secs_f64() - (self.prepare_seconds() - prepared);
+        let (x, frame, corrector, iterations) = corrected?;
         // Distance from the predictor in the scaled metric.
         let dist = ((0..n)
             .map(|i| ((x[i] - x_p[i]) / self.force).powi(2))
@@ -412,6 +402,33 @@ impl<'a> Continuation<'a> {
             gaps,
         };
         Ok((point, frame, corrector, iterations))
+    }
+
+    /// Seconds spent in `prepare` so far (factorizations, linear solves, reductions).
+    fn prepare_seconds(&self) -> f64 {
+        self.timings.factor + self.timings.linear_solve + self.timings.reduce
+    }
+
+    /// The corrector from the predictor (x_p, ω_p): at fixed ω where the curve is a graph over
+    /// ω, else along the arc-length condition.
+    fn correct(
+        &mut self,
+        x_p: &[f64],
+        omega_p: f64,
+        t: &[f64],
+    ) -> std::result::Result<(Vec<f64>, Frame, Corrector, usize), String> {
+        if t[x_p.len()].abs() >= GRAPH_SLOPE {
+            let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
+            let o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            if !o.converged {
+                return Err(format!("fixed-ω corrector: {}", o.reason));
+            }
+            let iterations = o.iterations;
+            Ok((o.multipliers, frame, Corrector::FixedFrequency, iterations))
+        } else {
+            let (x, frame, it) = self.arclength(x_p, omega_p, t)?;
+            Ok((x, frame, Corrector::Arclength, it))
+        }
     }
 
     /// Bordered Newton in (λ, ω) from the predictor, Z_k refactored at every iterate.
@@ -551,7 +568,7 @@ impl<'a> Continuation<'a> {
         };
         let m = problem.coefficients();
         let mut linear = frame.linear;
-        linear.recover(self.op, x, m);
+        super::timed(&mut self.timings.recover, || linear.recover(self.op, x, m));
         self.system.omega = frame.omega;
         let solution = linear.into_solution(self.system, Some(contact), Timings::default());
         on_point(info, &solution)

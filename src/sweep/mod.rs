@@ -77,8 +77,13 @@ pub struct SweepSummary {
     /// Why the curve stops short of `to_hz` (`None`: it reached it).
     pub stopped: Option<String>,
     pub rows: Vec<SweepRow>,
-    /// Wall time [s]: mesh, assemble, the continuation (factorizations included), write.
+    /// Wall time [s]: mesh, assemble, the continuation (factorizations and each point's
+    /// outputs included), write.
     pub stage_seconds: pipeline::StageTimes,
+    /// The continuation's solver phases [s] summed over every point and rejected attempt:
+    /// factorizations, linear solves, reductions, the correctors (`newton`: Newton, bordered
+    /// solves and ∂g/∂ω) and the recoveries.
+    pub solver_seconds: crate::hbm::Timings,
 }
 
 /// A finished sweep.
@@ -125,9 +130,10 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         points: rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
         folds,
-        stopped: outcome.stopped,
+        stopped: outcome.stopped.clone(),
         rows,
         stage_seconds: Default::default(),
+        solver_seconds: outcome.timings,
     };
     let staged = StagedDir::create(&out)?;
     stages.run("write", || {
