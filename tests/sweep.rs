@@ -183,3 +183,72 @@ fn strip_sweep_passes_both_folds_of_the_stiffened_resonance_and_reaches_the_end(
     );
     assert!(rel < 2e-3, "{rel}");
 }
+
+/// Time marching of the reference strip with the given `--set`s; the summary.
+fn transient(overrides: &[&str], tag: &str) -> hbcontact::pipeline::Summary {
+    let p = common::scene("reference_strip", overrides);
+    let options = RunOptions {
+        out: Some(common::temp_out(tag)),
+        summary_only: true,
+    };
+    pipeline::run_transient(&p, &options, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .summary
+}
+
+/// TEST GOAL: `transient.start: harmonic_balance` starts the marching on the harmonic-balance
+/// state of the same model: its first period's probe amplitude is within 0.5% of the
+/// harmonic-balance one (from rest: 45% off), and marched to periodicity it lands on the same
+/// periodic state as from rest (to 1e-9), also when the start is perturbed by 5% (the 5%-damped
+/// strip's state is stable). The summary says where the marching started.
+#[test]
+fn transient_started_from_the_harmonic_balance_state_keeps_it_and_converges_to_the_rest_answer() {
+    let first = |start: &str| {
+        let s = transient(
+            &[
+                &format!("transient.start={start}"),
+                "transient.max_periods=1",
+            ],
+            &format!("transient-start-{start}-1"),
+        );
+        s.probes["probe"].first_harmonic_x
+    };
+    let hb = {
+        let p = common::scene("reference_strip", &[]);
+        let model = common::model(&p, pipeline::Purpose::Transient);
+        let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+        let u: Vec<Vec<f64>> = (0..64)
+            .map(|j| solution.field_at(&model.system.dofs, j as f64 / 64.0 * solution.period(), 0))
+            .collect();
+        hbcontact::pipeline::summary::probe_amplitudes(&model, &u, 20)["probe"].first_harmonic_x
+    };
+    let (from_hb, from_rest) = (first("harmonic_balance"), first("rest"));
+    let (e_hb, e_rest) = ((from_hb - hb).abs() / hb, (from_rest - hb).abs() / hb);
+    println!(
+        "first period: from HB {e_hb:.2e}, from rest {e_rest:.2e} off the HB amplitude {hb:.6e}"
+    );
+    assert!(e_hb < 2.5e-3 && e_rest > 0.2, "{e_hb} {e_rest}");
+    let rest = transient(&[], "transient-start-rest");
+    let started = transient(&["transient.start=harmonic_balance"], "transient-start-hb");
+    let perturbed = transient(
+        &[
+            "transient.start=harmonic_balance",
+            "transient.perturbation=0.05",
+        ],
+        "transient-start-hb-perturbed",
+    );
+    let a = |s: &hbcontact::pipeline::Summary| s.probes["probe"].first_harmonic_x;
+    for s in [&started, &perturbed] {
+        let t = s.transient.as_ref().unwrap();
+        assert!(t.converged && t.start == "harmonic_balance");
+        let rel = (a(s) - a(&rest)).abs() / a(&rest);
+        println!(
+            "periods {} (rest {}), final amplitude {rel:.1e} from rest's",
+            t.periods,
+            rest.transient.as_ref().unwrap().periods
+        );
+        assert!(rel < 1e-9, "{rel}");
+    }
+    assert_eq!(perturbed.transient.as_ref().unwrap().perturbation, 0.05);
+    assert_eq!(rest.transient.as_ref().unwrap().start, "rest");
+}

@@ -197,6 +197,17 @@ pub struct TransientSpec {
     pub max_periods: usize,
     /// Fraction of the stable time step used.
     pub courant: f64,
+    pub start: TransientStart,
+    /// With `start: HarmonicBalance`, the starting state is scaled by 1 + this.
+    pub perturbation: f64,
+}
+
+/// Where time marching starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransientStart {
+    Rest,
+    /// The harmonic-balance solution of the same discrete model, at t = 0.
+    HarmonicBalance,
 }
 
 impl Default for TransientSpec {
@@ -205,6 +216,8 @@ impl Default for TransientSpec {
             periodic_tolerance: 1e-6,
             max_periods: 2000,
             courant: 0.8,
+            start: TransientStart::Rest,
+            perturbation: 0.0,
         }
     }
 }

@@ -374,6 +374,22 @@ struct RawTransient {
     /// Fraction of the stable time step used, in (0, 1]. Default: 0.8.
     #[serde(default)]
     courant: Option<f64>,
+    /// Where the marching starts: `rest`, or `harmonic_balance` (the harmonic-balance
+    /// solution of the same discrete model at t = 0). Default: `rest`.
+    #[serde(default)]
+    start: Option<RawStart>,
+    /// With `start: harmonic_balance`, scale the starting state by 1 + this (a perturbation
+    /// that shows whether the state is kept or left), |·| ≤ 1. Default: 0.
+    #[serde(default)]
+    perturbation: Option<f64>,
+}
+
+/// Where time marching starts.
+#[derive(Deserialize, JsonSchema, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum RawStart {
+    Rest,
+    HarmonicBalance,
 }
 
 /// Settings of `hbcontact sweep`: the fundamental frequency runs from `from` to `to` along the
@@ -1179,6 +1195,27 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
             ));
         }
         spec.courant = v;
+    }
+    if let Some(start) = t.start {
+        spec.start = match start {
+            RawStart::Rest => TransientStart::Rest,
+            RawStart::HarmonicBalance => TransientStart::HarmonicBalance,
+        };
+    }
+    if let Some(v) = t.perturbation {
+        if !(v.abs() <= 1.0) {
+            return Err(config_error(
+                path,
+                format!("transient.perturbation = {} must lie in [-1, 1]", show(v)),
+            ));
+        }
+        if spec.start == TransientStart::Rest && v != 0.0 {
+            return Err(config_error(
+                path,
+                "transient.perturbation needs transient.start: harmonic_balance (rest has nothing to perturb)".to_string(),
+            ));
+        }
+        spec.perturbation = v;
     }
     Ok(spec)
 }

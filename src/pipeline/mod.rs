@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::config::Pipeline;
+use crate::config::{Pipeline, TransientStart};
 use crate::output::StagedDir;
 use crate::progress::Reporter;
 use crate::Result;
@@ -127,6 +127,29 @@ fn run_plots(
     })
 }
 
+/// The harmonic-balance solution of the transient's own model (diagonal mass) at t = 0, on
+/// the free dofs, scaled by 1 + `transient.perturbation`: the state a stability check
+/// marches from (the same discrete system, so a stable state is kept up to the time step's
+/// error).
+fn harmonic_balance_start(
+    p: &Pipeline,
+    model: &Model,
+    stages: &mut Stages,
+) -> Result<crate::transient::InitialState> {
+    let solution = stages::solve(p, model, stages)?;
+    stages.run("check", || finite_solution(&solution))?;
+    let scale = 1.0 + p.transient.perturbation;
+    let dofs = &model.system.dofs;
+    let free = |derivative: u32| -> Vec<f64> {
+        let all = solution.field_at(dofs, 0.0, derivative);
+        dofs.free.iter().map(|&d| scale * all[d]).collect()
+    };
+    Ok(crate::transient::InitialState {
+        displacement: free(0),
+        velocity: free(1),
+    })
+}
+
 /// The directory time-marching results go to: `--out`, else `output.directory` with
 /// `-transient` appended (`output/<name>-transient`), never over the harmonic-balance result.
 pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
@@ -137,7 +160,8 @@ pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
     })
 }
 
-/// `hbcontact transient`: explicit time marching from rest to the periodic state.
+/// `hbcontact transient`: explicit time marching from rest (or from the harmonic-balance
+/// state, `transient.start`) to the periodic state.
 pub fn run_transient(
     p: &Pipeline,
     options: &RunOptions,
@@ -150,7 +174,11 @@ pub fn run_transient(
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
     warnings.extend(sanity::check_initial_penetration(&model));
-    let (marching, result) = stages::march(p, &model, &mut stages)?;
+    let initial = match p.transient.start {
+        TransientStart::Rest => None,
+        TransientStart::HarmonicBalance => Some(harmonic_balance_start(p, &model, &mut stages)?),
+    };
+    let (marching, result) = stages::march(p, &model, initial, &mut stages)?;
     let staged = StagedDir::create(&out)?;
     let (mut summary, sampled) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);

@@ -213,6 +213,7 @@ pub fn resonance(model: &Model, stages: &mut Stages) -> (Option<ResonanceCheck>,
 pub fn march<'m>(
     p: &Pipeline,
     model: &'m Model,
+    initial: Option<crate::transient::InitialState>,
     stages: &mut Stages,
 ) -> Result<(Marching<'m>, TransientResult)> {
     let Some(diag) = &model.mass_diagonal else {
@@ -232,7 +233,9 @@ pub fn march<'m>(
     };
     let reporter = stages.reporter;
     let result = stages.run("march", || {
-        transient::run_to_periodic(&marching.problem(), &settings, reporter)
+        let mut problem = marching.problem();
+        problem.initial = initial;
+        transient::run_to_periodic(&problem, &settings, reporter)
     })?;
     reporter.task_done("periods");
     Ok((marching, result))

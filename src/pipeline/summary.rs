@@ -294,6 +294,10 @@ pub struct TransientInfo {
     pub converged: bool,
     /// Relative change between the last two periods.
     pub periodicity_error: f64,
+    /// `rest`, or `harmonic_balance` (`transient.start`).
+    pub start: String,
+    /// The relative perturbation of a harmonic-balance start (0 from rest).
+    pub perturbation: f64,
 }
 
 pub fn sizes(model: &Model) -> Sizes {
@@ -548,6 +552,11 @@ pub fn transient(
             periods: result.periods,
             converged: result.converged,
             periodicity_error: result.periodicity_error,
+            start: match p.transient.start {
+                crate::config::TransientStart::Rest => "rest".into(),
+                crate::config::TransientStart::HarmonicBalance => "harmonic_balance".into(),
+            },
+            perturbation: p.transient.perturbation,
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
         max_von_mises: Some(max_von_mises(model, sampled)),

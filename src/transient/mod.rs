@@ -37,6 +37,16 @@ pub struct TransientProblem<'a> {
     pub period: f64,
     /// Free dofs whose displacement is recorded at every step of the last period.
     pub probes: Vec<usize>,
+    /// The state at t = 0 (`None`: rest).
+    pub initial: Option<InitialState>,
+}
+
+/// A state to start the marching from: u and u̇ at t = 0 on the free dofs (the massless
+/// dofs' values are recomputed from the massive ones, as they are at every step).
+#[derive(Clone, Debug)]
+pub struct InitialState {
+    pub displacement: Vec<f64>,
+    pub velocity: Vec<f64>,
 }
 
 /// Unilateral rows: B u − g0 ≤ 0, λ ≤ 0, complementary; the force on the body is Bᵀλ.
@@ -471,13 +481,33 @@ pub fn run_to_periodic(
     let mut last_state: Option<Vec<f64>> = None;
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
 
+    if let Some(init) = &problem.initial {
+        if init.displacement.len() != n || init.velocity.len() != n {
+            return Err(Error::Model(
+                "internal: the initial state has the wrong size".into(),
+            ));
+        }
+        u.copy_from_slice(&init.displacement);
+        v_half.copy_from_slice(&init.velocity);
+    }
     (problem.force)(0.0, &mut f);
     if let Some(c) = &condensation {
-        // At rest: the static state of the massless dofs (s = 1).
-        let rest = u.clone();
-        c.condense(&rest, &mut u, &rest, 1.0, &f, &mut contact)?;
+        // The static state of the massless dofs under the massive ones (s = 1); at rest w = 0.
+        let w: Vec<f64> = (0..n)
+            .map(|i| {
+                if is_z[i] {
+                    0.0
+                } else {
+                    u[i] + beta * v_half[i]
+                }
+            })
+            .collect();
+        let start = u.clone();
+        c.condense(&w, &mut u, &start, 1.0, &f, &mut contact)?;
     }
-    u_prev.copy_from_slice(&u);
+    for i in 0..n {
+        u_prev[i] = u[i] - dt * v_half[i];
+    }
     while periods < settings.max_periods {
         for step in 0..steps {
             let t = (periods * steps + step) as f64 * dt;

@@ -87,6 +87,7 @@ impl<'a> Marching<'a> {
             }),
             period: self.period(),
             probes: self.probes.clone(),
+            initial: None,
         }
     }
 
