@@ -35,6 +35,17 @@ fn strip_study(dir: &Path, body: &str) -> PathBuf {
     path
 }
 
+/// `hbcontact study STUDY -q --out OUT`, which must succeed.
+fn run_study(study: &Path, out: &Path) {
+    run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+}
+
 const GAP_GRID: &str = "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n  - {key: boundaries.loads.0.harmonics.0.cos.0, values: [1.0e5, 1.5e5], unit: Pa}\n";
 
 /// study.csv without the wall-time column (the one value that differs between runs).
@@ -451,13 +462,7 @@ fn natural_frequencies_follow_euler_bernoulli_as_the_cantilever_changes() {
     );
     std::fs::write(&study, text).unwrap();
     let out = dir.join("out");
-    run_ok(&[
-        "study",
-        study.to_str().unwrap(),
-        "-q",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    run_study(&study, &out);
     let rows = table_without_times(&out.join("study.csv"));
     let f = |name: &str| -> Vec<f64> {
         column(&rows, name)
@@ -497,13 +502,7 @@ fn displacement_l2_error_across_different_meshes_uses_their_shared_nodes() {
         "accuracy:\n  ladders:\n    - {key: geometry.parameters.lc, values: [0.005, 0.0025]}\n",
     );
     let out = dir.join("out");
-    run_ok(&[
-        "study",
-        study.to_str().unwrap(),
-        "-q",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    run_study(&study, &out);
     let rows = table_without_times(&out.join("accuracy.csv"));
     let number = |name: &str| -> Vec<f64> {
         column(&rows, name)
@@ -537,13 +536,7 @@ fn string_valued_parameters_vary_keys_whose_values_are_words() {
         "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n  - {key: contact.mass, values: [redistributed, lumped]}\n",
     );
     let out = dir.join("grid");
-    run_ok(&[
-        "study",
-        study.to_str().unwrap(),
-        "-q",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    run_study(&study, &out);
     let rows = table_without_times(&out.join("study.csv"));
     assert_eq!(
         column(&rows, "contact.mass"),
@@ -572,13 +565,7 @@ fn string_valued_parameters_vary_keys_whose_values_are_words() {
         ),
     );
     let out = dir.join("list");
-    run_ok(&[
-        "study",
-        study.to_str().unwrap(),
-        "-q",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    run_study(&study, &out);
     let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     let quoted = |path: &Path| format!("\"{}\"", path.display().to_string().replace('"', "\"\""));
