@@ -57,6 +57,9 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         Some(why) => outln!("  stopped early: {why}"),
         None => outln!("  reached {:.4} Hz", s.to_hz),
     }
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
     outln!("  wall time: {:.3} s", s.stage_seconds.total());
     outln!("  wrote {}/sweep.csv and sweep.json", result.dir.display());
 }

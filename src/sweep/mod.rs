@@ -76,6 +76,8 @@ pub struct SweepSummary {
     pub folds: Vec<FoldReport>,
     /// Why the curve stops short of `to_hz` (`None`: it reached it).
     pub stopped: Option<String>,
+    /// What the mesh and model checks found (as `run` reports them).
+    pub warnings: Vec<String>,
     pub rows: Vec<SweepRow>,
     /// Wall time [s]: mesh, assemble, the continuation (factorizations and each point's
     /// outputs included), write.
@@ -112,7 +114,9 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
+    let mut warnings = stages.run("check", || pipeline::sanity::check_mesh(p, &mesh))?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    warnings.extend(pipeline::sanity::check_initial_penetration(&model));
     let clock = Instant::now();
     let (rows, outcome) = continue_curve(p, &spec, &model, &mesh_info, reporter)
         .map_err(|e| stages.context("sweep", e))?;
@@ -131,6 +135,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         columns: outputs().iter().map(Output::name).collect(),
         folds,
         stopped: outcome.stopped.clone(),
+        warnings,
         rows,
         stage_seconds: Default::default(),
         solver_seconds: outcome.timings,
