@@ -42,21 +42,11 @@ fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
 /// ζ = 0.23% here). Reference: the linear response of a damped mode peaks at ω_n √(1 − 2ζ²).
 #[test]
 fn linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequency() {
-    let p = common::scene("cantilever", &[]);
-    let mut text = std::fs::read_to_string(&p.source).unwrap();
-    text.push_str("sweep: {from: 15.0, to: 20.0, max_change: 0.05}\n");
-    let path = common::root().join("output/test-runs/cantilever_sweep.yaml");
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    let geometries = format!("{}/", common::root().join("geometries").display());
-    std::fs::write(&path, text.replace("geometries/", &geometries)).unwrap();
-    let p = hbcontact::config::load_pipeline(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let options = RunOptions {
-        out: Some(common::temp_out("sweep-linear")),
-        ..Default::default()
-    };
-    let s = sweep::run(&p, &options, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .summary;
+    let s = run_sweep(
+        "cantilever",
+        &["sweep.from=15.0", "sweep.to=20.0", "sweep.max_change=0.05"],
+        "sweep-linear",
+    );
     assert!(s.stopped.is_none(), "{:?}", s.stopped);
     assert!(s.folds.is_empty(), "{:?}", s.folds);
     let last = s.rows.last().unwrap();
@@ -70,6 +60,7 @@ fn linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequen
         .iter()
         .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
         .unwrap();
+    let p = common::scene("cantilever", &[]);
     let modes = pipeline::modes(
         &p,
         &RunOptions {
@@ -90,21 +81,8 @@ fn linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequen
     assert!(off < zeta, "peak {} Hz, f1 {f1} Hz", peak.frequency_hz);
     // Point by point: the first row, the peak and the last row.
     for (i, row) in [&s.rows[0], peak, last].into_iter().enumerate() {
-        let p1 = hbcontact::config::load_pipeline(
-            &path,
-            &[format!("harmonic_balance.frequency={}", row.frequency_hz)],
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-        let r = pipeline::run(
-            &p1,
-            &RunOptions {
-                out: Some(common::temp_out(&format!("sweep-linear-point-{i}"))),
-                summary_only: true,
-            },
-            &Silent,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-        let single = r.summary.probes.values().next().unwrap().first_harmonic();
+        let tag = format!("sweep-linear-point-{i}");
+        let single = single_run("cantilever", &[], row.frequency_hz, &tag);
         let rel = (row.values[0] - single).abs() / single;
         println!(
             "{:.4} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",

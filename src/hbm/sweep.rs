@@ -172,7 +172,8 @@ struct Continuation<'a> {
     direction: f64,
     timings: Timings,
     factorizations: usize,
-    first: Option<ContactSolution>,
+    /// The cold first point and the frame it was solved on (taken by `run`).
+    first: Option<(ContactSolution, Frame)>,
 }
 
 impl<'a> Continuation<'a> {
@@ -187,10 +188,21 @@ impl<'a> Continuation<'a> {
     ) -> Result<Self> {
         system.omega = s.omega_start;
         let mut timings = Timings::default();
-        let (_, problem) = prepare(system, Some(op), hb, reporter, &mut timings)?;
+        let (linear, problem) = prepare(system, Some(op), hb, reporter, &mut timings)?;
         let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
         let first = globalize::solve_contact(system, &problem, hb, reporter)?;
-        let norm = problem.linear_gap.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let frame = Frame {
+            omega: s.omega_start,
+            linear,
+            problem,
+        };
+        let norm = frame
+            .problem
+            .linear_gap
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt();
         let force = (first.c * norm).max(f64::MIN_POSITIVE);
         let newton = NewtonSettings {
             samples: first.samples,
@@ -213,7 +225,7 @@ impl<'a> Continuation<'a> {
             direction: (s.omega_end - s.omega_start).signum(),
             timings,
             factorizations: 1,
-            first: Some(first),
+            first: Some((first, frame)),
         })
     }
 
@@ -238,11 +250,10 @@ impl<'a> Continuation<'a> {
 
     fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
         let clock = Instant::now();
-        let first = self
+        let (first, frame) = self
             .first
             .take()
-            .ok_or_else(|| Error::Model("internal".into()))?;
-        let frame = self.frame(self.s.omega_start)?;
+            .ok_or_else(|| Error::Model("internal: the sweep's first point was taken".into()))?;
         let initial = [vec![0.0; first.multipliers.len()], vec![self.direction]].concat();
         let tangent = self.tangent(&frame, &first.multipliers, &initial)?;
         let mut point = Point {
@@ -262,61 +273,20 @@ impl<'a> Continuation<'a> {
             tangent_omega: point.tangent_omega(),
             seconds: clock.elapsed().as_secs_f64(),
         };
-        self.emit(&info, &point.x, frame, first.newton.clone(), on_point)?;
+        self.emit(&info, &point.x, frame, first.newton, on_point)?;
         let mut ds = self.s.step;
         let mut index = 1;
         while index < self.s.max_points {
             if self.beyond_end(&point) {
                 break;
             }
-            let clock = Instant::now();
-            self.factorizations = 0;
-            let (next, info) = loop {
-                match self.step(&point, ds) {
-                    Ok((next, frame, corrector, iterations)) => {
-                        let info = PointInfo {
-                            index,
-                            omega: next.omega,
-                            corrector,
-                            newton_iterations: iterations,
-                            factorizations: self.factorizations,
-                            step: ds,
-                            tangent_omega: next.tangent_omega(),
-                            seconds: clock.elapsed().as_secs_f64(),
-                        };
-                        if iterations <= 3 {
-                            ds = (1.5 * ds).min(self.s.max_step);
-                        }
-                        break (Some((next, frame)), info);
-                    }
-                    Err(why) if ds * 0.5 >= self.s.min_step => {
-                        self.reporter.progress(
-                            "sweep",
-                            index as u64,
-                            None,
-                            &format!("Δs/2: {why}"),
-                        );
-                        ds *= 0.5;
-                    }
-                    Err(why) => {
-                        outcome.stopped = Some(format!(
-                            "at {:.6} Hz the continuation found no next point down to the \
-                             smallest step {:.1e} ({why}); lower sweep.min_step, raise \
-                             harmonic_balance.harmonics or add damping",
-                            hz(point.omega),
-                            self.s.min_step
-                        ));
-                        break (
-                            None,
-                            PointInfo {
-                                index,
-                                ..info_stub()
-                            },
-                        );
-                    }
+            let (next, frame, info) = match self.next_point(&point, &mut ds, index) {
+                Ok(found) => found,
+                Err(stopped) => {
+                    outcome.stopped = Some(stopped);
+                    break;
                 }
             };
-            let Some((next, frame)) = next else { break };
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }
@@ -339,6 +309,52 @@ impl<'a> Continuation<'a> {
         outcome.folds = without_kinks(std::mem::take(&mut outcome.folds), KINK * self.span);
         outcome.timings = self.timings;
         Ok(outcome)
+    }
+
+    /// The point after `p`: steps from `ds`, halved on every failure down to the smallest
+    /// step, grown after an easy one; `Err` says why the curve cannot go on.
+    fn next_point(
+        &mut self,
+        p: &Point,
+        ds: &mut f64,
+        index: usize,
+    ) -> std::result::Result<(Point, Frame, PointInfo), String> {
+        let clock = Instant::now();
+        self.factorizations = 0;
+        loop {
+            match self.step(p, *ds) {
+                Ok((next, frame, corrector, iterations)) => {
+                    let info = PointInfo {
+                        index,
+                        omega: next.omega,
+                        corrector,
+                        newton_iterations: iterations,
+                        factorizations: self.factorizations,
+                        step: *ds,
+                        tangent_omega: next.tangent_omega(),
+                        seconds: clock.elapsed().as_secs_f64(),
+                    };
+                    if iterations <= 3 {
+                        *ds = (1.5 * *ds).min(self.s.max_step);
+                    }
+                    return Ok((next, frame, info));
+                }
+                Err(why) if *ds * 0.5 >= self.s.min_step => {
+                    let status = format!("Δs/2: {why}");
+                    self.reporter.progress("sweep", index as u64, None, &status);
+                    *ds *= 0.5;
+                }
+                Err(why) => {
+                    return Err(format!(
+                        "at {:.6} Hz the continuation found no next point down to the \
+                         smallest step {:.1e} ({why}); lower sweep.min_step, raise \
+                         harmonic_balance.harmonics or add damping",
+                        hz(p.omega),
+                        self.s.min_step
+                    ));
+                }
+            }
+        }
     }
 
     /// Past the end frequency, moving away from it.

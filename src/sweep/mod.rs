@@ -134,7 +134,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         points: rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
         folds,
-        stopped: outcome.stopped.clone(),
+        stopped: outcome.stopped,
         warnings,
         rows,
         stage_seconds: Default::default(),
