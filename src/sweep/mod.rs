@@ -50,6 +50,8 @@ pub struct SweepRow {
     pub step: f64,
     pub tangent_frequency: f64,
     pub seconds: f64,
+    /// The stability verdict at this point (`None`: not checked).
+    pub stable: Option<bool>,
 }
 
 /// A fold as the user reads it.
@@ -211,6 +213,7 @@ fn row(
         step: info.step,
         tangent_frequency: info.tangent_omega,
         seconds: info.seconds,
+        stable: None,
     }
 }
 
@@ -234,7 +237,7 @@ fn fold_report(f: &Fold, rows: &[SweepRow]) -> FoldReport {
 /// sweep.csv: frequency, the outputs, then how each point was found.
 pub fn csv(s: &SweepSummary) -> String {
     let mut text = format!(
-        "index,frequency_hz,{},corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
+        "index,frequency_hz,{},stable,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
         s.columns.join(",")
     );
     for r in &s.rows {
@@ -243,8 +246,9 @@ pub fn csv(s: &SweepSummary) -> String {
             .ok()
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default();
+        let stable = r.stable.map_or(String::new(), |s| s.to_string());
         text.push_str(&format!(
-            "{},{},{},{corrector},{},{},{},{},{}\n",
+            "{},{},{},{stable},{corrector},{},{},{},{},{}\n",
             r.index,
             csv_number(r.frequency_hz),
             values.join(","),
