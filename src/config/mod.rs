@@ -27,6 +27,7 @@ pub struct Pipeline {
     pub transient: TransientSpec,
     /// `hbcontact sweep`'s range and steps; `None` when the pipeline has no `sweep` block.
     pub sweep: Option<SweepSpec>,
+    pub stability: StabilitySpec,
     pub output: OutputSpec,
 }
 
@@ -200,6 +201,29 @@ pub struct TransientSpec {
     pub start: TransientStart,
     /// With `start: HarmonicBalance`, the starting state is scaled by 1 + this.
     pub perturbation: f64,
+}
+
+/// The stability check of `run` and the sweep points.
+#[derive(Clone, Debug)]
+pub struct StabilitySpec {
+    /// March contact scenes from the perturbed harmonic-balance state.
+    pub check: bool,
+    pub max_periods: usize,
+    /// The start state is scaled by 1 + this.
+    pub perturbation: f64,
+    /// In a sweep, every this many points.
+    pub every: usize,
+}
+
+impl Default for StabilitySpec {
+    fn default() -> Self {
+        StabilitySpec {
+            check: true,
+            max_periods: 200,
+            perturbation: 1e-3,
+            every: 1,
+        }
+    }
 }
 
 /// Where time marching starts.

@@ -50,6 +50,10 @@ struct RawPipeline {
     /// Settings of `hbcontact sweep` (a frequency-response curve by continuation).
     #[serde(default)]
     sweep: Option<RawSweep>,
+    /// The stability verdict of `run` and of each sweep point (time marching from the
+    /// perturbed harmonic-balance state). Default: each key's default.
+    #[serde(default)]
+    stability: Option<RawStability>,
     /// What is written and where. Default: each key's default.
     #[serde(default)]
     output: Option<RawOutput>,
@@ -382,6 +386,29 @@ struct RawTransient {
     /// that shows whether the state is kept or left), |·| ≤ 1. Default: 0.
     #[serde(default)]
     perturbation: Option<f64>,
+}
+
+/// The stability check: is the harmonic-balance state one the structure settles into?
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "Stability")]
+struct RawStability {
+    /// Check contact scenes by time marching from the perturbed harmonic-balance state (a
+    /// linear scene's verdict follows from its damping, without marching). Default: true.
+    #[serde(default)]
+    check: Option<bool>,
+    /// The most periods marched per check (it ends early once the verdict is clear), ≥ 1.
+    /// Default: 200.
+    #[serde(default)]
+    max_periods: Option<usize>,
+    /// The starting state is the harmonic-balance state scaled by 1 + this, in (0, 0.5].
+    /// Default: 0.001.
+    #[serde(default)]
+    perturbation: Option<f64>,
+    /// In a sweep, check every this many points (folds' neighbours are always checked), ≥ 1.
+    /// Default: 1.
+    #[serde(default)]
+    every: Option<usize>,
 }
 
 /// Where time marching starts.
@@ -779,6 +806,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     }
     let transient = validate_transient(path, raw.transient)?;
     let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
+    let stability = validate_stability(path, raw.stability)?;
     let output = validate_output(path, raw.output, &raw.name)?;
     Ok(Pipeline {
         name: raw.name,
@@ -791,6 +819,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         contact,
         transient,
         sweep,
+        stability,
         output,
     })
 }
@@ -1216,6 +1245,41 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
             ));
         }
         spec.perturbation = v;
+    }
+    Ok(spec)
+}
+
+fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<StabilitySpec> {
+    let mut spec = StabilitySpec::default();
+    let Some(r) = raw else {
+        return Ok(spec);
+    };
+    if let Some(v) = r.check {
+        spec.check = v;
+    }
+    if let Some(v) = r.max_periods {
+        if v == 0 {
+            return Err(config_error(
+                path,
+                "stability.max_periods = 0: give at least 1 (default 200), or set stability.check: false".to_string(),
+            ));
+        }
+        spec.max_periods = v;
+    }
+    if let Some(v) = r.perturbation {
+        if !(v > 0.0 && v <= 0.5) {
+            return Err(config_error(
+                path,
+                format!(
+                    "stability.perturbation = {} must lie in (0, 0.5] (default 0.001)",
+                    show(v)
+                ),
+            ));
+        }
+        spec.perturbation = v;
+    }
+    if let Some(v) = r.every {
+        spec.every = v.max(1);
     }
     Ok(spec)
 }

@@ -100,6 +100,54 @@ pub fn solve(
     Ok(linear.into_solution(system, contact_solution, timings))
 }
 
+/// The periodic state at the system's ω by a plain Newton on the exact contact law from
+/// `start`, the contact solution of a nearby problem (the same contact nodes; e.g. another
+/// discretization of the mass, or a neighbouring frequency), at its H, N and c. No
+/// globalization: from a start this close it converges, or the nearby state is gone (beyond
+/// a fold), which is an error.
+pub fn solve_from(
+    system: &System,
+    contact: &ContactOperator,
+    settings: &HbSettings,
+    start: &ContactSolution,
+    reporter: &dyn Reporter,
+) -> Result<Solution> {
+    let mut timings = Timings::default();
+    let settings = HbSettings {
+        harmonics: start.harmonics,
+        ..settings.clone()
+    };
+    let (mut linear, problem) = prepare(system, Some(contact), &settings, reporter, &mut timings)?;
+    let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
+    let newton = NewtonSettings {
+        samples: start.samples,
+        c: start.c,
+        tolerance: settings.tolerance,
+        max_iterations: settings.max_iterations.min(50),
+        method: step::StepMethod::Auto,
+        smoothing: 0.0,
+        min_iterations: 1,
+    };
+    let outcome = timed(&mut timings.newton, || {
+        reduced::newton(&problem, &newton, &start.multipliers, reporter)
+    });
+    reporter.task_done("contact Newton");
+    if !outcome.converged {
+        return Err(Error::NotConverged(format!(
+            "no periodic state near the given one at {:.6} Hz: {} after {} iterations",
+            system.omega / (2.0 * std::f64::consts::PI),
+            outcome.reason,
+            outcome.iterations
+        )));
+    }
+    let m = problem.coefficients();
+    timed(&mut timings.recover, || {
+        linear.recover(contact, &outcome.multipliers, m)
+    });
+    let solution = ContactSolution::unchecked(&problem, start.samples, start.c, outcome);
+    Ok(linear.into_solution(system, Some(solution), timings))
+}
+
 /// Everything of a solve at the system's ω before the contact Newton: the factorizations,
 /// the linear response and, with contact, the reduced problem (G_k and r).
 fn prepare(

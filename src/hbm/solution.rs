@@ -61,6 +61,35 @@ pub struct ContactSolution {
 }
 
 impl ContactSolution {
+    /// The solution a converged Newton found at N = `samples` and `c`, without the knob
+    /// checks (a continuation point or a re-solve from a checked solution).
+    pub fn unchecked(
+        problem: &super::ReducedProblem,
+        samples: usize,
+        c: f64,
+        newton: NewtonOutcome,
+    ) -> ContactSolution {
+        let x = &newton.multipliers;
+        let gaps = problem.gap(x);
+        ContactSolution {
+            harmonics: problem.harmonics,
+            samples,
+            c,
+            multipliers: x.clone(),
+            complementarity: super::measure_complementarity(problem, x, &gaps, samples),
+            gaps,
+            ladder: vec![problem.harmonics],
+            knob_check: super::knobs::KnobCheck {
+                samples_initial: samples,
+                samples_changes: Vec::new(),
+                c_alternative: c,
+                c_change: None,
+                iterations: 0,
+            },
+            newton,
+        }
+    }
+
     /// Coefficients per node, M = 2H + 1.
     pub fn coefficients(&self) -> usize {
         2 * self.harmonics + 1

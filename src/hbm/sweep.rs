@@ -34,7 +34,7 @@ use faer::{c64, Mat};
 use super::fourier::{phasor, set_phasor};
 use super::reduced::{NewtonSettings, Residual};
 use super::step::{self, StepMethod};
-use super::{globalize, knobs, measure_complementarity, prepare};
+use super::{globalize, prepare};
 use super::{ContactSolution, HbSettings, LinearResponse, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
@@ -563,25 +563,12 @@ impl<'a> Continuation<'a> {
         on_point: &mut OnPoint,
     ) -> Result<()> {
         let problem = &frame.problem;
-        let gaps = problem.gap(x);
-        let samples = self.newton.samples;
-        let contact = ContactSolution {
-            harmonics: self.hb.harmonics,
-            samples,
-            c: self.newton.c,
+        let newton = NewtonOutcome {
             multipliers: x.to_vec(),
-            complementarity: measure_complementarity(problem, x, &gaps, samples),
-            gaps,
-            newton,
-            ladder: vec![self.hb.harmonics],
-            knob_check: knobs::KnobCheck {
-                samples_initial: samples,
-                samples_changes: Vec::new(),
-                c_alternative: self.newton.c,
-                c_change: None,
-                iterations: 0,
-            },
+            ..newton
         };
+        let contact =
+            ContactSolution::unchecked(problem, self.newton.samples, self.newton.c, newton);
         let m = problem.coefficients();
         let mut linear = frame.linear;
         super::timed(&mut self.timings.recover, || linear.recover(self.op, x, m));

@@ -11,6 +11,7 @@ pub mod plots;
 pub mod report;
 pub mod resonance;
 pub mod sanity;
+pub mod stability;
 pub mod stages;
 pub mod summary;
 
@@ -61,12 +62,16 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
-    let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    let model = stages.run("assemble", || {
+        build(p, mesh.clone(), Purpose::HarmonicBalance)
+    })?;
     warnings.extend(sanity::check_initial_penetration(&model));
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
     stages.run("check", || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
+    let stability = stages::stability(p, mesh, &model, &solution, &mut stages)?;
+    warnings.extend(stability.warning());
     let staged = StagedDir::create(&out)?;
     let summary = stages.run("write", || {
         // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
@@ -87,6 +92,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
     let (check, resonance_warnings) = resonance;
     summary.resonance = check;
+    summary.stability = Some(stability);
     summary.warnings.extend(resonance_warnings);
     summary.warnings.extend(warnings);
     summary.stage_seconds = stages.times;

@@ -1,6 +1,6 @@
 //! The stages `run`, `run_transient`, `check` and `modes` string together, each timed into
 //! `StageTimes` and announced to the `Reporter`: meshing, the resonance check, solving by
-//! harmonic balance or by time marching, and committing the staged output with its summary.
+//! harmonic balance or by time marching, the stability verdict, and committing the staged output with its summary.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -8,8 +8,9 @@ use std::time::Instant;
 use schemars::JsonSchema;
 use serde::{Serialize, Serializer};
 
-use super::model::Model;
+use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
+use super::stability::{self, Stability};
 use super::summary::{MeshInfo, Summary};
 use crate::config::Pipeline;
 use crate::hbm::{self, HbSettings, Solution};
@@ -239,6 +240,40 @@ pub fn march<'m>(
     })?;
     reporter.task_done("periods");
     Ok((marching, result))
+}
+
+/// Stage `stability`: the verdict on the harmonic-balance `solution` of `model`. Contact
+/// scenes march a model of the same mesh with a diagonal mass from its own harmonic-balance
+/// state (solved from `solution`'s multipliers); linear scenes judge by their damping.
+pub fn stability(
+    p: &Pipeline,
+    mesh: Mesh2d,
+    model: &Model,
+    solution: &Solution,
+    stages: &mut Stages,
+) -> Result<Stability> {
+    let spec = &p.stability;
+    let Some(contact) = solution.contact.as_ref().filter(|_| spec.check) else {
+        return Ok(match (&solution.contact, spec.check) {
+            (None, _) => stability::linear(model),
+            _ => Stability::not_checked(),
+        });
+    };
+    let reporter = stages.reporter;
+    stages.run("stability", || {
+        let marching = build(p, mesh, Purpose::Transient)?;
+        let verdict = stability::by_marching(
+            p,
+            spec,
+            &marching,
+            model.system.omega,
+            Some(contact),
+            reporter,
+        );
+        // A scene time marching cannot take (e.g. prescribed motion on contact nodes) gets no
+        // verdict, and says why; the harmonic-balance result stands.
+        Ok(verdict.unwrap_or_else(|e| Stability::cannot_march(&e)))
+    })
 }
 
 /// Write `summary.json` (with the stage times so far) into the staged directory and commit it.

@@ -77,6 +77,10 @@ pub struct Summary {
     /// `resonance`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resonance: Option<ResonanceCheck>,
+    /// Whether the harmonic-balance state is one the structure settles into (harmonic
+    /// balance only; `stability`, its cost is the stage time `stability`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stability: Option<super::stability::Stability>,
     /// The largest cell von Mises stress over the output frames [Pa].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_von_mises: Option<f64>,
@@ -591,6 +595,7 @@ fn common(
         probe_dof_amplitudes: None,
         stage_seconds: StageTimes::default(),
         resonance: None,
+        stability: None,
         max_von_mises: None,
     }
 }

@@ -8,20 +8,25 @@
 //! by construction.
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
+
+use rayon::prelude::*;
 
 use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, SweepSpec};
 use crate::hbm::sweep::{self as continuation, Corrector, Fold, PointInfo, SweepSettings};
-use crate::hbm::Solution;
+use crate::hbm::{ContactSolution, Solution};
+use crate::mesh::Mesh2d;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
 use crate::pipeline::report::Sampled;
+use crate::pipeline::stability::{self, Stability};
 use crate::pipeline::summary::MeshInfo;
 use crate::pipeline::{self, build, hb_settings, Model, Purpose, RunOptions, Stages};
-use crate::progress::Reporter;
+use crate::progress::{Reporter, Silent};
 use crate::study::outputs::Output;
 use crate::study::table::csv_number;
 use crate::{Error, Result};
@@ -50,8 +55,11 @@ pub struct SweepRow {
     pub step: f64,
     pub tangent_frequency: f64,
     pub seconds: f64,
-    /// The stability verdict at this point (`None`: not checked).
+    /// The stability verdict at this point (`None`: not checked, or undecided).
     pub stable: Option<bool>,
+    /// The estimated largest Floquet multiplier modulus (`pipeline::stability`), where the
+    /// point was checked by marching.
+    pub multiplier: Option<f64>,
 }
 
 /// A fold as the user reads it.
@@ -117,12 +125,25 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || pipeline::sanity::check_mesh(p, &mesh))?;
-    let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    let model = stages.run("assemble", || {
+        build(p, mesh.clone(), Purpose::HarmonicBalance)
+    })?;
     warnings.extend(pipeline::sanity::check_initial_penetration(&model));
     let clock = Instant::now();
-    let (rows, outcome) = continue_curve(p, &spec, &model, &mesh_info, reporter)
+    let (mut rows, starts, outcome) = continue_curve(p, &spec, &model, &mesh_info, reporter)
         .map_err(|e| stages.context("sweep", e))?;
     stages.times.push("sweep", clock.elapsed().as_secs_f64());
+    stages.run("stability", || {
+        judge_points(
+            p,
+            mesh,
+            &model,
+            &mut rows,
+            &starts,
+            &outcome.folds,
+            reporter,
+        )
+    })?;
     let folds = outcome
         .folds
         .iter()
@@ -159,7 +180,7 @@ fn continue_curve(
     model: &Model,
     mesh: &MeshInfo,
     reporter: &dyn Reporter,
-) -> Result<(Vec<SweepRow>, continuation::SweepOutcome)> {
+) -> Result<(Vec<SweepRow>, Vec<Start>, continuation::SweepOutcome)> {
     let hb = hb_settings(p);
     let two_pi = 2.0 * std::f64::consts::PI;
     let settings = SweepSettings {
@@ -173,9 +194,10 @@ fn continue_curve(
     };
     let mut system = model.system.clone();
     let contact = model.contact.as_ref().map(|c| &c.operator);
-    let mut rows = Vec::new();
+    let (mut rows, mut starts) = (Vec::new(), Vec::new());
     let mut on_point = |info: &PointInfo, solution: &Solution| -> Result<()> {
         rows.push(row(p, model, mesh, info, solution));
+        starts.push((info.omega, solution.contact.clone()));
         Ok(())
     };
     let outcome = continuation::sweep(
@@ -186,7 +208,57 @@ fn continue_curve(
         reporter,
         &mut on_point,
     )?;
-    Ok((rows, outcome))
+    Ok((rows, starts, outcome))
+}
+
+/// A point's ω and contact solution: where a stability check starts from.
+type Start = (f64, Option<ContactSolution>);
+
+/// Stage `stability`: the verdict at every `stability.every`-th point and on both sides of
+/// every fold (`pipeline::stability`; contact scenes by marching, the points in parallel).
+fn judge_points(
+    p: &Pipeline,
+    mesh: Mesh2d,
+    model: &Model,
+    rows: &mut [SweepRow],
+    starts: &[Start],
+    folds: &[Fold],
+    reporter: &dyn Reporter,
+) -> Result<()> {
+    let spec = &p.stability;
+    if model.contact.is_none() {
+        let verdict = stability::linear(model);
+        rows.iter_mut().for_each(|r| r.stable = verdict.stable());
+        return Ok(());
+    }
+    if !spec.check {
+        return Ok(());
+    }
+    let beside_fold = |i: usize| folds.iter().any(|f| i == f.after || i == f.after + 1);
+    let chosen: Vec<usize> = (0..rows.len())
+        .filter(|&i| i % spec.every == 0 || beside_fold(i) || i + 1 == rows.len())
+        .collect();
+    let marching = build(p, mesh, Purpose::Transient)?;
+    let done = AtomicUsize::new(0);
+    let total = Some(chosen.len() as u64);
+    let verdicts: Vec<Result<Stability>> = chosen
+        .par_iter()
+        .map(|&i| {
+            let (omega, start) = &starts[i];
+            let verdict =
+                stability::by_marching(p, spec, &marching, *omega, start.as_ref(), &Silent);
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            reporter.progress("stability", n as u64, total, "points checked by marching");
+            verdict
+        })
+        .collect();
+    reporter.task_done("stability");
+    for (&i, verdict) in chosen.iter().zip(verdicts) {
+        let verdict = verdict.unwrap_or_else(|e| Stability::cannot_march(&e));
+        rows[i].stable = verdict.stable();
+        rows[i].multiplier = verdict.multiplier;
+    }
+    Ok(())
 }
 
 /// One point's row: the outputs a single-frequency run's summary would give.
@@ -214,6 +286,7 @@ fn row(
         tangent_frequency: info.tangent_omega,
         seconds: info.seconds,
         stable: None,
+        multiplier: None,
     }
 }
 
@@ -237,7 +310,7 @@ fn fold_report(f: &Fold, rows: &[SweepRow]) -> FoldReport {
 /// sweep.csv: frequency, the outputs, then how each point was found.
 pub fn csv(s: &SweepSummary) -> String {
     let mut text = format!(
-        "index,frequency_hz,{},stable,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
+        "index,frequency_hz,{},stable,multiplier,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
         s.columns.join(",")
     );
     for r in &s.rows {
@@ -247,8 +320,9 @@ pub fn csv(s: &SweepSummary) -> String {
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default();
         let stable = r.stable.map_or(String::new(), |s| s.to_string());
+        let multiplier = r.multiplier.map_or(String::new(), csv_number);
         text.push_str(&format!(
-            "{},{},{},{stable},{corrector},{},{},{},{},{}\n",
+            "{},{},{},{stable},{multiplier},{corrector},{},{},{},{},{}\n",
             r.index,
             csv_number(r.frequency_hz),
             values.join(","),

@@ -24,6 +24,9 @@ use crate::linalg::Csc;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 
+/// Whether a history of period-to-period changes and departures decided a question.
+pub type Decided = dyn Fn(&[f64], &[f64]) -> bool + Sync;
+
 pub struct TransientProblem<'a> {
     /// K on the free dofs (symmetric).
     pub stiffness: &'a Csc,
@@ -39,6 +42,9 @@ pub struct TransientProblem<'a> {
     pub probes: Vec<usize>,
     /// The state at t = 0 (`None`: rest).
     pub initial: Option<InitialState>,
+    /// Stop early once this says the history so far decided the question (it gets the
+    /// period-to-period changes and the departures, `TransientResult`).
+    pub decided: Option<&'a Decided>,
 }
 
 /// A state to start the marching from: u and u̇ at t = 0 on the free dofs (the massless
@@ -69,6 +75,16 @@ pub struct TransientResult {
     pub periods: usize,
     pub converged: bool,
     pub periodicity_error: f64,
+    /// Per period k = 1, 2, …: ‖x_k − x_{k−1}‖/‖x_k‖, x = (u, T u̇) at the period start (the
+    /// first entry compares with the start state).
+    pub changes: Vec<f64>,
+    /// Per period k = 1, 2, …: ‖u_k − u_0‖/(‖u_0‖² + ‖u̇_0/ω‖²)^½, the displacements' distance
+    /// from the start relative to its amplitude (displacements only: a truncated Fourier
+    /// start differs from the marched orbit mostly in the velocities of the waves impacts
+    /// send).
+    pub departures: Vec<f64>,
+    /// The state at the end of the last period (u and the half-step velocity).
+    pub end_state: InitialState,
     /// Sample times (phases in [0, T)) of the last period.
     pub times: Vec<f64>,
     pub displacement: Vec<Vec<f64>>,
@@ -430,21 +446,25 @@ fn lumped_w(rows: &[Vec<(usize, f64)>], mass: &[f64], dt: f64, alpha: f64) -> DM
     w
 }
 
-/// ‖state − previous‖ / ‖state‖ between the states at two successive period starts.
-fn relative_change(state: &[f64], previous: &[f64]) -> f64 {
-    let diff = state
-        .iter()
-        .zip(previous)
-        .map(|(a, b)| (a - b).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let norm = state
-        .iter()
+fn norm(x: &[f64]) -> f64 {
+    x.iter()
         .map(|a| a * a)
         .sum::<f64>()
         .sqrt()
-        .max(f64::MIN_POSITIVE);
-    diff / norm
+        .max(f64::MIN_POSITIVE)
+}
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// ‖state − previous‖ / ‖state‖ between the states at two successive period starts.
+fn relative_change(state: &[f64], previous: &[f64]) -> f64 {
+    distance(state, previous) / norm(state)
 }
 
 pub fn run_to_periodic(
@@ -478,8 +498,8 @@ pub fn run_to_periodic(
         active: vec![false; nc],
     };
     let mut record = LastPeriod::new(s, steps, per_sample, nc, problem.probes.len());
-    let mut last_state: Option<Vec<f64>> = None;
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
+    let (mut changes, mut departures) = (Vec::new(), Vec::new());
 
     if let Some(init) = &problem.initial {
         if init.displacement.len() != n || init.velocity.len() != n {
@@ -508,6 +528,19 @@ pub fn run_to_periodic(
     for i in 0..n {
         u_prev[i] = u[i] - dt * v_half[i];
     }
+    let period = problem.period;
+    let state_of = |u: &[f64], v: &[f64]| -> Vec<f64> {
+        u.iter()
+            .copied()
+            .chain(v.iter().map(|v| v * period))
+            .collect()
+    };
+    let start_state = state_of(&u, &v_half);
+    // ‖u‖² + ‖u̇/ω‖²: the displacement amplitude of a harmonic motion, whatever its phase.
+    let start_amplitude = (norm(&start_state[..n]).powi(2)
+        + (norm(&start_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
+    .sqrt();
+    let mut last_state = start_state.clone();
     while periods < settings.max_periods {
         for step in 0..steps {
             let t = (periods * steps + step) as f64 * dt;
@@ -567,26 +600,30 @@ pub fn run_to_periodic(
                 settings.courant
             )));
         }
-        let state: Vec<f64> = u
-            .iter()
-            .copied()
-            .chain(v_half.iter().map(|v| v * problem.period))
-            .collect();
-        if let Some(prev) = &last_state {
-            change = relative_change(&state, prev);
-            let status = format!("change {change:.2e}");
-            reporter.progress(
-                "periods",
-                periods as u64,
-                Some(settings.max_periods as u64),
-                &status,
-            );
-            if change < settings.periodic_tolerance {
-                converged = true;
-                break;
-            }
+        let state = state_of(&u, &v_half);
+        change = relative_change(&state, &last_state);
+        changes.push(change);
+        departures.push(distance(&u, &start_state[..n]) / start_amplitude);
+        let status = format!("change {change:.2e}");
+        reporter.progress(
+            "periods",
+            periods as u64,
+            Some(settings.max_periods as u64),
+            &status,
+        );
+        // The first period from rest compares with a zero state: not a verdict.
+        let from_rest = periods == 1 && problem.initial.is_none();
+        if change < settings.periodic_tolerance && !from_rest {
+            converged = true;
+            break;
         }
-        last_state = Some(state);
+        if problem
+            .decided
+            .is_some_and(|decided| decided(&changes, &departures))
+        {
+            break;
+        }
+        last_state = state;
     }
     Ok(TransientResult {
         dt,
@@ -594,6 +631,12 @@ pub fn run_to_periodic(
         periods,
         converged,
         periodicity_error: change,
+        changes,
+        departures,
+        end_state: InitialState {
+            displacement: u.clone(),
+            velocity: v_half.clone(),
+        },
         times: (0..s)
             .map(|i| i as f64 * problem.period / s as f64)
             .collect(),

@@ -88,6 +88,7 @@ impl<'a> Marching<'a> {
             period: self.period(),
             probes: self.probes.clone(),
             initial: None,
+            decided: None,
         }
     }
 

@@ -1,0 +1,353 @@
+//! Is a harmonic-balance state one the structure settles into? The verdict by time marching
+//! (docs/method.md, "Stability"): march the scene's own discrete model (diagonal mass, the
+//! transient's explicit scheme) from its harmonic-balance state, perturbed, and watch the
+//! period-to-period change.
+//!
+//! Formulas and glossary:
+//! - x_k = (u, T u̇) at t = kT, the state at the start of period k (x_0 the harmonic-balance
+//!   state scaled by 1 + ε);
+//! - d_k = ‖x_k − x_{k−1}‖/‖x_k‖ the period-to-period change. Near a periodic orbit
+//!   x_{k+1} − x* ≈ Φ (x_k − x*), Φ the monodromy matrix, so d_k ~ |μ_max|^k: d_k decays when
+//!   every Floquet multiplier μ lies inside the unit circle and grows when one lies outside;
+//! - μ̂ = exp(slope of ln d_k) over the last half of the periods, the estimate of |μ_max|
+//!   (with mass-proportional damping alone and no contact, every μ = e^{−αT/2});
+//! - e = ‖u − u_hb‖/‖u_hb‖ in L²(0, T) over `SAMPLES` instants of the last period: how far
+//!   the state the marching ends in lies from the harmonic-balance state, in displacement
+//!   (phase-independent, unlike x_k at one instant; the velocities are left out because a
+//!   truncated Fourier series misses most of the waves impacts send: on the strip at H = 10,
+//!   x_1 is 40% off in T u̇ but 2% in u on a stable state).
+//!
+//! Verdicts:
+//! - unstable: d grows (μ̂ > 1 + `MARGIN` and d_end > `GROWTH` · min d), or the march settles
+//!   (d < `SETTLED`, or decays with μ̂ < 1 − `MARGIN`) on a state e ≥ `SAME_STATE` away (the
+//!   structure went to another branch), or the displacements moved away from the start by
+//!   more than `LEFT` times its amplitude, (‖u_0‖² + ‖u̇_0/ω‖²)^½;
+//! - stable: it settles on a state e < `SAME_STATE` away;
+//! - undecided: neither within the periods allowed (a multiplier near 1: a fold, or light
+//!   damping); more periods decide it.
+//!
+//! `SAME_STATE` bounds what the harmonic-balance truncation may differ from the marched orbit:
+//! a scene whose H leaves more than that cannot be judged, and says so by an unstable verdict
+//! whose e is in the reason (raise H and compare).
+//!
+//! A damped linear scene needs no marching: every free vibration decays (all multipliers are
+//! e^{−ζωT} < 1); an undamped one keeps them (|μ| = 1, stable but not asymptotically).
+
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use crate::config::{Pipeline, StabilitySpec};
+use crate::hbm::{self, ContactSolution};
+use crate::pipeline::{hb_settings, Model};
+use crate::progress::Reporter;
+use crate::transient::setup::Marching;
+use crate::transient::{self, InitialState, TransientSettings};
+use crate::{Error, Result};
+
+/// Period-to-period change below which the march is periodic.
+const SETTLED: f64 = 1e-9;
+/// An end state this close to the harmonic-balance state (e) is that state.
+const SAME_STATE: f64 = 0.1;
+/// Displacements this far from the start (relative to its amplitude) have left it.
+const LEFT: f64 = 1.0;
+/// Instants of the last period the end state is compared at.
+const SAMPLES: usize = 16;
+/// μ̂ within 1 ± this decides nothing.
+const MARGIN: f64 = 0.01;
+/// Growth of d from its minimum that counts as growing.
+const GROWTH: f64 = 10.0;
+/// Decay of d from its maximum that ends a march early as stable.
+const DECAY: f64 = 1e3;
+/// Periods before an early end.
+const MIN_PERIODS: usize = 24;
+
+/// What the check says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Stable,
+    Unstable,
+    Undecided,
+    /// `stability.check: false`.
+    NotChecked,
+}
+
+/// How the verdict was reached.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// A linear scene: from its damping, no marching.
+    Linear,
+    /// Time marching from the perturbed harmonic-balance state.
+    Marching,
+    None,
+}
+
+/// A stability verdict (in the run summary, and per sweep point).
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct Stability {
+    pub verdict: Verdict,
+    pub method: Method,
+    /// μ̂, the estimated largest Floquet multiplier modulus (marching only).
+    pub multiplier: Option<f64>,
+    /// Periods marched.
+    pub periods: usize,
+    /// The last period-to-period change d.
+    pub change: Option<f64>,
+    /// e, the distance of the state the marching ends in from the harmonic-balance state
+    /// (relative, displacements in L² over the last period).
+    pub departure: Option<f64>,
+    /// The verdict in a sentence.
+    pub reason: String,
+}
+
+impl Stability {
+    pub fn not_checked() -> Stability {
+        Stability {
+            verdict: Verdict::NotChecked,
+            method: Method::None,
+            multiplier: None,
+            periods: 0,
+            change: None,
+            departure: None,
+            reason: "not checked (stability.check: false)".into(),
+        }
+    }
+
+    /// Undecided, because time marching could not take the scene.
+    pub fn cannot_march(why: &Error) -> Stability {
+        Stability {
+            reason: format!("time marching could not check it: {why}"),
+            ..Stability::undecided()
+        }
+    }
+
+    fn undecided() -> Stability {
+        Stability {
+            verdict: Verdict::Undecided,
+            method: Method::Marching,
+            multiplier: None,
+            periods: 0,
+            change: None,
+            departure: None,
+            reason: String::new(),
+        }
+    }
+
+    /// `Some(true/false)` for a decided verdict.
+    pub fn stable(&self) -> Option<bool> {
+        match self.verdict {
+            Verdict::Stable => Some(true),
+            Verdict::Unstable => Some(false),
+            _ => None,
+        }
+    }
+
+    /// The run's warning when the state is not one the structure settles into.
+    pub fn warning(&self) -> Option<String> {
+        match self.verdict {
+            Verdict::Unstable => Some(format!(
+                "the harmonic-balance state is unstable: {}. The structure does not settle into it; a frequency sweep (`hbcontact sweep`) shows the stable branches, and `hbcontact transient` what it does instead",
+                self.reason
+            )),
+            Verdict::Undecided => Some(format!(
+                "the stability of the harmonic-balance state is undecided: {}; raise stability.max_periods",
+                self.reason
+            )),
+            _ => None,
+        }
+    }
+}
+
+/// The verdict of a linear scene, from its damping.
+pub fn linear(model: &Model) -> Stability {
+    let damped = model
+        .system
+        .rayleigh
+        .is_some_and(|(a, b)| a > 0.0 || b > 0.0);
+    Stability {
+        verdict: Verdict::Stable,
+        method: Method::Linear,
+        multiplier: None,
+        periods: 0,
+        change: None,
+        departure: None,
+        reason: if damped {
+            "a damped linear scene: every free vibration decays".into()
+        } else {
+            "an undamped linear scene: free vibrations neither grow nor decay (stable, not asymptotically)".into()
+        },
+    }
+}
+
+/// March the transient model `marching_model` at ω from its harmonic-balance state (solved
+/// from `start`, a contact solution of a nearby model, or cold when `None`), perturbed.
+pub fn by_marching(
+    p: &Pipeline,
+    spec: &StabilitySpec,
+    marching_model: &Model,
+    omega: f64,
+    start: Option<&ContactSolution>,
+    reporter: &dyn Reporter,
+) -> Result<Stability> {
+    let Some(diag) = &marching_model.mass_diagonal else {
+        return Err(Error::Model(
+            "internal: marching needs a diagonal mass".into(),
+        ));
+    };
+    let mut system = marching_model.system.clone();
+    system.omega = omega;
+    let contact = marching_model.contact.as_ref().map(|c| &c.operator);
+    let hb = hb_settings(p);
+    let solution = match (contact, start) {
+        (Some(op), Some(s)) => hbm::solve_from(&system, op, &hb, s, reporter),
+        _ => hbm::solve(&system, contact, &hb, reporter),
+    };
+    let solution = match solution {
+        Ok(s) => s,
+        Err(Error::NotConverged(why)) => return Ok(undecided_without_state(&why)),
+        Err(e) => return Err(e),
+    };
+    let dofs = &system.dofs;
+    let scale = 1.0 + spec.perturbation;
+    let free = |derivative: u32| -> Vec<f64> {
+        let all = solution.field_at(dofs, 0.0, derivative);
+        dofs.free.iter().map(|&d| scale * all[d]).collect()
+    };
+    let initial = InitialState {
+        displacement: free(0),
+        velocity: free(1),
+    };
+    let marching = Marching::new(&system, diag, contact, &[])?;
+    let mut problem = marching.problem();
+    problem.initial = Some(initial);
+    problem.decided = Some(&decided);
+    let settings = TransientSettings {
+        courant: p.transient.courant,
+        periodic_tolerance: SETTLED,
+        max_periods: spec.max_periods,
+        samples_per_period: SAMPLES,
+    };
+    let result = transient::run_to_periodic(&problem, &settings, reporter)?;
+    reporter.task_done("periods");
+    let distance = end_distance(&solution, dofs, &result.times, &result.displacement);
+    Ok(judge(&result.changes, &result.departures, distance))
+}
+
+/// e: the L²(0, T) distance of the last period's displacements from the harmonic-balance
+/// state's, relative to the latter (free dofs, at the recorded instants).
+fn end_distance(
+    solution: &hbm::Solution,
+    dofs: &crate::fem::DofMap,
+    times: &[f64],
+    marched: &[Vec<f64>],
+) -> f64 {
+    let (mut diff, mut size) = (0.0, 0.0);
+    for (&t, u) in times.iter().zip(marched) {
+        let hb = solution.field_at(dofs, t, 0);
+        for (&d, &um) in dofs.free.iter().zip(u) {
+            diff += (um - hb[d]).powi(2);
+            size += hb[d].powi(2);
+        }
+    }
+    (diff / size.max(f64::MIN_POSITIVE)).sqrt()
+}
+
+fn undecided_without_state(why: &str) -> Stability {
+    Stability {
+        reason: format!("the marching model (diagonal mass) has no state here to start from ({why}); this happens within a step of a fold"),
+        ..Stability::undecided()
+    }
+}
+
+/// Whether the history already decides: the state left, or the change grew `GROWTH`-fold
+/// at a multiplier above 1, or fell by `DECAY` at one below 1 (after `MIN_PERIODS`).
+fn decided(changes: &[f64], departures: &[f64]) -> bool {
+    if departures.last().is_some_and(|&e| e > LEFT) {
+        return true;
+    }
+    if changes.len() < MIN_PERIODS {
+        return false;
+    }
+    let Some(mu) = multiplier(changes) else {
+        return false;
+    };
+    let d = changes.last().copied().unwrap_or(f64::NAN);
+    let d_min = changes.iter().copied().fold(f64::INFINITY, f64::min);
+    let d_max = changes.iter().copied().fold(0.0, f64::max);
+    (mu > 1.0 + MARGIN && d > GROWTH * d_min) || (mu < 1.0 - MARGIN && d * DECAY < d_max)
+}
+
+/// The verdict from the period-to-period changes d_k, the departures from the start and the
+/// end state's distance e from the harmonic-balance state (see the header).
+pub fn judge(changes: &[f64], departures: &[f64], e: f64) -> Stability {
+    let periods = changes.len();
+    let d = changes.last().copied().unwrap_or(f64::NAN);
+    let left = departures.last().is_some_and(|&x| x > LEFT);
+    let mu = multiplier(changes);
+    let d_min = changes.iter().copied().fold(f64::INFINITY, f64::min);
+    let growing = mu.is_some_and(|m| m > 1.0 + MARGIN) && d > GROWTH * d_min;
+    let settled = d < SETTLED || mu.is_some_and(|m| m < 1.0 - MARGIN);
+    let per_period = |m: Option<f64>| m.map_or("unknown".to_string(), |m| format!("{m:.3}"));
+    let (verdict, reason) = if growing {
+        let reason = format!(
+            "time marching from it drifts away: the period-to-period change grows by {} per period (the largest Floquet multiplier's modulus)",
+            per_period(mu)
+        );
+        (Verdict::Unstable, reason)
+    } else if left {
+        let reason = format!("time marching from it left it within {periods} periods");
+        (Verdict::Unstable, reason)
+    } else if settled && e >= SAME_STATE {
+        let reason = format!(
+            "time marching from it settles on another state, {:.0}% away in displacement (if the harmonic balance is too coarse to be within {:.0}% of the marched orbit, raise harmonic_balance.harmonics and compare)",
+            100.0 * e,
+            100.0 * SAME_STATE
+        );
+        (Verdict::Unstable, reason)
+    } else if settled {
+        let reason = format!(
+            "time marching from it stays, {:.1}% from it in displacement, the change decaying by {} per period",
+            100.0 * e,
+            per_period(mu)
+        );
+        (Verdict::Stable, reason)
+    } else {
+        let reason = format!(
+            "after {periods} periods of time marching the change neither decays nor grows (multiplier {})",
+            per_period(mu)
+        );
+        (Verdict::Undecided, reason)
+    };
+    Stability {
+        verdict,
+        method: Method::Marching,
+        multiplier: mu,
+        periods,
+        change: Some(d),
+        departure: Some(e),
+        reason,
+    }
+}
+
+/// μ̂: exp of the least-squares slope of ln d_k over the last half of the periods (at least 4).
+fn multiplier(changes: &[f64]) -> Option<f64> {
+    let tail: Vec<(f64, f64)> = changes
+        .iter()
+        .enumerate()
+        .skip(changes.len() / 2)
+        .filter(|(_, d)| **d > 0.0 && d.is_finite())
+        .map(|(k, d)| (k as f64, d.ln()))
+        .collect();
+    if tail.len() < 4 {
+        return None;
+    }
+    let n = tail.len() as f64;
+    let (mk, ml) = (
+        tail.iter().map(|t| t.0).sum::<f64>() / n,
+        tail.iter().map(|t| t.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = tail.iter().map(|(k, l)| (k - mk) * (l - ml)).sum();
+    let sxx: f64 = tail.iter().map(|(k, _)| (k - mk).powi(2)).sum();
+    Some((sxy / sxx).exp())
+}
