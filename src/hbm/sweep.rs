@@ -248,15 +248,7 @@ impl<'a> Continuation<'a> {
             }
             Some(r) => {
                 (newton.samples, newton.c) = (r.samples, r.c);
-                let o = super::reduced::newton(&frame.problem, &newton, &r.multipliers, reporter);
-                if !o.converged || o.multipliers.len() != r.multipliers.len() {
-                    return Err(Error::NotConverged(format!(
-                        "the saved point at {:.6} Hz does not solve again ({}): resume needs the \
-                         scene the sweep was started with; sweep again without --resume",
-                        hz(omega),
-                        o.reason
-                    )));
-                }
+                let o = resolve_saved(&frame, &newton, r, reporter)?;
                 ((o.multipliers.clone(), o), r.force_scale)
             }
         };
@@ -657,6 +649,26 @@ impl<'a> Continuation<'a> {
         let solution = linear.into_solution(self.system, Some(contact), Timings::default());
         on_point(info, &solution)
     }
+}
+
+/// The saved point re-solved on its frame by Newton from its own multipliers (which
+/// already solve it: no iteration when nothing changed).
+fn resolve_saved(
+    frame: &Frame,
+    newton: &NewtonSettings,
+    r: &ContinuationState,
+    reporter: &dyn Reporter,
+) -> Result<NewtonOutcome> {
+    let o = super::reduced::newton(&frame.problem, newton, &r.multipliers, reporter);
+    if !o.converged || o.multipliers.len() != r.multipliers.len() {
+        return Err(Error::NotConverged(format!(
+            "the saved point at {:.6} Hz does not solve again ({}): resume needs the scene the \
+             sweep was started with; sweep again without --resume",
+            hz(frame.omega),
+            o.reason
+        )));
+    }
+    Ok(o)
 }
 
 fn info_stub() -> PointInfo {

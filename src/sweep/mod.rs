@@ -226,11 +226,44 @@ fn execute(
         Err(e) => (Default::default(), None, Some(e)),
     };
     let failure = failure.or(stopped).map(|e| stages.context("sweep", e));
-    let folds = writer.folds(&spec);
+    let ended = Ended {
+        warnings,
+        timings,
+        failure,
+        out: &out,
+    };
+    let (summary, failure) = summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    let (dir, summary) = write(p, staged, &writer, summary, stages)?;
+    Ok(SweepResult {
+        dir,
+        summary,
+        failure,
+    })
+}
+
+/// How the continuation ended, for the summary.
+struct Ended<'a> {
+    warnings: Vec<String>,
+    timings: crate::hbm::Timings,
+    failure: Option<Error>,
+    out: &'a std::path::Path,
+}
+
+/// The curve's summary: the folds, the point folders (written here, stage `points`), why
+/// it stopped; the failure handed back.
+fn summarize(
+    p: &Pipeline,
+    spec: &SweepSpec,
+    writer: &mut points::Writer,
+    saved: Option<&resume::Saved>,
+    mut ended: Ended,
+    stages: &mut Stages,
+) -> Result<(SweepSummary, Option<Error>)> {
+    let folds = writer.folds(spec);
     let (written, missing) = stages.run("points", || writer.write_points(&folds))?;
-    warnings.extend(missing);
-    let stopped = stop_report(&spec, &writer, failure.as_ref(), &out, p);
-    let mut summary = SweepSummary {
+    ended.warnings.extend(missing);
+    let stopped = stop_report(spec, writer, ended.failure.as_ref(), ended.out, p);
+    let summary = SweepSummary {
         name: p.name.clone(),
         from_hz: spec.from_hz,
         to_hz: spec.to_hz,
@@ -239,15 +272,27 @@ fn execute(
         columns: outputs().iter().map(Output::name).collect(),
         folds,
         stopped,
-        warnings,
+        warnings: ended.warnings,
         frames: writer.frame_rows(),
         written,
-        resumed_from: resume::resumed_from(saved.as_ref()),
+        resumed_from: resume::resumed_from(saved),
         resume: writer.last_state.clone(),
         rows: std::mem::take(&mut writer.rows),
         stage_seconds: Default::default(),
-        solver_seconds: timings,
+        solver_seconds: ended.timings,
     };
+    Ok((summary, ended.failure))
+}
+
+/// sweep.csv, frames.pvd, the plots and sweep.json (with the stage times) into the staged
+/// directory, then commit it.
+fn write(
+    p: &Pipeline,
+    staged: StagedDir,
+    writer: &points::Writer,
+    mut summary: SweepSummary,
+    mut stages: Stages,
+) -> Result<(PathBuf, SweepSummary)> {
     stages.run("write", || {
         writer.write_pvd()?;
         write_text(&staged.path().join("sweep.csv"), &csv(&summary))
@@ -257,12 +302,7 @@ fn execute(
     }
     summary.stage_seconds = stages.times;
     write_json(&staged.path().join("sweep.json"), &summary)?;
-    let dir = staged.commit()?;
-    Ok(SweepResult {
-        dir,
-        summary,
-        failure,
-    })
+    Ok((staged.commit()?, summary))
 }
 
 /// The continuation, each point handed to the writer (row, frame, kept solutions). A

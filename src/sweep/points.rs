@@ -265,30 +265,9 @@ impl<'a> Writer<'a> {
     /// folders (a peak since overtaken) are removed. Returns what is there, and a warning for
     /// each wanted point that is not (found before a resume that wrote no folder for it).
     pub fn write_points(&self, folds: &[FoldReport]) -> Result<(Vec<WrittenPoint>, Vec<String>)> {
-        let mut wanted: Vec<(String, String, usize, Option<&Solution>)> = Vec::new();
-        for (k, f) in folds.iter().enumerate() {
-            let solution = self
-                .candidates
-                .iter()
-                .find(|(i, _)| *i == f.after)
-                .map(|(_, s)| s);
-            let folder = format!("fold_{}_{:.1}Hz", k + 1, f.frequency_hz);
-            wanted.push((format!("fold {}", k + 1), folder, f.after, solution));
-        }
-        if let Some(row) = self.peak.row {
-            let hz = self.row(row).map_or(f64::NAN, |r| r.frequency_hz);
-            let folder = format!("peak_{hz:.1}Hz");
-            wanted.push(("peak".into(), folder, row, self.peak.solution.as_ref()));
-        }
-        for (kept, f) in self.near.iter().zip(&self.spec.write_at) {
-            if let Some(row) = kept.row {
-                let folder = format!("at_{f}Hz");
-                wanted.push((format!("at {f} Hz"), folder, row, kept.solution.as_ref()));
-            }
-        }
         let root = self.dir.join("points");
         let (mut written, mut warnings) = (Vec::new(), Vec::new());
-        for (reason, folder, row, solution) in wanted {
+        for (reason, folder, row, solution) in self.wanted(folds) {
             let path = root.join(&folder);
             let kept_before = self
                 .old_written
@@ -319,6 +298,33 @@ impl<'a> Writer<'a> {
         }
         remove_unlisted(&root, &written)?;
         Ok((written, warnings))
+    }
+
+    /// The points wanted under `points/`: (reason, folder, row, the solution if found in this
+    /// invocation), folds first, then the peak and the `write_at` points.
+    fn wanted(&self, folds: &[FoldReport]) -> Vec<(String, String, usize, Option<&Solution>)> {
+        let mut wanted = Vec::new();
+        for (k, f) in folds.iter().enumerate() {
+            let solution = self
+                .candidates
+                .iter()
+                .find(|(i, _)| *i == f.after)
+                .map(|(_, s)| s);
+            let folder = format!("fold_{}_{:.1}Hz", k + 1, f.frequency_hz);
+            wanted.push((format!("fold {}", k + 1), folder, f.after, solution));
+        }
+        if let Some(row) = self.peak.row {
+            let hz = self.row(row).map_or(f64::NAN, |r| r.frequency_hz);
+            let folder = format!("peak_{hz:.1}Hz");
+            wanted.push(("peak".into(), folder, row, self.peak.solution.as_ref()));
+        }
+        for (kept, f) in self.near.iter().zip(&self.spec.write_at) {
+            if let Some(row) = kept.row {
+                let folder = format!("at_{f}Hz");
+                wanted.push((format!("at {f} Hz"), folder, row, kept.solution.as_ref()));
+            }
+        }
+        wanted
     }
 
     /// What `hbcontact run` writes, at this point's frequency, into `dir`.
