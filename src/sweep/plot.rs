@@ -100,3 +100,54 @@ fn pieces(rows: &[SweepRow], c: usize) -> Vec<(bool, Vec<(f64, f64)>)> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hbm::sweep::Corrector;
+
+    fn row(index: usize, stable: Option<bool>) -> SweepRow {
+        SweepRow {
+            index,
+            frequency_hz: 100.0 + index as f64,
+            values: vec![index as f64],
+            corrector: Corrector::FixedFrequency,
+            newton_iterations: 1,
+            factorizations: 1,
+            step: 0.01,
+            tangent_frequency: 1.0,
+            seconds: 0.0,
+            stable,
+        }
+    }
+
+    /// TEST GOAL: a curve with an unstable stretch is drawn as solid, dashed, solid pieces
+    /// that join (each piece starts at the previous piece's last point), labelled once each
+    /// ("stable", "unstable"), all in one colour; unchecked points count as solid.
+    #[test]
+    fn unstable_points_are_a_dashed_piece_joined_to_the_solid_ones() {
+        let stability = [None, Some(true), Some(false), Some(false), Some(true), None];
+        let rows: Vec<SweepRow> = (0..6).map(|i| row(i, stability[i])).collect();
+        let ys = |points: &[(f64, f64)]| -> Vec<f64> { points.iter().map(|p| p.1).collect() };
+        let p = pieces(&rows, 0);
+        assert_eq!(p.len(), 3);
+        assert_eq!((p[0].0, ys(&p[0].1)), (false, vec![0.0, 1.0]));
+        assert_eq!((p[1].0, ys(&p[1].1)), (true, vec![1.0, 2.0, 3.0]));
+        assert_eq!((p[2].0, ys(&p[2].1)), (false, vec![3.0, 4.0, 5.0]));
+        let fig = response_figure("t", "y [m]", &rows, 0, &[]);
+        let styles: Vec<(Style, &str, Option<usize>)> = fig
+            .series
+            .iter()
+            .map(|s| (s.style, s.label.as_str(), s.colour))
+            .collect();
+        assert_eq!(
+            styles,
+            vec![
+                (Style::Curve, "stable", Some(0)),
+                (Style::Dashed, "unstable", Some(0)),
+                (Style::Curve, "", Some(0)),
+            ]
+        );
+        assert!(fig.svg().unwrap().contains("unstable"));
+    }
+}
