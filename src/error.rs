@@ -47,6 +47,11 @@ pub enum Error {
         source: std::io::Error,
     },
 
+    /// The user interrupted a command that stops cleanly (a sweep, which writes the curve so
+    /// far). Exit code 130, as for an interrupt that ends the process at once.
+    #[error("{0}")]
+    Interrupted(String),
+
     /// A study finished, but some of its points failed (each with its error in the table).
     #[error("{failed} of {total} study points failed; their errors are in {}", table.display())]
     StudyIncomplete {
@@ -83,7 +88,7 @@ impl Error {
 
     /// The process exit code for this error: 2 bad input (pipeline, study, geometry, mesh,
     /// gmsh), 3 a model that cannot be solved, 4 not converged, 5 writing results failed,
-    /// 6 a study in which some points failed.
+    /// 6 a study in which some points failed, 130 interrupted.
     pub fn exit_code(&self) -> u8 {
         match self.root() {
             Error::Config { .. } | Error::Input(_) | Error::Gmsh(_) | Error::Mesh { .. } => 2,
@@ -91,12 +96,13 @@ impl Error {
             Error::NotConverged(_) => 4,
             Error::Io { .. } => 5,
             Error::StudyIncomplete { .. } => 6,
+            Error::Interrupted(_) => 130,
             Error::InStage { .. } => 1,
         }
     }
 
     /// The error's class as a study table names it (`bad_input`, `model`, `not_converged`,
-    /// `io`, `study_incomplete`), one per exit code.
+    /// `io`, `study_incomplete`, `interrupted`), one per exit code.
     pub fn class(&self) -> &'static str {
         match self.exit_code() {
             2 => "bad_input",
@@ -104,6 +110,7 @@ impl Error {
             4 => "not_converged",
             5 => "io",
             6 => "study_incomplete",
+            130 => "interrupted",
             _ => "internal",
         }
     }

@@ -49,8 +49,16 @@ enum Command {
     /// to `<output.directory>-transient` (or `--out`), beside the harmonic-balance result.
     Transient(Common),
     /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
-    /// block), written to `<output.directory>/sweep` (or `--out`): sweep.csv and sweep.json.
-    Sweep(Common),
+    /// block), written to `<output.directory>/sweep` (or `--out`): sweep.csv, sweep.json, the
+    /// curve's plots, frames.pvd along it and full outputs at the folds, the peak and
+    /// `sweep.write_at`. Ctrl-C stops it after the current point and writes the curve so far.
+    Sweep {
+        #[command(flatten)]
+        common: Common,
+        /// Continue the sweep saved in the output directory from its last point.
+        #[arg(long)]
+        resume: bool,
+    },
     /// Validate the pipeline and the geometry's groups without solving.
     Check {
         #[command(flatten)]
@@ -188,13 +196,17 @@ fn main() -> ExitCode {
     // keeps a terminal's Ctrl-C from reaching it: kill it here before going. A failure to
     // install the handler leaves the parent-death signal, which still ends gmsh with us.
     let _ = ctrlc::set_handler(|| {
+        if hbcontact::sweep::request_stop() {
+            eprintln!("interrupted: the sweep stops after this point and writes the curve so far (again to quit at once)");
+            return;
+        }
         hbcontact::mesh::gmsh::kill_running();
         eprintln!("interrupted: gmsh stopped; no output written");
         std::process::exit(INTERRUPTED);
     });
     let result = match &cli.command {
         Command::Run(c) => run(c, Mode::Run),
-        Command::Sweep(c) => sweep(c),
+        Command::Sweep { common, resume } => sweep(common, *resume),
         Command::Transient(c) => run(c, Mode::Transient),
         Command::Check { common, json } => check(common, *json),
         Command::Accuracy {
@@ -254,18 +266,27 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     Ok(())
 }
 
-/// `hbcontact sweep`: the curve's table on stdout is sweep.csv; the folds and the end.
-fn sweep(c: &Common) -> hbcontact::Result<()> {
+/// `hbcontact sweep [--resume]`: the folds, the end and what was written; a sweep that
+/// failed part-way has written the curve so far and exits with its error's class.
+fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
     let options = RunOptions {
         out: c.out.clone(),
         ..Default::default()
     };
-    let result = hbcontact::sweep::run(&pipeline, &options, &*reporter(c.quiet))?;
+    let reporter = reporter(c.quiet);
+    let result = if resume {
+        hbcontact::sweep::resume(&pipeline, &options, &*reporter)?
+    } else {
+        hbcontact::sweep::run(&pipeline, &options, &*reporter)?
+    };
     if !c.quiet {
         cli::show_sweep(&result);
     }
-    Ok(())
+    match result.failure {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
 }
 
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.

@@ -289,3 +289,32 @@ fn set_indexes_list_entries_and_says_how_to_replace_a_list() {
         "{e}"
     );
 }
+
+/// TEST GOAL: the sweep's output keys are read into the validated spec (`write_at` as given,
+/// `save_every` default 1) and a `write_at` frequency outside the swept range is refused
+/// naming the entry and the range.
+#[test]
+fn sweep_output_keys_are_read_and_write_at_outside_the_range_is_refused() {
+    let path = root().join("pipelines/strip_sweep.yaml");
+    let sets = vec!["sweep.write_at=[1200, 1650.5]".to_string()];
+    let spec = load_pipeline(&path, &sets).unwrap().sweep.unwrap();
+    assert_eq!(spec.write_at, vec![1200.0, 1650.5]);
+    assert_eq!(spec.save_every, 1);
+    let sets = vec!["sweep.save_every=0".to_string()];
+    assert_eq!(
+        load_pipeline(&path, &sets)
+            .unwrap()
+            .sweep
+            .unwrap()
+            .save_every,
+        0
+    );
+    let e = err(
+        "pipelines/strip_sweep.yaml",
+        &["sweep.write_at=[1200, 2000]"],
+    );
+    assert!(
+        e.contains("sweep.write_at[1] = 2000 Hz lies outside the swept range [1000, 1800]"),
+        "{e}"
+    );
+}

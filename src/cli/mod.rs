@@ -54,14 +54,25 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         );
     }
     match &s.stopped {
-        Some(why) => outln!("  stopped early: {why}"),
+        Some(stop) => outln!(
+            "  stopped at {:.4} Hz (point {}, {}): {}",
+            stop.frequency_hz,
+            stop.point,
+            stop.class,
+            stop.reason
+        ),
         None => outln!("  reached {:.4} Hz", s.to_hz),
     }
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
     outln!("  wall time: {:.3} s", s.stage_seconds.total());
-    outln!("  wrote {}/sweep.csv and sweep.json", result.dir.display());
+    outln!(
+        "  wrote {}/: sweep.csv, sweep.json, plots, {} frames in frames.pvd, {} point folders",
+        result.dir.display(),
+        s.frames.len(),
+        s.written.len()
+    );
 }
 
 pub fn show_run(result: &RunResult) {

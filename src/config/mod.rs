@@ -256,6 +256,10 @@ pub struct SweepSpec {
     pub max_step: f64,
     pub max_points: usize,
     pub max_change: f64,
+    /// Frequencies [Hz] whose nearest point gets the full VTU series of a run.
+    pub write_at: Vec<f64>,
+    /// Every n-th point is a frame of `frames.pvd` (0: none).
+    pub save_every: usize,
 }
 
 impl Default for SweepSpec {
@@ -268,6 +272,8 @@ impl Default for SweepSpec {
             max_step: 0.05,
             max_points: 500,
             max_change: 0.1,
+            write_at: Vec::new(),
+            save_every: 1,
         }
     }
 }

@@ -446,6 +446,14 @@ struct RawSweep {
     /// one point to the next, > 0. Default: 0.1.
     #[serde(default)]
     max_change: Option<f64>,
+    /// Frequencies [Hz] (within the range) at which the full VTU series of a `run` is written,
+    /// at the point of the curve nearest each, into `points/at_<f>Hz/`. Default: none (the
+    /// folds and the peak are always written).
+    #[serde(default)]
+    write_at: Vec<f64>,
+    /// Write every n-th point of the curve as a frame of `frames.pvd` (0: none). Default: 1.
+    #[serde(default)]
+    save_every: Option<usize>,
 }
 
 /// A field written to the VTU snapshots.
@@ -1311,6 +1319,19 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
     if let Some(v) = s.max_points {
         spec.max_points = v;
     }
+    if let Some(v) = s.save_every {
+        spec.save_every = v;
+    }
+    let (lo, hi) = (spec.from_hz.min(spec.to_hz), spec.from_hz.max(spec.to_hz));
+    for (i, &f) in s.write_at.iter().enumerate() {
+        if !(f >= lo && f <= hi) {
+            return Err(config_error(
+                path,
+                format!("sweep.write_at[{i}] = {f} Hz lies outside the swept range [{lo}, {hi}] Hz: give a frequency between sweep.from and sweep.to"),
+            ));
+        }
+    }
+    spec.write_at = s.write_at;
     if spec.max_points < 2 || spec.max_points > MAX_SWEEP_POINTS {
         return Err(config_error(
             path,

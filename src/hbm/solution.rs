@@ -108,6 +108,7 @@ pub struct Snapshot {
 }
 
 /// A periodic steady state.
+#[derive(Clone)]
 pub struct Solution {
     pub omega: f64,
     /// Harmonic index → complex amplitude on the free dofs.

@@ -25,6 +25,10 @@
 //! farther than Δs from the predictor (a jump to another branch) or changes the contact gaps
 //! by more than `max_change` (relative) rejects the step and halves Δs; an easy step (≤ 3
 //! iterations) grows it by 1.5, up to the maximum.
+//!
+//! Resume: a `ContinuationState` (index, ω, the next Δs, τ, λ, F, c, N) saved after any point
+//! continues the curve from that point as if it had not stopped: the point is re-solved at its
+//! ω by Newton from its own λ (so on its own branch), with the saved scaling and step.
 
 use std::time::Instant;
 
@@ -65,10 +69,36 @@ pub struct SweepSettings {
     /// Largest relative change of the contact gaps' (or, without contact, the response's)
     /// coefficients from one point to the next.
     pub max_change: f64,
+    /// Continue a sweep from its last saved point instead of starting at `omega_start`.
+    pub resume: Option<ContinuationState>,
+}
+
+/// Where a continuation stands after a point: with the same settings, continuing from it
+/// gives the points the uninterrupted sweep would have given (the point is re-solved from its
+/// own multipliers, so it is found again on its own branch).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+pub struct ContinuationState {
+    /// The point's index on the curve.
+    pub index: usize,
+    /// The point's ω [rad/s].
+    pub omega: f64,
+    /// The arc-length step the next point is tried with.
+    pub step: f64,
+    /// The unit direction (secant) at the point in the scaled unknowns (λ/F, ω/Ω); its last
+    /// entry τ_ω (negative on a branch running back). Without contact: [±1].
+    pub tangent: Vec<f64>,
+    /// The contact multipliers' coefficients (empty without contact).
+    pub multipliers: Vec<f64>,
+    /// The force scale F, and the c and N the curve's first point fixed (0 without contact).
+    pub force_scale: f64,
+    pub c: f64,
+    pub samples: usize,
 }
 
 /// How one point's corrector ran.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Corrector {
     /// The first point: the single-frequency solve with its globalization.
@@ -97,6 +127,8 @@ pub struct PointInfo {
     pub tangent_omega: f64,
     /// Wall time of this point, rejected attempts included [s].
     pub seconds: f64,
+    /// What continuing the sweep from this point needs.
+    pub state: Option<ContinuationState>,
 }
 
 /// A turning point of the curve.
@@ -172,8 +204,9 @@ struct Continuation<'a> {
     direction: f64,
     timings: Timings,
     factorizations: usize,
-    /// The cold first point and the frame it was solved on (taken by `run`).
-    first: Option<(ContactSolution, Frame)>,
+    /// The first point (cold, or the resumed point re-solved), its Newton and its frame
+    /// (taken by `run`).
+    first: Option<(Vec<f64>, NewtonOutcome, Frame)>,
 }
 
 impl<'a> Continuation<'a> {
@@ -186,32 +219,38 @@ impl<'a> Continuation<'a> {
         s: &'a SweepSettings,
         reporter: &'a dyn Reporter,
     ) -> Result<Self> {
-        system.omega = s.omega_start;
+        let omega = s.resume.as_ref().map_or(s.omega_start, |r| r.omega);
+        system.omega = omega;
         let mut timings = Timings::default();
         let (linear, problem) = prepare(system, Some(op), hb, reporter, &mut timings)?;
         let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
-        let first = globalize::solve_contact(system, &problem, hb, reporter)?;
         let frame = Frame {
-            omega: s.omega_start,
+            omega,
             linear,
             problem,
         };
-        let norm = frame
-            .problem
-            .linear_gap
-            .iter()
-            .map(|v| v * v)
-            .sum::<f64>()
-            .sqrt();
-        let force = (first.c * norm).max(f64::MIN_POSITIVE);
-        let newton = NewtonSettings {
-            samples: first.samples,
-            c: first.c,
+        let mut newton = NewtonSettings {
+            samples: 0,
+            c: 0.0,
             tolerance: hb.tolerance,
             max_iterations: MAX_CORRECTOR,
             method: StepMethod::Auto,
             smoothing: 0.0,
             min_iterations: 0,
+        };
+        let (first, force) = match &s.resume {
+            None => {
+                let first = globalize::solve_contact(system, &frame.problem, hb, reporter)?;
+                let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
+                (newton.samples, newton.c) = (first.samples, first.c);
+                let force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);
+                ((first.multipliers, first.newton), force)
+            }
+            Some(r) => {
+                (newton.samples, newton.c) = (r.samples, r.c);
+                let o = resolve_saved(&frame, &newton, r, reporter)?;
+                ((o.multipliers.clone(), o), r.force_scale)
+            }
         };
         Ok(Continuation {
             system,
@@ -225,7 +264,7 @@ impl<'a> Continuation<'a> {
             direction: (s.omega_end - s.omega_start).signum(),
             timings,
             factorizations: 1,
-            first: Some((first, frame)),
+            first: Some((first.0, first.1, frame)),
         })
     }
 
@@ -250,37 +289,42 @@ impl<'a> Continuation<'a> {
 
     fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
         let clock = Instant::now();
-        let (first, frame) = self
+        let (x, first_newton, frame) = self
             .first
             .take()
             .ok_or_else(|| Error::Model("internal: the sweep's first point was taken".into()))?;
-        let initial = [vec![0.0; first.multipliers.len()], vec![self.direction]].concat();
-        let tangent = self.tangent(&frame, &first.multipliers, &initial)?;
+        let (tangent, start, mut ds) = match &self.s.resume {
+            Some(r) => (r.tangent.clone(), r.index, r.step),
+            None => {
+                let initial = [vec![0.0; x.len()], vec![self.direction]].concat();
+                (self.tangent(&frame, &x, &initial)?, 0, self.s.step)
+            }
+        };
         let mut point = Point {
-            gaps: frame.problem.gap(&first.multipliers),
-            x: first.multipliers.clone(),
+            gaps: frame.problem.gap(&x),
+            x,
             omega: frame.omega,
             tangent,
         };
         let mut outcome = SweepOutcome::default();
         let info = PointInfo {
-            index: 0,
-            omega: self.s.omega_start,
+            index: start,
+            omega: frame.omega,
             corrector: Corrector::Cold,
-            newton_iterations: first.newton.iterations,
+            newton_iterations: first_newton.iterations,
             factorizations: self.factorizations,
             step: 0.0,
             tangent_omega: point.tangent_omega(),
             seconds: clock.elapsed().as_secs_f64(),
+            state: Some(self.state(&point, ds, start)),
         };
-        self.emit(&info, &point.x, frame, first.newton, on_point)?;
-        let mut ds = self.s.step;
-        let mut index = 1;
+        self.emit(&info, &point.x, frame, first_newton, on_point)?;
+        let mut index = start + 1;
         while index < self.s.max_points {
             if self.beyond_end(&point) {
                 break;
             }
-            let (next, frame, info) = match self.next_point(&point, &mut ds, index) {
+            let (next, frame, mut info) = match self.next_point(&point, &mut ds, index) {
                 Ok(found) => found,
                 Err(stopped) => {
                     outcome.stopped = Some(stopped);
@@ -298,6 +342,7 @@ impl<'a> Continuation<'a> {
                 log: Vec::new(),
                 reason: String::new(),
             };
+            info.state = Some(self.state(&next, ds, index));
             self.emit(&info, &next.x, frame, newton, on_point)?;
             let status = format!("{:.3} Hz", hz(next.omega));
             self.reporter.progress("sweep", index as u64, None, &status);
@@ -333,6 +378,7 @@ impl<'a> Continuation<'a> {
                         step: *ds,
                         tangent_omega: next.tangent_omega(),
                         seconds: clock.elapsed().as_secs_f64(),
+                        state: None,
                     };
                     if iterations <= 3 {
                         *ds = (1.5 * *ds).min(self.s.max_step);
@@ -354,6 +400,20 @@ impl<'a> Continuation<'a> {
                     ));
                 }
             }
+        }
+    }
+
+    /// What continuing from `p` (point `index`, next step `ds`) needs.
+    fn state(&self, p: &Point, ds: f64, index: usize) -> ContinuationState {
+        ContinuationState {
+            index,
+            omega: p.omega,
+            step: ds,
+            tangent: p.tangent.clone(),
+            multipliers: p.x.clone(),
+            force_scale: self.force,
+            c: self.newton.c,
+            samples: self.newton.samples,
         }
     }
 
@@ -578,6 +638,26 @@ impl<'a> Continuation<'a> {
     }
 }
 
+/// The saved point re-solved on its frame by Newton from its own multipliers (which
+/// already solve it: no iteration when nothing changed).
+fn resolve_saved(
+    frame: &Frame,
+    newton: &NewtonSettings,
+    r: &ContinuationState,
+    reporter: &dyn Reporter,
+) -> Result<NewtonOutcome> {
+    let o = super::reduced::newton(&frame.problem, newton, &r.multipliers, reporter);
+    if !o.converged || o.multipliers.len() != r.multipliers.len() {
+        return Err(Error::NotConverged(format!(
+            "the saved point at {:.6} Hz does not solve again ({}): resume needs the scene the \
+             sweep was started with; sweep again without --resume",
+            hz(frame.omega),
+            o.reason
+        )));
+    }
+    Ok(o)
+}
+
 fn info_stub() -> PointInfo {
     PointInfo {
         index: 0,
@@ -588,6 +668,7 @@ fn info_stub() -> PointInfo {
         step: 0.0,
         tangent_omega: 0.0,
         seconds: 0.0,
+        state: None,
     }
 }
 
@@ -597,10 +678,10 @@ fn hz(omega: f64) -> f64 {
 
 /// Two turning points closer than this fraction of the span in ω, a few points apart, are a
 /// kink of the sampled contact law (a sample switching), not a fold of the curve.
-const KINK: f64 = 1e-3;
+pub const KINK: f64 = 1e-3;
 
 /// Drop pairs of consecutive folds within `width` in ω and 3 points of each other.
-fn without_kinks(folds: Vec<Fold>, width: f64) -> Vec<Fold> {
+pub fn without_kinks(folds: Vec<Fold>, width: f64) -> Vec<Fold> {
     let mut out: Vec<Fold> = Vec::new();
     for f in folds {
         match out.last() {
@@ -684,19 +765,33 @@ fn linear_sweep(
         Ok::<_, Error>(linear.into_solution(system, None, Timings::default()))
     };
     let clock = Instant::now();
-    let mut omega = s.omega_start;
+    let (start, mut omega, mut ds) = s
+        .resume
+        .as_ref()
+        .map_or((0, s.omega_start, s.step), |r| (r.index, r.omega, r.step));
+    let state = |index: usize, omega: f64, ds: f64| ContinuationState {
+        index,
+        omega,
+        step: ds,
+        tangent: vec![direction],
+        multipliers: Vec::new(),
+        force_scale: 0.0,
+        c: 0.0,
+        samples: 0,
+    };
     let mut current = solve_at(system, omega, &mut outcome.timings)?;
     let mut info = PointInfo {
+        index: start,
         omega,
         corrector: Corrector::Linear,
         factorizations: 1,
         tangent_omega: direction,
         seconds: clock.elapsed().as_secs_f64(),
+        state: Some(state(start, omega, ds)),
         ..info_stub()
     };
     on_point(&info, &current)?;
-    let mut ds = s.step;
-    let mut index = 1;
+    let mut index = start + 1;
     while index < s.max_points && (omega - s.omega_end) * direction < 0.0 {
         let clock = Instant::now();
         let mut tries = 0;
@@ -724,6 +819,7 @@ fn linear_sweep(
             factorizations: tries,
             step: ds,
             seconds: clock.elapsed().as_secs_f64(),
+            state: Some(state(index, omega, ds)),
             ..info
         };
         on_point(&info, &current)?;

@@ -4,7 +4,10 @@
 //! font compiled in (assets/fonts), so both look alike and need no system fonts.
 //!
 //! Small on purpose: a study's output-against-parameter plots, the accuracy study's Pareto
-//! plot, and later frequency-response curves and time histories all use it.
+//! plot, a run's time histories and a sweep's frequency-response curves all use it. A curve
+//! drawn in pieces (solid where stable, dashed where not) is several series in one colour
+//! (`colour`), only one of them labelled (an empty label has no legend entry); `mark` puts a
+//! labelled marker on a point (a fold).
 //!
 //! ```no_run
 //! use hbcontact::output::plot::{Axis, Figure};
@@ -71,9 +74,19 @@ pub enum Style {
 
 #[derive(Clone, Debug)]
 pub struct Series {
+    /// The legend text; empty: no legend entry.
     pub label: String,
     pub points: Vec<(f64, f64)>,
     pub style: Style,
+    /// The palette index; `None`: the series' own position.
+    pub colour: Option<usize>,
+}
+
+/// A marked point: a black triangle with its label beside it.
+#[derive(Clone, Debug)]
+pub struct Mark {
+    pub label: String,
+    pub point: (f64, f64),
 }
 
 /// A 2-D plot of labelled series; the legend sits inside the frame.
@@ -86,6 +99,7 @@ pub struct Figure {
     /// Stretch a linear y axis to include 0 (profiles whose variation is small next to
     /// their level).
     pub y_from_zero: bool,
+    pub marks: Vec<Mark>,
 }
 
 fn plot_error(e: impl std::fmt::Display) -> Error {
@@ -100,7 +114,25 @@ impl Figure {
             y,
             series: Vec::new(),
             y_from_zero: false,
+            marks: Vec::new(),
         }
+    }
+
+    /// Draw the last added series in palette colour `index` (pieces of one curve).
+    pub fn colour(mut self, index: usize) -> Self {
+        if let Some(s) = self.series.last_mut() {
+            s.colour = Some(index);
+        }
+        self
+    }
+
+    /// A labelled marker at `point`.
+    pub fn mark(mut self, label: impl Into<String>, point: (f64, f64)) -> Self {
+        self.marks.push(Mark {
+            label: label.into(),
+            point,
+        });
+        self
     }
 
     /// See `y_from_zero`.
@@ -114,6 +146,7 @@ impl Figure {
             label: label.into(),
             points,
             style,
+            colour: None,
         });
         self
     }
@@ -140,6 +173,21 @@ impl Figure {
             .collect()
     }
 
+    /// Every drawable point of the series and the marks.
+    fn all_drawable(&self) -> Vec<(f64, f64)> {
+        let marks = Series {
+            label: String::new(),
+            points: self.marks.iter().map(|m| m.point).collect(),
+            style: Style::Scatter,
+            colour: None,
+        };
+        self.series
+            .iter()
+            .chain(std::iter::once(&marks))
+            .flat_map(|s| self.drawable(s))
+            .collect()
+    }
+
     /// The figure as an SVG document.
     pub fn svg(&self) -> Result<String> {
         let mut text = String::new();
@@ -162,7 +210,7 @@ impl Figure {
 
     /// The x and y axis ranges of the drawable points (see `range`).
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
-        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
+        let all = self.all_drawable();
         let zero = (self.y_from_zero && !self.y.log).then_some(0.0);
         (
             range(all.iter().map(|p| p.0), self.x.log),
@@ -194,7 +242,7 @@ impl Figure {
             .draw()
             .map_err(plot_error)?;
         for (i, s) in self.series.iter().enumerate() {
-            let colour = PALETTE[i % PALETTE.len()];
+            let colour = PALETTE[s.colour.unwrap_or(i) % PALETTE.len()];
             let pts = self.drawable(s);
             let entry = match s.style {
                 Style::Line => {
@@ -216,6 +264,9 @@ impl Figure {
                     .map_err(plot_error)?,
             };
             let style = s.style;
+            if s.label.is_empty() {
+                continue;
+            }
             entry
                 .label(s.label.as_str())
                 .legend(move |(x, y)| match style {
@@ -230,6 +281,7 @@ impl Figure {
                     }
                 });
         }
+        self.draw_marks(&mut chart)?;
         if self.series.iter().any(|s| !s.label.is_empty()) {
             chart
                 .configure_series_labels()
@@ -238,6 +290,38 @@ impl Figure {
                 .border_style(BLACK)
                 .label_font(("sans-serif", 13))
                 .draw()
+                .map_err(plot_error)?;
+        }
+        Ok(())
+    }
+
+    /// The marks: a black triangle on the point, its label above it, to the right of it in
+    /// the left 60% of the frame and to the left of it beyond (so it stays inside).
+    fn draw_marks<X, Y>(
+        &self,
+        chart: &mut ChartContext<SVGBackend, Cartesian2d<X, Y>>,
+    ) -> Result<()>
+    where
+        X: Ranged<ValueType = f64>,
+        Y: Ranged<ValueType = f64>,
+    {
+        let log_ok = |v: f64, log: bool| v.is_finite() && (!log || v > 0.0);
+        let scale = |v: f64| if self.x.log { v.log10() } else { v };
+        let (lo, hi) = self.ranges().0;
+        for m in &self.marks {
+            let (x, y) = m.point;
+            if !(log_ok(x, self.x.log) && log_ok(y, self.y.log)) {
+                continue;
+            }
+            let u = (scale(x) - scale(lo)) / (scale(hi) - scale(lo));
+            // About 7 pixels per character at 12 px.
+            let width = 7 * m.label.chars().count() as i32;
+            let dx = if u > 0.6 { -8 - width } else { 8 };
+            let glyph = EmptyElement::at(m.point)
+                + TriangleMarker::new((0, 0), 6, BLACK.filled())
+                + Text::new(m.label.clone(), (dx, -18), ("sans-serif", 12));
+            chart
+                .draw_series(std::iter::once(glyph))
                 .map_err(plot_error)?;
         }
         Ok(())
@@ -252,7 +336,7 @@ impl Figure {
     /// the axes' own scales), so the legend covers as little data as it can; upper right on
     /// a tie.
     fn legend_corner(&self) -> SeriesLabelPosition {
-        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.drawable(s)).collect();
+        let all = self.all_drawable();
         let scale = |v: f64, log: bool| if log { v.log10() } else { v };
         let unit = |(lo, hi): (f64, f64), log: bool| {
             let (lo, hi) = (scale(lo, log), scale(hi, log));

@@ -1,24 +1,37 @@
 //! `hbcontact sweep`: a frequency-response curve of a pipeline's scene, by the continuation of
 //! `hbm::sweep`, written as `<output.directory>/sweep/` (staged, then committed):
-//! `sweep.csv` (one row per point: frequency, the outputs, how the point was found) and
-//! `sweep.json` (the typed `SweepSummary`: folds, why it stopped, stage times).
+//! - `sweep.csv` (one row per point: frequency, the outputs, how the point was found) and
+//!   `sweep.json` (the typed `SweepSummary`: folds, why it stopped, what `--resume` needs);
+//! - `sweep.svg`/`.png` and (contact scenes) `sweep_force.svg`/`.png`: the curves (`plot`);
+//! - `frames.pvd` + `frames/point_XXXX.vtu`: every `save_every`-th point (`points`);
+//! - `points/<why>/`: the full output of a `run` at every fold, the peak and the points
+//!   nearest `sweep.write_at` (`points`).
+//!
+//! A sweep that fails part-way keeps the curve so far: everything above is written for the
+//! points found, `stopped` says where and why, and the error comes back in
+//! `SweepResult::failure` (main exits with its class). `resume` continues a saved sweep from
+//! its last point (`resume`).
 //!
 //! Each point's outputs are read from the same typed `Summary` a single-frequency `run`
 //! produces at that frequency (`study::outputs` names them), so a sweep point and a run agree
 //! by construction.
 
+mod plot;
+mod points;
+mod resume;
+
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use schemars::JsonSchema;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::config::{Pipeline, SweepSpec};
-use crate::hbm::sweep::{self as continuation, Corrector, Fold, PointInfo, SweepSettings};
-use crate::hbm::{ContactSolution, Solution};
+use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
+use crate::hbm::ContactSolution;
 use crate::mesh::Mesh2d;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
@@ -30,6 +43,8 @@ use crate::progress::{Reporter, Silent};
 use crate::study::outputs::Output;
 use crate::study::table::csv_number;
 use crate::{Error, Result};
+
+pub use points::WrittenPoint;
 
 /// The outputs every sweep tabulates.
 pub fn outputs() -> Vec<Output> {
@@ -43,11 +58,12 @@ pub fn outputs() -> Vec<Output> {
 }
 
 /// One row of sweep.csv.
-#[derive(Clone, Debug, Serialize, JsonSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 pub struct SweepRow {
     pub index: usize,
     pub frequency_hz: f64,
-    /// The outputs of `outputs()`, in order (NaN when the scene lacks one).
+    /// The outputs of `outputs()`, in order (NaN, in JSON null, when the scene lacks one).
+    #[serde(deserialize_with = "nan_for_null")]
     pub values: Vec<f64>,
     pub corrector: Corrector,
     pub newton_iterations: usize,
@@ -62,15 +78,42 @@ pub struct SweepRow {
     pub multiplier: Option<f64>,
 }
 
+/// JSON writes NaN as null; read it back as NaN.
+fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<f64>, D::Error> {
+    let values: Vec<Option<f64>> = Deserialize::deserialize(d)?;
+    Ok(values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
+}
+
+fn nan_for_null_one<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    let value: Option<f64> = Deserialize::deserialize(d)?;
+    Ok(value.unwrap_or(f64::NAN))
+}
+
 /// A fold as the user reads it.
-#[derive(Clone, Debug, Serialize, JsonSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 pub struct FoldReport {
-    /// Where the curve turns [Hz] (τ_ω interpolated to zero between two points).
+    /// Where the curve turns back [Hz]: the frequency of the point where ω turns (within one
+    /// step of the fold).
     pub frequency_hz: f64,
-    /// The row before it.
+    /// That point's row.
     pub after: usize,
-    /// The first output (probe first harmonic) at the nearer of the two points.
+    /// The first output (probe first harmonic) at that point (NaN, in JSON null, without a
+    /// probe).
+    #[serde(deserialize_with = "nan_for_null_one")]
     pub amplitude: f64,
+}
+
+/// Why a sweep ended before `to_hz`.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
+pub struct Stopped {
+    /// The last point of the curve [Hz] (where `--resume` continues).
+    pub frequency_hz: f64,
+    /// Its row.
+    pub point: usize,
+    /// `max_points` (the budget ran out: exit 0), else the error class of the exit code:
+    /// `not_converged` (4), `model` (3), `io` (5), `interrupted` (130).
+    pub class: String,
+    pub reason: String,
 }
 
 /// What `sweep.json` holds.
@@ -85,12 +128,23 @@ pub struct SweepSummary {
     pub columns: Vec<String>,
     pub folds: Vec<FoldReport>,
     /// Why the curve stops short of `to_hz` (`None`: it reached it).
-    pub stopped: Option<String>,
+    pub stopped: Option<Stopped>,
     /// What the mesh and model checks found (as `run` reports them).
     pub warnings: Vec<String>,
     pub rows: Vec<SweepRow>,
-    /// Wall time [s]: mesh, assemble, the continuation (factorizations and each point's
-    /// outputs included), write.
+    /// The rows written as frames of `frames.pvd` (its "time" is the row index).
+    pub frames: Vec<usize>,
+    /// The points written with a run's full output under `points/`.
+    pub written: Vec<WrittenPoint>,
+    /// The rows each `--resume` continued from (empty: swept in one go).
+    pub resumed_from: Vec<usize>,
+    /// The continuation's state at the last row: what `hbcontact sweep --resume` continues
+    /// from (index, ω [rad/s], the next step, the unit direction τ in the scaled unknowns
+    /// (its last entry τ_ω < 0 on a branch running back), the multipliers, the scaling F and
+    /// the c and N of the curve).
+    pub resume: Option<ContinuationState>,
+    /// Wall time [s] of this invocation: mesh, assemble, the continuation (factorizations,
+    /// each point's outputs and frames included), points (the full outputs), write, plots.
     pub stage_seconds: pipeline::StageTimes,
     /// The continuation's solver phases [s] summed over every point and rejected attempt:
     /// factorizations, linear solves, reductions, the correctors (`newton`: Newton, bordered
@@ -98,10 +152,13 @@ pub struct SweepSummary {
     pub solver_seconds: crate::hbm::Timings,
 }
 
-/// A finished sweep.
+/// A finished sweep, complete or not.
 pub struct SweepResult {
     pub dir: PathBuf,
     pub summary: SweepSummary,
+    /// The error that stopped the sweep part-way (the curve so far is written); main exits
+    /// with its class. `None` also when `max_points` ended it (`summary.stopped` says so).
+    pub failure: Option<Error>,
 }
 
 /// The sweep's output directory: `<output.directory>/sweep`, or `--out`.
@@ -112,8 +169,33 @@ pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
         .unwrap_or_else(|| p.output.directory.join("sweep"))
 }
 
+static RUNNING: AtomicBool = AtomicBool::new(false);
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Ask a running sweep to stop after its current point and write the curve so far (the
+/// command line's Ctrl-C). Returns false when no sweep runs or one was already asked: the
+/// caller then ends the process itself.
+pub fn request_stop() -> bool {
+    RUNNING.load(Ordering::SeqCst) && !STOP.swap(true, Ordering::SeqCst)
+}
+
 /// `hbcontact sweep`: mesh, assemble, continue along ω, write.
 pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<SweepResult> {
+    execute(p, options, false, reporter)
+}
+
+/// `hbcontact sweep --resume`: continue the sweep saved in the output directory from its last
+/// point (re-solved there), keeping its rows, frames and written points.
+pub fn resume(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<SweepResult> {
+    execute(p, options, true, reporter)
+}
+
+fn execute(
+    p: &Pipeline,
+    options: &RunOptions,
+    resuming: bool,
+    reporter: &dyn Reporter,
+) -> Result<SweepResult> {
     let spec = p.sweep.clone().ok_or_else(|| Error::Config {
         path: p.source.clone(),
         message:
@@ -121,6 +203,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
                 .into(),
     })?;
     let out = output_dir(p, options);
+    let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
     crate::output::staging::remove_stale_partials(&out, reporter);
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
@@ -129,58 +212,125 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         build(p, mesh.clone(), Purpose::HarmonicBalance)
     })?;
     warnings.extend(pipeline::sanity::check_initial_penetration(&model));
+    if let Some(s) = &saved {
+        resume::check_state(s, &model, p)?;
+    }
+    let staged = StagedDir::create(&out)?;
+    if saved.is_some() {
+        resume::carry_over(&out, staged.path())?;
+    }
+    pipeline::stages::copy_mesh(&mesh_info, staged.path())?;
+    let mut writer =
+        points::Writer::new(p, &spec, &model, &mesh_info, staged.path(), saved.as_ref());
     let clock = Instant::now();
-    let (mut rows, starts, outcome) = continue_curve(p, &spec, &model, &mesh_info, reporter)
-        .map_err(|e| stages.context("sweep", e))?;
+    let mut starts = Vec::new();
+    let ended = continue_curve(p, &spec, &model, &mut writer, &mut starts, saved.as_ref(), reporter);
     stages.times.push("sweep", clock.elapsed().as_secs_f64());
+    let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run("stability", || {
-        judge_points(
-            p,
-            mesh,
-            &model,
-            &mut rows,
-            &starts,
-            &outcome.folds,
-            reporter,
-        )
+        judge_points(p, mesh, &model, &mut writer.rows, &starts, &folds, reporter)
     })?;
-    let folds = outcome
-        .folds
-        .iter()
-        .map(|f| fold_report(f, &rows))
-        .collect();
-    let mut summary = SweepSummary {
+    let (timings, stopped, failure) = match ended {
+        Ok(outcome) => (
+            outcome.timings,
+            outcome.stopped.map(Error::NotConverged),
+            None,
+        ),
+        // Nothing found at all (the first point failed): nothing to keep.
+        Err(e) if writer.seen() == 0 => return Err(stages.context("sweep", e)),
+        Err(e) => (Default::default(), None, Some(e)),
+    };
+    let failure = failure.or(stopped).map(|e| stages.context("sweep", e));
+    let ended = Ended {
+        warnings,
+        timings,
+        failure,
+        out: &out,
+    };
+    let (summary, failure) = summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    let (dir, summary) = write(p, staged, &writer, summary, stages)?;
+    Ok(SweepResult {
+        dir,
+        summary,
+        failure,
+    })
+}
+
+/// How the continuation ended, for the summary.
+struct Ended<'a> {
+    warnings: Vec<String>,
+    timings: crate::hbm::Timings,
+    failure: Option<Error>,
+    out: &'a std::path::Path,
+}
+
+/// The curve's summary: the folds, the point folders (written here, stage `points`), why
+/// it stopped; the failure handed back.
+fn summarize(
+    p: &Pipeline,
+    spec: &SweepSpec,
+    writer: &mut points::Writer,
+    saved: Option<&resume::Saved>,
+    mut ended: Ended,
+    stages: &mut Stages,
+) -> Result<(SweepSummary, Option<Error>)> {
+    let folds = writer.folds(spec);
+    let (written, missing) = stages.run("points", || writer.write_points(&folds))?;
+    ended.warnings.extend(missing);
+    let stopped = stop_report(spec, writer, ended.failure.as_ref(), ended.out, p);
+    let summary = SweepSummary {
         name: p.name.clone(),
         from_hz: spec.from_hz,
         to_hz: spec.to_hz,
         harmonics: p.harmonic_balance.harmonics,
-        points: rows.len(),
+        points: writer.rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
         folds,
-        stopped: outcome.stopped,
-        warnings,
-        rows,
+        stopped,
+        warnings: ended.warnings,
+        frames: writer.frame_rows(),
+        written,
+        resumed_from: resume::resumed_from(saved),
+        resume: writer.last_state.clone(),
+        rows: std::mem::take(&mut writer.rows),
         stage_seconds: Default::default(),
-        solver_seconds: outcome.timings,
+        solver_seconds: ended.timings,
     };
-    let staged = StagedDir::create(&out)?;
-    stages.run("write", || {
-        write_text(&staged.path().join("sweep.csv"), &csv(&summary))
-    })?;
-    summary.stage_seconds = stages.times;
-    write_json(&staged.path().join("sweep.json"), &summary)?;
-    let dir = staged.commit()?;
-    Ok(SweepResult { dir, summary })
+    Ok((summary, ended.failure))
 }
 
-/// The continuation, each point read into a row through the run's own summary.
+/// sweep.csv, frames.pvd, the plots and sweep.json (with the stage times) into the staged
+/// directory, then commit it.
+fn write(
+    p: &Pipeline,
+    staged: StagedDir,
+    writer: &points::Writer,
+    mut summary: SweepSummary,
+    mut stages: Stages,
+) -> Result<(PathBuf, SweepSummary)> {
+    stages.run("write", || {
+        writer.write_pvd()?;
+        write_text(&staged.path().join("sweep.csv"), &csv(&summary))
+    })?;
+    if p.output.plots {
+        stages.run("plots", || plot::write_plots(staged.path(), &summary))?;
+    }
+    summary.stage_seconds = stages.times;
+    write_json(&staged.path().join("sweep.json"), &summary)?;
+    Ok((staged.commit()?, summary))
+}
+
+/// The continuation, each point handed to the writer (row, frame, kept solutions). A
+/// `request_stop` ends it after the current point with `Error::Interrupted`.
 fn continue_curve(
     p: &Pipeline,
     spec: &SweepSpec,
     model: &Model,
-    mesh: &MeshInfo,
+    writer: &mut points::Writer,
+    starts: &mut Vec<Start>,
+    saved: Option<&resume::Saved>,
     reporter: &dyn Reporter,
-) -> Result<(Vec<SweepRow>, Vec<Start>, continuation::SweepOutcome)> {
+) -> Result<continuation::SweepOutcome> {
     let hb = hb_settings(p);
     let two_pi = 2.0 * std::f64::consts::PI;
     let settings = SweepSettings {
@@ -191,13 +341,21 @@ fn continue_curve(
         max_step: spec.max_step,
         max_points: spec.max_points,
         max_change: spec.max_change,
+        resume: saved.and_then(|s| s.resume.clone()),
     };
     let mut system = model.system.clone();
     let contact = model.contact.as_ref().map(|c| &c.operator);
-    let (mut rows, mut starts) = (Vec::new(), Vec::new());
-    let mut on_point = |info: &PointInfo, solution: &Solution| -> Result<()> {
-        rows.push(row(p, model, mesh, info, solution));
-        starts.push((info.omega, solution.contact.clone()));
+    STOP.store(false, Ordering::SeqCst);
+    RUNNING.store(true, Ordering::SeqCst);
+    let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
+        writer.point(info, solution)?;
+        starts.push((info.index, info.omega, solution.contact.clone()));
+        if STOP.load(Ordering::SeqCst) {
+            return Err(Error::Interrupted(format!(
+                "interrupted after the point at {:.6} Hz",
+                info.omega / two_pi
+            )));
+        }
         Ok(())
     };
     let outcome = continuation::sweep(
@@ -207,12 +365,49 @@ fn continue_curve(
         &settings,
         reporter,
         &mut on_point,
-    )?;
-    Ok((rows, starts, outcome))
+    );
+    RUNNING.store(false, Ordering::SeqCst);
+    outcome
 }
 
+/// `stopped` of sweep.json: the failure, or the budget `max_points` ran out before `to_hz`.
+fn stop_report(
+    spec: &SweepSpec,
+    writer: &points::Writer,
+    failure: Option<&Error>,
+    out: &std::path::Path,
+    p: &Pipeline,
+) -> Option<Stopped> {
+    let last = writer.rows.last()?;
+    let resume_hint = format!(
+        "`hbcontact sweep {} --resume` continues from here into {}",
+        p.source.display(),
+        out.display()
+    );
+    let (class, reason) = match failure {
+        Some(e) => (e.class().to_string(), format!("{e}; {resume_hint}")),
+        None => {
+            let span = (spec.to_hz - spec.from_hz).abs();
+            let at_end = (last.frequency_hz - spec.to_hz).abs() <= 1e-9 * span;
+            if at_end || writer.rows.len() < spec.max_points {
+                return None;
+            }
+            let reason = format!(
+                "reached sweep.max_points = {} before {} Hz; raise it (--set sweep.max_points=...) and {resume_hint}",
+                spec.max_points, spec.to_hz
+            );
+            ("max_points".to_string(), reason)
+        }
+    };
+    Some(Stopped {
+        frequency_hz: last.frequency_hz,
+        point: last.index,
+        class,
+        reason,
+    })}
+
 /// A point's ω and contact solution: where a stability check starts from.
-type Start = (f64, Option<ContactSolution>);
+type Start = (usize, f64, Option<ContactSolution>);
 
 /// Stage `stability`: the verdict at every `stability.every`-th point and on both sides of
 /// every fold (`pipeline::stability`; contact scenes by marching, the points in parallel).
@@ -222,7 +417,7 @@ fn judge_points(
     model: &Model,
     rows: &mut [SweepRow],
     starts: &[Start],
-    folds: &[Fold],
+    folds: &[usize],
     reporter: &dyn Reporter,
 ) -> Result<()> {
     let spec = &p.stability;
@@ -234,17 +429,19 @@ fn judge_points(
     if !spec.check {
         return Ok(());
     }
-    let beside_fold = |i: usize| folds.iter().any(|f| i == f.after || i == f.after + 1);
-    let chosen: Vec<usize> = (0..rows.len())
-        .filter(|&i| i % spec.every == 0 || beside_fold(i) || i + 1 == rows.len())
+    let beside_fold = |i: usize| folds.iter().any(|&f| i == f || i == f + 1);
+    let last = rows.last().map_or(0, |r| r.index);
+    // Points found in this run (a resumed sweep keeps the verdicts it had).
+    let chosen: Vec<&Start> = starts
+        .iter()
+        .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
         .collect();
     let marching = build(p, mesh, Purpose::Transient)?;
     let done = AtomicUsize::new(0);
     let total = Some(chosen.len() as u64);
     let verdicts: Vec<Result<Stability>> = chosen
         .par_iter()
-        .map(|&i| {
-            let (omega, start) = &starts[i];
+        .map(|(_, omega, start)| {
             let verdict =
                 stability::by_marching(p, spec, &marching, *omega, start.as_ref(), &Silent);
             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -253,10 +450,12 @@ fn judge_points(
         })
         .collect();
     reporter.task_done("stability");
-    for (&i, verdict) in chosen.iter().zip(verdicts) {
+    for ((i, _, _), verdict) in chosen.into_iter().zip(verdicts) {
         let verdict = verdict.unwrap_or_else(|e| Stability::cannot_march(&e));
-        rows[i].stable = verdict.stable();
-        rows[i].multiplier = verdict.multiplier;
+        if let Some(row) = rows.iter_mut().find(|r| r.index == *i) {
+            row.stable = verdict.stable();
+            row.multiplier = verdict.multiplier;
+        }
     }
     Ok(())
 }
@@ -266,8 +465,8 @@ fn row(
     p: &Pipeline,
     model: &Model,
     mesh: &MeshInfo,
-    info: &PointInfo,
-    solution: &Solution,
+    info: &continuation::PointInfo,
+    solution: &crate::hbm::Solution,
 ) -> SweepRow {
     let samples = solution
         .contact
@@ -287,23 +486,6 @@ fn row(
         seconds: info.seconds,
         stable: None,
         multiplier: None,
-    }
-}
-
-fn fold_report(f: &Fold, rows: &[SweepRow]) -> FoldReport {
-    let frequency_hz = f.omega / (2.0 * std::f64::consts::PI);
-    let nearer = [f.after, f.after + 1]
-        .into_iter()
-        .filter_map(|i| rows.get(i))
-        .min_by(|a, b| {
-            (a.frequency_hz - frequency_hz)
-                .abs()
-                .total_cmp(&(b.frequency_hz - frequency_hz).abs())
-        });
-    FoldReport {
-        frequency_hz,
-        after: f.after,
-        amplitude: nearer.map_or(f64::NAN, |r| r.values[0]),
     }
 }
 

@@ -2,6 +2,8 @@
 //! `hbcontact` binary, solving a scene through the library.
 #![allow(dead_code)]
 
+pub mod svg;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

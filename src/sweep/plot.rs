@@ -1,0 +1,153 @@
+//! The sweep's plots, SVG and PNG through `output::plot`:
+//! - `sweep`: the probe's first-harmonic amplitude |û_1| [m] against the frequency f [Hz];
+//! - `sweep_force` (contact scenes): the peak total contact force max_t Σ_i F_i(t) [N]
+//!   against f.
+//!
+//! Both follow the rows in curve order (through the folds, so f runs back on a branch):
+//! solid where the point is stable or unchecked (`stable` None), dashed where it is unstable
+//! (a dashed piece starts at the last stable point, so the curve has no gap). Every fold is a
+//! black triangle labelled `fold K: f Hz` on the curve.
+
+use std::path::Path;
+
+use super::{FoldReport, SweepRow, SweepSummary};
+use crate::output::plot::{Axis, Figure, Style};
+use crate::Result;
+
+/// Draw `sweep` and, with a contact force column holding values, `sweep_force` into `dir`.
+pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
+    let column = |name: &str| s.columns.iter().position(|c| c == name);
+    let figures = [
+        (
+            "sweep",
+            column("probe_first_harmonic"),
+            "probe first-harmonic amplitude [m]",
+            "probe first-harmonic amplitude against frequency",
+        ),
+        (
+            "sweep_force",
+            column("peak_contact_force"),
+            "peak contact force [N]",
+            "peak total contact force against frequency",
+        ),
+    ];
+    for (stem, column, y_label, title) in figures {
+        let Some(c) = column else { continue };
+        if !s.rows.iter().any(|r| r.values[c].is_finite()) {
+            continue;
+        }
+        let title = format!("{}: {title} (H = {})", s.name, s.harmonics);
+        response_figure(&title, y_label, &s.rows, c, &s.folds).save(&dir.join(stem))?;
+    }
+    Ok(())
+}
+
+/// Column `c` of the rows against frequency, in stable (solid) and unstable (dashed) pieces
+/// of one colour, with the folds marked.
+fn response_figure(
+    title: &str,
+    y_label: &str,
+    rows: &[SweepRow],
+    c: usize,
+    folds: &[FoldReport],
+) -> Figure {
+    let mut fig = Figure::new(title, Axis::linear("frequency [Hz]"), Axis::linear(y_label));
+    let checked = rows.iter().any(|r| r.stable.is_some());
+    let (mut solid_labelled, mut dashed_labelled) = (false, false);
+    for (unstable, points) in pieces(rows, c) {
+        let (style, label) = if unstable {
+            let l = if dashed_labelled { "" } else { "unstable" };
+            dashed_labelled = true;
+            (Style::Dashed, l)
+        } else {
+            let l = match (solid_labelled, checked) {
+                (true, _) => "",
+                (false, true) => "stable",
+                (false, false) => "response (stability not checked)",
+            };
+            solid_labelled = true;
+            (Style::Curve, l)
+        };
+        fig = fig.add(label, points, style).colour(0);
+    }
+    for (k, f) in folds.iter().enumerate() {
+        if let Some(r) = rows.iter().find(|r| r.index == f.after) {
+            let label = format!("fold {}: {:.1} Hz", k + 1, r.frequency_hz);
+            fig = fig.mark(label, (r.frequency_hz, r.values[c]));
+        }
+    }
+    fig
+}
+
+/// Runs of consecutive rows of one kind (unstable or not) as (unstable, points); an unstable
+/// run begins with the point before it and a stable run after an unstable one begins with
+/// that run's last point, so the pieces join.
+fn pieces(rows: &[SweepRow], c: usize) -> Vec<(bool, Vec<(f64, f64)>)> {
+    let mut out: Vec<(bool, Vec<(f64, f64)>)> = Vec::new();
+    let mut last: Option<(f64, f64)> = None;
+    for r in rows {
+        let p = (r.frequency_hz, r.values[c]);
+        let unstable = r.stable == Some(false);
+        match out.last_mut() {
+            Some((kind, points)) if *kind == unstable => points.push(p),
+            _ => {
+                let mut points: Vec<(f64, f64)> = last.into_iter().collect();
+                points.push(p);
+                out.push((unstable, points));
+            }
+        }
+        last = Some(p);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hbm::sweep::Corrector;
+
+    fn row(index: usize, stable: Option<bool>) -> SweepRow {
+        SweepRow {
+            index,
+            frequency_hz: 100.0 + index as f64,
+            values: vec![index as f64],
+            corrector: Corrector::FixedFrequency,
+            newton_iterations: 1,
+            factorizations: 1,
+            step: 0.01,
+            tangent_frequency: 1.0,
+            seconds: 0.0,
+            stable,
+        }
+    }
+
+    /// TEST GOAL: a curve with an unstable stretch is drawn as solid, dashed, solid pieces
+    /// that join (each piece starts at the previous piece's last point), labelled once each
+    /// ("stable", "unstable"), all in one colour; unchecked points count as solid.
+    #[test]
+    fn unstable_points_are_a_dashed_piece_joined_to_the_solid_ones() {
+        let stability = [None, Some(true), Some(false), Some(false), Some(true), None];
+        let rows: Vec<SweepRow> = (0..6).map(|i| row(i, stability[i])).collect();
+        let ys = |points: &[(f64, f64)]| -> Vec<f64> { points.iter().map(|p| p.1).collect() };
+        let p = pieces(&rows, 0);
+        assert_eq!(p.len(), 3);
+        assert_eq!((p[0].0, ys(&p[0].1)), (false, vec![0.0, 1.0]));
+        assert_eq!((p[1].0, ys(&p[1].1)), (true, vec![1.0, 2.0, 3.0]));
+        assert_eq!((p[2].0, ys(&p[2].1)), (false, vec![3.0, 4.0, 5.0]));
+        let fig = response_figure("t", "y [m]", &rows, 0, &[]);
+        let styles: Vec<(Style, &str, Option<usize>)> = fig
+            .series
+            .iter()
+            .map(|s| (s.style, s.label.as_str(), s.colour))
+            .collect();
+        assert_eq!(
+            styles,
+            vec![
+                (Style::Curve, "stable", Some(0)),
+                (Style::Dashed, "unstable", Some(0)),
+                (Style::Curve, "", Some(0)),
+            ]
+        );
+        assert!(fig.svg().unwrap().contains("unstable"));
+    }
+}

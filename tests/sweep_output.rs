@@ -1,0 +1,528 @@
+//! What `hbcontact sweep` writes besides its table: the curve's plots (read back from the SVG
+//! and compared with sweep.csv), frames.pvd along the curve (read by meshio), the full run
+//! outputs at the folds, the peak and `sweep.write_at`, the curve so far of a sweep that
+//! fails part-way, and `--resume` (docs/method.md, "Sweeps"; README, "Frequency-response
+//! curves through folds").
+//!
+//! The scene: the 5%-damped strip against its wall (pipelines/strip_sweep.yaml) on a coarse
+//! mesh (lc = 25 mm), H = 10, from 1550 to 1750 Hz, which holds the fold where the stiffened
+//! resonance turns back (≈ 1669 Hz), stopped after 80 points.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+use common::svg::{check_plot, FIRST};
+use hbcontact::pipeline::{self, RunOptions};
+use hbcontact::Silent;
+use serde_json::Value;
+
+const SCENE: &str = "pipelines/strip_sweep.yaml";
+const RANGE: [&str; 4] = [
+    "geometry.parameters.lc=0.025",
+    "sweep.from=1550",
+    "sweep.to=1750",
+    "sweep.write_at=[1600]",
+];
+
+/// `hbcontact sweep SCENE --quiet` with RANGE, `extra` sets and `args`, into `out`.
+fn sweep_cli(out: &Path, extra: &[&str], args: &[&str]) -> Output {
+    let mut all = vec!["sweep", SCENE, "--quiet", "--out", out.to_str().unwrap()];
+    for s in RANGE.iter().chain(extra) {
+        all.extend(["--set", s]);
+    }
+    all.extend(args);
+    common::hbcontact(&all)
+}
+
+fn assert_exit(o: &Output, code: i32, what: &str) {
+    assert_eq!(
+        o.status.code(),
+        Some(code),
+        "{what}: stdout {}\nstderr {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The uninterrupted reference curve (80 points), swept once for every test that reads it.
+fn curve() -> &'static (PathBuf, Value) {
+    static CURVE: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    CURVE.get_or_init(|| {
+        let out = common::temp_out("sweep-output-curve");
+        let o = sweep_cli(&out, &["sweep.max_points=80"], &[]);
+        assert_exit(&o, 0, "the reference sweep");
+        let json = common::read_json(&out.join("sweep.json"));
+        (out, json)
+    })
+}
+
+/// sweep.csv as rows of column → text.
+fn read_csv(path: &Path) -> Vec<BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .zip(l.split(','))
+                .map(|(h, v)| (h.to_string(), v.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+fn num(row: &BTreeMap<String, String>, column: &str) -> f64 {
+    row[column].parse().unwrap_or(f64::NAN)
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(f64::MIN_POSITIVE)
+}
+
+/// TEST GOAL: sweep.svg draws the probe's first-harmonic amplitude against frequency and
+/// sweep_force.svg the peak contact force, each one polyline through every row of sweep.csv
+/// in curve order (read back through the tick labels: within a pixel in x and y), solid
+/// (no verdict yet: the legend says stability is not checked), with axis labels in units,
+/// and one labelled triangle per fold on the curve (within a pixel); each PNG is 720 × 480.
+#[test]
+fn sweep_plots_draw_the_rows_of_sweep_csv_and_mark_each_fold() {
+    let (out, json) = curve();
+    let rows = read_csv(&out.join("sweep.csv"));
+    let folds = json["folds"].as_array().unwrap();
+    assert!(!folds.is_empty(), "the range holds a fold");
+    for (stem, column, label) in [
+        (
+            "sweep",
+            "probe_first_harmonic",
+            "probe first-harmonic amplitude [m]",
+        ),
+        (
+            "sweep_force",
+            "peak_contact_force",
+            "peak contact force [N]",
+        ),
+    ] {
+        let fold_label = format!("fold 1: {:.1} Hz", f(&folds[0]["frequency_hz"]));
+        let svg = check_plot(
+            &out.join(stem),
+            &[
+                "frequency [Hz]",
+                label,
+                "response (stability not checked)",
+                &fold_label,
+            ],
+        );
+        let drawn = svg.series(FIRST);
+        assert_eq!(drawn.len(), rows.len(), "{stem}: one vertex per row");
+        let (px, py) = (svg.x_map.1.abs(), svg.y_map.1.abs());
+        let mut worst: f64 = 0.0;
+        for (d, r) in drawn.iter().zip(&rows) {
+            let (dx, dy) = (
+                (d.0 - num(r, "frequency_hz")) / px,
+                (d.1 - num(r, column)) / py,
+            );
+            worst = worst.max(dx.abs()).max(dy.abs());
+        }
+        println!(
+            "{stem}: {} vertices, worst offset {worst:.2} px",
+            drawn.len()
+        );
+        assert!(worst <= 1.0, "{stem}: a vertex {worst} px off its row");
+        assert_eq!(svg.polygons.len(), folds.len(), "{stem}: one mark per fold");
+        for (mark, fold) in svg.polygons.iter().zip(folds) {
+            let row = &rows[fold["after"].as_u64().unwrap() as usize];
+            let (x, y) = svg.value(*mark);
+            let (dx, dy) = (
+                (x - num(row, "frequency_hz")) / px,
+                (y - num(row, column)) / py,
+            );
+            println!("{stem}: fold mark {dx:.1}, {dy:.1} px from its row");
+            assert!(dx.abs() <= 1.0 && dy.abs() <= 1.0, "{stem}: {dx} {dy}");
+        }
+    }
+}
+
+/// Run tests/scripts/sweep_frames_check.py on a sweep directory; its printed lines.
+fn frames_check(dir: &Path) -> Vec<Vec<String>> {
+    let o = Command::new(common::venv_python())
+        .arg(common::root().join("tests/scripts/sweep_frames_check.py"))
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "sweep_frames_check.py: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter_map(|l| l.strip_prefix("sweep_frames: "))
+        .map(|l| l.split(' ').map(str::to_string).collect())
+        .collect()
+}
+
+/// TEST GOAL: frames.pvd lists one frame per saved point (save_every = 1: every row), its
+/// "time" the row index, and meshio reads every frame with its arrays; each frame's
+/// frequency_hz is its row's frequency, and the frame of a written point holds the same
+/// first-harmonic amplitude field as that point's amplitudes.vtu (same solution, 1e-12).
+#[test]
+fn frames_pvd_lists_every_saved_point_and_meshio_reads_each_frame() {
+    let (out, json) = curve();
+    let rows = json["rows"].as_array().unwrap();
+    let lines = frames_check(out);
+    let frames: Vec<&Vec<String>> = lines.iter().filter(|l| l[0] == "frame").collect();
+    assert_eq!(frames.len(), rows.len());
+    let mut max_amp = BTreeMap::new();
+    for (frame, row) in frames.iter().zip(rows) {
+        let index = row["index"].as_u64().unwrap();
+        assert_eq!(frame[1].parse::<f64>().unwrap(), index as f64);
+        let hz: f64 = frame[2].parse().unwrap();
+        assert!(
+            rel(hz, f(&row["frequency_hz"])) < 1e-14,
+            "row {index}: {hz}"
+        );
+        max_amp.insert(index, frame[3].parse::<f64>().unwrap());
+    }
+    let written = json["written"].as_array().unwrap();
+    assert_eq!(written.len(), 3, "fold 1, peak and the point at 1600 Hz");
+    for w in written {
+        let folder = w["folder"].as_str().unwrap().trim_start_matches("points/");
+        let point = lines
+            .iter()
+            .find(|l| l[0] == "point" && l[1] == folder)
+            .unwrap_or_else(|| panic!("no amplitudes.vtu in {folder}"));
+        let a: f64 = point[2].parse().unwrap();
+        let frame = max_amp[&w["row"].as_u64().unwrap()];
+        println!("{folder}: frame {frame:.6e}, amplitudes.vtu {a:.6e}");
+        assert!(rel(a, frame) < 1e-12, "{folder}: {a} vs {frame}");
+    }
+}
+
+/// TEST GOAL: the fold, the peak and the point nearest `sweep.write_at` each get the full
+/// output of a `run` in points/<why>/: its summary.json is at the row's frequency (the fold's
+/// frequency for the fold) and its probe first harmonic is the row's (the same typed summary,
+/// 1e-12), the peak is the row of the largest amplitude and `at_1600Hz` the row nearest
+/// 1600 Hz, and meshio reads the series (contact law checks included).
+#[test]
+fn fold_peak_and_write_at_points_hold_a_runs_output_at_their_rows() {
+    let (out, json) = curve();
+    let rows = json["rows"].as_array().unwrap();
+    let value = |i: usize| f(&rows[i]["values"][0]);
+    let peak = (0..rows.len())
+        .max_by(|&a, &b| value(a).total_cmp(&value(b)))
+        .unwrap();
+    let near = (0..rows.len())
+        .min_by(|&a, &b| {
+            let d = |i: usize| (f(&rows[i]["frequency_hz"]) - 1600.0).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let fold = &json["folds"][0];
+    let fold_row = fold["after"].as_u64().unwrap() as usize;
+    let expected = [("fold 1", fold_row), ("peak", peak), ("at 1600 Hz", near)];
+    for (reason, row) in expected {
+        let w = json["written"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|w| w["reason"] == reason)
+            .unwrap_or_else(|| panic!("no written point for {reason}"));
+        assert_eq!(w["row"].as_u64().unwrap() as usize, row, "{reason}");
+        let dir = out.join(w["folder"].as_str().unwrap());
+        for file in [
+            "series.pvd",
+            "amplitudes.vtu",
+            "probes.csv",
+            "contact.csv",
+            "plots",
+        ] {
+            assert!(dir.join(file).exists(), "{}: no {file}", dir.display());
+        }
+        let s = common::read_json(&dir.join("summary.json"));
+        let hz = f(&s["frequency_hz"]);
+        let probe = &s["probes"]["probe"];
+        let amp = f(&probe["first_harmonic_x"]).max(f(&probe["first_harmonic_y"]));
+        println!(
+            "{reason}: row {row}, {hz:.4} Hz, amplitude {amp:.6e} (row {:.6e})",
+            value(row)
+        );
+        assert!(
+            rel(hz, f(&rows[row]["frequency_hz"])) < 1e-14,
+            "{reason}: {hz}"
+        );
+        if reason == "fold 1" {
+            assert!(rel(hz, f(&fold["frequency_hz"])) < 1e-14);
+        }
+        assert!(
+            rel(amp, value(row)) < 1e-12,
+            "{reason}: {amp} vs {}",
+            value(row)
+        );
+        let o = Command::new(common::venv_python())
+            .arg(common::root().join("tests/scripts/meshio_check.py"))
+            .arg(&dir)
+            .args([
+                "--contact",
+                &format!("{:e}", f(&s["contact"]["closed_opening_tolerance"])),
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+}
+
+/// TEST GOAL: a sweep stopped by `max_points` (30) says so in sweep.json (`stopped.class`
+/// max_points, at its last row; exit 0) and `--resume` with the budget raised to 80
+/// continues it from there: the rows, folds and written points equal those of the
+/// uninterrupted 80-point sweep (frequencies and outputs to 1e-11; the resumed point is
+/// re-solved from its saved multipliers, so it stays on its branch), and `resumed_from`
+/// names the row it continued from.
+#[test]
+fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
+    let (_, whole) = curve();
+    let out = common::temp_out("sweep-output-resume");
+    let first = sweep_cli(&out, &["sweep.max_points=30"], &[]);
+    assert_exit(&first, 0, "the interrupted sweep");
+    let part = common::read_json(&out.join("sweep.json"));
+    assert_eq!(part["stopped"]["class"], "max_points");
+    assert_eq!(part["stopped"]["point"], 29);
+    assert_eq!(part["rows"].as_array().unwrap().len(), 30);
+    let second = sweep_cli(&out, &["sweep.max_points=80"], &["--resume"]);
+    assert_exit(&second, 0, "the resumed sweep");
+    let resumed = common::read_json(&out.join("sweep.json"));
+    assert_eq!(resumed["resumed_from"], serde_json::json!([29]));
+    let (a, b) = (
+        whole["rows"].as_array().unwrap(),
+        resumed["rows"].as_array().unwrap(),
+    );
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (ra, rb) in a.iter().zip(b) {
+        assert_eq!(ra["index"], rb["index"]);
+        assert_eq!(ra["corrector"], rb["corrector"]);
+        worst = worst.max(rel(f(&ra["frequency_hz"]), f(&rb["frequency_hz"])));
+        for (va, vb) in ra["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(rb["values"].as_array().unwrap())
+        {
+            if va.is_f64() && f(va) != 0.0 {
+                worst = worst.max(rel(f(va), f(vb)));
+            }
+        }
+    }
+    println!("{} rows, largest relative difference {worst:.1e}", a.len());
+    assert!(worst < 1e-11, "{worst}");
+    let fold = |j: &Value| f(&j["folds"][0]["frequency_hz"]);
+    assert_eq!(
+        whole["folds"].as_array().unwrap().len(),
+        resumed["folds"].as_array().unwrap().len()
+    );
+    assert!(rel(fold(whole), fold(&resumed)) < 1e-11);
+    let folders = |j: &Value| -> Vec<String> {
+        j["written"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["folder"].to_string())
+            .collect()
+    };
+    assert_eq!(folders(whole), folders(&resumed));
+    for w in folders(&resumed) {
+        assert!(
+            out.join(w.trim_matches('"')).join("summary.json").is_file(),
+            "{w}"
+        );
+    }
+    assert_eq!(resumed["frames"].as_array().unwrap().len(), 80);
+}
+
+/// TEST GOAL: a sweep whose continuation fails part-way (here: larger steps that cannot pass
+/// the second fold near 1596 Hz) keeps the curve so far: sweep.csv and sweep.json hold every
+/// row found, `stopped` names the last row, its frequency and the class of the exit code
+/// (not_converged, 4), the plots, the frames (every third point, save_every = 3) and the fold
+/// found are written; `--resume` with another range is refused naming the key (exit 2), and a
+/// resume without a saved sweep names the fix.
+#[test]
+fn a_sweep_failing_part_way_keeps_the_curve_so_far_and_exits_with_its_class() {
+    let out = common::temp_out("sweep-output-fail");
+    let steps = [
+        "sweep.step=0.03",
+        "sweep.max_step=0.15",
+        "sweep.save_every=3",
+    ];
+    let o = sweep_cli(&out, &steps, &[]);
+    assert_exit(&o, 4, "the failing sweep");
+    let json = common::read_json(&out.join("sweep.json"));
+    let rows = json["rows"].as_array().unwrap();
+    let csv = read_csv(&out.join("sweep.csv"));
+    let last = rows.last().unwrap();
+    let stopped = &json["stopped"];
+    println!("{} rows; stopped: {stopped}", rows.len());
+    assert!(rows.len() > 10 && csv.len() == rows.len());
+    assert_eq!(stopped["class"], "not_converged");
+    assert_eq!(stopped["point"], last["index"]);
+    assert_eq!(f(&stopped["frequency_hz"]), f(&last["frequency_hz"]));
+    assert!(stopped["reason"].as_str().unwrap().contains("--resume"));
+    for file in [
+        "sweep.svg",
+        "sweep.png",
+        "sweep_force.svg",
+        "frames.pvd",
+        "mesh.msh",
+    ] {
+        assert!(out.join(file).is_file(), "no {file}");
+    }
+    let frames: Vec<u64> = json["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    let every_third: Vec<u64> = (0..rows.len() as u64).filter(|i| i % 3 == 0).collect();
+    assert_eq!(frames, every_third);
+    assert_eq!(
+        frames_check(&out)
+            .iter()
+            .filter(|l| l[0] == "frame")
+            .count(),
+        frames.len()
+    );
+    let fold = &json["folds"][0];
+    assert!(f(&fold["frequency_hz"]) > 1660.0, "{fold}");
+    assert!(json["written"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w["reason"] == "fold 1"));
+    let refused = sweep_cli(&out, &["sweep.from=1500"], &["--resume"]);
+    assert_exit(&refused, 2, "a resume with another range");
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("sweep.from"));
+    let nothing = sweep_cli(&common::temp_out("sweep-output-none"), &[], &["--resume"]);
+    assert_exit(&nothing, 2, "a resume without a saved sweep");
+    assert!(String::from_utf8_lossy(&nothing.stderr).contains("without --resume"));
+}
+
+/// TEST GOAL: a contact scene whose body never reaches the obstacle over the range (the wall
+/// 0.5 mm away, amplitudes ≈ 20 µm) sweeps the linear curve: no contact force anywhere, no
+/// fold, and every row equals the linear response of the same model without its contact
+/// (same mass: the contact nodes' redistributed mass; 1e-13); `--resume` of the finished sweep
+/// is refused (nothing to continue).
+#[test]
+fn a_contact_scene_that_never_touches_sweeps_the_linear_curve_point_by_point() {
+    let sets = [
+        "geometry.parameters.lc=0.025",
+        "geometry.parameters.gap=5e-4",
+        "sweep.from=1300",
+        "sweep.to=1420",
+        "output.plots=false",
+    ];
+    let p = common::scene("strip_sweep", &sets);
+    let options = RunOptions {
+        out: Some(common::temp_out("sweep-output-untouched")),
+        ..Default::default()
+    };
+    let result = hbcontact::sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let s = &result.summary;
+    assert!(
+        result.failure.is_none() && s.stopped.is_none(),
+        "{:?}",
+        s.stopped
+    );
+    assert!(s.folds.is_empty(), "{:?}", s.folds);
+    let model = common::model(&p, pipeline::Purpose::HarmonicBalance);
+    let hb = common::settings(&p);
+    let mut worst: f64 = 0.0;
+    for row in &s.rows {
+        assert_eq!(
+            row.values[2], 0.0,
+            "peak contact force at {} Hz",
+            row.frequency_hz
+        );
+        let mut system = model.system.clone();
+        system.omega = 2.0 * std::f64::consts::PI * row.frequency_hz;
+        let linear = hbcontact::hbm::solve(&system, None, &hb, &Silent).unwrap();
+        let u: Vec<Vec<f64>> = (0..64)
+            .map(|j| linear.field_at(&system.dofs, j as f64 / 64.0 * linear.period(), 0))
+            .collect();
+        let amp =
+            pipeline::summary::probe_amplitudes(&model, &u, hb.harmonics)["probe"].first_harmonic();
+        worst = worst.max(rel(amp, row.values[0]));
+    }
+    println!(
+        "{} rows, largest relative difference from the linear response {worst:.1e}",
+        s.rows.len()
+    );
+    assert!(s.rows.len() > 5);
+    assert!(worst < 1e-13, "{worst}");
+    let again = hbcontact::sweep::resume(&p, &options, &Silent);
+    let message = again.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("nothing to continue"), "{message}");
+}
+
+/// TEST GOAL: Ctrl-C (SIGINT) stops a running sweep after its current point instead of
+/// ending the process at once: the curve so far is written (sweep.json's `stopped.class`
+/// interrupted, at its last row; csv and frames), the exit code is 130, and `--resume`
+/// continues it (here for 3 more points, exit 0, the rows before kept).
+#[test]
+fn an_interrupted_sweep_writes_the_curve_so_far_and_resumes() {
+    let out = common::temp_out("sweep-output-interrupt");
+    let sets = ["geometry.parameters.lc=0.025", "output.plots=false"];
+    let mut args = vec!["sweep", SCENE, "--quiet", "--out", out.to_str().unwrap()];
+    for s in &sets {
+        args.extend(["--set", s]);
+    }
+    let child = Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(&args)
+        .current_dir(common::root())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let partial = out.with_file_name(format!("sweep-output-interrupt.partial-{}", child.id()));
+    let mut waited = 0;
+    while std::fs::read_dir(partial.join("frames")).map_or(0, |d| d.count()) < 5 {
+        assert!(
+            waited < 1200,
+            "no frames after 120 s in {}",
+            partial.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        waited += 1;
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    assert_exit(&o, 130, "the interrupted sweep");
+    let json = common::read_json(&out.join("sweep.json"));
+    let rows = json["rows"].as_array().unwrap();
+    let last = rows.last().unwrap();
+    println!("interrupted after {} rows: {}", rows.len(), json["stopped"]);
+    assert_eq!(json["stopped"]["class"], "interrupted");
+    assert_eq!(json["stopped"]["point"], last["index"]);
+    assert!(rows.len() >= 5 && rows.len() < 200, "{}", rows.len());
+    assert_eq!(read_csv(&out.join("sweep.csv")).len(), rows.len());
+    let more = format!("sweep.max_points={}", rows.len() + 3);
+    let mut resume_args = args.clone();
+    resume_args.extend(["--set", &more, "--resume"]);
+    let o = common::hbcontact(&resume_args);
+    assert_exit(&o, 0, "the resumed sweep");
+    let resumed = common::read_json(&out.join("sweep.json"));
+    let after = resumed["rows"].as_array().unwrap();
+    assert_eq!(after.len(), rows.len() + 3);
+    assert_eq!(&after[..rows.len()], &rows[..]);
+    assert_eq!(resumed["stopped"]["class"], "max_points");
+}
