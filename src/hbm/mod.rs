@@ -14,6 +14,7 @@
 //! excite (no static solve without static load), undamped scenes factor real matrices, and
 //! the contact reduction runs only when there is an obstacle.
 
+pub mod basis;
 pub mod fourier;
 mod globalize;
 pub mod knobs;
