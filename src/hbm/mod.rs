@@ -81,6 +81,12 @@ pub fn solve(
     settings: &HbSettings,
     reporter: &dyn Reporter,
 ) -> Result<Solution> {
+    if let (Some(_), basis::TimeBasis::Spline(_)) = (contact, &system.basis) {
+        return Err(Error::Input(format!(
+            "harmonic_balance.basis: the {} basis does not support contact yet; use basis: fourier for contact scenes",
+            system.basis.describe()
+        )));
+    }
     let mut timings = Timings::default();
     let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
@@ -151,6 +157,15 @@ fn harmonics_to_compute(
             .collect(),
     };
     let excited_max = system.inputs.keys().copied().max().unwrap_or(0);
+    if let basis::TimeBasis::Spline(s) = &system.basis {
+        if 2 * excited_max >= s.segments {
+            return Err(Error::Input(format!(
+                "harmonic_balance.basis: {} segments cannot carry harmonic {excited_max} of the loads: use more than {} segments",
+                s.segments,
+                2 * excited_max
+            )));
+        }
+    }
     if contact.is_some() && excited_max > settings.harmonics {
         return Err(Error::Model(format!(
             "the loads excite harmonic {excited_max} but harmonic_balance.harmonics = {}: raise it to at least {excited_max} (contact couples all harmonics up to H, and a load above H would be dropped)",
@@ -257,6 +272,7 @@ impl LinearResponse {
         let complex = system.rayleigh.is_some() && self.free.keys().any(|&k| k > 0);
         Solution {
             omega: system.omega,
+            basis: system.basis.clone(),
             free: self.free,
             motion: self.motion,
             contact,
