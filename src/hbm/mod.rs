@@ -7,6 +7,8 @@
 //! - N time samples per period for the contact terms (N > 2H; default 16H);
 //! - Z_k = K − k²ω²M + ikωD the dynamic stiffness of harmonic k, z_k = a_k − i b_k the complex
 //!   amplitude, so u(t) = Re Σ_k z_k e^{ikωt};
+//! - the time basis (`basis`): Fourier, or periodic splines (linear scenes so far) whose
+//!   discrete frequencies j take the place of k, with Z_j = K + s_j D + q_j M;
 //! - G_k = B Z_k⁻¹ Bᵀ the contact nodes' dynamic compliance, r the linear gap;
 //! - c > 0 the complementarity parameter (a stiffness; default 1/mean|G_0,ii|).
 //!
