@@ -318,3 +318,77 @@ fn sweep_output_keys_are_read_and_write_at_outside_the_range_is_refused() {
         "{e}"
     );
 }
+
+/// TEST GOAL: `harmonic_balance.basis` reads `fourier` (the default) and
+/// `{spline: {degree, segments}}` (degree 3 by default); a degree outside 2 … 7, too few
+/// segments for the degree or for the loads' harmonics, and splines with contact or a sweep
+/// block are refused naming the key and the fix.
+#[test]
+fn time_basis_is_read_defaulted_and_its_limits_named() {
+    use hbcontact::config::BasisSpec;
+    let load = |overrides: &[&str]| {
+        let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        load_pipeline(&root().join("pipelines/cantilever.yaml"), &o).unwrap()
+    };
+    assert_eq!(load(&[]).harmonic_balance.basis, BasisSpec::Fourier);
+    let fourier = load(&["harmonic_balance.basis=fourier"]);
+    assert_eq!(fourier.harmonic_balance.basis, BasisSpec::Fourier);
+    let spline = load(&["harmonic_balance.basis={spline: {segments: 16}}"]);
+    assert_eq!(
+        spline.harmonic_balance.basis,
+        BasisSpec::Spline {
+            degree: 3,
+            segments: 16
+        }
+    );
+    let k2 = "boundaries.loads.0.harmonics=[{k: 2, cos: [0.0, 1.0], sin: [0.0, 0.0]}]";
+    let sweep = "sweep={from: 5.0, to: 15.0}";
+    let cases: [(&str, &str, &[&str], &str); 6] = [
+        (
+            "cantilever",
+            "{spline: {degree: 1, segments: 16}}",
+            &[],
+            "degree = 1 must be 2 … 7",
+        ),
+        (
+            "cantilever",
+            "{spline: {degree: 4, segments: 4}}",
+            &[],
+            "segments = 4 must be 5",
+        ),
+        (
+            "cantilever",
+            "{spline: {degree: 2, segments: 4}}",
+            &[k2],
+            "more than 4 segments",
+        ),
+        (
+            "cantilever",
+            "{spline: {segments: 64}}",
+            &[sweep],
+            "does not support the `sweep` block",
+        ),
+        (
+            "strip_wall",
+            "{spline: {segments: 64}}",
+            &[],
+            "spline does not support contact",
+        ),
+        (
+            "strip_sweep",
+            "{spline: {segments: 64}}",
+            &[],
+            "spline does not support contact",
+        ),
+    ];
+    for (scene, basis, extra, needle) in cases {
+        let mut overrides = vec![format!("harmonic_balance.basis={basis}")];
+        overrides.extend(extra.iter().map(|s| s.to_string()));
+        let overrides: Vec<&str> = overrides.iter().map(|s| s.as_str()).collect();
+        let e = err(&format!("pipelines/{scene}.yaml"), &overrides);
+        assert!(
+            e.contains(needle) && e.contains("harmonic_balance.basis"),
+            "{scene} {basis}: {e}"
+        );
+    }
+}

@@ -133,6 +133,17 @@ pub struct HarmonicBalance {
     /// Time samples per period for the contact terms; `None` = the default (16 H, at least 64).
     pub samples: Option<usize>,
     pub solver: SolverSpec,
+    /// The time basis (`fourier` unless the pipeline asks for splines).
+    pub basis: BasisSpec,
+}
+
+/// The time basis of a harmonic-balance solve, as validated (`hbm::basis` builds it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BasisSpec {
+    #[default]
+    Fourier,
+    /// Uniform periodic B-splines of degree 2 … 7 on `segments` ≥ degree + 1 segments.
+    Spline { degree: usize, segments: usize },
 }
 
 #[derive(Clone, Debug)]

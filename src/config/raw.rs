@@ -297,6 +297,33 @@ struct RawHarmonicBalance {
     /// The contact solver's settings. Default: each key's default.
     #[serde(default)]
     solver: Option<RawSolver>,
+    /// The time basis of one period: `fourier` (harmonics 0..H) or
+    /// `{spline: {degree, segments}}` (uniform periodic B-splines; linear scenes only so far).
+    /// Default: fourier.
+    #[serde(
+        default,
+        deserialize_with = "serde_yaml::with::singleton_map::deserialize"
+    )]
+    #[schemars(with = "Option<RawBasis>")]
+    basis: Option<RawBasis>,
+}
+
+/// The time basis, written `fourier` or `{spline: {degree: 3, segments: 32}}`.
+#[derive(Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(rename = "TimeBasis")]
+enum RawBasis {
+    /// The Fourier series of harmonics 0..H.
+    Fourier,
+    /// Uniform periodic B-splines over the period.
+    Spline {
+        /// The polynomial degree p, 2 … 7 (C^{p−1} in time). Default: 3.
+        #[serde(default)]
+        degree: Option<usize>,
+        /// The number S of uniform segments per period (S unknowns per scalar), ≥ degree + 1
+        /// and > 2 × the highest harmonic a load or motion excites. Required.
+        segments: usize,
+    },
 }
 
 /// A rigid obstacle, written as a one-key mapping: `{curve: NAME}`,
@@ -816,7 +843,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
     let stability = validate_stability(path, raw.stability)?;
     let output = validate_output(path, raw.output, &raw.name)?;
-    Ok(Pipeline {
+    let pipeline = Pipeline {
         name: raw.name,
         source: path.to_path_buf(),
         geometry,
@@ -829,7 +856,9 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         sweep,
         stability,
         output,
-    })
+    };
+    check_spline_scene(path, &pipeline)?;
+    Ok(pipeline)
 }
 
 /// A contact solve computes harmonics 0..H only: every harmonic a load or motion excites must
@@ -1161,7 +1190,72 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
         harmonics: hb.harmonics,
         samples: hb.samples,
         solver,
+        basis: validate_basis(path, hb.basis)?,
     })
+}
+
+/// The most segments of a spline basis (as many unknowns per scalar as samples).
+const MAX_SEGMENTS: usize = 100_000;
+
+fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
+    let Some(RawBasis::Spline { degree, segments }) = basis else {
+        return Ok(BasisSpec::Fourier);
+    };
+    let degree = degree.unwrap_or(3);
+    if !(2..=7).contains(&degree) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.degree = {degree} must be 2 … 7 (2 is the lowest C¹ basis; 3, the default, is usually best)"),
+        ));
+    }
+    if segments < degree + 1 || segments > MAX_SEGMENTS {
+        return Err(config_error(
+            path,
+            format!(
+                "harmonic_balance.basis.spline.segments = {segments} must be {} … {MAX_SEGMENTS} (at least degree + 1)",
+                degree + 1
+            ),
+        ));
+    }
+    Ok(BasisSpec::Spline { degree, segments })
+}
+
+/// A spline basis: linear scenes only (the contact path is Fourier's so far), no sweeps,
+/// and more than two segments per period of every harmonic the loads excite.
+fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
+    let BasisSpec::Spline { segments, .. } = p.harmonic_balance.basis else {
+        return Ok(());
+    };
+    let refuse = |what: &str| {
+        Err(config_error(
+            path,
+            format!("harmonic_balance.basis: spline does not support {what} yet; use basis: fourier (the default)"),
+        ))
+    };
+    if p.contact.is_some() {
+        return refuse("contact (the contact solver works on Fourier harmonics)");
+    }
+    if p.sweep.is_some() {
+        return refuse("the `sweep` block");
+    }
+    let b = &p.boundaries;
+    let loads = b
+        .loads
+        .iter()
+        .flat_map(|l| &l.signal.harmonics)
+        .map(|h| h.0);
+    let motions = b
+        .prescribed
+        .iter()
+        .flat_map(|m| &m.signal.harmonics)
+        .map(|h| h.0);
+    if let Some(k) = loads.chain(motions).max().filter(|&k| 2 * k >= segments) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the loads: use more than {} segments (several times more for accuracy)", 2 * k),
+        ));
+    }
+    Ok(())
 }
 
 fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {

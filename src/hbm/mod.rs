@@ -7,6 +7,8 @@
 //! - N time samples per period for the contact terms (N > 2H; default 16H);
 //! - Z_k = K − k²ω²M + ikωD the dynamic stiffness of harmonic k, z_k = a_k − i b_k the complex
 //!   amplitude, so u(t) = Re Σ_k z_k e^{ikωt};
+//! - the time basis (`basis`): Fourier, or periodic splines (linear scenes so far) whose
+//!   discrete frequencies j take the place of k, with Z_j = K + s_j D + q_j M;
 //! - G_k = B Z_k⁻¹ Bᵀ the contact nodes' dynamic compliance, r the linear gap;
 //! - c > 0 the complementarity parameter (a stiffness; default 1/mean|G_0,ii|).
 //!
@@ -14,6 +16,7 @@
 //! excite (no static solve without static load), undamped scenes factor real matrices, and
 //! the contact reduction runs only when there is an obstacle.
 
+pub mod basis;
 pub mod fourier;
 mod globalize;
 pub mod knobs;
@@ -80,6 +83,12 @@ pub fn solve(
     settings: &HbSettings,
     reporter: &dyn Reporter,
 ) -> Result<Solution> {
+    if let (Some(_), basis::TimeBasis::Spline(_)) = (contact, &system.basis) {
+        return Err(Error::Input(format!(
+            "harmonic_balance.basis: the {} basis does not support contact yet; use basis: fourier for contact scenes",
+            system.basis.describe()
+        )));
+    }
     let mut timings = Timings::default();
     let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
@@ -198,6 +207,15 @@ fn harmonics_to_compute(
             .collect(),
     };
     let excited_max = system.inputs.keys().copied().max().unwrap_or(0);
+    if let basis::TimeBasis::Spline(s) = &system.basis {
+        if 2 * excited_max >= s.segments {
+            return Err(Error::Input(format!(
+                "harmonic_balance.basis: {} segments cannot carry harmonic {excited_max} of the loads: use more than {} segments",
+                s.segments,
+                2 * excited_max
+            )));
+        }
+    }
     if contact.is_some() && excited_max > settings.harmonics {
         return Err(Error::Model(format!(
             "the loads excite harmonic {excited_max} but harmonic_balance.harmonics = {}: raise it to at least {excited_max} (contact couples all harmonics up to H, and a load above H would be dropped)",
@@ -304,6 +322,7 @@ impl LinearResponse {
         let complex = system.rayleigh.is_some() && self.free.keys().any(|&k| k > 0);
         Solution {
             omega: system.omega,
+            basis: system.basis.clone(),
             free: self.free,
             motion: self.motion,
             contact,

@@ -1,6 +1,11 @@
 //! What a harmonic-balance solve returns: the per-harmonic amplitudes of the whole field, the
 //! contact multipliers, and how well complementarity holds; evaluated at any instant by
 //! `field_at`, `multipliers_at` and `snapshot` (the Fourier convention is `fourier`'s).
+//!
+//! With a spline basis the map keys are the discrete frequencies j of the spline coefficients
+//! and the amplitudes their phasors (ũ_n = Re Σ_j z_j e^{2πijn/S}, `basis`): `field_at`
+//! evaluates u(t) = Re Σ_j z_j E_j(t) through the basis' rotor, and `amplitude` returns the
+//! Fourier harmonic k of that spline function.
 
 use std::collections::BTreeMap;
 
@@ -8,6 +13,7 @@ use faer::c64;
 use schemars::JsonSchema;
 use serde::Serialize;
 
+use super::basis::TimeBasis;
 use super::fourier;
 use super::reduced::NewtonOutcome;
 use crate::fem::DofMap;
@@ -111,7 +117,9 @@ pub struct Snapshot {
 #[derive(Clone)]
 pub struct Solution {
     pub omega: f64,
-    /// Harmonic index → complex amplitude on the free dofs.
+    /// The time basis the amplitudes refer to.
+    pub basis: TimeBasis,
+    /// Harmonic index (spline: discrete frequency) → complex amplitude on the free dofs.
     pub free: BTreeMap<usize, Vec<c64>>,
     /// Harmonic index → prescribed motion amplitudes.
     pub motion: BTreeMap<usize, Vec<c64>>,
@@ -140,7 +148,7 @@ impl Solution {
         let mut u = vec![0.0; dofs.total()];
         for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
             for (&k, z) in map {
-                let f = fourier::rotor(k, self.omega, t, derivative);
+                let f = self.basis.rotor(k, self.omega, t, derivative);
                 for (i, &d) in targets.iter().enumerate() {
                     u[d] += (z[i] * f).re;
                 }
@@ -149,13 +157,15 @@ impl Solution {
         u
     }
 
-    /// The complex amplitude of harmonic k on all dofs.
+    /// The complex amplitude of Fourier harmonic k on all dofs (for a spline basis the
+    /// harmonic k content of the solution's frequency k; its aliases at k ± lS are left out).
     pub fn amplitude(&self, dofs: &DofMap, k: usize) -> Vec<c64> {
+        let content = self.basis.harmonic_content(k);
         let mut z = vec![c64::new(0.0, 0.0); dofs.total()];
         for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
             if let Some(zk) = map.get(&k) {
                 for (i, &d) in targets.iter().enumerate() {
-                    z[d] = zk[i];
+                    z[d] = zk[i] * content;
                 }
             }
         }

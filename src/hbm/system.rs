@@ -1,11 +1,17 @@
 //! The discrete linear system per harmonic: Dirichlet elimination, the dynamic stiffness
-//! Z_k = K − k²ω²M + ikωD with D = αM + βK, its factorizations (one symbolic analysis shared by
+//! Z_k = K + s_k D + q_k M with D = αM + βK, its factorizations (one symbolic analysis shared by
 //! every harmonic), and the harmonic loads, including those that prescribed motion induces.
+//!
+//! The symbols s_k = iσ_k, q_k come from the time basis (`basis::TimeBasis::symbols`, their one
+//! home): Fourier gives s_k = ikω, q_k = −k²ω² (Z_k = K − k²ω²M + ikωD); a spline basis gives
+//! its per-discrete-frequency symbols, and scales loads and prescribed motion by its
+//! projection factor γ_k.
 
 use std::collections::BTreeMap;
 
 use faer::c64;
 
+use super::basis::{Symbols, TimeBasis};
 use crate::fem::DofMap;
 use crate::linalg::{Csc, LuPattern, SparseLu, Triplets};
 use crate::{Error, Result};
@@ -31,6 +37,8 @@ pub struct System {
     pub m_fp: Csc,
     /// Harmonic index → load and prescribed motion (only the harmonics the scene excites).
     pub inputs: BTreeMap<usize, HarmonicInput>,
+    /// The time basis (Fourier unless `with_basis` says otherwise).
+    pub basis: TimeBasis,
     pattern: LuPattern,
 }
 
@@ -68,8 +76,27 @@ impl System {
             k_fp,
             m_fp,
             inputs,
+            basis: TimeBasis::Fourier,
             pattern,
         })
+    }
+
+    /// The same system on another time basis.
+    pub fn with_basis(mut self, basis: TimeBasis) -> Self {
+        self.basis = basis;
+        self
+    }
+
+    /// s_k = i·damping and q_k = mass of harmonic (or discrete frequency) k at this ω.
+    pub fn symbols(&self, k: usize) -> Symbols {
+        self.basis.symbols(k, self.omega)
+    }
+
+    /// (α, β) where the damping term acts (s_k ≠ 0), else zero.
+    fn damping_at(&self, sym: &Symbols) -> (f64, f64) {
+        self.rayleigh
+            .filter(|_| sym.damping != 0.0)
+            .unwrap_or((0.0, 0.0))
     }
 
     /// The symbolic analysis of the free-dof pattern (K, M and every Z_k share it).
@@ -81,21 +108,25 @@ impl System {
         self.dofs.free.len()
     }
 
-    /// Z_k as (real part, imaginary part on the same pattern); `None` imaginary when undamped.
+    /// Z_k as (real part, imaginary part on the same pattern); `None` imaginary when undamped
+    /// or s_k = 0.
     fn dynamic_stiffness(&self, k: usize) -> (Csc, Option<Vec<f64>>) {
-        let kw = k as f64 * self.omega;
+        let sym = self.symbols(k);
         let mut re = self.k_ff.clone();
         for (v, m) in re.values.iter_mut().zip(&self.m_ff.values) {
-            *v -= kw * kw * m;
+            *v += sym.mass * m;
         }
-        let im = self.rayleigh.filter(|_| k > 0).map(|(alpha, beta)| {
-            self.k_ff
-                .values
-                .iter()
-                .zip(&self.m_ff.values)
-                .map(|(kv, mv)| kw * (beta * kv + alpha * mv))
-                .collect()
-        });
+        let im = self
+            .rayleigh
+            .filter(|_| sym.damping != 0.0)
+            .map(|(alpha, beta)| {
+                self.k_ff
+                    .values
+                    .iter()
+                    .zip(&self.m_ff.values)
+                    .map(|(kv, mv)| sym.damping * (beta * kv + alpha * mv))
+                    .collect()
+            });
         (re, im)
     }
 
@@ -110,26 +141,28 @@ impl System {
 
     /// Z_k x for a complex vector (residual checks).
     pub fn apply(&self, k: usize, x: &[c64]) -> Vec<c64> {
-        let kw = k as f64 * self.omega;
+        let sym = self.symbols(k);
         let (kx, mx) = (self.k_ff.mul_complex(x), self.m_ff.mul_complex(x));
-        let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+        let (alpha, beta) = self.damping_at(&sym);
         kx.iter()
             .zip(&mx)
-            .map(|(&kv, &mv)| kv - mv * (kw * kw) + c64::new(0.0, kw) * (kv * beta + mv * alpha))
+            .map(|(&kv, &mv)| {
+                kv + mv * sym.mass + c64::new(0.0, sym.damping) * (kv * beta + mv * alpha)
+            })
             .collect()
     }
 
-    /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = −2k²ω M + ik(αM + βK): how the dynamic
-    /// stiffness of harmonic k acting on the state changes with ω (the sweep's R_ω).
+    /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = (∂q_k/∂ω) M + i(∂σ_k/∂ω)(αM + βK) (Fourier:
+    /// −2k²ω M + ik(αM + βK)): how the dynamic stiffness of harmonic k acting on the state
+    /// changes with ω (the sweep's R_ω).
     pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
-        let kf = k as f64;
-        let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+        let sym = self.symbols(k);
+        let (alpha, beta) = self.damping_at(&sym);
         let rate = |kx: Vec<c64>, mx: Vec<c64>| -> Vec<c64> {
             kx.iter()
                 .zip(&mx)
                 .map(|(&kv, &mv)| {
-                    mv * (-2.0 * kf * kf * self.omega)
-                        + c64::new(0.0, kf) * (kv * beta + mv * alpha)
+                    mv * sym.mass_rate + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha)
                 })
                 .collect()
         };
@@ -143,7 +176,8 @@ impl System {
         out
     }
 
-    /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k.
+    /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k, times the basis' load factor γ_k
+    /// (splines: the Galerkin projection of the load; `motion` is scaled alike).
     pub fn load(&self, k: usize) -> Vec<c64> {
         let nf = self.free_count();
         let Some(input) = self.inputs.get(&k) else {
@@ -151,24 +185,27 @@ impl System {
         };
         let mut rhs = input.force.clone();
         if input.motion.iter().any(|z| z.norm() > 0.0) {
-            let kw = k as f64 * self.omega;
+            let sym = self.symbols(k);
             let (re, im): (Vec<f64>, Vec<f64>) = input.motion.iter().map(|z| (z.re, z.im)).unzip();
             let (kr, ki) = (self.k_fp.mul_vec(&re), self.k_fp.mul_vec(&im));
             let (mr, mi) = (self.m_fp.mul_vec(&re), self.m_fp.mul_vec(&im));
-            let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+            let (alpha, beta) = self.damping_at(&sym);
             for i in 0..nf {
-                let real = c64::new(kr[i] - kw * kw * mr[i], ki[i] - kw * kw * mi[i]);
+                let real = c64::new(kr[i] + sym.mass * mr[i], ki[i] + sym.mass * mi[i]);
                 let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
-                rhs[i] -= real + c64::new(0.0, kw) * damp;
+                rhs[i] -= real + c64::new(0.0, sym.damping) * damp;
             }
+        }
+        if let Some(gamma) = self.basis.load_factor(k) {
+            rhs.iter_mut().for_each(|v| *v *= gamma);
         }
         rhs
     }
 
     /// An upper bound of ‖Z_k‖∞ from the row sums of |K| and |M|.
     pub fn norm_inf(&self, k: usize) -> f64 {
-        let kw = k as f64 * self.omega;
-        let (alpha, beta) = self.rayleigh.filter(|_| k > 0).unwrap_or((0.0, 0.0));
+        let sym = self.symbols(k);
+        let (alpha, beta) = self.damping_at(&sym);
         let n = self.k_ff.nrows;
         let (mut rk, mut rm) = (vec![0.0; n], vec![0.0; n]);
         for j in 0..self.k_ff.ncols {
@@ -177,17 +214,24 @@ impl System {
                 rm[self.m_ff.row_idx[p]] += self.m_ff.values[p].abs();
             }
         }
+        let (s, q) = (sym.damping.abs(), sym.mass.abs());
         (0..n)
-            .map(|i| rk[i] * (1.0 + kw * beta) + rm[i] * (kw * kw + kw * alpha))
+            .map(|i| rk[i] * (1.0 + s * beta) + rm[i] * (q + s * alpha))
             .fold(0.0, f64::max)
     }
 
-    /// Prescribed motion amplitudes of harmonic k (zero when not excited).
+    /// Prescribed motion amplitudes of harmonic k (zero when not excited), in the basis'
+    /// phasors (times γ_k for splines).
     pub fn motion(&self, k: usize) -> Vec<c64> {
-        self.inputs
+        let mut motion = self
+            .inputs
             .get(&k)
             .map(|i| i.motion.clone())
-            .unwrap_or_else(|| vec![c64::new(0.0, 0.0); self.dofs.prescribed.len()])
+            .unwrap_or_else(|| vec![c64::new(0.0, 0.0); self.dofs.prescribed.len()]);
+        if let Some(gamma) = self.basis.load_factor(k) {
+            motion.iter_mut().for_each(|v| *v *= gamma);
+        }
+        motion
     }
 }
 

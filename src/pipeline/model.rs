@@ -9,13 +9,14 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{
-    ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline, PlaneModelSpec,
+    BasisSpec, ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline, PlaneModelSpec,
 };
 use crate::contact::geometry::{build_contact_set, ContactSet};
 use crate::contact::mass::{redistribute_mass, Redistribution};
 use crate::contact::{contact_operator, ContactOperator};
 use crate::fem::DofMap;
 use crate::fem::{self, MassKind, Material, PlaneModel};
+use crate::hbm::basis::{SplineBasis, TimeBasis};
 use crate::hbm::{fourier, HarmonicInput, System};
 use crate::linalg::Triplets;
 use crate::mesh::Mesh2d;
@@ -158,6 +159,17 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
 
 /// Build the discrete model: stiffness, held dofs, contact set, mass model, harmonic inputs,
 /// the per-harmonic system, the contact operator, probes and what the scene simulates.
+/// The pipeline's time basis for a harmonic-balance model; time marching (and the harmonic-
+/// balance state it may start from) keeps Fourier, its loads being Fourier harmonics.
+fn time_basis(p: &Pipeline, purpose: Purpose) -> TimeBasis {
+    match (p.harmonic_balance.basis, purpose) {
+        (BasisSpec::Spline { degree, segments }, Purpose::HarmonicBalance) => {
+            TimeBasis::Spline(SplineBasis::new(degree, segments))
+        }
+        _ => TimeBasis::Fourier,
+    }
+}
+
 pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     check_groups(p, &mesh)?;
     let material = material(p);
@@ -183,7 +195,8 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
         .map(|(&k, _)| k)
         .collect();
-    let system = System::new(dofs, &stiffness, &mass.matrix, rayleigh, omega, inputs)?;
+    let system = System::new(dofs, &stiffness, &mass.matrix, rayleigh, omega, inputs)?
+        .with_basis(time_basis(p, purpose));
     let contact = contact_set.map(|set| ContactModel {
         operator: contact_operator(&set, &system.dofs),
         set,
