@@ -11,8 +11,11 @@ CARGO ?= cargo
 run: venv build
 	./target/release/hbcontact run pipelines/quickstart.yaml
 
+# The fuzz targets (tests/fuzz.rs) run this many cases each; the long run is 100000.
+PROPTEST_CASES ?= 256
+
 test: venv build
-	$(CARGO) test --release
+	PROPTEST_CASES=$(PROPTEST_CASES) $(CARGO) test --release
 
 venv: $(VENV_STAMP)
 

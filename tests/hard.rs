@@ -716,3 +716,60 @@ fn an_exhausted_newton_budget_is_diagnosed_as_such() {
         .contains("raise harmonic_balance.solver.max_seconds"));
     assert!(!r.stderr.contains("NaN"), "{}", r.stderr);
 }
+
+/// A reporter that takes `pause` for each contact Newton iteration it is told of (a slow
+/// iteration, without a scene large enough to be slow) and counts them.
+struct SlowNewton {
+    pause: std::time::Duration,
+    iterations: std::sync::atomic::AtomicU64,
+}
+
+impl hbcontact::Reporter for SlowNewton {
+    fn progress(&self, task: &str, _done: u64, _total: Option<u64>, _status: &str) {
+        if task == "contact Newton" {
+            self.iterations
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            std::thread::sleep(self.pause);
+        }
+    }
+}
+
+/// TEST GOAL: the time budget is checked at every Newton iteration, not only between Newton
+/// runs: with iterations of 0.6 s and `max_seconds` = 0.25 s, the strip (whose first Newton
+/// run takes two iterations, eight in all) stops after the first iteration of its first run
+/// (a check between runs only would finish that run: two iterations) with NotConverged
+/// (exit class 4), naming `harmonic_balance.solver.max_seconds` and the iteration reached.
+#[test]
+fn the_time_budget_ends_a_newton_run_between_its_iterations() {
+    let sets = [
+        "geometry.parameters.lc=0.005",
+        "harmonic_balance.harmonics=10",
+    ];
+    let p = common::scene("strip_wall", &sets);
+    let model = common::model(&p, hbcontact::pipeline::Purpose::HarmonicBalance);
+    let free = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let needed = free.contact.expect("a contact scene").newton.iterations;
+    let mut settings = common::settings(&p);
+    settings.max_seconds = 0.25;
+    let slow = SlowNewton {
+        pause: std::time::Duration::from_millis(600),
+        iterations: 0.into(),
+    };
+    let contact = model.contact.as_ref().map(|c| &c.operator);
+    let e = match hbcontact::hbm::solve(&model.system, contact, &settings, &slow) {
+        Ok(_) => panic!("the budget of 0.25 s must end a solve of {needed} iterations of 0.6 s"),
+        Err(e) => e,
+    };
+    let text = e.to_string();
+    let reached = slow.iterations.into_inner() as usize;
+    eprintln!("stopped after {reached} of {needed} iterations: {text}");
+    assert_eq!(e.exit_code(), 4, "{text}");
+    assert!(needed > 2, "the unbudgeted solve takes {needed} iterations");
+    assert_eq!(reached, 1, "{text}");
+    assert!(
+        text.contains("raise harmonic_balance.solver.max_seconds (now 0.25 s)")
+            && text.contains("ran out of time after 1 Newton iterations")
+            && text.contains("the time budget ran out after iteration 1 of this Newton run"),
+        "{text}"
+    );
+}

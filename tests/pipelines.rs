@@ -1104,3 +1104,66 @@ fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_wit
     println!("HB peak change from H/2 to H: {change:+.3} (measured +0.091)");
     assert!(change > 0.045 && change < 0.18, "{change}");
 }
+
+/// Records every reporter call as a line (`stage write`, `progress write frames 2/5
+/// frame_0001.vtu`, `done write frames`, `stage_done write`).
+#[derive(Default)]
+struct Recording(std::sync::Mutex<Vec<String>>);
+
+impl hbcontact::Reporter for Recording {
+    fn stage(&self, name: &str) {
+        self.0.lock().unwrap().push(format!("stage {name}"));
+    }
+    fn stage_done(&self, name: &str, _seconds: f64) {
+        self.0.lock().unwrap().push(format!("stage_done {name}"));
+    }
+    fn progress(&self, task: &str, done: u64, total: Option<u64>, status: &str) {
+        let of = total.map_or(String::new(), |n| format!("/{n}"));
+        self.0
+            .lock()
+            .unwrap()
+            .push(format!("progress {task} {done}{of} {status}"));
+    }
+    fn task_done(&self, task: &str) {
+        self.0.lock().unwrap().push(format!("done {task}"));
+    }
+}
+
+/// TEST GOAL: the write stage reports every VTU frame to the Reporter as it is written
+/// (task `write frames`, j of the frame count, the file name), in order, inside the `write`
+/// stage, and ends the task; a summary-only run writes and reports no frame.
+#[test]
+fn the_write_stage_reports_each_frame_to_the_reporter() {
+    use hbcontact::pipeline::{self, report::WRITE_TASK, RunOptions};
+    let p = common::scene("quickstart", &["output.frames=5", "output.plots=false"]);
+    let out = common::temp_out("write-progress");
+    let recording = Recording::default();
+    let options = RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    pipeline::run(&p, &options, &recording).unwrap_or_else(|e| panic!("{e}"));
+    let calls = recording.0.into_inner().unwrap();
+    let start = calls.iter().position(|c| c == "stage write").unwrap();
+    let end = calls.iter().position(|c| c == "stage_done write").unwrap();
+    let frames: Vec<&String> = calls[start..end]
+        .iter()
+        .filter(|c| c.starts_with(&format!("progress {WRITE_TASK}")))
+        .collect();
+    let expected: Vec<String> = (0..5)
+        .map(|j| format!("progress {WRITE_TASK} {}/5 frame_{j:04}.vtu", j + 1))
+        .collect();
+    assert_eq!(frames, expected.iter().collect::<Vec<_>>(), "{calls:#?}");
+    assert!(calls[start..end].contains(&format!("done {WRITE_TASK}")));
+    for j in 0..5 {
+        assert!(out.join(format!("frame_{j:04}.vtu")).is_file());
+    }
+    let recording = Recording::default();
+    let options = RunOptions {
+        out: Some(common::temp_out("write-progress-summary-only")),
+        summary_only: true,
+    };
+    pipeline::run(&p, &options, &recording).unwrap_or_else(|e| panic!("{e}"));
+    let calls = recording.0.into_inner().unwrap();
+    assert!(!calls.iter().any(|c| c.contains(WRITE_TASK)), "{calls:#?}");
+}

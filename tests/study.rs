@@ -524,8 +524,10 @@ fn displacement_l2_error_across_different_meshes_uses_their_shared_nodes() {
 
 /// TEST GOAL: a parameter may take string values (`contact.mass: [redistributed, lumped]`):
 /// in a grid with a numeric gap every point runs with its mass model (lumped and redistributed
-/// give different amplitudes), the plots against the gap have a line per mass model and no
-/// heat map is drawn over a string axis; in a list, strings holding a comma or a quote (here
+/// give different amplitudes), the plots against the gap have a line per mass model, the
+/// plots against the mass model have a categorical axis (its values as tick labels, left to
+/// right in the study's order, each point drawn above its value's tick at the table's value,
+/// read back from the SVG) and no heat map is drawn over a string axis; in a list, strings holding a comma or a quote (here
 /// geometry files so named) are quoted in study.csv (RFC 4180), and a Latin hypercube refuses
 /// values (exit 2).
 #[test]
@@ -550,6 +552,37 @@ fn string_valued_parameters_vary_keys_whose_values_are_words() {
     let svg = std::fs::read_to_string(out.join("plots/probe_first_harmonic_vs_gap.svg")).unwrap();
     assert!(svg.contains("mass = lumped") && svg.contains("mass = redistributed"));
     assert!(!out.join("plots/probe_first_harmonic_heatmap.svg").exists());
+    // Against the string parameter: a categorical axis, each point above its value's tick.
+    let plot = CategoricalPlot::read(&out.join("plots/probe_first_harmonic_vs_mass.svg"));
+    let names: Vec<&str> = plot.ticks.iter().map(|t| t.0.as_str()).collect();
+    assert_eq!(
+        names,
+        ["redistributed", "lumped"],
+        "tick labels left to right"
+    );
+    assert_eq!(plot.circles.len(), 4, "two gaps × two mass models");
+    let (gaps, masses) = (
+        column(&rows, "geometry.parameters.gap"),
+        column(&rows, "contact.mass"),
+    );
+    for (colour, gap) in [("#1F77B4", "1e-7"), ("#D62728", "2e-7")] {
+        for (mass, tick_x) in &plot.ticks {
+            let row = (0..4)
+                .find(|&i| gaps[i] == gap && &masses[i] == mass)
+                .unwrap();
+            let expected: f64 = amplitude[row].parse().unwrap();
+            let drawn = plot
+                .circles
+                .iter()
+                .find(|c| c.2 == colour && (c.0 - tick_x).abs() <= 1.0)
+                .unwrap_or_else(|| panic!("no {colour} point above `{mass}`: {:?}", plot.circles));
+            let value = plot.value_at(drawn.1);
+            assert!(
+                (value - expected).abs() <= 0.01 * plot.y_span,
+                "gap {gap}, {mass}: drawn {value:e}, table {expected:e}"
+            );
+        }
+    }
 
     // Geometry files named with a comma and with quotes: strings the CSV must quote.
     let geo = common::root().join("geometries/strip_wall.geo");
@@ -642,5 +675,77 @@ fn shipped_strip_accuracy_study_errors_are_the_readme_table() {
             };
             assert!(ok, "{name} of {readme_row:?}: measured {measured}");
         }
+    }
+}
+
+/// A study plot against a categorical axis, read back from its SVG: the x tick labels (text,
+/// pixel x) left to right, the data markers (pixel x, pixel y, fill) and the y axis's map
+/// from pixels to values (a least-squares line through its numeric tick labels).
+struct CategoricalPlot {
+    ticks: Vec<(String, f64)>,
+    circles: Vec<(f64, f64, String)>,
+    y_map: (f64, f64),
+    y_span: f64,
+}
+
+impl CategoricalPlot {
+    fn read(path: &Path) -> Self {
+        use resvg::usvg::roxmltree;
+        let text = std::fs::read_to_string(path).unwrap();
+        let doc = roxmltree::Document::parse(&text).expect("the plot is XML");
+        let num = |n: &roxmltree::Node, a: &str| n.attribute(a).unwrap().parse::<f64>().unwrap();
+        let (mut labels, mut y_ticks, mut circles) = (Vec::new(), Vec::new(), Vec::new());
+        for n in doc.descendants().filter(|n| n.is_element()) {
+            match n.tag_name().name() {
+                "text" => {
+                    let content = n.text().unwrap_or_default().trim().to_string();
+                    match (n.attribute("text-anchor"), content.parse::<f64>()) {
+                        (Some("end"), Ok(v)) => y_ticks.push((num(&n, "y"), v)),
+                        (Some("middle"), Err(_)) => {
+                            labels.push((content, num(&n, "x"), num(&n, "y")))
+                        }
+                        _ => {}
+                    }
+                }
+                "circle" => circles.push((
+                    num(&n, "cx"),
+                    num(&n, "cy"),
+                    n.attribute("fill").unwrap().to_string(),
+                )),
+                _ => {}
+            }
+        }
+        // The x tick labels: the row of middle-anchored texts lowest but for the axis title.
+        let mut rows: Vec<f64> = labels.iter().map(|l| l.2).collect();
+        rows.sort_by(f64::total_cmp);
+        rows.dedup();
+        let tick_row = rows[rows.len() - 2];
+        let mut ticks: Vec<(String, f64)> = labels
+            .into_iter()
+            .filter(|l| l.2 == tick_row)
+            .map(|l| (l.0, l.1))
+            .collect();
+        ticks.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let n = y_ticks.len() as f64;
+        let (mp, mv) = y_ticks
+            .iter()
+            .fold((0.0, 0.0), |(a, b), t| (a + t.0 / n, b + t.1 / n));
+        let (sxy, sxx) = y_ticks.iter().fold((0.0, 0.0), |(a, b), t| {
+            (a + (t.0 - mp) * (t.1 - mv), b + (t.0 - mp) * (t.0 - mp))
+        });
+        let slope = sxy / sxx;
+        let values: Vec<f64> = y_ticks.iter().map(|t| t.1).collect();
+        let y_span = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+            - values.iter().cloned().fold(f64::INFINITY, f64::min);
+        CategoricalPlot {
+            ticks,
+            circles,
+            y_map: (mv - slope * mp, slope),
+            y_span,
+        }
+    }
+
+    fn value_at(&self, pixel_y: f64) -> f64 {
+        self.y_map.0 + self.y_map.1 * pixel_y
     }
 }

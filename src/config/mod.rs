@@ -8,7 +8,7 @@ pub mod schema;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-pub use raw::load_pipeline;
+pub use raw::{load_pipeline, parse_pipeline};
 pub use schema::pipeline_schema;
 
 /// A validated pipeline.

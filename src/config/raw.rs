@@ -749,11 +749,17 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
 pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| config_error(path, format!("cannot read the pipeline file: {e}")))?;
+    parse_pipeline(path, &text, overrides)
+}
+
+/// A pipeline from its YAML `text`, as if read from `path` (relative files resolve from it,
+/// errors name it), with the `--set` overrides applied.
+pub fn parse_pipeline(path: &Path, text: &str, overrides: &[String]) -> Result<Pipeline> {
     let raw: RawPipeline = if overrides.is_empty() {
-        serde_yaml::from_str(&text).map_err(|e| yaml_error(path, &e, None))?
+        serde_yaml::from_str(text).map_err(|e| yaml_error(path, &e, None))?
     } else {
         let mut value: Value =
-            serde_yaml::from_str(&text).map_err(|e| yaml_error(path, &e, None))?;
+            serde_yaml::from_str(text).map_err(|e| yaml_error(path, &e, None))?;
         for o in overrides {
             apply_override(&mut value, o, path)?;
         }
@@ -761,7 +767,7 @@ pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
             Ok(raw) => raw,
             Err(e) => {
                 // The file itself may be at fault: then show its line and column.
-                if let Err(file_error) = serde_yaml::from_str::<RawPipeline>(&text) {
+                if let Err(file_error) = serde_yaml::from_str::<RawPipeline>(text) {
                     if file_error.to_string() == e.to_string() {
                         return Err(yaml_error(path, &file_error, None));
                     }

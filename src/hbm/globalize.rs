@@ -8,8 +8,9 @@
 //!    is a band).
 //!
 //! If all fail, the error says what to change. Two budgets bound the whole: each Newton run
-//! stops at `max_iterations`, and no new run starts once `max_seconds` of wall time are
-//! spent; a failure that ran out of either budget says so (rather than blaming the scene).
+//! stops at `max_iterations`, and no Newton iteration (so no run) starts once `max_seconds`
+//! of wall time are spent; a failure that ran out of either budget says so, with the
+//! iterations reached (rather than blaming the scene).
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -133,14 +134,16 @@ impl<'a> Attempts<'a> {
                 relative_residual: f64::NAN,
                 log: Vec::new(),
                 reason: format!(
-                    "the time budget harmonic_balance.solver.max_seconds = {} s ran out",
-                    self.settings.max_seconds
+                    "the time budget harmonic_balance.solver.max_seconds = {} s ran out after {} Newton iterations, before a new Newton run",
+                    self.settings.max_seconds, self.iterations
                 ),
             };
         }
-        let o = reduced::newton(problem, settings, start, self.reporter);
-        // The pipeline's own limit (not a smoothing level's shorter one) was what ran out.
-        if !o.converged && o.iterations >= self.settings.max_iterations {
+        let o = reduced::newton_until(problem, settings, start, self.reporter, Some(self.deadline));
+        // The pipeline's own limits (not a smoothing level's shorter one) are what ran out.
+        if !o.converged && Instant::now() >= self.deadline {
+            self.exhausted = Some(Budget::Time);
+        } else if !o.converged && o.iterations >= self.settings.max_iterations {
             self.exhausted.get_or_insert(Budget::Iterations);
         }
         self.iterations += o.iterations;
@@ -167,6 +170,9 @@ impl<'a> Attempts<'a> {
             settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
             settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
             let o = self.run(&problem, &settings, &x);
+            if self.exhausted == Some(Budget::Time) {
+                return o; // its reason names the iteration the time ran out at
+            }
             if o.converged {
                 (x, last) = (o.multipliers, mu);
             } else if self.exhausted.is_some() {
@@ -205,7 +211,7 @@ impl<'a> Attempts<'a> {
         }
         self.reasons
             .push(format!("direct at c = {c:.3e}: {}", o.reason));
-        if h < 2 {
+        if h < 2 || self.exhausted == Some(Budget::Time) {
             return None;
         }
         let mut rungs: Vec<usize> = [h / 8, h / 4, h / 2]
@@ -314,8 +320,8 @@ fn stall_diagnosis(
             settings.max_iterations
         )),
         Some(Budget::Time) => advice.push(format!(
-            "raise harmonic_balance.solver.max_seconds (now {} s): the solve ran out of time",
-            settings.max_seconds
+            "raise harmonic_balance.solver.max_seconds (now {} s): the solve ran out of time after {} Newton iterations",
+            settings.max_seconds, outcome.iterations
         )),
         None => {}
     }

@@ -48,7 +48,7 @@ pub struct HbSettings {
     pub c_scale: f64,
     pub tolerance: f64,
     pub max_iterations: usize,
-    /// Wall-time budget of the contact solve [s], checked before each Newton run.
+    /// Wall-time budget of the contact solve [s], checked before each Newton iteration.
     pub max_seconds: f64,
 }
 

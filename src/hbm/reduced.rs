@@ -286,6 +286,18 @@ pub fn newton(
     start: &[f64],
     reporter: &dyn Reporter,
 ) -> NewtonOutcome {
+    newton_until(problem, settings, start, reporter, None)
+}
+
+/// `newton`, stopping before an iteration that would start at or after `deadline` (the
+/// outcome's reason then names the iteration reached).
+pub fn newton_until(
+    problem: &ReducedProblem,
+    settings: &NewtonSettings,
+    start: &[f64],
+    reporter: &dyn Reporter,
+    deadline: Option<std::time::Instant>,
+) -> NewtonOutcome {
     let residual = Residual::new(problem, settings);
     let mut current = residual.evaluate(start.to_vec());
     let mut log = vec![IterationLog {
@@ -308,6 +320,12 @@ pub fn newton(
             break Some(format!(
                 "reached max_iterations = {}",
                 settings.max_iterations
+            ));
+        }
+        if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+            break Some(format!(
+                "the time budget ran out after iteration {iterations} of this Newton run (H = {}, residual {rel:.2e})",
+                problem.harmonics
             ));
         }
         iterations += 1;

@@ -95,12 +95,35 @@ fn reverse(cell: &mut Cell) {
     }
 }
 
+/// The `$MeshFormat` line must be `4.1 0|1 8` (version, ASCII or binary, 8-byte sizes):
+/// mshio panics on a size it has no parser for, or on digits beyond its integer type.
+fn check_format_line(bytes: &[u8]) -> std::result::Result<(), String> {
+    let line = bytes
+        .split(|&b| b == b'\n')
+        .nth(1)
+        .map(String::from_utf8_lossy)
+        .unwrap_or_default();
+    let fields: Vec<&str> = line.split_whitespace().collect();
+    let shown = crate::error::excerpt(line.trim());
+    match fields.as_slice() {
+        ["4.1", "0" | "1", "8"] => Ok(()),
+        ["4.1", "0" | "1", size] => Err(format!(
+            "$MeshFormat says sizes of {} bytes; hbcontact reads the 8-byte sizes gmsh writes (write it again with gmsh `-format msh41`)",
+            crate::error::excerpt(size)
+        )),
+        _ => Err(format!(
+            "$MeshFormat line `{shown}` is not `4.1 0 8` (ASCII) or `4.1 1 8` (binary): write it with gmsh `-format msh41`"
+        )),
+    }
+}
+
 pub fn read_msh(path: &Path) -> Result<Mesh2d> {
     let bytes =
         std::fs::read(path).map_err(|e| err(path, format!("cannot read the mesh file: {e}")))?;
     if !bytes.starts_with(b"$MeshFormat") {
         return Err(err(path, "not a gmsh .msh file (no $MeshFormat header)"));
     }
+    check_format_line(&bytes).map_err(|why| err(path, why))?;
     let msh = mshio::parse_msh_bytes(&bytes).map_err(|e| {
         let text = format!("{e}");
         let short: String = text.chars().take(600).collect();
@@ -361,6 +384,14 @@ impl Reader<'_> {
             return Err(err(
                 path,
                 "the mesh has no 2-D cells: is the surface meshed (gmsh -2) and in a physical group?",
+            ));
+        }
+        let bad = (self.mesh.nodes.iter().zip(&self.nodes.z))
+            .find(|([x, y], &(_, z, _))| !(x.is_finite() && y.is_finite() && z.is_finite()));
+        if let Some(([x, y], &(tag, z, _))) = bad {
+            return Err(err(
+                path,
+                format!("node {tag} is at ({x}, {y}, {z}): every coordinate must be a finite number (the file is damaged; mesh it again)"),
             ));
         }
         for &n in self.mesh.cells.iter().flat_map(|c| &c.nodes) {

@@ -37,11 +37,13 @@ const PALETTE: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
-/// One axis: its label (with the unit, e.g. `gap [m]`) and whether it is logarithmic.
+/// One axis: its label (with the unit, e.g. `gap [m]`), whether it is logarithmic, and its
+/// categories when it is categorical (then value i is drawn at i, ticked with category i).
 #[derive(Clone, Debug)]
 pub struct Axis {
     pub label: String,
     pub log: bool,
+    pub categories: Vec<String>,
 }
 
 impl Axis {
@@ -49,12 +51,35 @@ impl Axis {
         Axis {
             label: label.into(),
             log: false,
+            categories: Vec::new(),
         }
     }
     pub fn log(label: impl Into<String>) -> Self {
         Axis {
             label: label.into(),
             log: true,
+            categories: Vec::new(),
+        }
+    }
+    /// A categorical axis: x = i for `categories[i]` (e.g. a study's string parameter).
+    pub fn categorical(label: impl Into<String>, categories: Vec<String>) -> Self {
+        Axis {
+            label: label.into(),
+            log: false,
+            categories,
+        }
+    }
+
+    /// The tick label at `v`: the category at a whole index, nothing between; the number
+    /// otherwise.
+    fn tick(&self, v: f64) -> String {
+        if self.categories.is_empty() {
+            return tick(v);
+        }
+        let i = v.round();
+        match self.categories.get(i as usize) {
+            Some(c) if (v - i).abs() < 1e-6 && i >= 0.0 => c.clone(),
+            _ => String::new(),
         }
     }
 }
@@ -212,8 +237,13 @@ impl Figure {
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
         let all = self.all_drawable();
         let zero = (self.y_from_zero && !self.y.log).then_some(0.0);
+        let n = self.x.categories.len() as f64;
         (
-            range(all.iter().map(|p| p.0), self.x.log),
+            if n > 0.0 {
+                (-0.5, n - 0.5)
+            } else {
+                range(all.iter().map(|p| p.0), self.x.log)
+            },
             range(all.iter().map(|p| p.1).chain(zero), self.y.log),
         )
     }
@@ -232,11 +262,14 @@ impl Figure {
             .y_label_area_size(78)
             .build_cartesian_2d(x, y)
             .map_err(plot_error)?;
-        chart
-            .configure_mesh()
-            .x_desc(self.x.label.as_str())
+        let mut mesh = chart.configure_mesh();
+        if !self.x.categories.is_empty() {
+            // Unit steps over [-0.5, n - 0.5]: a tick at every category.
+            mesh.x_labels(self.x.categories.len() + 1);
+        }
+        mesh.x_desc(self.x.label.as_str())
             .y_desc(self.y.label.as_str())
-            .x_label_formatter(&|v| tick(*v))
+            .x_label_formatter(&|v| self.x.tick(*v))
             .y_label_formatter(&|v| tick(*v))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()

@@ -81,7 +81,8 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
             .map_or(hb_settings(p).samples, |c| c.samples);
         let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
         if !options.summary_only {
-            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
+            sampled.write(staged.path(), &model, contact, fields, reporter)?;
             report::write_amplitudes(staged.path(), &model, &solution)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
@@ -189,7 +190,8 @@ pub fn run_transient(
     let (mut summary, sampled) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
         if !options.summary_only {
-            sampled.write(staged.path(), &model, p.contact.as_ref(), &p.output.fields)?;
+            let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
+            sampled.write(staged.path(), &model, contact, fields, reporter)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
         let summary = summary::transient(p, mesh_info, &model, &result, &sampled);

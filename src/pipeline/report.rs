@@ -11,6 +11,7 @@ use crate::fem;
 use crate::hbm::{fourier, Snapshot, Solution};
 use crate::output::tables::write_csv;
 use crate::output::{write_lines_vtu, write_pvd, write_vtu, Field};
+use crate::progress::Reporter;
 use crate::transient::setup::Marching;
 use crate::transient::TransientResult;
 use crate::Result;
@@ -222,15 +223,17 @@ impl Sampled {
 
     /// Every file of the run but the summary: the VTU series and its `.pvd`, `probes.csv`,
     /// and for contact scenes `contact.csv`, `obstacle.vtu` + `obstacle.pvd` and (time
-    /// marching) `contact_steps.csv`. Returns what the series found on the way.
+    /// marching) `contact_steps.csv`. Returns what the series found on the way. Each frame
+    /// written is reported to `reporter` (task `WRITE_TASK`).
     pub fn write(
         &self,
         dir: &Path,
         model: &Model,
         spec: Option<&ContactSpec>,
         fields: &[FieldName],
+        reporter: &dyn Reporter,
     ) -> Result<SeriesWritten> {
-        let written = write_series(dir, model, self, fields)?;
+        let written = write_series(dir, model, self, fields, reporter)?;
         let h = &self.history;
         write_probes(&dir.join("probes.csv"), model, &h.times, &h.displacement)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
@@ -295,13 +298,19 @@ pub fn nodal_pressure(model: &Model, i: usize, force: f64) -> f64 {
     }
 }
 
-/// Write one VTU per snapshot and the `.pvd`; returns the file names.
+/// The progress task of the VTU series: one step per frame file written.
+pub const WRITE_TASK: &str = "write frames";
+
+/// Write one VTU per snapshot and the `.pvd`; returns the file names. Each frame is reported
+/// to `reporter` when written (`WRITE_TASK`, j of the frame count, the file name).
 pub fn write_series(
     dir: &Path,
     model: &Model,
     sampled: &Sampled,
     fields: &[FieldName],
+    reporter: &dyn Reporter,
 ) -> Result<SeriesWritten> {
+    let total = sampled.frames.len() as u64;
     let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
@@ -365,9 +374,11 @@ pub fn write_series(
         let cells = stress_fields(model, &s.displacement, fields);
         let name = format!("frame_{j:04}.vtu");
         write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
+        reporter.progress(WRITE_TASK, j as u64 + 1, Some(total), &name);
         entries.push((s.time, name.clone()));
         files.push(name);
     }
+    reporter.task_done(WRITE_TASK);
     write_pvd(&dir.join("series.pvd"), &entries)?;
     Ok(SeriesWritten { files })
 }

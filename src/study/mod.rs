@@ -26,7 +26,7 @@ use std::path::PathBuf;
 
 pub use execute::Execution;
 pub use outputs::Output;
-pub use spec::{load_study, study_schema, Study};
+pub use spec::{load_study, parse_study, study_schema, Study};
 
 use crate::progress::Reporter;
 use crate::{Error, Result};

@@ -15,6 +15,7 @@ use sha2::{Digest, Sha256};
 
 use super::spec::{Design, Reference, Scale, Study, Value};
 use crate::config::{load_pipeline, Pipeline};
+use crate::error::excerpt;
 use crate::{Error, Result};
 
 /// Which solver a point runs.
@@ -163,7 +164,8 @@ pub fn resolve(
             return Err(Error::Config {
                 path: study.source.clone(),
                 message: format!(
-                    "probe: `{probe}` is not one of the pipeline's output.probes {:?}",
+                    "probe: `{}` is not one of the pipeline's output.probes {:?}",
+                    excerpt(probe),
                     pipeline.output.probes
                 ),
             });
@@ -185,7 +187,10 @@ pub fn resolve(
 pub fn describe(values: &[(String, Value)]) -> String {
     values
         .iter()
-        .map(|(k, v)| format!("{k} = {v}"))
+        .map(|(k, v)| {
+            let (k, v) = (excerpt(k), excerpt(&v.to_string()));
+            format!("{k} = {v}")
+        })
         .collect::<Vec<_>>()
         .join(", ")
 }

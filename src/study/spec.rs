@@ -9,6 +9,7 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::outputs::Output;
+use crate::error::excerpt;
 use crate::{Error, Result};
 
 /// A parameter study over one pipeline: which keys vary, over which values, and what to
@@ -254,7 +255,30 @@ pub struct Study {
     pub accuracy: Option<Accuracy>,
 }
 
+/// The most points one study may have (each is a solve; a typo such as `count: 100000000`
+/// must not expand into a table the machine cannot hold).
+pub const MAX_POINTS: usize = 100_000;
+/// The most points run at once (`threads`).
+pub const MAX_THREADS: usize = 1024;
+
 impl Study {
+    /// How many points the study runs: the design's rows, or an accuracy study's rungs (and
+    /// its transient reference); saturating, so a count beyond `MAX_POINTS` stays beyond it.
+    pub fn point_count(&self) -> usize {
+        if let Some(a) = &self.accuracy {
+            let rungs = a.ladders.iter().map(|l| l.values.len()).sum::<usize>();
+            return rungs + usize::from(a.reference == Reference::Transient);
+        }
+        match self.design {
+            Design::Grid => self
+                .parameters
+                .iter()
+                .fold(1usize, |n, p| n.saturating_mul(p.values.len())),
+            Design::List => self.parameters.first().map_or(0, |p| p.values.len()),
+            Design::LatinHypercube { samples, .. } => samples,
+        }
+    }
+
     /// The natural frequencies the outputs ask for: 1..=K for the largest `natural_frequency_K`.
     pub fn natural_frequencies(&self) -> usize {
         self.outputs
@@ -271,7 +295,7 @@ impl Study {
 fn bad(path: &Path, message: impl Into<String>) -> Error {
     Error::Config {
         path: path.to_path_buf(),
-        message: message.into(),
+        message: crate::error::shorten_quoted(&message.into()),
     }
 }
 
@@ -287,7 +311,13 @@ pub fn study_schema() -> serde_json::Value {
 pub fn load_study(path: &Path, set: &[String]) -> Result<Study> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| bad(path, format!("cannot read the study file: {e}")))?;
-    let raw: RawStudy = serde_yaml::from_str(&text).map_err(|e| {
+    parse_study(path, &text, set)
+}
+
+/// A study from its YAML `text`, as if read from `path` (the pipeline resolves from it,
+/// errors name it); `set` adds command-line overrides after the study's own.
+pub fn parse_study(path: &Path, text: &str, set: &[String]) -> Result<Study> {
+    let raw: RawStudy = serde_yaml::from_str(text).map_err(|e| {
         let at = e
             .location()
             .map(|l| format!("line {}, column {}: ", l.line(), l.column()))
@@ -315,7 +345,7 @@ fn resolve(path: &Path, file: &Path) -> Result<PathBuf> {
         path,
         format!(
             "pipeline: {} not found next to the study file or in its parent directory",
-            file.display()
+            excerpt(&file.display().to_string())
         ),
     ))
 }
@@ -331,10 +361,10 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
         RawDesign::Grid => Design::Grid,
         RawDesign::List => Design::List,
         RawDesign::LatinHypercube { samples, seed } => {
-            if samples == 0 {
+            if samples == 0 || samples > MAX_POINTS {
                 return Err(bad(
                     path,
-                    "design.latin_hypercube.samples: must be at least 1",
+                    format!("design.latin_hypercube.samples = {samples}: give 1 to {MAX_POINTS} (the most points a study may have)"),
                 ));
             }
             Design::LatinHypercube { samples, seed }
@@ -358,13 +388,13 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
             })
             .collect::<Result<Vec<_>>>()?,
     };
-    if raw.threads == Some(0) {
-        return Err(bad(path, "threads: must be at least 1"));
+    if let Some(t) = raw.threads.filter(|&t| t == 0 || t > MAX_THREADS) {
+        return Err(bad(
+            path,
+            format!("threads = {t}: give 1 to {MAX_THREADS} (points run at once)"),
+        ));
     }
-    let out = raw
-        .out
-        .unwrap_or_else(|| PathBuf::from("output").join(&raw.name));
-    Ok(Study {
+    let study = Study {
         name: raw.name,
         source: path.to_path_buf(),
         pipeline,
@@ -376,9 +406,20 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
         write: raw.write,
         full_points: raw.full_points,
         threads: raw.threads,
-        out,
+        out: PathBuf::new(),
         accuracy,
-    })
+    };
+    let n = study.point_count();
+    if n > MAX_POINTS {
+        return Err(bad(
+            path,
+            format!("the study has {n} points (the product of its parameters' value counts), above the limit of {MAX_POINTS}: vary fewer values, or split it into several studies"),
+        ));
+    }
+    let out = raw
+        .out
+        .unwrap_or_else(|| PathBuf::from("output").join(&study.name));
+    Ok(Study { out, ..study })
 }
 
 fn check_layout(path: &Path, design: &Design, params: &[Parameter], accuracy: bool) -> Result<()> {
@@ -404,9 +445,9 @@ fn check_layout(path: &Path, design: &Design, params: &[Parameter], accuracy: bo
                 path,
                 format!(
                     "parameters: design `list` takes the i-th value of each parameter together, but {} has {} values and {} has {n}",
-                    p.key,
+                    excerpt(&p.key),
                     p.values.len(),
-                    params[0].key
+                    excerpt(&params[0].key)
                 ),
             ));
         }
@@ -415,7 +456,7 @@ fn check_layout(path: &Path, design: &Design, params: &[Parameter], accuracy: bo
 }
 
 fn parameter(path: &Path, i: usize, p: RawParameter, design: &Design) -> Result<Parameter> {
-    let field = format!("parameters[{i}] ({})", p.key);
+    let field = format!("parameters[{i}] ({})", excerpt(&p.key));
     let lhs = matches!(design, Design::LatinHypercube { .. });
     let range = match &p.range {
         Some(r) => {
@@ -431,6 +472,14 @@ fn parameter(path: &Path, i: usize, p: RawParameter, design: &Design) -> Result<
         }
         None => None,
     };
+    if let Some(count) = p.range.as_ref().and_then(|r| r.count) {
+        if count > MAX_POINTS {
+            return Err(bad(
+                path,
+                format!("{field}.range.count = {count} is above {MAX_POINTS}, the most points a study may have"),
+            ));
+        }
+    }
     let values = match (&p.values, &p.range) {
         (Some(v), None) if !lhs => v.clone(),
         (None, Some(r)) => spaced(r.from, r.to, r.count.unwrap_or(5), r.scale)
@@ -504,7 +553,7 @@ fn accuracy(path: &Path, a: RawAccuracy) -> Result<Accuracy> {
                 path,
                 format!(
                     "accuracy.ladders[{i}] ({}): needs at least {need} finite values (the last is the reference with `reference: finest`)",
-                    l.key
+                    excerpt(&l.key)
                 ),
             ));
         }

@@ -16,7 +16,7 @@ use serde::Serialize;
 use super::execute::{read_record, results_files, Execution, PointRecord};
 use super::outputs::Output;
 use super::plan::Point;
-use super::spec::{Design, Study, Value};
+use super::spec::{Design, Parameter, Study, Value};
 use crate::output::plot::{tick, Axis, Figure, HeatMap};
 use crate::output::tables::write_json;
 use crate::{Error, Result};
@@ -113,21 +113,44 @@ pub fn slug(s: &str) -> String {
         .collect()
 }
 
-/// The plots of one output against each numeric parameter (and its heat map when both
-/// parameters of a two-parameter grid are numeric), into `dir`. A parameter with string values
-/// is no axis; in a two-parameter grid it names the lines.
+/// Where a point's value of parameter `p` sits on its axis: the number, or for a parameter
+/// with string values the value's position in its list (a categorical axis).
+fn position(p: &Parameter, v: &Value) -> f64 {
+    if p.numeric() {
+        v.number().unwrap_or(f64::NAN)
+    } else {
+        p.values
+            .iter()
+            .position(|w| w == v)
+            .map_or(f64::NAN, |i| i as f64)
+    }
+}
+
+/// The x axis of parameter `p`: linear, or categorical (the values as tick labels) when its
+/// values are strings.
+fn parameter_axis(p: &Parameter) -> Axis {
+    if p.numeric() {
+        Axis::linear(p.axis_label())
+    } else {
+        Axis::categorical(
+            p.axis_label(),
+            p.values.iter().map(Value::to_string).collect(),
+        )
+    }
+}
+
+/// The plots of one output against each parameter (and its heat map when both parameters of
+/// a two-parameter grid are numeric), into `dir`. A parameter with string values is a
+/// categorical axis (its values as tick labels); in a two-parameter grid it also names the
+/// lines of the plot against the other.
 fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let params = &study.parameters;
     let two_grid = study.design == Design::Grid && params.len() == 2;
-    let x = |r: &Row, j: usize| r.point.values[j].1.number().unwrap_or(f64::NAN);
-    for (j, p) in params.iter().enumerate().filter(|(_, p)| p.numeric()) {
+    let x = |r: &Row, j: usize| position(&params[j], &r.point.values[j].1);
+    for (j, p) in params.iter().enumerate() {
         let title = format!("{}: {} against {}", study.name, o.name(), p.label);
-        let mut fig = Figure::new(
-            title,
-            Axis::linear(p.axis_label()),
-            Axis::linear(o.axis_label()),
-        );
+        let mut fig = Figure::new(title, parameter_axis(p), Axis::linear(o.axis_label()));
         let point = |r: &Row| (x(r, j), r.output(o));
         if two_grid {
             let other = &params[1 - j];
@@ -146,7 +169,7 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
                 let shown = v.number().map_or_else(|| v.to_string(), tick);
                 fig = fig.line(format!("{} = {shown}{unit}", other.label), pts);
             }
-        } else if study.design == Design::Grid && params.len() == 1 {
+        } else if study.design == Design::Grid && params.len() == 1 && p.numeric() {
             fig = fig.line(o.name(), rows.iter().map(point).collect());
         } else {
             fig = fig.scatter("points", rows.iter().map(point).collect());

@@ -1,0 +1,840 @@
+//! Fuzzing the readers of user files (#9 item 6) with proptest: mutated pipeline and study
+//! YAML (from the shipped `pipelines/**/*.yaml` and `studies/*.yaml`) and mutated gmsh `.msh`
+//! files (from small meshes gmsh wrote, `tests/data/fuzz/`). The property: the reader never
+//! panics, and ends either in a value whose invariants hold (finite numbers, indices in range)
+//! or in a bad-input error (exit class 2) that names the file and stays short. A `.msh`
+//! reader also never holds more memory than a small multiple of the file's size, whatever
+//! count the file claims.
+//!
+//! `make test` runs 256 cases per target (proptest's default); the long run is
+//! `PROPTEST_CASES=100000 cargo test --release --test fuzz`. Failing inputs proptest finds are
+//! kept in `tests/fuzz.proptest-regressions` (replayed first on every run); each bug fixed also
+//! has a named test below (`regression_*`).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::path::{Path, PathBuf};
+
+use hbcontact::config::{parse_pipeline, Pipeline};
+use hbcontact::mesh::msh::read_msh;
+use hbcontact::mesh::Mesh2d;
+use hbcontact::study::{parse_study, plan::plan, Study};
+use proptest::prelude::*;
+use proptest::sample::Index;
+use serde_yaml::Value;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Memory: the largest amount this thread holds at once while `measure` runs.
+
+/// Counts the bytes the measuring thread holds; refuses (aborting the test, with the size in
+/// the message) any single request above `REFUSED_BYTES` so a corrupted count cannot take
+/// the shared machine's memory.
+struct Counting;
+
+const REFUSED_BYTES: usize = 1 << 30;
+
+thread_local! {
+    static MEASURING: Cell<bool> = const { Cell::new(false) };
+    static HELD: Cell<isize> = const { Cell::new(0) };
+    static PEAK: Cell<isize> = const { Cell::new(0) };
+}
+
+fn note(delta: isize) {
+    if MEASURING.with(Cell::get) {
+        let held = HELD.with(|h| {
+            h.set(h.get() + delta);
+            h.get()
+        });
+        PEAK.with(|p| p.set(p.get().max(held)));
+    }
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if layout.size() > REFUSED_BYTES && MEASURING.with(Cell::get) {
+            return std::ptr::null_mut();
+        }
+        note(layout.size() as isize);
+        System.alloc(layout)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        note(-(layout.size() as isize));
+        System.dealloc(ptr, layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if new_size > REFUSED_BYTES && MEASURING.with(Cell::get) {
+            return std::ptr::null_mut();
+        }
+        note(new_size as isize - layout.size() as isize);
+        System.realloc(ptr, layout, new_size)
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+/// `f`'s result and the most bytes this thread held at once (beyond what it held before).
+fn measure<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    HELD.with(|h| h.set(0));
+    PEAK.with(|p| p.set(0));
+    MEASURING.with(|m| m.set(true));
+    let out = f();
+    MEASURING.with(|m| m.set(false));
+    (out, PEAK.with(Cell::get).max(0) as usize)
+}
+
+/// proptest's defaults (`PROPTEST_CASES`, 256 without it), failures kept beside this file.
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        failure_persistence: Some(Box::new(
+            proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"),
+        )),
+        ..ProptestConfig::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// YAML mutations.
+
+/// A value put in place of a node of the YAML tree.
+#[derive(Clone, Debug)]
+enum Replacement {
+    Nan,
+    Inf,
+    NegInf,
+    Huge,
+    HugeInt,
+    BigInt,
+    Negative,
+    Zero,
+    LongText,
+    Text,
+    EmptyList,
+    EmptyMap,
+    Null,
+    Bool,
+}
+
+impl Replacement {
+    fn yaml(&self, old: &Value) -> Value {
+        let parse = |s: &str| serde_yaml::from_str::<Value>(s).expect("a literal");
+        match self {
+            Replacement::Nan => parse(".nan"),
+            Replacement::Inf => parse(".inf"),
+            Replacement::NegInf => parse("-.inf"),
+            Replacement::Huge => parse("1.0e300"),
+            Replacement::HugeInt => parse("18446744073709551615"),
+            Replacement::BigInt => parse("1000000000"),
+            Replacement::Negative => match old.as_f64() {
+                Some(v) if v != 0.0 => parse(&format!("{:e}", -v)),
+                _ => parse("-1"),
+            },
+            Replacement::Zero => parse("0"),
+            Replacement::LongText => Value::String("x".repeat(20_000)),
+            Replacement::Text => Value::String("word".into()),
+            Replacement::EmptyList => parse("[]"),
+            Replacement::EmptyMap => parse("{}"),
+            Replacement::Null => Value::Null,
+            Replacement::Bool => Value::Bool(true),
+        }
+    }
+}
+
+fn replacement() -> impl Strategy<Value = Replacement> {
+    prop_oneof![
+        Just(Replacement::Nan),
+        Just(Replacement::Inf),
+        Just(Replacement::NegInf),
+        Just(Replacement::Huge),
+        Just(Replacement::HugeInt),
+        Just(Replacement::BigInt),
+        Just(Replacement::Negative),
+        Just(Replacement::Zero),
+        Just(Replacement::LongText),
+        Just(Replacement::Text),
+        Just(Replacement::EmptyList),
+        Just(Replacement::EmptyMap),
+        Just(Replacement::Null),
+        Just(Replacement::Bool),
+    ]
+}
+
+/// One mutation: of the YAML tree (a node replaced, a key deleted), then of the text.
+#[derive(Clone, Debug)]
+enum Edit {
+    Replace(Index, Replacement),
+    DeleteKey(Index),
+    DuplicateLine(Index),
+    DeleteLine(Index),
+    Truncate(Index),
+    FlipByte(Index, u8),
+    InsertBytes(Index, Vec<u8>),
+}
+
+fn edit() -> impl Strategy<Value = Edit> {
+    prop_oneof![
+        6 => (any::<Index>(), replacement()).prop_map(|(i, r)| Edit::Replace(i, r)),
+        2 => any::<Index>().prop_map(Edit::DeleteKey),
+        1 => any::<Index>().prop_map(Edit::DuplicateLine),
+        1 => any::<Index>().prop_map(Edit::DeleteLine),
+        1 => any::<Index>().prop_map(Edit::Truncate),
+        1 => (any::<Index>(), 1..=255u8).prop_map(|(i, m)| Edit::FlipByte(i, m)),
+        1 => (any::<Index>(), prop::collection::vec(any::<u8>(), 1..8))
+            .prop_map(|(i, b)| Edit::InsertBytes(i, b)),
+    ]
+}
+
+/// A step into a YAML tree: a mapping key or a sequence index.
+#[derive(Clone, Debug)]
+enum Step {
+    Key(Value),
+    At(usize),
+}
+
+/// Every node's path, parents before children.
+fn paths(v: &Value, prefix: &mut Vec<Step>, out: &mut Vec<Vec<Step>>) {
+    out.push(prefix.clone());
+    match v {
+        Value::Mapping(m) => {
+            for (k, child) in m {
+                prefix.push(Step::Key(k.clone()));
+                paths(child, prefix, out);
+                prefix.pop();
+            }
+        }
+        Value::Sequence(s) => {
+            for (i, child) in s.iter().enumerate() {
+                prefix.push(Step::At(i));
+                paths(child, prefix, out);
+                prefix.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+fn node<'a>(v: &'a mut Value, path: &[Step]) -> Option<&'a mut Value> {
+    path.iter().try_fold(v, |v, step| match step {
+        Step::Key(k) => v.as_mapping_mut()?.get_mut(k),
+        Step::At(i) => v.as_sequence_mut()?.get_mut(*i),
+    })
+}
+
+/// The `--set` key of a path (`harmonic_balance.solver.tolerance`, `boundaries.loads.0.group`).
+fn dotted(path: &[Step]) -> Option<String> {
+    let parts: Option<Vec<String>> = path
+        .iter()
+        .map(|s| match s {
+            Step::Key(Value::String(k)) => Some(k.clone()),
+            Step::At(i) => Some(i.to_string()),
+            Step::Key(_) => None,
+        })
+        .collect();
+    parts.filter(|p| !p.is_empty()).map(|p| p.join("."))
+}
+
+fn edit_tree(tree: &mut Value, e: &Edit) {
+    let mut all = Vec::new();
+    paths(tree, &mut Vec::new(), &mut all);
+    match e {
+        Edit::Replace(at, r) => {
+            let path = &all[at.index(all.len())];
+            if let Some(n) = node(tree, path) {
+                *n = r.yaml(n);
+            }
+        }
+        Edit::DeleteKey(at) => {
+            let keyed: Vec<&Vec<Step>> = all
+                .iter()
+                .filter(|p| matches!(p.last(), Some(Step::Key(_))))
+                .collect();
+            if keyed.is_empty() {
+                return;
+            }
+            let path = keyed[at.index(keyed.len())];
+            let (Some(Step::Key(k)), parent) = (path.last(), &path[..path.len() - 1]) else {
+                return;
+            };
+            if let Some(m) = node(tree, parent).and_then(Value::as_mapping_mut) {
+                m.remove(k);
+            }
+        }
+        _ => {}
+    }
+}
+
+fn edit_text(bytes: &mut Vec<u8>, e: &Edit) {
+    let lines = |b: &[u8]| -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        let mut start = 0;
+        for (i, &c) in b.iter().enumerate() {
+            if c == b'\n' {
+                out.push((start, i + 1));
+                start = i + 1;
+            }
+        }
+        if start < b.len() {
+            out.push((start, b.len()));
+        }
+        out
+    };
+    match e {
+        Edit::DuplicateLine(at) | Edit::DeleteLine(at) => {
+            let l = lines(bytes);
+            if l.is_empty() {
+                return;
+            }
+            let (s, t) = l[at.index(l.len())];
+            if matches!(e, Edit::DuplicateLine(_)) {
+                let line = bytes[s..t].to_vec();
+                bytes.splice(t..t, line);
+            } else {
+                bytes.drain(s..t);
+            }
+        }
+        Edit::Truncate(at) => bytes.truncate(at.index(bytes.len() + 1)),
+        Edit::FlipByte(at, mask) if !bytes.is_empty() => {
+            let i = at.index(bytes.len());
+            bytes[i] ^= mask;
+        }
+        Edit::InsertBytes(at, b) => {
+            let i = at.index(bytes.len() + 1);
+            bytes.splice(i..i, b.iter().copied());
+        }
+        _ => {}
+    }
+}
+
+/// The seed's text with the edits: tree edits on the parsed YAML (then written out again),
+/// text edits on the bytes. Without tree edits the original text (comments, layout) is kept.
+fn mutate_yaml(seed: &str, edits: &[Edit]) -> (Vec<u8>, Vec<Vec<Step>>) {
+    let tree_edits: Vec<&Edit> = edits
+        .iter()
+        .filter(|e| matches!(e, Edit::Replace(..) | Edit::DeleteKey(_)))
+        .collect();
+    let mut tree: Value = serde_yaml::from_str(seed).expect("a shipped file parses");
+    let mut bytes = if tree_edits.is_empty() {
+        seed.as_bytes().to_vec()
+    } else {
+        for e in tree_edits {
+            edit_tree(&mut tree, e);
+        }
+        serde_yaml::to_string(&tree)
+            .expect("a YAML tree writes")
+            .into_bytes()
+    };
+    for e in edits {
+        edit_text(&mut bytes, e);
+    }
+    let mut all = Vec::new();
+    paths(&tree, &mut Vec::new(), &mut all);
+    (bytes, all)
+}
+
+fn yaml_files(dirs: &[&str]) -> Vec<(PathBuf, String)> {
+    let mut files: Vec<PathBuf> = dirs
+        .iter()
+        .flat_map(|d| std::fs::read_dir(root().join(d)).expect("a shipped directory"))
+        .map(|e| e.expect("a directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
+        .collect();
+    files.sort();
+    files
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).expect("a shipped file reads");
+            (p, text)
+        })
+        .collect()
+}
+
+/// A `--set KEY=VALUE` built from a node of the seed and a replacement.
+fn override_of(paths: &[Vec<Step>], at: &Index, r: &Replacement) -> Option<String> {
+    let key = dotted(&paths[at.index(paths.len())])?;
+    let value = serde_yaml::to_string(&r.yaml(&Value::Null)).ok()?;
+    Some(format!("{key}={}", value.trim_end()))
+}
+
+/// The property of every error a reader returns for bad input.
+fn check_error(file: &Path, e: &hbcontact::Error) -> std::result::Result<(), TestCaseError> {
+    let text = e.to_string();
+    prop_assert_eq!(e.exit_code(), 2, "bad input is exit class 2: {}", text);
+    prop_assert!(
+        text.contains(&file.display().to_string()),
+        "the error names the file {}: {}",
+        file.display(),
+        text
+    );
+    let after = text
+        .split_once(&file.display().to_string())
+        .map_or("", |(_, after)| after);
+    prop_assert!(
+        after.trim_start_matches(':').trim().len() >= 10,
+        "the error says what is wrong: {}",
+        text
+    );
+    prop_assert!(
+        text.chars().count() <= 5000,
+        "a short error: {} characters",
+        text.len()
+    );
+    Ok(())
+}
+
+/// A validated pipeline's numbers are finite and its limits hold.
+fn check_pipeline(p: &Pipeline) -> std::result::Result<(), TestCaseError> {
+    let m = &p.material;
+    let finite = [
+        m.youngs_modulus,
+        m.poisson_ratio,
+        m.density,
+        m.thickness,
+        p.harmonic_balance.frequency,
+        p.harmonic_balance.solver.tolerance,
+        p.harmonic_balance.solver.c_scale,
+        p.harmonic_balance.solver.max_seconds,
+        p.geometry.gmsh_timeout,
+    ];
+    prop_assert!(finite.iter().all(|v| v.is_finite()), "{:?}", finite);
+    prop_assert!(p.geometry.parameters.values().all(|v| v.is_finite()));
+    prop_assert!(p
+        .geometry
+        .mesh_size
+        .is_none_or(|h| h > 0.0 && h.is_finite()));
+    let loads = p.boundaries.loads.iter().flat_map(|l| {
+        let s = &l.signal;
+        s.static_part.into_iter().chain(
+            s.harmonics
+                .iter()
+                .flat_map(|(_, c, d)| c.iter().chain(d).copied()),
+        )
+    });
+    prop_assert!(loads.into_iter().all(f64::is_finite));
+    prop_assert!(p.harmonic_balance.harmonics <= 1000);
+    prop_assert!(p.output.frames >= 1);
+    Ok(())
+}
+
+fn check_study(study: &Study) -> std::result::Result<(), TestCaseError> {
+    for p in &study.parameters {
+        prop_assert!(!p.values.is_empty());
+        prop_assert!(p
+            .values
+            .iter()
+            .all(|v| v.number().is_none_or(f64::is_finite)));
+    }
+    Ok(())
+}
+
+fn pipeline_case(
+    (path, seed): &(PathBuf, String),
+    edits: &[Edit],
+    set: &Option<(Index, Replacement)>,
+) -> std::result::Result<(), TestCaseError> {
+    let (bytes, all) = mutate_yaml(seed, edits);
+    let text = String::from_utf8_lossy(&bytes);
+    let overrides: Vec<String> = set
+        .iter()
+        .filter_map(|(at, r)| override_of(&all, at, r))
+        .collect();
+    match parse_pipeline(path, &text, &overrides) {
+        Ok(p) => check_pipeline(&p),
+        Err(e) => check_error(path, &e),
+    }
+}
+
+/// Studies whose points the fuzz resolves (each point loads the pipeline); larger ones are
+/// only validated.
+const PLANNED_POINTS: usize = 200;
+
+fn study_case(
+    (path, seed): &(PathBuf, String),
+    edits: &[Edit],
+) -> std::result::Result<(), TestCaseError> {
+    let (bytes, _) = mutate_yaml(seed, edits);
+    let text = String::from_utf8_lossy(&bytes);
+    let study = match parse_study(path, &text, &[]) {
+        Ok(s) => s,
+        Err(e) => return check_error(path, &e),
+    };
+    check_study(&study)?;
+    prop_assert!(study.point_count() <= hbcontact::study::spec::MAX_POINTS);
+    if study.point_count() > PLANNED_POINTS {
+        return Ok(());
+    }
+    match plan(&study) {
+        Ok(points) => {
+            prop_assert_eq!(points.len(), study.point_count());
+            Ok(())
+        }
+        // A point's pipeline error names the study file, as the study's own errors do.
+        Err(e) => check_error(path, &e),
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+    /// TEST GOAL: a mutated pipeline YAML (values made NaN, ±Inf, huge, negative, zero, of
+    /// the wrong type; keys deleted; lines duplicated or deleted; truncated; bytes flipped or
+    /// inserted; a mutated `--set`) never panics: it loads into a pipeline whose numbers are
+    /// finite, or fails with a bad-input error naming the file.
+    #[test]
+    fn mutated_pipelines_load_or_fail_naming_the_file(
+        seed in any::<Index>(),
+        edits in prop::collection::vec(edit(), 1..4),
+        set in prop::option::weighted(0.2, (any::<Index>(), replacement())),
+    ) {
+        let seeds = yaml_files(&["pipelines", "pipelines/hard"]);
+        pipeline_case(&seeds[seed.index(seeds.len())], &edits, &set)?;
+    }
+
+    /// TEST GOAL: a mutated study YAML never panics and never expands into more points than
+    /// the limit: it loads (and its points resolve, or fail naming the study file), or fails
+    /// with a bad-input error naming the file.
+    #[test]
+    fn mutated_studies_load_or_fail_naming_the_file(
+        seed in any::<Index>(),
+        edits in prop::collection::vec(edit(), 1..4),
+    ) {
+        let seeds = yaml_files(&["studies", "tests/data/fuzz"]);
+        study_case(&seeds[seed.index(seeds.len())], &edits)?;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// .msh mutations.
+
+/// One mutation of a `.msh` file's bytes.
+#[derive(Clone, Debug)]
+enum MshEdit {
+    Truncate(Index),
+    FlipByte(Index, u8),
+    InsertBytes(Index, Vec<u8>),
+    DeleteRange(Index, usize),
+    /// Replace a whitespace-separated token (a count, tag, element type, coordinate).
+    Token(Index, String),
+    /// Overwrite 8 bytes with a little-endian number (a binary count or tag).
+    Word(Index, u64),
+    DuplicateLine(Index),
+}
+
+fn token() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("0".to_string()),
+        Just("-1".to_string()),
+        Just("18446744073709551615".to_string()),
+        Just("9223372036854775807".to_string()),
+        Just("4294967296".to_string()),
+        Just("1000000000".to_string()),
+        Just("nan".to_string()),
+        Just("inf".to_string()),
+        Just("1e308".to_string()),
+        Just("2 1".to_string()),
+        (0..40u32).prop_map(|n| n.to_string()),
+    ]
+}
+
+fn msh_edit() -> impl Strategy<Value = MshEdit> {
+    prop_oneof![
+        1 => any::<Index>().prop_map(MshEdit::Truncate),
+        2 => (any::<Index>(), 1..=255u8).prop_map(|(i, m)| MshEdit::FlipByte(i, m)),
+        1 => (any::<Index>(), prop::collection::vec(any::<u8>(), 1..8))
+            .prop_map(|(i, b)| MshEdit::InsertBytes(i, b)),
+        1 => (any::<Index>(), 1..64usize).prop_map(|(i, n)| MshEdit::DeleteRange(i, n)),
+        4 => (any::<Index>(), token()).prop_map(|(i, t)| MshEdit::Token(i, t)),
+        2 => (any::<Index>(), prop_oneof![
+            Just(u64::MAX), Just(1u64 << 40), Just(1u64 << 32), Just(0), 0..64u64
+        ]).prop_map(|(i, w)| MshEdit::Word(i, w)),
+        1 => any::<Index>().prop_map(MshEdit::DuplicateLine),
+    ]
+}
+
+/// Byte ranges of the whitespace-separated tokens.
+fn tokens(b: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for (i, c) in b.iter().enumerate() {
+        match (c.is_ascii_whitespace(), start) {
+            (false, None) => start = Some(i),
+            (true, Some(s)) => {
+                out.push((s, i));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        out.push((s, b.len()));
+    }
+    out
+}
+
+fn edit_msh(bytes: &mut Vec<u8>, e: &MshEdit) {
+    let n = bytes.len();
+    match e {
+        MshEdit::Truncate(at) => bytes.truncate(at.index(n + 1)),
+        MshEdit::FlipByte(at, mask) if n > 0 => bytes[at.index(n)] ^= mask,
+        MshEdit::InsertBytes(at, b) => {
+            let i = at.index(n + 1);
+            bytes.splice(i..i, b.iter().copied());
+        }
+        MshEdit::DeleteRange(at, len) if n > 0 => {
+            let i = at.index(n);
+            bytes.drain(i..(i + len).min(n));
+        }
+        MshEdit::Token(at, t) => {
+            let all = tokens(bytes);
+            if !all.is_empty() {
+                let (s, end) = all[at.index(all.len())];
+                bytes.splice(s..end, t.bytes());
+            }
+        }
+        MshEdit::Word(at, w) if n >= 8 => {
+            let i = at.index(n - 7);
+            bytes[i..i + 8].copy_from_slice(&w.to_le_bytes());
+        }
+        MshEdit::DuplicateLine(at) => edit_text(bytes, &Edit::DuplicateLine(*at)),
+        _ => {}
+    }
+}
+
+/// A mesh read from a file is usable: finite coordinates, every index in range.
+fn check_mesh(mesh: &Mesh2d) -> std::result::Result<(), TestCaseError> {
+    let n = mesh.nodes.len();
+    prop_assert!(mesh.nodes.iter().flatten().all(|x| x.is_finite()));
+    prop_assert!(!mesh.cells.is_empty());
+    for c in &mesh.cells {
+        prop_assert_eq!(c.nodes.len(), c.kind.nodes_per_cell());
+        prop_assert!(c.nodes.iter().all(|&i| i < n));
+    }
+    for cells in mesh.cell_groups.values() {
+        prop_assert!(cells.iter().all(|&i| i < mesh.cells.len()));
+    }
+    for nodes in mesh.node_groups.values() {
+        prop_assert!(nodes.iter().all(|&i| i < n));
+    }
+    for edges in mesh.edge_groups.values() {
+        prop_assert!(edges.iter().flat_map(|e| &e.nodes).all(|&i| i < n));
+    }
+    Ok(())
+}
+
+/// The most a reader may hold while reading a file of `len` bytes: what the seeds need
+/// (measured: 7 and 12 bytes per file byte, printed by `fuzz_seeds_load_unmutated`) with
+/// room, plus a fixed allowance.
+fn memory_allowance(len: usize) -> usize {
+    64 * len + (256 << 10)
+}
+
+fn msh_seeds() -> Vec<(String, Vec<u8>)> {
+    ["strip_wall_order2.msh", "strip_wall_quads_binary.msh"]
+        .iter()
+        .map(|name| {
+            let bytes = std::fs::read(root().join("tests/data/fuzz").join(name)).expect("seed");
+            (name.to_string(), bytes)
+        })
+        .collect()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = root().join("output/test-fuzz");
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    let thread = format!("{:?}", std::thread::current().id());
+    let id: String = thread.chars().filter(char::is_ascii_digit).collect();
+    dir.join(format!("{}-{id}-{name}", std::process::id()))
+}
+
+fn msh_case(bytes: &[u8], name: &str) -> std::result::Result<(), TestCaseError> {
+    let path = scratch(name);
+    std::fs::write(&path, bytes).expect("scratch write");
+    let (result, held) = measure(|| read_msh(&path));
+    prop_assert!(
+        held <= memory_allowance(bytes.len()),
+        "reading {} bytes held {} bytes",
+        bytes.len(),
+        held
+    );
+    match result {
+        Ok(mesh) => check_mesh(&mesh),
+        Err(e) => check_error(&path, &e),
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+    /// TEST GOAL: a mutated `.msh` (truncated; bytes flipped, inserted or deleted; counts, tags,
+    /// element types and coordinates replaced by 0, −1, huge values, NaN or Inf; binary words
+    /// overwritten; lines duplicated) never panics, never holds more than a small multiple of
+    /// the file's size, and reads into a usable mesh or fails with an error naming the file.
+    #[test]
+    fn mutated_msh_files_read_or_fail_naming_the_file(
+        seed in any::<Index>(),
+        edits in prop::collection::vec(msh_edit(), 1..4),
+    ) {
+        let seeds = msh_seeds();
+        let (name, mut bytes) = seeds[seed.index(seeds.len())].clone();
+        for e in &edits {
+            edit_msh(&mut bytes, e);
+        }
+        msh_case(&bytes, &name)?;
+    }
+}
+
+/// TEST GOAL: the fuzz seeds are valid (every shipped pipeline and study loads, every seed
+/// mesh reads, within the memory allowance), so the mutations start from real input.
+#[test]
+fn fuzz_seeds_load_unmutated() {
+    for (path, text) in yaml_files(&["pipelines", "pipelines/hard"]) {
+        parse_pipeline(&path, &text, &[]).unwrap_or_else(|e| panic!("{e}"));
+    }
+    for (path, text) in yaml_files(&["studies", "tests/data/fuzz"]) {
+        let s = parse_study(&path, &text, &[]).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(plan(&s).map(|p| p.len()).ok(), Some(s.point_count()));
+    }
+    for (name, bytes) in msh_seeds() {
+        let path = scratch(&name);
+        std::fs::write(&path, &bytes).unwrap();
+        let (mesh, held) = measure(|| read_msh(&path));
+        let mesh = mesh.unwrap_or_else(|e| panic!("{e}"));
+        assert!(mesh.cells.len() >= 4, "{name}: {} cells", mesh.cells.len());
+        assert!(
+            held <= memory_allowance(bytes.len()),
+            "{name}: {held} bytes"
+        );
+        eprintln!(
+            "{name}: {} bytes held {held} bytes ({:.0} per file byte)",
+            bytes.len(),
+            held as f64 / bytes.len() as f64
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The bugs the fuzzing found, one named test each.
+
+fn read_mutated(name: &str, from: &str, to: &str) -> String {
+    let (_, seed) = msh_seeds().into_iter().find(|(n, _)| n == name).unwrap();
+    let text = String::from_utf8_lossy(&seed).replacen(from, to, 1);
+    assert!(text.as_bytes() != seed.as_slice(), "{from} is in {name}");
+    let path = scratch(&format!("regression-{name}"));
+    let mut bytes = seed.clone();
+    // Splice in bytes, so a binary file keeps its binary part.
+    let at = seed.windows(from.len()).position(|w| w == from.as_bytes());
+    let at = at.unwrap();
+    bytes.splice(at..at + from.len(), to.bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    match read_msh(&path) {
+        Ok(_) => panic!("{name} with {to:?} must not read"),
+        Err(e) => {
+            assert_eq!(e.exit_code(), 2);
+            let e = e.to_string();
+            assert!(e.contains(&path.display().to_string()), "{e}");
+            e
+        }
+    }
+}
+
+/// TEST GOAL: a `$MeshFormat` line with a data size mshio has no parser for, or digits beyond
+/// its integer type, is an error naming the line and the fix (mshio panicked on both:
+/// `unimplemented!` and an `unwrap` of the overflowing parse).
+#[test]
+fn regression_a_damaged_mesh_format_line_is_an_error_not_a_panic() {
+    let e = read_mutated("strip_wall_quads_binary.msh", "4.1 1 8", "4.1 1 16");
+    assert!(
+        e.contains("sizes of 16 bytes") && e.contains("-format msh41"),
+        "{e}"
+    );
+    let e = read_mutated(
+        "strip_wall_quads_binary.msh",
+        "4.1 1 8",
+        "4.1 1 18446744073709551616",
+    );
+    assert!(
+        e.contains("$MeshFormat") && e.contains("-format msh41"),
+        "{e}"
+    );
+    let e = read_mutated("strip_wall_order2.msh", "4.1 0 8", "4.1 99999999999 8");
+    assert!(e.contains("`4.1 99999999999 8`"), "{e}");
+}
+
+/// TEST GOAL: a node with a NaN or infinite coordinate (a damaged file; the binary fuzz case
+/// overwrote a coordinate with all one bits) is refused naming the node, instead of a mesh
+/// whose NaN reaches the solver.
+#[test]
+fn regression_non_finite_node_coordinates_are_refused_naming_the_node() {
+    let e = read_mutated("strip_wall_order2.msh", "0.05 0.02 0\n", "0.05 nan 0\n");
+    assert!(
+        e.contains("node 4 is at (0.05, NaN, 0)") && e.contains("finite"),
+        "{e}"
+    );
+    let e = read_mutated("strip_wall_order2.msh", "0.1 0 0\n", "inf 0 0\n");
+    assert!(e.contains("node 2 is at (inf, 0, 0)"), "{e}");
+}
+
+fn study_error(text: &str) -> String {
+    let path = root().join("tests/data/fuzz/regression.yaml");
+    match parse_study(&path, text, &[]) {
+        Ok(s) => panic!("must not load: {} points", s.point_count()),
+        Err(e) => {
+            assert_eq!(e.exit_code(), 2);
+            e.to_string()
+        }
+    }
+}
+
+/// TEST GOAL: a study error quotes at most an excerpt of a long value (the fuzz case: a
+/// 20 000-character pipeline path echoed whole, 24 220 characters of message).
+#[test]
+fn regression_a_study_error_quotes_only_an_excerpt_of_a_long_value() {
+    let long = "x".repeat(20_000);
+    let e = study_error(&format!(
+        "name: s\npipeline: {long}\nparameters: [{{key: a, values: [1]}}]\n"
+    ));
+    assert!(
+        e.len() < 500 && e.contains("(20000 characters)") && e.contains("pipeline:"),
+        "{e}"
+    );
+    let e = study_error(&format!(
+        "name: s\npipeline: ../../../pipelines/strip_wall.yaml\nparameters: [{{key: {long}, values: []}}]\n"
+    ));
+    assert!(e.len() < 500 && e.contains("parameters[0]"), "{e}");
+}
+
+/// TEST GOAL: a huge `range.count`, Latin hypercube `samples` or grid product is refused
+/// naming the field and the limit before any point is laid out (`count:
+/// 18446744073709551615` laid out the values and took the machine's memory until the kernel
+/// killed the fuzz run), and so is an absurd `threads`.
+#[test]
+fn regression_huge_point_counts_are_refused_before_the_points_are_laid_out() {
+    let head = "name: s\npipeline: ../../../pipelines/strip_wall.yaml\n";
+    let e = study_error(&format!(
+        "{head}parameters: [{{key: geometry.parameters.gap, range: {{from: 1, to: 2, count: 18446744073709551615}}}}]\n"
+    ));
+    assert!(
+        e.contains("parameters[0] (geometry.parameters.gap).range.count = 18446744073709551615")
+            && e.contains("100000"),
+        "{e}"
+    );
+    let e = study_error(&format!(
+        "{head}design: {{latin_hypercube: {{samples: 1000000000}}}}\nparameters: [{{key: a, range: {{from: 1, to: 2}}}}]\n"
+    ));
+    assert!(
+        e.contains("design.latin_hypercube.samples = 1000000000"),
+        "{e}"
+    );
+    let e = study_error(&format!(
+        "{head}parameters:\n  - {{key: a, range: {{from: 1, to: 2, count: 1000}}}}\n  - {{key: b, range: {{from: 1, to: 2, count: 1000}}}}\n"
+    ));
+    assert!(
+        e.contains("1000000 points") && e.contains("split it"),
+        "{e}"
+    );
+    let e = study_error(&format!(
+        "{head}threads: 100000000\nparameters: [{{key: a, values: [1]}}]\n"
+    ));
+    assert!(e.contains("threads = 100000000"), "{e}");
+}
