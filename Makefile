@@ -32,6 +32,7 @@ bench: venv build
 	$(CARGO) bench --bench contact
 	$(CARGO) bench --bench study
 	$(CARGO) bench --bench sweep
+	$(CARGO) bench --bench goals
 
 lint:
 	$(CARGO) fmt --check

@@ -10,6 +10,8 @@ use faer::Mat;
 
 use crate::{Error, Result};
 
+pub mod schur;
+
 /// A square sparse matrix as (row, column, value) triplets; duplicates add up.
 #[derive(Clone, Debug, Default)]
 pub struct Triplets {
@@ -232,6 +234,10 @@ impl LuPattern {
     }
 }
 
+/// Right-hand sides per blocked solve of `SparseLu::compliance`: wide enough for faer's
+/// supernodal kernels, small enough that the n × block solution stays in cache-sized pieces.
+const COMPLIANCE_BLOCK: usize = 64;
+
 /// A numeric sparse LU factorization, real or complex.
 pub enum SparseLu {
     Real(Lu<usize, f64>),
@@ -304,40 +310,52 @@ impl SparseLu {
         }
     }
 
-    /// The compliance B A⁻¹ Bᵀ (row-major nrows(B)²) for a sparse B: one blocked solve with
-    /// the rows of B as right-hand sides (real ones for a real factorization), then B times
-    /// the solution, without keeping the n × nrows(B) solution beyond this call.
+    /// The compliance B A⁻¹ Bᵀ (row-major nrows(B)²) for a sparse B: blocked solves with the
+    /// rows of B as right-hand sides (real ones for a real factorization), `COMPLIANCE_BLOCK`
+    /// at a time so the n × n_c solution is never held, each block multiplied by B at once.
     pub fn compliance(&self, b: &Csc) -> Vec<c64> {
-        let (n, nc) = (self.dim(), b.nrows);
+        let nc = b.nrows;
         let mut out = vec![c64::new(0.0, 0.0); nc * nc];
-        // (B X)_ij = Σ_p B_ip X_pj, with B stored by columns p.
-        let mut product = |x: &dyn Fn(usize, usize) -> c64| {
-            for p in 0..b.ncols {
-                for q in b.col_ptr[p]..b.col_ptr[p + 1] {
-                    let (i, v) = (b.row_idx[q], b.values[q]);
-                    for j in 0..nc {
-                        out[i * nc + j] += x(p, j) * v;
+        // Row i of B as (column, value) pairs: B_i x = Σ v x_p.
+        let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nc];
+        for (i, p, v) in b.triplet_iter() {
+            rows[i].push((p, v));
+        }
+        let mut start = 0;
+        while start < nc {
+            let width = COMPLIANCE_BLOCK.min(nc - start);
+            let columns = start..start + width;
+            // out[i, j] = B_i x_j for the block's columns j.
+            let mut product = |x: &dyn Fn(usize, usize) -> c64| {
+                for (i, row) in rows.iter().enumerate() {
+                    for (c, j) in columns.clone().enumerate() {
+                        out[i * nc + j] = row.iter().map(|&(p, v)| x(p, c) * v).sum();
                     }
                 }
-            }
-        };
-        match self {
-            SparseLu::Real(lu) => {
-                let mut rhs = Mat::<f64>::zeros(n, nc);
-                for (row, col, v) in b.triplet_iter() {
-                    rhs[(col, row)] = v;
+            };
+            match self {
+                SparseLu::Real(lu) => {
+                    let mut rhs = Mat::<f64>::zeros(self.dim(), width);
+                    for (c, j) in columns.clone().enumerate() {
+                        for &(p, v) in &rows[j] {
+                            rhs[(p, c)] = v;
+                        }
+                    }
+                    let x = lu.solve(&rhs);
+                    product(&|p, c| c64::new(x[(p, c)], 0.0));
                 }
-                let x = lu.solve(&rhs);
-                product(&|p, j| c64::new(x[(p, j)], 0.0));
-            }
-            SparseLu::Complex(lu) => {
-                let mut rhs = Mat::<c64>::zeros(n, nc);
-                for (row, col, v) in b.triplet_iter() {
-                    rhs[(col, row)] = c64::new(v, 0.0);
+                SparseLu::Complex(lu) => {
+                    let mut rhs = Mat::<c64>::zeros(self.dim(), width);
+                    for (c, j) in columns.clone().enumerate() {
+                        for &(p, v) in &rows[j] {
+                            rhs[(p, c)] = c64::new(v, 0.0);
+                        }
+                    }
+                    let x = lu.solve(&rhs);
+                    product(&|p, c| x[(p, c)]);
                 }
-                let x = lu.solve(&rhs);
-                product(&|p, j| x[(p, j)]);
             }
+            start += width;
         }
         out
     }

@@ -281,7 +281,7 @@ impl LinearResponse {
         k: usize,
         lu: &SparseLu,
     ) -> Result<()> {
-        let gk = lu.compliance(&op.b_free);
+        let gk = system.compliance(k, &op.b_free, lu);
         if gk.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
             return Err(singular_diagnosis(system, k));
         }

@@ -224,7 +224,15 @@ fn execute(
         points::Writer::new(p, &spec, &model, &mesh_info, staged.path(), saved.as_ref());
     let clock = Instant::now();
     let mut starts = Vec::new();
-    let ended = continue_curve(p, &spec, &model, &mut writer, &mut starts, saved.as_ref(), reporter);
+    let ended = continue_curve(
+        p,
+        &spec,
+        &model,
+        &mut writer,
+        &mut starts,
+        saved.as_ref(),
+        reporter,
+    );
     stages.times.push("sweep", clock.elapsed().as_secs_f64());
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run("stability", || {
@@ -404,7 +412,8 @@ fn stop_report(
         point: last.index,
         class,
         reason,
-    })}
+    })
+}
 
 /// A point's ω and contact solution: where a stability check starts from.
 type Start = (usize, f64, Option<ContactSolution>);

@@ -339,7 +339,13 @@ impl<'a> Writer<'a> {
             .map_or(hb_settings(&at).samples, |c| c.samples);
         let model = self.model;
         let sampled = Sampled::harmonic_balance(model, solution, at.output.frames, samples);
-        sampled.write(dir, model, at.contact.as_ref(), &at.output.fields)?;
+        sampled.write(
+            dir,
+            model,
+            at.contact.as_ref(),
+            &at.output.fields,
+            &crate::progress::Silent,
+        )?;
         write_amplitudes(dir, model, solution)?;
         let mut s = summary::harmonic_balance(&at, self.mesh.clone(), model, solution, &sampled);
         s.warnings

@@ -1,0 +1,410 @@
+//! The speed goals of issue 8 against what this build measures, in one run:
+//! - the reference strip at H = 20 and 40: solve time against the numpy prototype's 0.42 s and
+//!   3.7 s (goal ≥ 10× faster) and the Newton's share of the run (goal < 30%);
+//! - Newton iterations of the 0.5%-damped strip against the 5%-damped one, H = 5…80 (goal
+//!   within 3×);
+//! - the half-disc refined at the contact: the reduction G_k = B Z_k⁻¹ Bᵀ against the
+//!   factorizations (goal ≤), by the Schur complement and by the blocked solve;
+//! - time per factorization against its flop count (the floor).
+//!
+//! `cargo bench --bench goals [-- strip | damping | reduction | floor]` (default: all). Times
+//! come from one run on a shared machine: the ratios within a table are what to compare.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::hbm::System;
+use hbcontact::linalg::schur::SchurPlan;
+use hbcontact::linalg::SparseLu;
+use hbcontact::pipeline::{self, Purpose, RunOptions, Stages, Summary};
+use hbcontact::Silent;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn pipeline_with(file: &str, sets: &[String]) -> Option<Pipeline> {
+    match load_pipeline(&root().join(file), sets) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            eprintln!("{file}: {e}");
+            None
+        }
+    }
+}
+
+/// The system and contact operator of a pipeline (mesh from the cache under `work`).
+fn model(p: &Pipeline, work: &Path) -> Option<pipeline::Model> {
+    let mut stages = Stages::new(p, &Silent);
+    let built = pipeline::stages::mesh(p, &work.join("model"), &mut stages)
+        .and_then(|(mesh, _)| pipeline::build(p, mesh, Purpose::HarmonicBalance));
+    match built {
+        Ok(m) => Some(m),
+        Err(e) => {
+            eprintln!("{e}");
+            None
+        }
+    }
+}
+
+fn seconds<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let out = f();
+    (out, t.elapsed().as_secs_f64())
+}
+
+fn max_difference(a: &[faer::c64], b: &[faer::c64]) -> f64 {
+    let scale = b.iter().fold(0.0f64, |m, z| m.max(z.norm()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).norm()))
+        / scale
+}
+
+/// Reduction against factorization on the half-disc refined at the contact.
+fn reduction() {
+    println!("\n## Reduction G_k = B Z_k⁻¹ Bᵀ against the factorizations (half_disc, search_distance 0.05)");
+    println!(
+        "{:>10} {:>6} {:>7} {:>3} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10}",
+        "lc_contact",
+        "nodes",
+        "dofs",
+        "H",
+        "factor s",
+        "schur s",
+        "solves s",
+        "schur/fac",
+        "est. ratio",
+        "plan s",
+        "|ΔG|/|G|"
+    );
+    let work = root().join("output/bench-goals");
+    for (lc, h, solves) in [
+        (0.004, 5, true),
+        (0.002, 5, true),
+        (0.001, 5, true),
+        (0.0005, 5, false),
+        (0.0005, 10, false),
+    ] {
+        let sets = vec![
+            format!("geometry.parameters.lc_contact={lc}"),
+            "contact.search_distance=0.05".to_string(),
+            format!("harmonic_balance.harmonics={h}"),
+        ];
+        let Some(p) = pipeline_with("pipelines/half_disc.yaml", &sets) else {
+            return;
+        };
+        let Some(m) = model(&p, &work) else { return };
+        let Some(contact) = &m.contact else { return };
+        let b = &contact.operator.b_free;
+        let system: &System = &m.system;
+        let (plan, t_plan) = seconds(|| SchurPlan::new(&system.k_ff, b));
+        let Some(plan) = plan else {
+            eprintln!("no Schur plan for this B");
+            return;
+        };
+        let (mut t_factor, mut t_schur, mut t_solves, mut diff) = (0.0, 0.0, 0.0, 0.0f64);
+        for k in 0..=h {
+            let (lu, t) = seconds(|| system.factor(k));
+            t_factor += t;
+            let Ok(lu) = lu else { return };
+            let (re, im) = system.dynamic_stiffness(k);
+            let (g, t) = seconds(|| plan.compliance(&re.values, im.as_deref()));
+            t_schur += t;
+            let Ok(g) = g else { return };
+            // The blocked solve on the finest meshes only at k = 1 (it takes minutes), scaled.
+            if solves || k == 1 {
+                let (reference, t) = seconds(|| lu.compliance(b));
+                t_solves += if solves { t } else { t * (h + 1) as f64 };
+                diff = diff.max(max_difference(&g, &reference));
+            }
+            drop::<SparseLu>(lu);
+        }
+        println!(
+            "{lc:>10} {:>6} {:>7} {h:>3} {t_factor:>9.2} {t_schur:>10.2} {:>10} {:>10.2} {:>10.3} {t_plan:>9.2} {diff:>10.1e}",
+            b.nrows,
+            system.free_count(),
+            format!("{t_solves:.2}{}", if solves { "" } else { "*" }),
+            t_schur / t_factor,
+            plan.schur_cost / plan.solve_cost,
+        );
+    }
+    println!("(* the blocked solve timed at k = 1 and scaled by H + 1; est. ratio = the estimated cost of the Schur path over the solves', which picks the path)");
+}
+
+/// The path choice on the shipped contact scenes: the estimate against both paths' times.
+fn paths() {
+    println!("\n## Reduction path per shipped contact scene (its own H; all harmonics)");
+    println!(
+        "{:>16} {:>6} {:>7} {:>3} {:>10} {:>9} {:>9} {:>12} {:>7}",
+        "scene", "nodes", "dofs", "H", "est. ratio", "schur s", "solves s", "meas. ratio", "chosen"
+    );
+    let work = root().join("output/bench-goals");
+    for scene in ["strip_wall", "reference_strip", "blade_casing", "half_disc"] {
+        let file = format!("pipelines/{scene}.yaml");
+        let Some(p) = pipeline_with(&file, &[]) else {
+            return;
+        };
+        let Some(m) = model(&p, &work) else { return };
+        let Some(contact) = &m.contact else { continue };
+        let b = &contact.operator.b_free;
+        let Some(plan) = SchurPlan::new(&m.system.k_ff, b) else {
+            continue;
+        };
+        let h = p.harmonic_balance.harmonics;
+        let (mut t_schur, mut t_solves) = (0.0, 0.0);
+        for k in 0..=h {
+            let Ok(lu) = m.system.factor(k) else { return };
+            let (re, im) = m.system.dynamic_stiffness(k);
+            t_schur += seconds(|| plan.compliance(&re.values, im.as_deref())).1;
+            t_solves += seconds(|| lu.compliance(b)).1;
+        }
+        let est = plan.schur_cost / plan.solve_cost;
+        println!(
+            "{scene:>16} {:>6} {:>7} {h:>3} {est:>10.3} {t_schur:>9.3} {t_solves:>9.3} {:>12.3} {:>7}",
+            b.nrows,
+            m.system.free_count(),
+            t_schur / t_solves,
+            if plan.preferred() { "schur" } else { "solves" },
+        );
+    }
+}
+
+/// Run a pipeline by harmonic balance (plots off) into `work/<tag>`; its summary and wall time.
+fn run(file: &str, sets: &[String], tag: &str) -> Option<(Summary, f64)> {
+    let mut sets = sets.to_vec();
+    sets.push("output.plots=false".into());
+    let p = pipeline_with(file, &sets)?;
+    let options = RunOptions {
+        out: Some(root().join("output/bench-goals").join(tag)),
+        ..Default::default()
+    };
+    let (result, secs) = seconds(|| pipeline::run(&p, &options, &Silent));
+    match result {
+        Ok(r) => Some((r.summary, secs)),
+        Err(e) => {
+            eprintln!("{file} {sets:?}: {e}");
+            None
+        }
+    }
+}
+
+/// The solve stages (assembly to recovery: no meshing, checks or writing) of a run.
+const SOLVE_STAGES: [&str; 6] = [
+    "assemble",
+    "factor",
+    "linear_solve",
+    "reduce",
+    "newton",
+    "recover",
+];
+
+fn iterations(s: &Summary) -> usize {
+    s.contact
+        .as_ref()
+        .and_then(|c| c.solver.as_ref())
+        .map_or(0, |c| c.newton_iterations)
+}
+
+/// The reference strip at H = 20 and 40 against the numpy prototype.
+fn strip() {
+    println!("\n## Reference strip (pipelines/reference_strip.yaml): solve time against the numpy prototype");
+    println!(
+        "{:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>10} {:>8} {:>12} {:>12} {:>6}",
+        "H",
+        "assemble",
+        "factor",
+        "reduce",
+        "newton",
+        "solve s",
+        "prototype",
+        "speed-up",
+        "goal",
+        "newton/solve",
+        "newton/run",
+        "iters"
+    );
+    let _ = run(
+        "pipelines/reference_strip.yaml",
+        &["harmonic_balance.harmonics=1".into()],
+        "warm",
+    );
+    for (h, prototype) in [(20usize, 0.42), (40, 3.7)] {
+        let Some((s, wall)) = run(
+            "pipelines/reference_strip.yaml",
+            &[format!("harmonic_balance.harmonics={h}")],
+            &format!("strip-h{h}"),
+        ) else {
+            continue;
+        };
+        let st = &s.stage_seconds;
+        let solve: f64 = SOLVE_STAGES.iter().map(|k| st.get(k)).sum();
+        println!(
+            "{h:>3} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {solve:>9.3} {prototype:>10.2} {:>9.1}× {:>8} {:>11.0}% {:>11.0}% {:>6}",
+            st.get("assemble"),
+            st.get("factor"),
+            st.get("reduce"),
+            st.get("newton"),
+            prototype / solve,
+            "≥ 10×",
+            100.0 * st.get("newton") / solve,
+            100.0 * st.get("newton") / wall,
+            iterations(&s),
+        );
+    }
+    println!("(solve = assemble + factor + linear_solve + reduce + newton + recover; goal: newton < 30% of the run)");
+}
+
+/// Newton iterations of the 0.5%-damped strip against the 5%-damped one.
+fn damping() {
+    println!("\n## Light damping: Newton iterations, reference strip, alpha = 86 (0.5%) against 857 (5%)");
+    println!(
+        "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8}",
+        "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal"
+    );
+    for h in [5usize, 10, 20, 30, 40, 60, 80] {
+        let mut row = Vec::new();
+        for alpha in [857.0, 86.0] {
+            let sets = vec![
+                format!("harmonic_balance.harmonics={h}"),
+                format!("damping.alpha={alpha}"),
+            ];
+            row.push(run(
+                "pipelines/reference_strip.yaml",
+                &sets,
+                &format!("damp-{alpha}-h{h}"),
+            ));
+        }
+        let cell = |r: &Option<(Summary, f64)>| match r {
+            Some((s, t)) => (
+                format!("{}", iterations(s)),
+                format!("{t:.2}"),
+                iterations(s) as f64,
+            ),
+            None => ("failed".into(), "-".into(), f64::NAN),
+        };
+        let (a, b) = (cell(&row[0]), cell(&row[1]));
+        println!(
+            "{h:>3} {:>8} {:>10} {:>8} {:>10} {:>7.2} {:>8}",
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            b.2 / a.2,
+            "≤ 3"
+        );
+    }
+    println!("(s = the whole run's wall time)");
+}
+
+/// Mul-adds of a sparse LU of `a`'s pattern in an AMD order (faer's estimate).
+fn lu_mul_adds(a: &hbcontact::linalg::Csc) -> f64 {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::sparse::linalg::amd;
+    let n = a.ncols;
+    let (mut perm, mut perm_inv) = (vec![0usize; n], vec![0usize; n]);
+    let pattern =
+        faer::sparse::SymbolicSparseColMatRef::new_checked(n, n, &a.col_ptr, None, &a.row_idx);
+    let mut buf = MemBuffer::new(amd::order_maybe_unsorted_scratch::<usize>(n, a.nnz()));
+    amd::order_maybe_unsorted(
+        &mut perm,
+        &mut perm_inv,
+        pattern,
+        amd::Control::default(),
+        MemStack::new(&mut buf),
+    )
+    .map_or(f64::NAN, |f| f.n_mult_subs_lu + f.n_div)
+}
+
+/// Achieved real flop rate of a dense complex matrix product (the rate a factorization's
+/// dense kernels can reach on this machine, now).
+fn dense_rate(n: usize) -> f64 {
+    let a = faer::Mat::<faer::c64>::from_fn(n, n, |i, j| faer::c64::new((i + j) as f64, 1.0));
+    let mut best = f64::INFINITY;
+    for _ in 0..3 {
+        let (_, t) = seconds(|| &a * &a);
+        best = best.min(t);
+    }
+    8.0 * (n as f64).powi(3) / best
+}
+
+/// Time per factorization against its flop count.
+fn floor() {
+    println!("\n## Factorization floor: time per complex factorization against its flop count");
+    let rate = dense_rate(384);
+    println!(
+        "dense complex matrix product here, now: {:.2} Gflop/s",
+        rate * 1e-9
+    );
+    println!(
+        "{:>28} {:>7} {:>12} {:>11} {:>10} {:>10} {:>11}",
+        "scene", "dofs", "LU Mflop", "factor ms", "floor ms", "time/floor", "Gflop/s"
+    );
+    let work = root().join("output/bench-goals");
+    let scenes: [(&str, Vec<String>); 2] = [
+        ("pipelines/reference_strip.yaml", vec![]),
+        (
+            "pipelines/half_disc.yaml",
+            vec![
+                "geometry.parameters.lc_contact=0.0005".into(),
+                "contact.search_distance=0.05".into(),
+            ],
+        ),
+    ];
+    for (file, sets) in scenes {
+        let Some(p) = pipeline_with(file, &sets) else {
+            return;
+        };
+        let Some(m) = model(&p, &work) else { return };
+        // Complex: 4 real multiplications and 4 additions per complex mul-add.
+        let flops = 8.0 * lu_mul_adds(&m.system.k_ff);
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let (lu, t) = seconds(|| m.system.factor(1));
+            if lu.is_err() {
+                return;
+            }
+            best = best.min(t);
+        }
+        let floor = flops / rate;
+        println!(
+            "{:>28} {:>7} {:>12.1} {:>11.2} {:>10.2} {:>10.1} {:>11.2}",
+            format!(
+                "{}{}",
+                p.name,
+                if sets.is_empty() { "" } else { " (601 nodes)" }
+            ),
+            m.system.free_count(),
+            flops * 1e-6,
+            best * 1e3,
+            floor * 1e3,
+            best / floor,
+            flops / best * 1e-9,
+        );
+    }
+    println!("(LU flops: faer's AMD estimate on the pattern of Z_k; floor = flops at the dense product's rate)");
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    let want = |s: &str| args.is_empty() || args.iter().any(|a| a == s);
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("load average at start: {}", load.trim());
+    if want("strip") {
+        strip();
+    }
+    if want("damping") {
+        damping();
+    }
+    if want("reduction") {
+        paths();
+        reduction();
+    }
+    if want("floor") {
+        floor();
+    }
+}
