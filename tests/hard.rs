@@ -65,7 +65,17 @@ fn pipeline(name: &str) -> String {
 fn run(path: &str, tag: &str, sets: &[&str]) -> Run {
     let dir = common::temp_out(&format!("hard-{tag}"));
     let dir_arg = dir.to_string_lossy().to_string();
-    let mut args = vec!["run", path, "--quiet", "--out", &dir_arg];
+    // The suite is about the harmonic-balance solve; the stability verdict by marching (whose
+    // explicit step follows the thinnest cell) is tests/stability.rs's.
+    let mut args = vec![
+        "run",
+        path,
+        "--quiet",
+        "--out",
+        &dir_arg,
+        "--set",
+        "stability.check=false",
+    ];
     for s in sets {
         args.extend(["--set", s]);
     }

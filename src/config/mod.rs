@@ -224,6 +224,8 @@ pub struct StabilitySpec {
     pub perturbation: f64,
     /// In a sweep, every this many points.
     pub every: usize,
+    /// Wall-time budget of one march [s]; beyond it the verdict is what the periods so far say.
+    pub max_seconds: f64,
 }
 
 impl Default for StabilitySpec {
@@ -233,6 +235,7 @@ impl Default for StabilitySpec {
             max_periods: 200,
             perturbation: 1e-3,
             every: 1,
+            max_seconds: 60.0,
         }
     }
 }

@@ -436,6 +436,10 @@ struct RawStability {
     /// Default: 1.
     #[serde(default)]
     every: Option<usize>,
+    /// Wall-time budget of one check's marching [s], > 0; a check that reaches it gives the
+    /// verdict the periods so far allow (often `undecided`). Default: 60.
+    #[serde(default)]
+    max_seconds: Option<f64>,
 }
 
 /// Where time marching starts.
@@ -1388,6 +1392,9 @@ fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<Stabilit
     }
     if let Some(v) = r.every {
         spec.every = v.max(1);
+    }
+    if let Some(v) = r.max_seconds {
+        spec.max_seconds = positive(path, "stability.max_seconds", v)?;
     }
     Ok(spec)
 }

@@ -33,6 +33,9 @@
 //! A damped linear scene needs no marching: every free vibration decays (all multipliers are
 //! e^{−ζωT} < 1); an undamped one keeps them (|μ| = 1, stable but not asymptotically).
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
 use schemars::JsonSchema;
 use serde::Serialize;
 
@@ -89,13 +92,16 @@ pub struct Stability {
     pub verdict: Verdict,
     pub method: Method,
     /// μ̂, the estimated largest Floquet multiplier modulus (marching only).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub multiplier: Option<f64>,
     /// Periods marched.
     pub periods: usize,
     /// The last period-to-period change d.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub change: Option<f64>,
     /// e, the distance of the state the marching ends in from the harmonic-balance state
     /// (relative, displacements in L² over the last period).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub departure: Option<f64>,
     /// The verdict in a sentence.
     pub reason: String,
@@ -218,10 +224,17 @@ pub fn by_marching(
         displacement: free(0),
         velocity: free(1),
     };
+    let clock = Instant::now();
+    let out_of_time = AtomicBool::new(false);
+    let stop = |changes: &[f64], departures: &[f64]| {
+        let late = clock.elapsed().as_secs_f64() > spec.max_seconds;
+        out_of_time.store(late, Ordering::Relaxed);
+        late || decided(changes, departures)
+    };
     let marching = Marching::new(&system, diag, contact, &[])?;
     let mut problem = marching.problem();
     problem.initial = Some(initial);
-    problem.decided = Some(&decided);
+    problem.decided = Some(&stop);
     let settings = TransientSettings {
         courant: p.transient.courant,
         periodic_tolerance: SETTLED,
@@ -231,7 +244,17 @@ pub fn by_marching(
     let result = transient::run_to_periodic(&problem, &settings, reporter)?;
     reporter.task_done("periods");
     let distance = end_distance(&solution, dofs, &result.times, &result.displacement);
-    Ok(judge(&result.changes, &result.departures, distance))
+    let verdict = judge(&result.changes, &result.departures, distance);
+    if verdict.verdict == Verdict::Undecided && out_of_time.load(Ordering::Relaxed) {
+        return Ok(Stability {
+            reason: format!(
+                "{}; the march reached stability.max_seconds = {} s (the explicit time step follows the smallest element): raise it",
+                verdict.reason, spec.max_seconds
+            ),
+            ..verdict
+        });
+    }
+    Ok(verdict)
 }
 
 /// e: the L²(0, T) distance of the last period's displacements from the harmonic-balance

@@ -118,6 +118,7 @@ mod tests {
             tangent_frequency: 1.0,
             seconds: 0.0,
             stable,
+            multiplier: None,
         }
     }
 

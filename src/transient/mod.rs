@@ -25,7 +25,7 @@ use crate::progress::Reporter;
 use crate::{Error, Result};
 
 /// Whether a history of period-to-period changes and departures decided a question.
-pub type Decided = dyn Fn(&[f64], &[f64]) -> bool + Sync;
+pub type Decided<'a> = dyn Fn(&[f64], &[f64]) -> bool + Sync + 'a;
 
 pub struct TransientProblem<'a> {
     /// K on the free dofs (symmetric).
@@ -44,7 +44,7 @@ pub struct TransientProblem<'a> {
     pub initial: Option<InitialState>,
     /// Stop early once this says the history so far decided the question (it gets the
     /// period-to-period changes and the departures, `TransientResult`).
-    pub decided: Option<&'a Decided>,
+    pub decided: Option<&'a Decided<'a>>,
 }
 
 /// A state to start the marching from: u and u̇ at t = 0 on the free dofs (the massless
