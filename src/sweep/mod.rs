@@ -440,10 +440,15 @@ fn judge_points(
     }
     let beside_fold = |i: usize| folds.iter().any(|&f| i == f || i == f + 1);
     let last = rows.last().map_or(0, |r| r.index);
-    // Points found in this run (a resumed sweep keeps the verdicts it had).
+    // Points found in this run; a resumed sweep keeps the verdicts its saved rows have.
+    let judged = |i: usize| {
+        rows.iter()
+            .any(|r| r.index == i && (r.stable.is_some() || r.multiplier.is_some()))
+    };
     let chosen: Vec<&Start> = starts
         .iter()
         .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
+        .filter(|(i, _, _)| !judged(*i))
         .collect();
     let marching = build(p, mesh, Purpose::Transient)?;
     let done = AtomicUsize::new(0);
