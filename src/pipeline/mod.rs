@@ -145,16 +145,12 @@ fn harmonic_balance_start(
 ) -> Result<crate::transient::InitialState> {
     let solution = stages::solve(p, model, stages)?;
     stages.run("check", || finite_solution(&solution))?;
-    let scale = 1.0 + p.transient.perturbation;
     let dofs = &model.system.dofs;
-    let free = |derivative: u32| -> Vec<f64> {
-        let all = solution.field_at(dofs, 0.0, derivative);
-        dofs.free.iter().map(|&d| scale * all[d]).collect()
-    };
-    Ok(crate::transient::InitialState {
-        displacement: free(0),
-        velocity: free(1),
-    })
+    Ok(stability::marching_start(
+        &solution,
+        dofs,
+        p.transient.perturbation,
+    ))
 }
 
 /// The directory time-marching results go to: `--out`, else `output.directory` with

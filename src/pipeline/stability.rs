@@ -40,6 +40,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, StabilitySpec};
+use crate::fem::DofMap;
 use crate::hbm::{self, ContactSolution};
 use crate::pipeline::{hb_settings, Model};
 use crate::progress::Reporter;
@@ -215,15 +216,7 @@ pub fn by_marching(
         Err(e) => return Err(e),
     };
     let dofs = &system.dofs;
-    let scale = 1.0 + spec.perturbation;
-    let free = |derivative: u32| -> Vec<f64> {
-        let all = solution.field_at(dofs, 0.0, derivative);
-        dofs.free.iter().map(|&d| scale * all[d]).collect()
-    };
-    let initial = InitialState {
-        displacement: free(0),
-        velocity: free(1),
-    };
+    let initial = marching_start(&solution, dofs, spec.perturbation);
     let clock = Instant::now();
     let out_of_time = AtomicBool::new(false);
     let stop = |changes: &[f64], departures: &[f64]| {
@@ -257,11 +250,25 @@ pub fn by_marching(
     Ok(verdict)
 }
 
+/// The state time marching starts from: the harmonic-balance `solution`'s u and u̇ at t = 0
+/// on the free dofs, scaled by 1 + `perturbation`.
+pub fn marching_start(solution: &hbm::Solution, dofs: &DofMap, perturbation: f64) -> InitialState {
+    let scale = 1.0 + perturbation;
+    let free = |derivative: u32| -> Vec<f64> {
+        let all = solution.field_at(dofs, 0.0, derivative);
+        dofs.free.iter().map(|&d| scale * all[d]).collect()
+    };
+    InitialState {
+        displacement: free(0),
+        velocity: free(1),
+    }
+}
+
 /// e: the L²(0, T) distance of the last period's displacements from the harmonic-balance
 /// state's, relative to the latter (free dofs, at the recorded instants).
 fn end_distance(
     solution: &hbm::Solution,
-    dofs: &crate::fem::DofMap,
+    dofs: &DofMap,
     times: &[f64],
     marched: &[Vec<f64>],
 ) -> f64 {

@@ -1,6 +1,7 @@
 //! The stages `run`, `run_transient`, `check` and `modes` string together, each timed into
 //! `StageTimes` and announced to the `Reporter`: meshing, the resonance check, solving by
-//! harmonic balance or by time marching, the stability verdict, and committing the staged output with its summary.
+//! harmonic balance or by time marching, the stability verdict, and committing the staged
+//! output with its summary.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
