@@ -230,3 +230,72 @@ fn transient_started_from_the_harmonic_balance_state_keeps_it_and_converges_to_t
     assert_eq!(perturbed.transient.as_ref().unwrap().perturbation, 0.05);
     assert_eq!(rest.transient.as_ref().unwrap().start, "rest");
 }
+
+/// Time marching of the reference strip into the output directory `dir` (kept between runs).
+fn transient_in(dir: &std::path::Path, overrides: &[&str]) -> hbcontact::Result<pipeline::Summary> {
+    let p = common::scene("reference_strip", overrides);
+    let options = RunOptions {
+        out: Some(dir.to_path_buf()),
+        summary_only: true,
+    };
+    pipeline::run_transient(&p, &options, &Silent).map(|r| r.summary)
+}
+
+/// TEST GOAL: `transient.start: previous` continues the marching exactly where the last run in
+/// the same directory ended (u and the half-step velocity of the central differences are
+/// saved at phase 0): one period and then one more from the end state equal two periods from
+/// rest to round-off. A directory without an end state, or one marched on another mesh, is a
+/// clear input error (exit 2) naming end_state.json and what to do.
+#[test]
+fn transient_started_from_the_previous_end_state_continues_it_exactly_and_refuses_a_foreign_one() {
+    let amplitude = |s: &pipeline::Summary| s.probes["probe"].first_harmonic_x;
+    let two = transient_in(
+        &common::temp_out("previous-two"),
+        &["transient.max_periods=2"],
+    );
+    let two = two.unwrap_or_else(|e| panic!("{e}"));
+    let dir = common::temp_out("previous-chain");
+    let one = transient_in(&dir, &["transient.max_periods=1"]).unwrap_or_else(|e| panic!("{e}"));
+    assert!(dir.join(hbcontact::pipeline::end_state::FILE).is_file());
+    let next = transient_in(
+        &dir,
+        &["transient.max_periods=1", "transient.start=previous"],
+    );
+    let next = next.unwrap_or_else(|e| panic!("{e}"));
+    let rel = (amplitude(&next) - amplitude(&two)).abs() / amplitude(&two);
+    println!(
+        "1 period {:.6e}, 1 + 1 periods {:.6e}, 2 periods {:.6e} ({rel:.1e})",
+        amplitude(&one),
+        amplitude(&next),
+        amplitude(&two)
+    );
+    assert!(rel < 1e-10, "{rel}");
+    assert!((amplitude(&one) - amplitude(&two)).abs() > 1e-3 * amplitude(&two));
+    assert_eq!(next.transient.as_ref().unwrap().start, "previous");
+
+    let coarser = ["transient.start=previous", "geometry.parameters.lc=0.025"];
+    let err = transient_in(&dir, &coarser).expect_err("another mesh is refused");
+    let msg = err.to_string();
+    println!("{msg}");
+    assert!(
+        msg.contains("end_state.json") && msg.contains("mesh"),
+        "{msg}"
+    );
+
+    let empty = common::temp_out("previous-missing");
+    let empty_arg = empty.to_string_lossy().to_string();
+    let out = common::hbcontact(&[
+        "transient",
+        "pipelines/reference_strip.yaml",
+        "--set",
+        "transient.start=previous",
+        "--out",
+        &empty_arg,
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("end_state.json") && stderr.contains("start: rest"),
+        "{stderr}"
+    );
+}

@@ -246,6 +246,20 @@ pub enum TransientStart {
     Rest,
     /// The harmonic-balance solution of the same discrete model, at t = 0.
     HarmonicBalance,
+    /// The end state of the last time marching written to the same output directory
+    /// (`end_state.json`): a brute-force sweep starts each frequency where the last ended.
+    Previous,
+}
+
+impl TransientStart {
+    /// The name the pipeline and the summary use.
+    pub fn name(self) -> &'static str {
+        match self {
+            TransientStart::Rest => "rest",
+            TransientStart::HarmonicBalance => "harmonic_balance",
+            TransientStart::Previous => "previous",
+        }
+    }
 }
 
 impl Default for TransientSpec {

@@ -405,11 +405,14 @@ struct RawTransient {
     /// Fraction of the stable time step used, in (0, 1]. Default: 0.8.
     #[serde(default)]
     courant: Option<f64>,
-    /// Where the marching starts: `rest`, or `harmonic_balance` (the harmonic-balance
-    /// solution of the same discrete model at t = 0). Default: `rest`.
+    /// Where the marching starts: `rest`; `harmonic_balance` (the harmonic-balance
+    /// solution of the same discrete model at t = 0); or `previous` (the end state the last
+    /// `hbcontact transient` of this pipeline wrote to its output directory, `end_state.json`:
+    /// a brute-force sweep changes the frequency and starts where the last run ended).
+    /// Default: `rest`.
     #[serde(default)]
     start: Option<RawStart>,
-    /// With `start: harmonic_balance`, scale the starting state by 1 + this (a perturbation
+    /// With `start: harmonic_balance` or `previous`, scale the starting state by 1 + this (a perturbation
     /// that shows whether the state is kept or left), |·| ≤ 1. Default: 0.
     #[serde(default)]
     perturbation: Option<f64>,
@@ -448,6 +451,7 @@ struct RawStability {
 enum RawStart {
     Rest,
     HarmonicBalance,
+    Previous,
 }
 
 /// Settings of `hbcontact sweep`: the fundamental frequency runs from `from` to `to` along the
@@ -1341,6 +1345,7 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
         spec.start = match start {
             RawStart::Rest => TransientStart::Rest,
             RawStart::HarmonicBalance => TransientStart::HarmonicBalance,
+            RawStart::Previous => TransientStart::Previous,
         };
     }
     if let Some(v) = t.perturbation {
@@ -1353,7 +1358,7 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
         if spec.start == TransientStart::Rest && v != 0.0 {
             return Err(config_error(
                 path,
-                "transient.perturbation needs transient.start: harmonic_balance (rest has nothing to perturb)".to_string(),
+                "transient.perturbation needs transient.start: harmonic_balance or previous (rest has nothing to perturb)".to_string(),
             ));
         }
         spec.perturbation = v;

@@ -5,6 +5,7 @@
 //! stage cost.
 
 pub mod compare;
+pub mod end_state;
 pub mod model;
 pub mod modes;
 pub mod plots;
@@ -180,6 +181,10 @@ pub fn run_transient(
     let initial = match p.transient.start {
         TransientStart::Rest => None,
         TransientStart::HarmonicBalance => Some(harmonic_balance_start(p, &model, &mut stages)?),
+        TransientStart::Previous => {
+            let free = model.system.dofs.free.len();
+            Some(end_state::read(&out, p, &mesh_info, free)?)
+        }
     };
     let (marching, result) = stages::march(p, &model, initial, &mut stages)?;
     let staged = StagedDir::create(&out)?;
@@ -190,6 +195,7 @@ pub fn run_transient(
             sampled.write(staged.path(), &model, contact, fields, reporter)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
+        end_state::write(staged.path(), p, &mesh_info, &result)?;
         let summary = summary::transient(p, mesh_info, &model, &result, &sampled);
         Ok((summary, sampled))
     })?;

@@ -556,10 +556,7 @@ pub fn transient(
             periods: result.periods,
             converged: result.converged,
             periodicity_error: result.periodicity_error,
-            start: match p.transient.start {
-                crate::config::TransientStart::Rest => "rest".into(),
-                crate::config::TransientStart::HarmonicBalance => "harmonic_balance".into(),
-            },
+            start: p.transient.start.name().into(),
             perturbation: p.transient.perturbation,
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
