@@ -52,6 +52,9 @@ const GRAPH_SLOPE: f64 = 0.05;
 const JUMP: f64 = 3.0;
 /// Corrector iterations before a step is rejected.
 const MAX_CORRECTOR: usize = 12;
+/// A point whose ‖λ‖ is below this fraction of the largest along the curve may be at a
+/// grazing corner (on the strip the contact force there is 0.1–0.2% of its largest, in mean).
+const GRAZING: f64 = 0.05;
 
 /// What to sweep and how finely (the solver's view; the pipeline validates it).
 #[derive(Clone, Debug)]
@@ -109,6 +112,9 @@ pub enum Corrector {
     Arclength,
     /// No contact: the linear response at ω.
     Linear,
+    /// The open state (λ = 0) one step back in ω from a grazing corner, where a contacting
+    /// branch ends on the open one and the curve turns back.
+    Grazing,
 }
 
 /// One accepted point of the curve (the solution itself goes to the caller's callback).
@@ -204,6 +210,8 @@ struct Continuation<'a> {
     direction: f64,
     timings: Timings,
     factorizations: usize,
+    /// The largest ‖λ‖ along the curve so far (where grazing is judged against).
+    largest: f64,
     /// The first point (cold, or the resumed point re-solved), its Newton and its frame
     /// (taken by `run`).
     first: Option<(Vec<f64>, NewtonOutcome, Frame)>,
@@ -264,6 +272,7 @@ impl<'a> Continuation<'a> {
             direction: (s.omega_end - s.omega_start).signum(),
             timings,
             factorizations: 1,
+            largest: 0.0,
             first: Some((first.0, first.1, frame)),
         })
     }
@@ -318,6 +327,7 @@ impl<'a> Continuation<'a> {
             seconds: clock.elapsed().as_secs_f64(),
             state: Some(self.state(&point, ds, start)),
         };
+        self.largest = norm(&point.x);
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
         let mut index = start + 1;
         while index < self.s.max_points {
@@ -342,6 +352,7 @@ impl<'a> Continuation<'a> {
                 log: Vec::new(),
                 reason: String::new(),
             };
+            self.largest = self.largest.max(norm(&next.x));
             info.state = Some(self.state(&next, ds, index));
             self.emit(&info, &next.x, frame, newton, on_point)?;
             let status = format!("{:.3} Hz", hz(next.omega));
@@ -391,6 +402,9 @@ impl<'a> Continuation<'a> {
                     *ds *= 0.5;
                 }
                 Err(why) => {
+                    if let Some(found) = self.graze(p, index) {
+                        return Ok(found);
+                    }
                     return Err(format!(
                         "at {:.6} Hz the continuation found no next point down to the \
                          smallest step {:.1e} ({why}); lower sweep.min_step, raise \
@@ -457,7 +471,18 @@ impl<'a> Continuation<'a> {
                 "the corrector moved {dist:.2e} from the predictor, more than {JUMP} steps of {ds:.2e}"
             ));
         }
-        let mut secant: Vec<f64> = (0..n)
+        let point = self.after(p, x, &frame)?;
+        let change = relative_change(&p.gaps, &point.gaps);
+        if change > self.s.max_change && ds > self.s.min_step {
+            return Err(format!("the contact gaps changed by {change:.2e}"));
+        }
+        Ok((point, frame, corrector, iterations))
+    }
+
+    /// The point with multipliers `x` on `frame`, reached from `p`: its direction is the
+    /// secant from `p`.
+    fn after(&self, p: &Point, x: Vec<f64>, frame: &Frame) -> std::result::Result<Point, String> {
+        let mut secant: Vec<f64> = (0..x.len())
             .map(|i| (x[i] - p.x[i]) / self.force)
             .chain([(frame.omega - p.omega) / self.span])
             .collect();
@@ -466,18 +491,53 @@ impl<'a> Continuation<'a> {
             return Err("the corrector returned to the same point".into());
         }
         secant.iter_mut().for_each(|v| *v /= length);
-        let gaps = frame.problem.gap(&x);
-        let change = relative_change(&p.gaps, &gaps);
-        if change > self.s.max_change && ds > self.s.min_step {
-            return Err(format!("the contact gaps changed by {change:.2e}"));
-        }
-        let point = Point {
+        Ok(Point {
+            gaps: frame.problem.gap(&x),
             x,
             omega: frame.omega,
             tangent: secant,
-            gaps,
+        })
+    }
+
+    /// The corner where a contacting branch ends on the open one (grazing): past it along
+    /// the secant no solution exists, so no step, however small, converges. The curve goes on
+    /// along the open (linear) branch, back in ω: at one initial step back from `p`, the
+    /// open state (λ = 0) is tried; it is the next point if `p` is nearly open (‖λ‖ below
+    /// `GRAZING` of the largest along the curve), the open state solves the complementarity
+    /// there (the linear response does not reach the obstacle) and lies within `JUMP`
+    /// largest steps of `p`. `None`: `p` is not at a grazing corner.
+    fn graze(&mut self, p: &Point, index: usize) -> Option<(Point, Frame, PointInfo)> {
+        if norm(&p.x) > GRAZING * self.largest {
+            return None;
+        }
+        let clock = Instant::now();
+        let back = -p.tangent_omega().signum() * self.s.step * self.span;
+        let frame = self.frame(p.omega + back).ok()?;
+        let open = vec![0.0; p.x.len()];
+        let o = super::reduced::newton(&frame.problem, &self.newton, &open, self.reporter);
+        if !o.converged || norm(&o.multipliers) > self.hb.tolerance * self.force {
+            return None;
+        }
+        let mut point = self.after(p, o.multipliers, &frame).ok()?;
+        // Along the open branch λ stays 0: the direction is ω alone.
+        point.tangent = vec![0.0; p.x.len()];
+        point.tangent.push(back.signum());
+        let dist = (norm(&p.x) / self.force).hypot(back / self.span);
+        if dist > JUMP * self.s.max_step {
+            return None;
+        }
+        let info = PointInfo {
+            index,
+            omega: point.omega,
+            corrector: Corrector::Grazing,
+            newton_iterations: o.iterations,
+            factorizations: self.factorizations,
+            step: dist,
+            tangent_omega: point.tangent_omega(),
+            seconds: clock.elapsed().as_secs_f64(),
+            state: None,
         };
-        Ok((point, frame, corrector, iterations))
+        Some((point, frame, info))
     }
 
     /// Seconds spent in `prepare` so far (factorizations, linear solves, reductions).
@@ -701,6 +761,10 @@ fn fold(at: usize, a: &Point) -> Fold {
         after: at,
         omega: a.omega,
     }
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 /// ‖b − a‖ / max(‖a‖, ‖b‖).

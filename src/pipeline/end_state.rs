@@ -38,13 +38,38 @@ struct EndState {
 
 /// Write the end state of `result` into `dir` (the staged output directory).
 pub fn write(dir: &Path, p: &Pipeline, mesh: &MeshInfo, result: &TransientResult) -> Result<()> {
-    let state = EndState {
-        frequency: p.harmonic_balance.frequency,
-        mesh: mesh.msh.clone(),
+    let marched = Marched {
         periods: result.periods,
         converged: result.converged,
-        displacement: result.end_state.displacement.clone(),
-        velocity: result.end_state.velocity.clone(),
+    };
+    let frequency = p.harmonic_balance.frequency;
+    save(dir, frequency, &mesh.msh, &result.end_state, marched)
+}
+
+/// How the saved state was reached (any state can be saved, e.g. a harmonic-balance one to
+/// march from: then 0 periods, not converged).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Marched {
+    pub periods: usize,
+    pub converged: bool,
+}
+
+/// Save `state` (on the free dofs of the model meshed as `mesh`, at `frequency` Hz) as
+/// `dir`/end_state.json, for the next `transient.start: previous` run into `dir`.
+pub fn save(
+    dir: &Path,
+    frequency: f64,
+    mesh: &Path,
+    state: &InitialState,
+    marched: Marched,
+) -> Result<()> {
+    let state = EndState {
+        frequency,
+        mesh: mesh.to_path_buf(),
+        periods: marched.periods,
+        converged: marched.converged,
+        displacement: state.displacement.clone(),
+        velocity: state.velocity.clone(),
     };
     let path = dir.join(FILE);
     let text = serde_json::to_string(&state)
