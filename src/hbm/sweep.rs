@@ -50,6 +50,15 @@ const GRAPH_SLOPE: f64 = 0.05;
 /// A corrector that lands farther than this many steps from its predictor jumped to another
 /// branch (a kink of the sampled law bends the curve by less).
 const JUMP: f64 = 3.0;
+/// A corrector landing farther than `JUMP` steps is still accepted, as a corner of the curve
+/// where a branch leaves at an angle (contact starting on a steep resonance), when halving the
+/// step shrank its distance below `CORNER_SHRINK` of the last and it is within `CORNER` steps.
+const CORNER_SHRINK: f64 = 0.6;
+const CORNER: f64 = 30.0;
+/// The last segments of the trail a new point is not compared with (a kink's back-and-forth).
+const RECENT: usize = 4;
+/// A point closer than this many steps to an earlier segment of the curve retraces it.
+const RETRACE: f64 = 0.05;
 /// Corrector iterations before a step is rejected.
 const MAX_CORRECTOR: usize = 12;
 /// A point whose ‖λ‖ is below this fraction of the largest along the curve may be at a
@@ -212,6 +221,9 @@ struct Continuation<'a> {
     factorizations: usize,
     /// The largest ‖λ‖ along the curve so far (where grazing is judged against).
     largest: f64,
+    /// How far the last rejected corrector of this point landed from its predictor, when it
+    /// was rejected as a jump.
+    jumped: Option<f64>,
     /// The first point (cold, or the resumed point re-solved), its Newton and its frame
     /// (taken by `run`).
     first: Option<(Vec<f64>, NewtonOutcome, Frame)>,
@@ -273,6 +285,7 @@ impl<'a> Continuation<'a> {
             timings,
             factorizations: 1,
             largest: 0.0,
+            jumped: None,
             first: Some((first.0, first.1, frame)),
         })
     }
@@ -328,6 +341,7 @@ impl<'a> Continuation<'a> {
             state: Some(self.state(&point, ds, start)),
         };
         self.largest = norm(&point.x);
+        let mut trail = Trail::default();
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
         let mut index = start + 1;
         while index < self.s.max_points {
@@ -341,6 +355,11 @@ impl<'a> Continuation<'a> {
                     break;
                 }
             };
+            trail.push(self.scaled(&point));
+            if let Some(j) = trail.retraced(&self.scaled(&next), info.step) {
+                outcome.stopped = Some(retrace_reason(&point, index - 1, j));
+                break;
+            }
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }
@@ -377,6 +396,7 @@ impl<'a> Continuation<'a> {
     ) -> std::result::Result<(Point, Frame, PointInfo), String> {
         let clock = Instant::now();
         self.factorizations = 0;
+        self.jumped = None;
         loop {
             match self.step(p, *ds) {
                 Ok((next, frame, corrector, iterations)) => {
@@ -415,6 +435,12 @@ impl<'a> Continuation<'a> {
                 }
             }
         }
+    }
+
+    /// y = (λ/F, ω/Ω), the point in the scaled unknowns the arc length is measured in.
+    fn scaled(&self, p: &Point) -> Vec<f64> {
+        let x = p.x.iter().map(|v| v / self.force);
+        x.chain([p.omega / self.span]).collect()
     }
 
     /// What continuing from `p` (point `index`, next step `ds`) needs.
@@ -466,7 +492,13 @@ impl<'a> Continuation<'a> {
             .sum::<f64>()
             + ((frame.omega - omega_p) / self.span).powi(2))
         .sqrt();
-        if dist > JUMP * ds {
+        // A corner of the curve (a branch leaving at an angle) keeps dist/ds as ds shrinks;
+        // another branch keeps dist.
+        let corner = self
+            .jumped
+            .is_some_and(|d| dist < CORNER_SHRINK * d && dist < CORNER * ds);
+        if dist > JUMP * ds && !corner {
+            self.jumped = Some(dist);
             return Err(format!(
                 "the corrector moved {dist:.2e} from the predictor, more than {JUMP} steps of {ds:.2e}"
             ));
@@ -502,12 +534,13 @@ impl<'a> Continuation<'a> {
     /// The corner where a contacting branch ends on the open one (grazing): past it along
     /// the secant no solution exists, so no step, however small, converges. The curve goes on
     /// along the open (linear) branch, back in ω: at one initial step back from `p`, the
-    /// open state (λ = 0) is tried; it is the next point if `p` is nearly open (‖λ‖ below
-    /// `GRAZING` of the largest along the curve), the open state solves the complementarity
+    /// open state (λ = 0) is tried; it is the next point if `p` touches, but barely (‖λ‖ > 0,
+    /// below `GRAZING` of the largest along the curve), the open state solves the complementarity
     /// there (the linear response does not reach the obstacle) and lies within `JUMP`
     /// largest steps of `p`. `None`: `p` is not at a grazing corner.
     fn graze(&mut self, p: &Point, index: usize) -> Option<(Point, Frame, PointInfo)> {
-        if norm(&p.x) > GRAZING * self.largest {
+        let force = norm(&p.x);
+        if force == 0.0 || force > GRAZING * self.largest {
             return None;
         }
         let clock = Instant::now();
@@ -761,6 +794,63 @@ fn fold(at: usize, a: &Point) -> Fold {
         after: at,
         omega: a.omega,
     }
+}
+
+/// The points of the curve so far, in the scaled unknowns, to notice a continuation that runs
+/// back along its own path (turned round at a kink of the sampled law) or circles.
+#[derive(Default)]
+struct Trail {
+    points: Vec<Vec<f64>>,
+}
+
+impl Trail {
+    fn push(&mut self, y: Vec<f64>) {
+        self.points.push(y);
+    }
+
+    /// The index of an earlier segment (all but the last `RECENT`) that `y`, reached by a
+    /// step `ds`, lies on within `RETRACE` × ds.
+    fn retraced(&self, y: &[f64], ds: f64) -> Option<usize> {
+        let older = self.points.len().checked_sub(RECENT)?;
+        (1..older)
+            .find(|&j| segment_distance(&self.points[j - 1], &self.points[j], y) < RETRACE * ds)
+    }
+}
+
+/// Distance of `q` from the segment a–b.
+fn segment_distance(a: &[f64], b: &[f64], q: &[f64]) -> f64 {
+    let ab: f64 = a.iter().zip(b).map(|(a, b)| (b - a).powi(2)).sum();
+    let along: f64 = a
+        .iter()
+        .zip(b)
+        .zip(q)
+        .map(|((a, b), q)| (q - a) * (b - a))
+        .sum();
+    let t = if ab > 0.0 {
+        (along / ab).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d2: f64 = a
+        .iter()
+        .zip(b)
+        .zip(q)
+        .map(|((a, b), q)| (q - a - t * (b - a)).powi(2))
+        .sum();
+    d2.sqrt()
+}
+
+/// Why a sweep that runs back along its own path stops.
+fn retrace_reason(p: &Point, index: usize, j: usize) -> String {
+    format!(
+        "at {:.6} Hz (point {index}) the continuation ran back onto the curve it had traced \
+         (between points {} and {j}), so it would retrace the curve instead of following it: \
+         a sharp kink of the sampled contact law turned it round, or the curve closes on \
+         itself. Raise harmonic_balance.harmonics or the damping, lower sweep.max_step, or \
+         sweep a narrower range",
+        hz(p.omega),
+        j - 1
+    )
 }
 
 fn norm(x: &[f64]) -> f64 {
