@@ -95,7 +95,8 @@ fn linear_scene_is_judged_by_its_damping_and_the_check_can_be_turned_off() {
 /// multiplier above 1, while the branch below the resonance (1000–1300 Hz) and the one after
 /// the lower fold (above 1600 Hz, where the strip no longer reaches the wall) are stable.
 /// At H = 10 the upper branch's harmonic-balance state lies 4–25% from the marched orbit
-/// (impacts), too far to judge; docs/method.md says what H it needs.
+/// (impacts), too far to judge; docs/method.md says what H it needs. The point folders of
+/// the folds carry their rows' verdicts in their summary.json.
 #[test]
 fn strip_sweep_verdicts_are_unstable_past_the_upper_fold_and_stable_off_the_resonance() {
     let p = common::scene(
@@ -143,4 +144,26 @@ fn strip_sweep_verdicts_are_unstable_past_the_upper_fold_and_stable_off_the_reso
     }
     let csv = std::fs::read_to_string(out.join("sweep.csv")).expect("sweep.csv");
     assert!(csv.lines().next().unwrap().contains(",stable,multiplier,"));
+    // Each fold's point folder carries its row's verdict (both sides of a fold are checked).
+    for w in s.written.iter().filter(|w| w.reason.starts_with("fold")) {
+        let summary = common::read_json(&out.join(&w.folder).join("summary.json"));
+        let row = &s.rows[w.row];
+        let verdict = &summary["stability"]["verdict"];
+        println!(
+            "{}: row {} {:?}, summary {verdict}",
+            w.folder, w.row, row.stable
+        );
+        let expected = match row.stable {
+            Some(true) => "stable",
+            Some(false) => "unstable",
+            None => "undecided",
+        };
+        assert_eq!(verdict, expected);
+        // (serde_json's default float parsing may differ in the last bit)
+        let mu = summary["stability"]["multiplier"].as_f64();
+        match (mu, row.multiplier) {
+            (Some(a), Some(b)) => assert!((a - b).abs() < 1e-14, "{a} {b}"),
+            (a, b) => assert_eq!(a, b),
+        }
+    }
 }

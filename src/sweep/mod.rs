@@ -236,7 +236,7 @@ fn execute(
     stages.times.push("sweep", clock.elapsed().as_secs_f64());
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run("stability", || {
-        judge_points(p, mesh, &model, &mut writer.rows, &starts, &folds, reporter)
+        judge_points(p, mesh, &model, &mut writer, &starts, &folds, reporter)
     })?;
     let (timings, stopped, failure) = match ended {
         Ok(outcome) => (
@@ -424,7 +424,7 @@ fn judge_points(
     p: &Pipeline,
     mesh: Mesh2d,
     model: &Model,
-    rows: &mut [SweepRow],
+    writer: &mut points::Writer,
     starts: &[Start],
     folds: &[usize],
     reporter: &dyn Reporter,
@@ -432,9 +432,13 @@ fn judge_points(
     let spec = &p.stability;
     if model.contact.is_none() {
         let verdict = stability::linear(model);
-        rows.iter_mut().for_each(|r| r.stable = verdict.stable());
+        for r in writer.rows.iter_mut() {
+            r.stable = verdict.stable();
+            writer.verdicts.push((r.index, verdict.clone()));
+        }
         return Ok(());
     }
+    let rows = &writer.rows;
     if !spec.check {
         return Ok(());
     }
@@ -466,10 +470,11 @@ fn judge_points(
     reporter.task_done("stability");
     for ((i, _, _), verdict) in chosen.into_iter().zip(verdicts) {
         let verdict = verdict.unwrap_or_else(|e| Stability::cannot_march(&e));
-        if let Some(row) = rows.iter_mut().find(|r| r.index == *i) {
+        if let Some(row) = writer.rows.iter_mut().find(|r| r.index == *i) {
             row.stable = verdict.stable();
             row.multiplier = verdict.multiplier;
         }
+        writer.verdicts.push((*i, verdict));
     }
     Ok(())
 }

@@ -28,6 +28,7 @@ use crate::hbm::Solution;
 use crate::output::tables::write_json;
 use crate::output::{write_pvd, write_vtu, Field};
 use crate::pipeline::report::{write_amplitudes, Sampled};
+use crate::pipeline::stability::Stability;
 use crate::pipeline::summary::MeshInfo;
 use crate::pipeline::{hb_settings, plots, summary, Model};
 use crate::{Error, Result};
@@ -100,6 +101,9 @@ pub struct Writer<'a> {
     mesh: &'a MeshInfo,
     dir: PathBuf,
     pub rows: Vec<SweepRow>,
+    /// The stability verdicts of this invocation's checked rows (row index, verdict), for
+    /// the point folders' summaries.
+    pub verdicts: Vec<(usize, Stability)>,
     frames: Vec<usize>,
     pub last_state: Option<ContinuationState>,
     /// The resumed point (re-solved, its row kept from before).
@@ -144,6 +148,7 @@ impl<'a> Writer<'a> {
             seen: 0,
             previous: None,
             candidates: Vec::new(),
+            verdicts: Vec::new(),
             old_folds: saved.map_or(Vec::new(), |s| s.folds.clone()),
             old_written: saved.map_or(Vec::new(), |s| s.written.clone()),
         }
@@ -256,6 +261,13 @@ impl<'a> Writer<'a> {
             .collect()
     }
 
+    fn verdict(&self, row: usize) -> Option<&Stability> {
+        self.verdicts
+            .iter()
+            .find(|(i, _)| *i == row)
+            .map(|(_, v)| v)
+    }
+
     fn row(&self, index: usize) -> Option<&SweepRow> {
         self.rows.iter().find(|r| r.index == index)
     }
@@ -278,7 +290,7 @@ impl<'a> Writer<'a> {
                     if path.exists() {
                         std::fs::remove_dir_all(&path).map_err(|e| Error::io(&path, e))?;
                     }
-                    self.write_point(&path, s)?;
+                    self.write_point(&path, s, self.verdict(row))?;
                 }
                 None if kept_before && path.is_dir() => {}
                 None => {
@@ -327,8 +339,14 @@ impl<'a> Writer<'a> {
         wanted
     }
 
-    /// What `hbcontact run` writes, at this point's frequency, into `dir`.
-    fn write_point(&self, dir: &Path, solution: &Solution) -> Result<()> {
+    /// What `hbcontact run` writes, at this point's frequency, into `dir`, with the row's
+    /// stability verdict (and its warning) where it was checked.
+    fn write_point(
+        &self,
+        dir: &Path,
+        solution: &Solution,
+        verdict: Option<&Stability>,
+    ) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let hz = solution.omega / (2.0 * PI);
         let mut at = self.p.clone();
@@ -352,6 +370,8 @@ impl<'a> Writer<'a> {
             .extend(crate::pipeline::sanity::check_contact_result(
                 model, solution,
             ));
+        s.warnings.extend(verdict.and_then(Stability::warning));
+        s.stability = verdict.cloned();
         if at.output.plots {
             let boundary = at.contact.as_ref().map(|c| c.boundary.as_str());
             plots::write_run_plots(&dir.join("plots"), model, &sampled, boundary, 1.0 / hz)?;
