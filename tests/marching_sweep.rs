@@ -12,7 +12,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use hbcontact::config::Pipeline;
-use hbcontact::hbm::sweep::{sweep, PointInfo, SweepSettings};
+use hbcontact::hbm::sweep::{sweep, PointInfo};
 use hbcontact::hbm::Solution;
 use hbcontact::pipeline::end_state::{self, Marched};
 use hbcontact::pipeline::stability::marching_start;
@@ -60,18 +60,9 @@ struct Curve {
 }
 
 fn continuation(p: &Pipeline, model: &Model) -> Curve {
-    let spec = p.sweep.clone().expect("a sweep block");
+    let spec = p.sweep.as_ref().expect("a sweep block");
+    let settings = hbcontact::sweep::settings(spec, None);
     let two_pi = 2.0 * std::f64::consts::PI;
-    let settings = SweepSettings {
-        omega_start: two_pi * spec.from_hz,
-        omega_end: two_pi * spec.to_hz,
-        step: spec.step,
-        min_step: spec.min_step,
-        max_step: spec.max_step,
-        max_points: spec.max_points,
-        max_change: spec.max_change,
-        resume: None,
-    };
     let mut system = model.system.clone();
     let contact = model.contact.as_ref().map(|c| &c.operator);
     let (mut points, mut near_middle) = (Vec::new(), Vec::new());

@@ -340,17 +340,7 @@ fn continue_curve(
     reporter: &dyn Reporter,
 ) -> Result<continuation::SweepOutcome> {
     let hb = hb_settings(p);
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let settings = SweepSettings {
-        omega_start: two_pi * spec.from_hz,
-        omega_end: two_pi * spec.to_hz,
-        step: spec.step,
-        min_step: spec.min_step,
-        max_step: spec.max_step,
-        max_points: spec.max_points,
-        max_change: spec.max_change,
-        resume: saved.and_then(|s| s.resume.clone()),
-    };
+    let settings = settings(spec, saved.and_then(|s| s.resume.clone()));
     let mut system = model.system.clone();
     let contact = model.contact.as_ref().map(|c| &c.operator);
     STOP.store(false, Ordering::SeqCst);
@@ -361,7 +351,7 @@ fn continue_curve(
         if STOP.load(Ordering::SeqCst) {
             return Err(Error::Interrupted(format!(
                 "interrupted after the point at {:.6} Hz",
-                info.omega / two_pi
+                info.omega / (2.0 * std::f64::consts::PI)
             )));
         }
         Ok(())
@@ -413,6 +403,21 @@ fn stop_report(
         class,
         reason,
     })
+}
+
+/// The solver's view of a `sweep` block (ω in rad/s), continuing from `resume` if given.
+pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSettings {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    SweepSettings {
+        omega_start: two_pi * spec.from_hz,
+        omega_end: two_pi * spec.to_hz,
+        step: spec.step,
+        min_step: spec.min_step,
+        max_step: spec.max_step,
+        max_points: spec.max_points,
+        max_change: spec.max_change,
+        resume,
+    }
 }
 
 /// A point's ω and contact solution: where a stability check starts from.
