@@ -293,6 +293,11 @@ impl SplineSampler {
         self.basis.segments * self.rule.len()
     }
 
+    /// The quadrature weights w_g of one segment's points (summing to 1).
+    pub fn weights(&self) -> Vec<f64> {
+        self.rule.iter().map(|&(_, w)| w).collect()
+    }
+
     /// The sample instants as fractions of the period.
     pub fn phases(&self) -> Vec<f64> {
         let s = self.basis.segments as f64;

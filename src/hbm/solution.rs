@@ -14,7 +14,6 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::basis::TimeBasis;
-use super::fourier;
 use super::reduced::NewtonOutcome;
 use crate::fem::DofMap;
 
@@ -179,7 +178,7 @@ impl Solution {
         Some(
             c.multipliers
                 .chunks(c.coefficients())
-                .map(|coeffs| fourier::evaluate(coeffs, self.omega, t)[0])
+                .map(|coeffs| super::sampler::evaluate(&self.basis, coeffs, self.omega, t))
                 .collect(),
         )
     }
