@@ -293,6 +293,11 @@ impl SplineSampler {
         self.basis.segments * self.rule.len()
     }
 
+    /// The Gauss points u_g of one segment, in [0, 1].
+    pub fn points(&self) -> Vec<f64> {
+        self.rule.iter().map(|&(u, _)| u).collect()
+    }
+
     /// The quadrature weights w_g of one segment's points (summing to 1).
     pub fn weights(&self) -> Vec<f64> {
         self.rule.iter().map(|&(_, w)| w).collect()
