@@ -86,6 +86,16 @@ impl TimeBasis {
         }
     }
 
+    /// E_k^{(d)}(t) for k = 0..`count` (see `rotor`).
+    pub fn rotors(&self, count: usize, omega: f64, t: f64, derivative: u32) -> Vec<c64> {
+        match self {
+            TimeBasis::Fourier => (0..count)
+                .map(|k| super::fourier::rotor(k, omega, t, derivative))
+                .collect(),
+            TimeBasis::Spline(s) => s.rotors(count, omega, t, derivative),
+        }
+    }
+
     /// T⁻¹∫E_k(t) e^{−ikωt}dt: the Fourier harmonic k of the function whose frequency-k phasor
     /// is 1 (1 for Fourier; S·conj(β_k) for splines, whose other content sits at k ± lS).
     pub fn harmonic_content(&self, k: usize) -> c64 {
@@ -232,6 +242,29 @@ impl SplineBasis {
             sum += c64::from_polar(value, theta * (i as f64 - r as f64));
         }
         sum * scale
+    }
+
+    /// E_k^{(d)}(t) for k = 0..`count`, the p + 1 B-spline values computed once (what
+    /// evaluating a whole series at t needs).
+    pub fn rotors(&self, count: usize, omega: f64, t: f64, derivative: u32) -> Vec<c64> {
+        let (i, u) = self.locate(omega, t);
+        let scale = (self.segments as f64 * omega / (2.0 * PI)).powi(derivative as i32);
+        let values: Vec<f64> = (0..=self.degree)
+            .map(|r| cardinal(self.degree, derivative as usize, u + r as f64) * scale)
+            .collect();
+        let s = self.segments as i64;
+        (0..count)
+            .map(|k| {
+                values
+                    .iter()
+                    .enumerate()
+                    .map(|(r, &b)| {
+                        let n = ((k as i64) * (i as i64 - r as i64)).rem_euclid(s);
+                        c64::from_polar(b, 2.0 * PI * n as f64 / s as f64)
+                    })
+                    .sum()
+            })
+            .collect()
     }
 
     /// φ_m^{(d)}(t) for period T = 2π/ω.

@@ -311,8 +311,10 @@ impl SplineMaps {
 pub fn evaluate(basis: &TimeBasis, coeffs: &[f64], omega: f64, t: f64) -> f64 {
     match basis {
         TimeBasis::Fourier => fourier::evaluate(coeffs, omega, t)[0],
-        TimeBasis::Spline(_) => (0..coeffs.len().div_ceil(2))
-            .map(|k| (phasor(coeffs, k) * basis.rotor(k, omega, t, 0)).re)
-            .sum(),
+        TimeBasis::Spline(s) => {
+            let count = coeffs.len().div_ceil(2);
+            let rotors = s.rotors(count, omega, t, 0);
+            (0..count).map(|k| (phasor(coeffs, k) * rotors[k]).re).sum()
+        }
     }
 }
