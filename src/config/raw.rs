@@ -1246,7 +1246,7 @@ fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
     };
     if let Some(n) = p.harmonic_balance.samples {
         let per = crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT;
-        if n % segments != 0 || n / segments < degree + 1 {
+        if !n.is_multiple_of(segments) || n / segments < degree + 1 {
             return Err(config_error(
                 path,
                 format!("harmonic_balance.samples = {n} must be a multiple of harmonic_balance.basis.spline.segments = {segments} with at least degree + 1 = {} per segment (the contact terms sample each segment at its Gauss points): use {} ({per} per segment, the default), or leave samples out", degree + 1, per * segments),

@@ -117,7 +117,7 @@ fn contact_settings(system: &System, contact: bool, settings: &HbSettings) -> Re
         return Ok(settings.clone());
     }
     let n = settings.samples;
-    if n % s.segments != 0 || n / s.segments < s.degree + 1 {
+    if !n.is_multiple_of(s.segments) || n / s.segments < s.degree + 1 {
         return Err(Error::Input(format!(
             "harmonic_balance.samples = {n} must be a multiple of the spline's {} segments with at least {} per segment (degree + 1): use {} (8 per segment, the default)",
             s.segments,
