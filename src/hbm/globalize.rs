@@ -354,7 +354,13 @@ fn stall_diagnosis(
         ),
         _ => {}
     }
-    advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
+    advice.push(match &system.basis {
+        TimeBasis::Spline(s) => format!(
+            "or lower harmonic_balance.basis.spline.segments (now {})",
+            s.segments
+        ),
+        TimeBasis::Fourier => format!("or lower harmonic_balance.harmonics (now {h})"),
+    });
     let last = outcome.log.last();
     let what = match exhausted {
         Some(Budget::Iterations) => "ran out of iterations",
