@@ -33,6 +33,7 @@ bench: venv build
 	$(CARGO) bench --bench study
 	$(CARGO) bench --bench sweep
 	$(CARGO) bench --bench goals
+	$(CARGO) bench --bench spline
 
 lint:
 	$(CARGO) fmt --check

@@ -321,8 +321,9 @@ fn sweep_output_keys_are_read_and_write_at_outside_the_range_is_refused() {
 
 /// TEST GOAL: `harmonic_balance.basis` reads `fourier` (the default) and
 /// `{spline: {degree, segments}}` (degree 3 by default); a degree outside 2 … 7, too few
-/// segments for the degree or for the loads' harmonics, and splines with contact or a sweep
-/// block are refused naming the key and the fix.
+/// segments for the degree or for the loads' harmonics, samples that are not a multiple of
+/// the segments with degree + 1 per segment (the contact quadrature), and splines with a
+/// sweep block (not built yet) are refused naming the key and the fix.
 #[test]
 fn time_basis_is_read_defaulted_and_its_limits_named() {
     use hbcontact::config::BasisSpec;
@@ -343,7 +344,7 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
     );
     let k2 = "boundaries.loads.0.harmonics=[{k: 2, cos: [0.0, 1.0], sin: [0.0, 0.0]}]";
     let sweep = "sweep={from: 5.0, to: 15.0}";
-    let cases: [(&str, &str, &[&str], &str); 6] = [
+    let cases: [(&str, &str, &[&str], &str); 7] = [
         (
             "cantilever",
             "{spline: {degree: 1, segments: 16}}",
@@ -371,14 +372,20 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
         (
             "strip_wall",
             "{spline: {segments: 64}}",
-            &[],
-            "spline does not support contact",
+            &["harmonic_balance.samples=1000"],
+            "must be a multiple of harmonic_balance.basis.spline.segments = 64",
+        ),
+        (
+            "strip_wall",
+            "{spline: {segments: 64}}",
+            &["harmonic_balance.samples=192"],
+            "at least degree + 1 = 4 per segment",
         ),
         (
             "strip_sweep",
             "{spline: {segments: 64}}",
             &[],
-            "spline does not support contact",
+            "does not support the `sweep` block",
         ),
     ];
     for (scene, basis, extra, needle) in cases {

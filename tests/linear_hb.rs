@@ -414,10 +414,11 @@ fn fourier_basis_builds_the_classic_dynamic_stiffness_bit_for_bit() {
 }
 
 /// TEST GOAL: a spline basis runs a linear scene end to end (outputs written, the tip
-/// amplitude within 1e-4 of Fourier's at 32 cubic segments), and a contact scene with a spline
-/// basis is refused with exit code 2 and the fix instead of running Fourier silently.
+/// amplitude within 1e-4 of Fourier's at 32 cubic segments), and a sweep with a spline basis
+/// (not built yet; contact scenes run, tests/spline_contact.rs) is refused with exit code 2
+/// and the fix instead of running Fourier silently.
 #[test]
-fn spline_basis_runs_linear_pipelines_and_refuses_contact_ones() {
+fn spline_basis_runs_linear_pipelines_and_refuses_sweeps() {
     let spline = "harmonic_balance.basis={spline: {degree: 3, segments: 32}}";
     let amplitude = |tag: &str, sets: &[&str]| -> f64 {
         let out = common::temp_out(tag);
@@ -451,8 +452,8 @@ fn spline_basis_runs_linear_pipelines_and_refuses_contact_ones() {
         "spline {splines:e} vs Fourier {fourier:e}"
     );
     let refused = common::hbcontact(&[
-        "run",
-        "pipelines/strip_wall.yaml",
+        "sweep",
+        "pipelines/strip_sweep.yaml",
         "--quiet",
         "--set",
         spline,
@@ -461,7 +462,7 @@ fn spline_basis_runs_linear_pipelines_and_refuses_contact_ones() {
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(
         stderr.contains("harmonic_balance.basis")
-            && stderr.contains("contact")
+            && stderr.contains("sweep")
             && stderr.contains("basis: fourier"),
         "{stderr}"
     );

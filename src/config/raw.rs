@@ -291,14 +291,15 @@ struct RawHarmonicBalance {
     /// Linear scenes solve the harmonics their loads excite. Required.
     harmonics: usize,
     /// Time samples N per period for the contact terms, > 2·harmonics. Default: 16·H, at
-    /// least 64 (1 for H = 0).
+    /// least 64 (1 for H = 0). With a spline basis: a multiple of its segments S with at
+    /// least degree + 1 per segment (Gauss points in each segment); default 8·S.
     #[serde(default)]
     samples: Option<usize>,
     /// The contact solver's settings. Default: each key's default.
     #[serde(default)]
     solver: Option<RawSolver>,
     /// The time basis of one period: `fourier` (harmonics 0..H) or
-    /// `{spline: {degree, segments}}` (uniform periodic B-splines; linear scenes only so far).
+    /// `{spline: {degree, segments}}` (uniform periodic B-splines; no sweeps yet).
     /// Default: fourier.
     #[serde(
         default,
@@ -1234,10 +1235,11 @@ fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
     Ok(BasisSpec::Spline { degree, segments })
 }
 
-/// A spline basis: linear scenes only (the contact path is Fourier's so far), no sweeps,
-/// and more than two segments per period of every harmonic the loads excite.
+/// A spline basis: samples (if given) a multiple of the segments with at least degree + 1
+/// per segment, no sweeps (yet), and more than two segments per period of every harmonic the
+/// loads excite.
 fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
-    let BasisSpec::Spline { segments, .. } = p.harmonic_balance.basis else {
+    let BasisSpec::Spline { degree, segments } = p.harmonic_balance.basis else {
         return Ok(());
     };
     let refuse = |what: &str| {
@@ -1246,8 +1248,14 @@ fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
             format!("harmonic_balance.basis: spline does not support {what} yet; use basis: fourier (the default)"),
         ))
     };
-    if p.contact.is_some() {
-        return refuse("contact (the contact solver works on Fourier harmonics)");
+    if let Some(n) = p.harmonic_balance.samples {
+        let per = crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT;
+        if !n.is_multiple_of(segments) || n / segments < degree + 1 {
+            return Err(config_error(
+                path,
+                format!("harmonic_balance.samples = {n} must be a multiple of harmonic_balance.basis.spline.segments = {segments} with at least degree + 1 = {} per segment (the contact terms sample each segment at its Gauss points): use {} ({per} per segment, the default), or leave samples out", degree + 1, per * segments),
+            ));
+        }
     }
     if p.sweep.is_some() {
         return refuse("the `sweep` block");

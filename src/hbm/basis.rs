@@ -86,6 +86,16 @@ impl TimeBasis {
         }
     }
 
+    /// E_k^{(d)}(t) for k = 0..`count` (see `rotor`).
+    pub fn rotors(&self, count: usize, omega: f64, t: f64, derivative: u32) -> Vec<c64> {
+        match self {
+            TimeBasis::Fourier => (0..count)
+                .map(|k| super::fourier::rotor(k, omega, t, derivative))
+                .collect(),
+            TimeBasis::Spline(s) => s.rotors(count, omega, t, derivative),
+        }
+    }
+
     /// T⁻¹∫E_k(t) e^{−ikωt}dt: the Fourier harmonic k of the function whose frequency-k phasor
     /// is 1 (1 for Fourier; S·conj(β_k) for splines, whose other content sits at k ± lS).
     pub fn harmonic_content(&self, k: usize) -> c64 {
@@ -234,6 +244,29 @@ impl SplineBasis {
         sum * scale
     }
 
+    /// E_k^{(d)}(t) for k = 0..`count`, the p + 1 B-spline values computed once (what
+    /// evaluating a whole series at t needs).
+    pub fn rotors(&self, count: usize, omega: f64, t: f64, derivative: u32) -> Vec<c64> {
+        let (i, u) = self.locate(omega, t);
+        let scale = (self.segments as f64 * omega / (2.0 * PI)).powi(derivative as i32);
+        let values: Vec<f64> = (0..=self.degree)
+            .map(|r| cardinal(self.degree, derivative as usize, u + r as f64) * scale)
+            .collect();
+        let s = self.segments as i64;
+        (0..count)
+            .map(|k| {
+                values
+                    .iter()
+                    .enumerate()
+                    .map(|(r, &b)| {
+                        let n = ((k as i64) * (i as i64 - r as i64)).rem_euclid(s);
+                        c64::from_polar(b, 2.0 * PI * n as f64 / s as f64)
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
     /// φ_m^{(d)}(t) for period T = 2π/ω.
     pub fn value(&self, m: usize, omega: f64, t: f64, derivative: u32) -> f64 {
         let (i, u) = self.locate(omega, t);
@@ -291,6 +324,16 @@ impl SplineSampler {
     /// N = S · points per segment.
     pub fn samples(&self) -> usize {
         self.basis.segments * self.rule.len()
+    }
+
+    /// The Gauss points u_g of one segment, in [0, 1].
+    pub fn points(&self) -> Vec<f64> {
+        self.rule.iter().map(|&(u, _)| u).collect()
+    }
+
+    /// The quadrature weights w_g of one segment's points (summing to 1).
+    pub fn weights(&self) -> Vec<f64> {
+        self.rule.iter().map(|&(_, w)| w).collect()
     }
 
     /// The sample instants as fractions of the period.

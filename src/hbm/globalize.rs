@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use faer::c64;
 
+use super::basis::TimeBasis;
 use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
 use super::step::StepMethod;
 use super::{fourier, knobs};
@@ -95,8 +96,11 @@ impl<'a> Attempts<'a> {
     /// Newton settings for rung `h` of the ladder (the same oversampling ratio as at H).
     fn newton_settings(&self, h: usize, c: f64, smoothing: f64) -> NewtonSettings {
         let (top, samples) = (self.settings.harmonics, self.settings.samples);
+        let spline = matches!(self.problem.basis, TimeBasis::Spline(_));
         NewtonSettings {
-            samples: if h == top {
+            // A spline basis samples at its Gauss points on every rung (N stays a multiple
+            // of S); the rungs keep its low discrete frequencies.
+            samples: if h == top || spline {
                 samples
             } else {
                 (samples * h).div_ceil(top.max(1)).max(2 * h + 1)
@@ -350,7 +354,13 @@ fn stall_diagnosis(
         ),
         _ => {}
     }
-    advice.push(format!("or lower harmonic_balance.harmonics (now {h})"));
+    advice.push(match &system.basis {
+        TimeBasis::Spline(s) => format!(
+            "or lower harmonic_balance.basis.spline.segments (now {})",
+            s.segments
+        ),
+        TimeBasis::Fourier => format!("or lower harmonic_balance.harmonics (now {h})"),
+    });
     let last = outcome.log.last();
     let what = match exhausted {
         Some(Budget::Iterations) => "ran out of iterations",

@@ -7,8 +7,9 @@
 //! - N time samples per period for the contact terms (N > 2H; default 16H);
 //! - Z_k = K − k²ω²M + ikωD the dynamic stiffness of harmonic k, z_k = a_k − i b_k the complex
 //!   amplitude, so u(t) = Re Σ_k z_k e^{ikωt};
-//! - the time basis (`basis`): Fourier, or periodic splines (linear scenes so far) whose
-//!   discrete frequencies j take the place of k, with Z_j = K + s_j D + q_j M;
+//! - the time basis (`basis`): Fourier, or periodic splines whose discrete frequencies j take
+//!   the place of k, with Z_j = K + s_j D + q_j M (with contact all j = 0..⌊S/2⌋, whose
+//!   phasors stand in the contact unknowns where the harmonics' do, `sampler`);
 //! - G_k = B Z_k⁻¹ Bᵀ the contact nodes' dynamic compliance, r the linear gap;
 //! - c > 0 the complementarity parameter (a stiffness; default 1/mean|G_0,ii|).
 //!
@@ -21,6 +22,7 @@ pub mod fourier;
 mod globalize;
 pub mod knobs;
 pub mod reduced;
+pub mod sampler;
 pub mod solution;
 pub mod step;
 pub mod sweep;
@@ -83,12 +85,7 @@ pub fn solve(
     settings: &HbSettings,
     reporter: &dyn Reporter,
 ) -> Result<Solution> {
-    if let (Some(_), basis::TimeBasis::Spline(_)) = (contact, &system.basis) {
-        return Err(Error::Input(format!(
-            "harmonic_balance.basis: the {} basis does not support contact yet; use basis: fourier for contact scenes",
-            system.basis.describe()
-        )));
-    }
+    let settings = &contact_settings(system, contact.is_some(), settings)?;
     let mut timings = Timings::default();
     let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
@@ -107,6 +104,31 @@ pub fn solve(
         _ => None,
     };
     Ok(linear.into_solution(system, contact_solution, timings))
+}
+
+/// The settings of a solve: with contact and a spline basis, the contact unknowns are all
+/// ⌊S/2⌋ + 1 discrete frequencies (H = ⌊S/2⌋, S unknowns per node) at N = `samples`, which
+/// must be a multiple of S with at least p + 1 Gauss points per segment (`sampler`).
+fn contact_settings(system: &System, contact: bool, settings: &HbSettings) -> Result<HbSettings> {
+    let basis::TimeBasis::Spline(s) = &system.basis else {
+        return Ok(settings.clone());
+    };
+    if !contact {
+        return Ok(settings.clone());
+    }
+    let n = settings.samples;
+    if !n.is_multiple_of(s.segments) || n / s.segments < s.degree + 1 {
+        return Err(Error::Input(format!(
+            "harmonic_balance.samples = {n} must be a multiple of the spline's {} segments with at least {} per segment (degree + 1): use {} (8 per segment, the default)",
+            s.segments,
+            s.degree + 1,
+            sampler::SPLINE_SAMPLES_PER_SEGMENT * s.segments
+        )));
+    }
+    Ok(HbSettings {
+        harmonics: s.segments / 2,
+        ..settings.clone()
+    })
 }
 
 /// The periodic state at the system's ω by a plain Newton on the exact contact law from
@@ -185,6 +207,7 @@ fn prepare(
             harmonics: settings.harmonics,
             linear_gap: globalize::linear_gap(op, settings.harmonics, &linear.free, &linear.motion),
             compliance: std::mem::take(&mut linear.compliance),
+            basis: system.basis.clone(),
         })
     });
     Ok((linear, problem))
@@ -374,14 +397,14 @@ fn singular_diagnosis(system: &System, k: usize) -> Error {
     }
 }
 
-/// Violation of λ ≤ 0, g ≤ 0, λg = 0 by the Fourier series at the N samples.
+/// Violation of λ ≤ 0, g ≤ 0, λg = 0 by the basis functions at the N samples.
 pub fn measure_complementarity(
     problem: &ReducedProblem,
     lambda: &[f64],
     gaps: &[f64],
     samples: usize,
 ) -> Complementarity {
-    let sampler = fourier::Sampler::new(problem.harmonics, samples);
+    let sampler = problem.sampler(samples);
     let (nc, m) = (problem.nodes, problem.coefficients());
     let (mut ls, mut gs, mut rs) = (vec![0.0; samples], vec![0.0; samples], vec![0.0; samples]);
     let (mut force_scale, mut gap_scale) = (0.0f64, 0.0f64);

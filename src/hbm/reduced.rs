@@ -13,7 +13,9 @@ use faer::c64;
 
 use crate::progress::Reporter;
 
-use super::fourier::{harmonic_of, phasor, set_phasor, Sampler};
+use super::basis::TimeBasis;
+use super::fourier::{harmonic_of, phasor, set_phasor};
+use super::sampler::ContactSampler;
 use super::step::{self, StepMethod};
 
 /// G (per harmonic, complex, nc × nc row-major) and r (node-major coefficients).
@@ -25,11 +27,19 @@ pub struct ReducedProblem {
     pub compliance: Vec<Vec<c64>>,
     /// Linear gap coefficients r = B z_lin − g0 δ_k0 (node-major, 2H+1 per node).
     pub linear_gap: Vec<f64>,
+    /// The time basis whose frequencies 0..H the coefficients are phasors of (splines:
+    /// H = ⌊S/2⌋ for the full space, fewer on a ladder rung).
+    pub basis: TimeBasis,
 }
 
 impl ReducedProblem {
     pub fn coefficients(&self) -> usize {
         2 * self.harmonics + 1
+    }
+
+    /// The contact sampler of this problem's basis and frequencies at N = `samples`.
+    pub fn sampler(&self, samples: usize) -> ContactSampler {
+        ContactSampler::new(&self.basis, self.harmonics, samples)
     }
 
     /// The same problem keeping harmonics 0..=h only.
@@ -45,6 +55,7 @@ impl ReducedProblem {
             harmonics: h,
             compliance: self.compliance[..=h].to_vec(),
             linear_gap: r,
+            basis: self.basis.clone(),
         }
     }
 
@@ -100,7 +111,7 @@ pub struct NewtonSettings {
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
 /// of the multipliers before any is known (zero when nothing penetrates).
 pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
-    let sampler = Sampler::new(problem.harmonics, samples);
+    let sampler = problem.sampler(samples);
     let m = problem.coefficients();
     let mut buffer = vec![0.0; samples];
     let mut penetration: f64 = 0.0;
@@ -157,7 +168,7 @@ impl Evaluation {
 /// R(λ) = λ + Q max(0, P(c(Gλ + r) − λ)) and its pieces.
 pub(super) struct Residual<'a> {
     problem: &'a ReducedProblem,
-    pub(super) sampler: Sampler,
+    pub(super) sampler: ContactSampler,
     c: f64,
     smoothing: f64,
     /// The force the linear solution's sampled penetration implies (c · max r): with the
@@ -169,7 +180,7 @@ impl<'a> Residual<'a> {
     pub(super) fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
         Residual {
             problem,
-            sampler: Sampler::new(problem.harmonics, settings.samples),
+            sampler: problem.sampler(settings.samples),
             c: settings.c,
             smoothing: settings.smoothing,
             linear_force: linear_force(problem, settings.samples, settings.c),
@@ -190,7 +201,7 @@ impl<'a> Residual<'a> {
         let (nc, m, ns) = (
             self.problem.nodes,
             self.problem.coefficients(),
-            self.sampler.samples,
+            self.sampler.samples(),
         );
         let g = self.problem.gap(&x);
         let mut residual = x.clone();
@@ -403,6 +414,7 @@ mod tests {
             harmonics: 0,
             compliance: vec![vec![c64::new(1.0 / k, 0.0)]],
             linear_gap: vec![f / k - g0],
+            basis: TimeBasis::Fourier,
         };
         let settings = NewtonSettings {
             samples: 1,
@@ -456,6 +468,7 @@ mod tests {
                 harmonics: h,
                 compliance: vec![vec![c64::new(1.0 / k, 0.0)]; h + 1],
                 linear_gap: r,
+                basis: TimeBasis::Fourier,
             };
             let settings = NewtonSettings {
                 samples: 16 * h,
@@ -499,6 +512,7 @@ mod tests {
             harmonics: h,
             compliance: vec![g; h + 1],
             linear_gap: r,
+            basis: TimeBasis::Fourier,
         };
         let mut settings = NewtonSettings {
             samples: 16 * h,
@@ -567,8 +581,9 @@ mod jacobian_tests {
             harmonics: h,
             compliance,
             linear_gap: (0..nc * m).map(|_| rnd()).collect(),
+            basis: TimeBasis::Fourier,
         };
-        let sampler = Sampler::new(h, 64);
+        let sampler = ContactSampler::new(&TimeBasis::Fourier, h, 64);
         let x: Vec<f64> = (0..nc * m).map(|_| rnd()).collect();
         let c = 0.7;
         let residual = |x: &[f64]| -> (Vec<f64>, Vec<bool>) {

@@ -14,7 +14,6 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::basis::TimeBasis;
-use super::fourier;
 use super::reduced::NewtonOutcome;
 use crate::fem::DofMap;
 
@@ -146,9 +145,22 @@ impl Solution {
     /// Displacement (derivative 0), velocity (1) or acceleration (2) at time t on all dofs.
     pub fn field_at(&self, dofs: &DofMap, t: f64, derivative: u32) -> Vec<f64> {
         let mut u = vec![0.0; dofs.total()];
+        let count = self
+            .free
+            .keys()
+            .chain(self.motion.keys())
+            .max()
+            .map_or(0, |k| k + 1);
+        let rotors = match &self.basis {
+            TimeBasis::Spline(s) => s.rotors(count, self.omega, t, derivative),
+            TimeBasis::Fourier => Vec::new(),
+        };
         for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
             for (&k, z) in map {
-                let f = self.basis.rotor(k, self.omega, t, derivative);
+                let f = rotors
+                    .get(k)
+                    .copied()
+                    .unwrap_or_else(|| self.basis.rotor(k, self.omega, t, derivative));
                 for (i, &d) in targets.iter().enumerate() {
                     u[d] += (z[i] * f).re;
                 }
@@ -179,7 +191,7 @@ impl Solution {
         Some(
             c.multipliers
                 .chunks(c.coefficients())
-                .map(|coeffs| fourier::evaluate(coeffs, self.omega, t)[0])
+                .map(|coeffs| super::sampler::evaluate(&self.basis, coeffs, self.omega, t))
                 .collect(),
         )
     }

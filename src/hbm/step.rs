@@ -4,7 +4,8 @@
 //!
 //! where D_i = diag(φ'(w_i,n)) holds the slope of the (possibly smoothed) projection at node
 //! i's samples (0/1 for the plain max(0, ·)), G is the compliance in real form (block-diagonal
-//! in the harmonics) and P, Q the sampling and projection maps of `fourier`. Glossary: nc
+//! in the harmonics, or a spline basis' discrete frequencies) and P, Q the sampling and
+//! projection maps of `sampler` (Fourier's FFT maps, or a spline basis' quadrature maps). Glossary: nc
 //! contact nodes, M = 2H + 1 coefficients per node, N samples, dim = nc·M unknowns.
 //!
 //! Two facts make the step cheap:
@@ -22,6 +23,7 @@ use num_complex::Complex64;
 
 use super::fourier::{harmonic_of, Sampler};
 use super::reduced::ReducedProblem;
+use super::sampler::ContactSampler;
 use crate::linalg::gmres;
 
 /// GMRES iterations the cost model assumes per Newton step (measured: 10–40 on the strip and
@@ -68,7 +70,8 @@ pub fn resolve(method: StepMethod, nodes: usize, harmonics: usize, samples: usiz
     }
 }
 
-/// A_i = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples.
+/// A_i = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples, Fourier basis
+/// (a spline basis forms it in `sampler`).
 pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
     let (h, n) = (sampler.harmonics, sampler.samples);
     let m = 2 * h + 1;
@@ -99,13 +102,13 @@ pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
 /// The Newton direction d = −J⁻¹ R.
 pub fn direction(
     problem: &ReducedProblem,
-    sampler: &Sampler,
+    sampler: &ContactSampler,
     c: f64,
     slopes: &[f64],
     residual: &[f64],
     method: StepMethod,
 ) -> Result<Vec<f64>, String> {
-    let (nc, h, n) = (problem.nodes, problem.harmonics, sampler.samples);
+    let (nc, h, n) = (problem.nodes, problem.harmonics, sampler.samples());
     let blocks = activity_blocks(sampler, nc, slopes);
     let dense = || {
         dense_step(problem, c, &blocks, residual)
@@ -126,12 +129,11 @@ pub fn direction(
 }
 
 /// A_i for every node, concatenated (nc · M²).
-pub fn activity_blocks(sampler: &Sampler, nodes: usize, slopes: &[f64]) -> Vec<f64> {
-    let (m, n) = (sampler.coefficients(), sampler.samples);
+pub fn activity_blocks(sampler: &ContactSampler, nodes: usize, slopes: &[f64]) -> Vec<f64> {
+    let (m, n) = (sampler.coefficients(), sampler.samples());
     let mut blocks = vec![0.0; nodes * m * m];
     for i in 0..nodes {
-        activity_block(
-            sampler,
+        sampler.activity_block(
             &slopes[i * n..(i + 1) * n],
             &mut blocks[i * m * m..(i + 1) * m * m],
         );
@@ -190,13 +192,13 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
 /// linear tolerance is loose because the line search guards the step.
 fn krylov_step(
     problem: &ReducedProblem,
-    sampler: &Sampler,
+    sampler: &ContactSampler,
     c: f64,
     slopes: &[f64],
     blocks: &[f64],
     residual: &[f64],
 ) -> Result<Vec<f64>, String> {
-    let (nc, m, ns) = (problem.nodes, problem.coefficients(), sampler.samples);
+    let (nc, m, ns) = (problem.nodes, problem.coefficients(), sampler.samples());
     let dim = nc * m;
     let apply_a = |w: &[f64], out: &mut [f64]| {
         let mut samples = vec![0.0; ns];

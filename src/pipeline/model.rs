@@ -161,7 +161,7 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
 /// the per-harmonic system, the contact operator, probes and what the scene simulates.
 /// The pipeline's time basis for a harmonic-balance model; time marching (and the harmonic-
 /// balance state it may start from) keeps Fourier, its loads being Fourier harmonics.
-fn time_basis(p: &Pipeline, purpose: Purpose) -> TimeBasis {
+pub fn time_basis(p: &Pipeline, purpose: Purpose) -> TimeBasis {
     match (p.harmonic_balance.basis, purpose) {
         (BasisSpec::Spline { degree, segments }, Purpose::HarmonicBalance) => {
             TimeBasis::Spline(SplineBasis::new(degree, segments))

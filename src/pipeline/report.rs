@@ -517,7 +517,9 @@ pub fn truncated_law_force(
     let c = solution.contact.as_ref()?;
     let m = c.coefficients();
     let kept = (2 * harmonics.min(c.harmonics) + 1).min(m);
-    let series = |coeffs: &[f64], t: f64| fourier::evaluate(&coeffs[..kept], solution.omega, t)[0];
+    let series = |coeffs: &[f64], t: f64| {
+        crate::hbm::sampler::evaluate(&solution.basis, &coeffs[..kept], solution.omega, t)
+    };
     let totals = times
         .iter()
         .map(|&t| {

@@ -42,7 +42,8 @@ use serde::Serialize;
 use crate::config::{Pipeline, StabilitySpec};
 use crate::fem::DofMap;
 use crate::hbm::{self, ContactSolution};
-use crate::pipeline::{hb_settings, Model};
+use crate::pipeline::model::time_basis;
+use crate::pipeline::{hb_settings, Model, Purpose};
 use crate::progress::Reporter;
 use crate::transient::setup::Marching;
 use crate::transient::{self, InitialState, TransientSettings};
@@ -206,9 +207,14 @@ pub fn by_marching(
     system.omega = omega;
     let contact = marching_model.contact.as_ref().map(|c| &c.operator);
     let hb = hb_settings(p);
+    // The harmonic-balance state on the pipeline's time basis (a spline start's unknowns are
+    // its discrete frequencies); the march itself takes the Fourier loads of `system`.
+    let hb_system = system
+        .clone()
+        .with_basis(time_basis(p, Purpose::HarmonicBalance));
     let solution = match (contact, start) {
-        (Some(op), Some(s)) => hbm::solve_from(&system, op, &hb, s, reporter),
-        _ => hbm::solve(&system, contact, &hb, reporter),
+        (Some(op), Some(s)) => hbm::solve_from(&hb_system, op, &hb, s, reporter),
+        _ => hbm::solve(&hb_system, contact, &hb, reporter),
     };
     let solution = match solution {
         Ok(s) => s,

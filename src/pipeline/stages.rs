@@ -13,7 +13,7 @@ use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
 use super::stability::{self, Stability};
 use super::summary::{MeshInfo, Summary};
-use crate::config::Pipeline;
+use crate::config::{BasisSpec, Pipeline};
 use crate::hbm::{self, HbSettings, Solution};
 use crate::mesh::{self, Mesh2d};
 use crate::output::tables::write_json;
@@ -167,14 +167,19 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
     Ok((mesh, info))
 }
 
-/// The solver settings a pipeline asks for (N defaults to 16H).
+/// The solver settings a pipeline asks for (N defaults to 16H; with a spline basis to 8
+/// Gauss points per segment).
 pub fn hb_settings(p: &Pipeline) -> HbSettings {
     let hb = &p.harmonic_balance;
+    let default = match hb.basis {
+        BasisSpec::Spline { segments, .. } => {
+            crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT * segments
+        }
+        BasisSpec::Fourier => HbSettings::default_samples(hb.harmonics),
+    };
     HbSettings {
         harmonics: hb.harmonics,
-        samples: hb
-            .samples
-            .unwrap_or_else(|| HbSettings::default_samples(hb.harmonics)),
+        samples: hb.samples.unwrap_or(default),
         c_scale: hb.solver.c_scale,
         tolerance: hb.solver.tolerance,
         max_iterations: hb.solver.max_iterations,

@@ -1,0 +1,320 @@
+//! The contact terms' time samples for either basis: P (coefficients → the gap or force at
+//! the N time samples) and Q (samples → coefficients, the projection of the note's (22)–(23)
+//! with its quadrature in time), and the Newton's activity blocks A = Q diag(s) P.
+//!
+//! Glossary: the contact unknowns of one node are real coefficients in `fourier`'s layout
+//! `[a_0, a_1, b_1, …, a_H, b_H]` (M = 2H + 1), read as phasors z_k = a_k − i b_k of the
+//! basis' frequencies k = 0..H:
+//! - Fourier: k the harmonic, x(t) = Re Σ_k z_k e^{ikωt}; samples t_n = nT/N; P, Q by FFT
+//!   (`fourier::Sampler`, today's path unchanged);
+//! - splines (p the degree, S segments, h = T/S): k the discrete frequency j of the spline
+//!   coefficients (ũ_n = Re Σ_j z_j e^{2πijn/S}, `basis`), H ≤ ⌊S/2⌋ (at the Nyquist frequency
+//!   j = S/2 only a_j acts; b_j is a dummy that P ignores and Q sets to zero);
+//!   r = N/S ≥ p + 1 Gauss–Legendre points per segment (default 8), t_{i,g} = (i + u_g)h,
+//!   n = i·r + g; P the samples of Re Σ_j z_j E_j(t) and Q = L_K⁻¹ Pᵀ W with W the weights
+//!   of T⁻¹∫, both factored through the circulant diagonalization: P = (local B-spline
+//!   values, p + 1 per sample) ∘ (inverse real DFT over the S coefficients), and
+//!   Q = (DFT, divided per frequency by S² â_j) ∘ Pᵀ W; Q P = I on the kept frequencies,
+//!   since the quadrature of φᵀφ is exact.
+
+use super::basis::{cardinal, SplineSampler, TimeBasis};
+use super::fourier::{self, cos_index, phasor, sin_index, Sampler};
+use super::step;
+
+/// Samples per segment a spline contact solve uses unless `harmonic_balance.samples` says
+/// otherwise.
+pub const SPLINE_SAMPLES_PER_SEGMENT: usize = 8;
+
+/// P and Q of the contact terms for one basis, H and N.
+pub enum ContactSampler {
+    Fourier(Sampler),
+    Spline(SplineMaps),
+}
+
+/// P and Q of a spline basis in factored form (see the header): the real DFT over the
+/// segments, and the B-spline values at the Gauss points.
+pub struct SplineMaps {
+    pub harmonics: usize,
+    pub samples: usize,
+    segments: usize,
+    degree: usize,
+    /// B(u_g + r) at point g of a segment, row g, r = 0..=p.
+    values: Vec<f64>,
+    /// w_g, the Gauss weights on [0, 1].
+    weights: Vec<f64>,
+    /// κ_j = w_j/(S² â_j) (w_j = 1 at j = 0 and at the Nyquist frequency, else 2).
+    kappa: Vec<f64>,
+    /// cos(θ_j n), sin(θ_j n), row j = 0..=H, n = 0..S−1.
+    cos: Vec<f64>,
+    sin: Vec<f64>,
+}
+
+impl ContactSampler {
+    /// The sampler of `basis` for frequencies 0..=`harmonics` and N = `samples` (splines:
+    /// a multiple of S with at least p + 1 per segment, which the caller checks).
+    pub fn new(basis: &TimeBasis, harmonics: usize, samples: usize) -> Self {
+        match basis {
+            TimeBasis::Fourier => ContactSampler::Fourier(Sampler::new(harmonics, samples)),
+            TimeBasis::Spline(s) => {
+                let per_segment = (samples / s.segments).max(1);
+                let maps = SplineMaps::new(&SplineSampler::new(s, per_segment), harmonics);
+                ContactSampler::Spline(maps)
+            }
+        }
+    }
+
+    pub fn harmonics(&self) -> usize {
+        match self {
+            ContactSampler::Fourier(s) => s.harmonics,
+            ContactSampler::Spline(s) => s.harmonics,
+        }
+    }
+
+    pub fn samples(&self) -> usize {
+        match self {
+            ContactSampler::Fourier(s) => s.samples,
+            ContactSampler::Spline(s) => s.samples,
+        }
+    }
+
+    /// M = 2H + 1.
+    pub fn coefficients(&self) -> usize {
+        2 * self.harmonics() + 1
+    }
+
+    /// P: the samples of the function with coefficients `coeffs` (length M) into `out` (N).
+    pub fn to_samples(&self, coeffs: &[f64], out: &mut [f64]) {
+        match self {
+            ContactSampler::Fourier(s) => s.to_samples(coeffs, out),
+            ContactSampler::Spline(s) => s.to_samples(coeffs, out),
+        }
+    }
+
+    /// Q: the coefficients (length M) of the projection of `samples` (length N).
+    pub fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
+        match self {
+            ContactSampler::Fourier(s) => s.to_coefficients(samples, out),
+            ContactSampler::Spline(s) => s.to_coefficients(samples, out),
+        }
+    }
+
+    /// A = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples.
+    pub fn activity_block(&self, slopes: &[f64], out: &mut [f64]) {
+        match self {
+            ContactSampler::Fourier(s) => step::activity_block(s, slopes, out),
+            ContactSampler::Spline(s) => s.activity_block(slopes, out),
+        }
+    }
+
+    /// Dense P (N × M, row-major).
+    pub fn p_matrix(&self) -> Vec<f64> {
+        match self {
+            ContactSampler::Fourier(s) => s.p_matrix(),
+            ContactSampler::Spline(s) => s.p_matrix(),
+        }
+    }
+
+    /// Dense Q (M × N, row-major).
+    pub fn q_matrix(&self) -> Vec<f64> {
+        match self {
+            ContactSampler::Fourier(s) => s.q_matrix(),
+            ContactSampler::Spline(s) => s.q_matrix(),
+        }
+    }
+}
+
+impl SplineMaps {
+    /// The maps on frequencies 0..=`harmonics` (≤ S/2) at the sampler's Gauss points.
+    pub fn new(sampler: &SplineSampler, harmonics: usize) -> Self {
+        let basis = &sampler.basis;
+        let (s, p) = (basis.segments, basis.degree);
+        let harmonics = harmonics.min(s / 2);
+        let weights = sampler.weights();
+        let values = sampler
+            .points()
+            .iter()
+            .flat_map(|&u| (0..=p).map(move |r| cardinal(p, 0, u + r as f64)))
+            .collect();
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let kappa = (0..=harmonics)
+            .map(|j| {
+                let (a, _, _) = basis.eigenvalues(j, two_pi);
+                let weight = if j == 0 || 2 * j == s { 1.0 } else { 2.0 };
+                weight / (s as f64 * s as f64 * a)
+            })
+            .collect();
+        let angle = |j: usize, n: usize| two_pi * ((j * n) % s) as f64 / s as f64;
+        let table = |f: fn(f64) -> f64| -> Vec<f64> {
+            (0..=harmonics)
+                .flat_map(|j| (0..s).map(move |n| f(angle(j, n))))
+                .collect()
+        };
+        SplineMaps {
+            harmonics,
+            samples: sampler.samples(),
+            segments: s,
+            degree: p,
+            values,
+            weights,
+            kappa,
+            cos: table(f64::cos),
+            sin: table(f64::sin),
+        }
+    }
+
+    fn coefficients(&self) -> usize {
+        2 * self.harmonics + 1
+    }
+
+    fn per_segment(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// The spline coefficients ũ_n = Σ_j a_j cos θ_j n + b_j sin θ_j n of phasors `coeffs`.
+    fn synthesize(&self, coeffs: &[f64]) -> Vec<f64> {
+        let s = self.segments;
+        let mut u = vec![coeffs[0]; s];
+        for j in 1..=self.harmonics {
+            let (a, b) = (coeffs[cos_index(j)], coeffs[sin_index(j)]);
+            let (c, sn) = (&self.cos[j * s..(j + 1) * s], &self.sin[j * s..(j + 1) * s]);
+            for (n, un) in u.iter_mut().enumerate() {
+                *un += a * c[n] + b * sn[n];
+            }
+        }
+        u
+    }
+
+    /// P: y_{i,g} = Σ_r B(u_g + r) ũ_{i−r}.
+    fn to_samples(&self, coeffs: &[f64], out: &mut [f64]) {
+        let (s, p, per) = (self.segments, self.degree, self.per_segment());
+        let u = self.synthesize(coeffs);
+        for i in 0..s {
+            for g in 0..per {
+                let row = &self.values[g * (p + 1)..(g + 1) * (p + 1)];
+                out[i * per + g] = (0..=p).map(|r| row[r] * u[(i + s - r % s) % s]).sum();
+            }
+        }
+    }
+
+    /// Q: v = Pᵀ W y on the spline coefficients, then a_j = κ_j Σ_n v_n cos θ_j n and
+    /// b_j = κ_j Σ_n v_n sin θ_j n (L_K⁻¹ per frequency).
+    fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
+        let (s, p, per) = (self.segments, self.degree, self.per_segment());
+        let mut v = vec![0.0; s];
+        for i in 0..s {
+            for g in 0..per {
+                let wy = self.weights[g] * samples[i * per + g];
+                let row = &self.values[g * (p + 1)..(g + 1) * (p + 1)];
+                for (r, b) in row.iter().enumerate() {
+                    v[(i + s - r % s) % s] += b * wy;
+                }
+            }
+        }
+        self.project(&v, out);
+    }
+
+    /// The phasors of L_K⁻¹-weighted coefficient-space values `v` (the DFT half of Q).
+    fn project(&self, v: &[f64], out: &mut [f64]) {
+        let s = self.segments;
+        for j in 0..=self.harmonics {
+            let (c, sn) = (&self.cos[j * s..(j + 1) * s], &self.sin[j * s..(j + 1) * s]);
+            let a: f64 = v.iter().zip(c).map(|(x, y)| x * y).sum();
+            out[cos_index(j)] = self.kappa[j] * a;
+            if j > 0 {
+                let b: f64 = v.iter().zip(sn).map(|(x, y)| x * y).sum();
+                out[sin_index(j)] = self.kappa[j] * b;
+            }
+        }
+    }
+
+    /// A = Q diag(s) P: the banded S × S matrix Pᵀ W diag(s) P on the spline coefficients
+    /// (bandwidth p; only samples with a nonzero slope contribute), then the DFT on both
+    /// sides: S·(2p+1)·M + S·M² per node instead of N·M².
+    fn activity_block(&self, slopes: &[f64], out: &mut [f64]) {
+        let (s, p, per, m) = (
+            self.segments,
+            self.degree,
+            self.per_segment(),
+            self.coefficients(),
+        );
+        let width = 2 * p + 1;
+        // band[n * width + (d + p)] = entry (n, n + d).
+        let mut band = vec![0.0; s * width];
+        for (k, &slope) in slopes.iter().enumerate().filter(|(_, &v)| v != 0.0) {
+            let (i, g) = (k / per, k % per);
+            let row = &self.values[g * (p + 1)..(g + 1) * (p + 1)];
+            let ws = self.weights[g] * slope;
+            for r1 in 0..=p {
+                let n = (i + s - r1 % s) % s;
+                for r2 in 0..=p {
+                    band[n * width + (r1 + p - r2)] += row[r1] * ws * row[r2];
+                }
+            }
+        }
+        // Column b of P on the coefficients is cos θ_j n or sin θ_j n; T = band · that.
+        let mut column = vec![0.0; s];
+        let mut banded = vec![0.0; s];
+        for b in 0..m {
+            let j = fourier::harmonic_of(b);
+            let table = if b > 0 && b % 2 == 0 {
+                &self.sin
+            } else {
+                &self.cos
+            };
+            column.copy_from_slice(&table[j * s..(j + 1) * s]);
+            for (n, t) in banded.iter_mut().enumerate() {
+                *t = (0..width)
+                    .map(|q| band[n * width + q] * column[(n + s * (p + 1) + q - p) % s])
+                    .sum();
+            }
+            let mut projected = vec![0.0; m];
+            self.project(&banded, &mut projected);
+            for (a, v) in projected.into_iter().enumerate() {
+                out[a * m + b] = v;
+            }
+        }
+    }
+
+    /// Dense P (N × M): P applied to the unit coefficient vectors.
+    fn p_matrix(&self) -> Vec<f64> {
+        let (m, n) = (self.coefficients(), self.samples);
+        let (mut p, mut e, mut col) = (vec![0.0; n * m], vec![0.0; m], vec![0.0; n]);
+        for b in 0..m {
+            e.iter_mut().for_each(|v| *v = 0.0);
+            e[b] = 1.0;
+            self.to_samples(&e, &mut col);
+            for (k, v) in col.iter().enumerate() {
+                p[k * m + b] = *v;
+            }
+        }
+        p
+    }
+
+    /// Dense Q (M × N): Q applied to the unit sample vectors.
+    fn q_matrix(&self) -> Vec<f64> {
+        let (m, n) = (self.coefficients(), self.samples);
+        let (mut q, mut e, mut col) = (vec![0.0; m * n], vec![0.0; n], vec![0.0; m]);
+        for k in 0..n {
+            e.iter_mut().for_each(|v| *v = 0.0);
+            e[k] = 1.0;
+            self.to_coefficients(&e, &mut col);
+            for (a, v) in col.iter().enumerate() {
+                q[a * n + k] = *v;
+            }
+        }
+        q
+    }
+}
+
+/// The value at t of the function with coefficients `coeffs` (M = 2H + 1, phasors of the
+/// basis' frequencies 0..H) for period 2π/ω: Fourier's series, or Re Σ_j z_j E_j(t).
+pub fn evaluate(basis: &TimeBasis, coeffs: &[f64], omega: f64, t: f64) -> f64 {
+    match basis {
+        TimeBasis::Fourier => fourier::evaluate(coeffs, omega, t)[0],
+        TimeBasis::Spline(s) => {
+            let count = coeffs.len().div_ceil(2);
+            let rotors = s.rotors(count, omega, t, 0);
+            (0..count).map(|k| (phasor(coeffs, k) * rotors[k]).re).sum()
+        }
+    }
+}
