@@ -179,8 +179,11 @@ pub fn sweep(
     reporter: &dyn Reporter,
     on_point: &mut OnPoint,
 ) -> Result<SweepOutcome> {
-    // Not with splines yet: tried on strip_sweep (S = 40), the arclength corrector stalls
-    // at the contact onset (1058 Hz) where Fourier H = 10 passes; the pipeline refuses it too.
+    // Not with splines yet. Switched on (solving all ⌊S/2⌋ + 1 discrete frequencies, as a
+    // single solve does), the strip sweep at S = 40 passes the contact onset but crawls for
+    // hundreds of points up tall peaks in λ at nearly fixed ω (1185 and 1553 Hz) that neither
+    // Fourier nor time marching shows: upper discrete frequencies of a coarse spline basis,
+    // whose dispersion error is large, resonating with higher modes. The pipeline refuses it too.
     if let super::basis::TimeBasis::Spline(_) = system.basis {
         return Err(Error::Input(format!(
             "harmonic_balance.basis: sweeps do not take the {} basis yet; use basis: fourier",
