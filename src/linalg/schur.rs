@@ -88,6 +88,8 @@ pub struct SchurPlan {
     pub solve_cost: f64,
     /// Entries of L (with the explicit zeros amalgamation adds).
     pub factor_entries: usize,
+    /// The B whose rows are kept (`None`: no contact).
+    b: Option<Csc>,
 }
 
 /// The basis change T: per old dof the coordinates it expands into, which coordinates are
@@ -271,7 +273,9 @@ impl SchurPlan {
     /// The plan for A's pattern (`a`, values unused) and B; `None` when B is not one row per
     /// contact node on at most two dofs of its own.
     pub fn new(a: &Csc, b: &Csc) -> Option<SchurPlan> {
-        Some(Self::build(a, expansions(b)?))
+        let mut plan = Self::build(a, expansions(b)?);
+        plan.b = Some(b.clone());
+        Some(plan)
     }
 
     /// The plan of a plain LDLᵀ of A (no contact: nothing kept).
@@ -329,7 +333,18 @@ impl SchurPlan {
             schur_cost: ldlt_cost + nk.powi(3),
             solve_cost: lu_cost + nc * 2.0 * 2.0 * nnz_l,
             factor_entries,
+            b: None,
         }
+    }
+
+    /// Whether G of this plan is B A⁻¹ Bᵀ for this `b`.
+    pub fn built_for(&self, b: &Csc) -> bool {
+        self.b.as_ref().is_some_and(|own| {
+            own.nrows == b.nrows
+                && own.col_ptr == b.col_ptr
+                && own.row_idx == b.row_idx
+                && own.values == b.values
+        })
     }
 
     /// Whether this LDLᵀ is estimated cheaper than a sparse LU with n_c blocked solves.
@@ -502,6 +517,11 @@ impl LdltFactor {
     /// G = B A⁻¹ Bᵀ (row-major n_c × n_c) for the B of the plan (empty without contact).
     pub fn compliance(&self) -> &[c64] {
         &self.compliance
+    }
+
+    /// The plan this factor was computed with.
+    pub fn plan(&self) -> &SchurPlan {
+        &self.plan
     }
 
     /// x = A⁻¹ b = T Ã⁻¹ Tᵀ b.
