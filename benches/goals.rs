@@ -7,7 +7,8 @@
 //!   factorizations (goal ≤), by the Schur complement and by the blocked solve;
 //! - time per factorization against its flop count (the floor).
 //!
-//! `cargo bench --bench goals [-- strip | damping | reduction | floor]` (default: all). Times
+//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole]`
+//! (default: all). Times
 //! come from one run on a shared machine: the ratios within a table are what to compare.
 
 use std::path::{Path, PathBuf};
@@ -16,7 +17,7 @@ use std::time::Instant;
 use hbcontact::config::{load_pipeline, Pipeline};
 use hbcontact::hbm::system::{FactorOptions, FactorPath};
 use hbcontact::hbm::System;
-use hbcontact::linalg::schur::{SchurPlan, SCHUR_SLOWDOWN};
+use hbcontact::linalg::schur::{SchurPlan, BLOCKED_SOLVE_WEIGHT, SCHUR_SLOWDOWN};
 use hbcontact::linalg::{Csc, Factor};
 use hbcontact::pipeline::{self, Purpose, RunOptions, Stages, Summary};
 use hbcontact::Silent;
@@ -152,7 +153,7 @@ fn reduction() {
             format!("{t_lu:.2}{}", if all { "" } else { "*" }),
             format!("{t_lu_g:.2}{}", if all { "" } else { "*" }),
             t_ldlt / (t_lu + t_lu_g),
-            plan.schur_cost / plan.solve_cost,
+            plan.schur_cost / plan.solve_cost(),
             h + 1,
         );
     }
@@ -160,15 +161,33 @@ fn reduction() {
 }
 
 /// The path choice on the shipped scenes: the estimate against both paths' measured times,
-/// and the slowdown per estimated mul-add it implies (what SCHUR_SLOWDOWN should be).
+/// and the two constants of the estimate they imply (SCHUR_SLOWDOWN, BLOCKED_SOLVE_WEIGHT).
 fn paths() {
     println!("\n## Factorization path per shipped scene (its own H; all harmonics; with G where there is contact)");
     println!(
-        "{:>16} {:>6} {:>7} {:>3} {:>10} {:>9} {:>9} {:>12} {:>10} {:>7}",
-        "scene", "nodes", "dofs", "H", "est. ratio", "LDLt s", "LU s", "meas. ratio", "slowdown", "chosen"
+        "{:>16} {:>6} {:>7} {:>3} {:>10} {:>9} {:>9} {:>9} {:>12} {:>9} {:>9} {:>7}",
+        "scene",
+        "nodes",
+        "dofs",
+        "H",
+        "est. ratio",
+        "LDLt s",
+        "LU s",
+        "LU G s",
+        "meas. ratio",
+        "slowdown",
+        "G weight",
+        "chosen"
     );
     let work = root().join("output/bench-goals");
-    for scene in ["strip_wall", "reference_strip", "blade_casing", "half_disc", "quickstart", "cantilever"] {
+    for scene in [
+        "strip_wall",
+        "reference_strip",
+        "blade_casing",
+        "half_disc",
+        "quickstart",
+        "cantilever",
+    ] {
         let file = format!("pipelines/{scene}.yaml");
         let Some(p) = pipeline_with(&file, &[]) else {
             return;
@@ -179,13 +198,19 @@ fn paths() {
         let plan = if b.nrows > 0 {
             m.system.schur_plan(b)
         } else {
-            Some(std::sync::Arc::new(SchurPlan::without_contact(&m.system.k_ff)))
+            Some(std::sync::Arc::new(SchurPlan::without_contact(
+                &m.system.k_ff,
+            )))
         };
         let Some(plan) = plan else { continue };
-        let h = if b.nrows > 0 { p.harmonic_balance.harmonics } else { 1 };
-        let (mut t_ldlt, mut t_lu) = (0.0, 0.0);
+        let h = if b.nrows > 0 {
+            p.harmonic_balance.harmonics
+        } else {
+            1
+        };
+        let (mut t_ldlt, mut t_lu, mut t_g) = (0.0, 0.0, 0.0);
         for _ in 0..2 {
-            let (mut a, mut c) = (0.0, 0.0);
+            let (mut a, mut c, mut g) = (0.0, 0.0, 0.0);
             for k in 0..=h {
                 let k = if b.nrows > 0 { k } else { 1 };
                 let Some((_, tf, tg, _)) = factor_and_g(&m.system, k, b, FactorPath::Ldlt) else {
@@ -195,21 +220,28 @@ fn paths() {
                 let Some((_, tf, tg, _)) = factor_and_g(&m.system, k, b, FactorPath::Lu) else {
                     return;
                 };
-                c += tf + tg;
+                c += tf;
+                g += tg;
             }
-            (t_ldlt, t_lu) = (a, c);
+            (t_ldlt, t_lu, t_g) = (a, c, g);
         }
-        let est = plan.schur_cost / plan.solve_cost;
-        let measured = t_ldlt / t_lu;
+        let est = plan.schur_cost / plan.solve_cost();
+        let lu_rate = t_lu / plan.lu_cost;
+        let weight = if plan.blocked_cost > 0.0 {
+            format!("{:.2}", t_g / plan.blocked_cost / lu_rate)
+        } else {
+            "-".into()
+        };
         println!(
-            "{scene:>16} {:>6} {:>7} {h:>3} {est:>10.3} {t_ldlt:>9.3} {t_lu:>9.3} {measured:>12.3} {:>10.2} {:>7}",
+            "{scene:>16} {:>6} {:>7} {h:>3} {est:>10.3} {t_ldlt:>9.3} {t_lu:>9.3} {t_g:>9.3} {:>12.3} {:>9.2} {weight:>9} {:>7}",
             b.nrows,
             m.system.free_count(),
-            measured / est,
+            t_ldlt / (t_lu + t_g),
+            t_ldlt / plan.schur_cost / lu_rate,
             if plan.preferred() { "LDLt" } else { "LU" },
         );
     }
-    println!("(second of two rounds; slowdown = measured ratio / estimated ratio: the time per estimated mul-add of the LDLᵀ over the LU path's; SCHUR_SLOWDOWN = {SCHUR_SLOWDOWN})");
+    println!("(second of two rounds; meas. ratio = LDLt / (LU + LU G); slowdown = time per estimated mul-add of the LDLᵀ over the LU factorization's, G weight = that of the LU's blocked solves for G over its factorization's: the estimate uses SCHUR_SLOWDOWN = {SCHUR_SLOWDOWN}, BLOCKED_SOLVE_WEIGHT = {BLOCKED_SOLVE_WEIGHT})");
 }
 
 /// The whole 601-contact-node half-disc run at H = 10 (goal < 30 s), per stage.
@@ -400,10 +432,11 @@ fn dense_rate(n: usize) -> f64 {
     8.0 * (n as f64).powi(3) / best
 }
 
-/// Best of three wall times of factoring Z_1 on a forced path (with G for `b`).
+/// Best of ten (large: three) wall times of factoring Z_1 on a forced path (with G for `b`).
 fn best_factor(system: &System, b: &Csc, path: FactorPath) -> Option<(f64, bool)> {
     let mut best = (f64::INFINITY, false);
-    for _ in 0..3 {
+    let rounds = if system.free_count() < 10_000 { 10 } else { 3 };
+    for _ in 0..rounds {
         let (f, tf, tg, _) = factor_and_g(system, 1, b, path)?;
         best = (best.0.min(tf + tg), f.is_ldlt());
     }
@@ -412,7 +445,9 @@ fn best_factor(system: &System, b: &Csc, path: FactorPath) -> Option<(f64, bool)
 
 /// Time per factorization against its flop count: faer's LU, and the kept LDLᵀ (with G).
 fn floor() {
-    println!("\n## Factorization floor: time per complex factorization of Z_1 against its flop count");
+    println!(
+        "\n## Factorization floor: time per complex factorization of Z_1 against its flop count"
+    );
     let rate = dense_rate(384);
     println!(
         "dense complex matrix product here, now: {:.2} Gflop/s",
@@ -420,7 +455,17 @@ fn floor() {
     );
     println!(
         "{:>28} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}",
-        "scene", "dofs", "LU Mflop", "LDLt Mf", "LU ms", "LDLt ms", "LU/LDLt", "LU floor", "LDLt fl", "LU t/fl", "LDLt t/fl"
+        "scene",
+        "dofs",
+        "LU Mflop",
+        "LDLt Mf",
+        "LU ms",
+        "LDLt ms",
+        "LU/LDLt",
+        "LU floor",
+        "LDLt fl",
+        "LU t/fl",
+        "LDLt t/fl"
     );
     let work = root().join("output/bench-goals");
     let scenes: [(&str, Vec<String>); 2] = [
@@ -452,6 +497,30 @@ fn floor() {
         ) else {
             return;
         };
+        // The LDLᵀ alone (no checks), best of three.
+        let (re, im) = m.system.dynamic_stiffness(1);
+        let mut bare = f64::INFINITY;
+        for _ in 0..10 {
+            let t = seconds(|| plan.factor(&re.values, im.as_deref(), 1e-14)).1;
+            bare = bare.min(t);
+        }
+        let f = plan.factor(&re.values, im.as_deref(), 1e-14).ok();
+        let rhs = vec![faer::c64::new(1.0, 0.5); m.system.free_count()];
+        let mut t_solve = f64::INFINITY;
+        if let Some(f) = &f {
+            for _ in 0..20 {
+                t_solve = t_solve.min(seconds(|| f.solve(&rhs)).1);
+            }
+        }
+        println!(
+            "{:>28} LDLt without its checks: {:.2} ms; one solve {:.3} ms; {} fronts, widest {}, {} L entries",
+            "",
+            bare * 1e3,
+            t_solve * 1e3,
+            plan.fronts().0,
+            plan.fronts().1,
+            plan.factor_entries,
+        );
         println!(
             "{:>28} {:>7} {:>9.1} {:>9.1} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8.1} {:>8.1}{}",
             format!(
@@ -472,7 +541,7 @@ fn floor() {
             if kept { "" } else { " (LDLt fell back to LU)" },
         );
     }
-    println!("(best of three; LU = faer's numeric LU alone, flops its AMD estimate on the pattern of Z_k; LDLt = the kept LDLᵀ with the contact normals last, including G_k = S⁻¹ and its checks, flops from its plan; floor = flops at the dense product's rate)");
+    println!("(best of ten, three at 601 nodes; LU = faer's numeric LU alone, flops its AMD estimate on the pattern of Z_k; LDLt = the kept LDLᵀ with the contact normals last, including G_k = S⁻¹ and its checks, flops from its plan; floor = flops at the dense product's rate)");
 }
 
 fn main() {
@@ -489,8 +558,10 @@ fn main() {
     if want("damping") {
         damping();
     }
-    if want("reduction") {
+    if want("paths") {
         paths();
+    }
+    if want("reduction") {
         reduction();
     }
     if want("floor") {

@@ -395,7 +395,7 @@ impl Factor {
     pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
         match self {
             Factor::Lu(lu) => lu.solve_many(rhs),
-            Factor::Ldlt(f) => rhs.iter().map(|b| f.solve(b)).collect(),
+            Factor::Ldlt(f) => f.solve_many(rhs),
         }
     }
 
@@ -404,16 +404,14 @@ impl Factor {
     pub fn compliance(&self, b: &Csc) -> Vec<c64> {
         match self {
             Factor::Lu(lu) => lu.compliance(b),
-            Factor::Ldlt(f) if f.plan().built_for(b) => {
-                f.compliance().to_vec()
-            }
+            Factor::Ldlt(f) if f.plan().built_for(b) => f.compliance().to_vec(),
             Factor::Ldlt(f) => {
                 let nc = b.nrows;
                 let mut rows: Vec<Vec<c64>> = vec![vec![c64::new(0.0, 0.0); b.ncols]; nc];
                 for (i, p, v) in b.triplet_iter() {
                     rows[i][p] = c64::new(v, 0.0);
                 }
-                let x: Vec<Vec<c64>> = rows.iter().map(|r| f.solve(r)).collect();
+                let x = f.solve_many(&rows);
                 let mut out = vec![c64::new(0.0, 0.0); nc * nc];
                 for (j, xj) in x.iter().enumerate() {
                     let bx = b.mul_complex(xj);

@@ -178,7 +178,12 @@ impl System {
     /// `factor` on a chosen path. The LDLᵀ is checked after factoring: one solve's backward
     /// error below 1e-12 and, with B, G_k y against B Z_k⁻¹ Bᵀ y refined once, within 1e-11
     /// of its largest entry; a vanishing pivot or a failed check falls back to the LU.
-    pub fn factor_with(&self, k: usize, b: Option<&Csc>, options: &FactorOptions) -> Result<Factor> {
+    pub fn factor_with(
+        &self,
+        k: usize,
+        b: Option<&Csc>,
+        options: &FactorOptions,
+    ) -> Result<Factor> {
         let plan = match options.path {
             FactorPath::Lu => None,
             FactorPath::Auto => self.ldlt_plan(b).filter(|p| p.preferred()),
@@ -204,51 +209,48 @@ impl System {
     fn ldlt_plan(&self, b: Option<&Csc>) -> Option<Arc<SchurPlan>> {
         match b {
             Some(b) => self.schur_plan(b),
-            None => Some(Arc::clone(
-                self.plain
-                    .get_or_init(|| Arc::new(SchurPlan::without_contact(&self.k_ff))),
-            )),
+            None => {
+                Some(Arc::clone(self.plain.get_or_init(|| {
+                    Arc::new(SchurPlan::without_contact(&self.k_ff))
+                })))
+            }
         }
     }
 
-    /// The safety net of a pivot-free factorization: one solve's normwise backward error
-    /// below 1e-12, and G_k y against B Z_k⁻¹ Bᵀ y with one step of iterative refinement.
+    /// The safety net of a pivot-free factorization (one pass over the factor for both
+    /// solves): a solve's normwise backward error below 1e-12, and G_k y against
+    /// B Z_k⁻¹ Bᵀ y refined once, within 1e-11 of its largest entry. The Newton works with
+    /// G and the recovery (24) with the solves, so a G that lost accuracy (a pivot-free
+    /// elimination of a slender body pressed flat) would leave a gap of that error times λ.
     fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> bool {
         let n = self.free_count();
-        let mut rhs = self.load(k);
-        if rhs.iter().all(|z| z.norm() == 0.0) {
-            rhs = (0..n)
+        let mut rhs = vec![self.load(k)];
+        if rhs[0].iter().all(|z| z.norm() == 0.0) {
+            rhs[0] = (0..n)
                 .map(|i| c64::new(1.0 + (i % 5) as f64, (i % 3) as f64 - 1.0))
                 .collect();
         }
-        let x = f.solve(&rhs);
-        if !(relative_residual(self, k, &x, &rhs) < 1e-12) {
-            return false;
-        }
-        match b {
-            Some(b) if b.nrows > 0 => self.compliance_agrees(k, b, f),
-            _ => true,
-        }
-    }
-
-    /// G y against B x for x = Z⁻¹ Bᵀ y refined once, for a fixed y with all nodes loaded,
-    /// within 1e-11 of the largest entry: the Newton works with G and the recovery (24) with
-    /// the solves, so a G that lost accuracy (a pivot-free elimination of a slender body
-    /// pressed flat) would leave a gap of that error times λ.
-    fn compliance_agrees(&self, k: usize, b: &Csc, f: &Factor) -> bool {
-        let nc = b.nrows;
-        let g = f.compliance(b);
+        let b = b.filter(|b| b.nrows > 0);
+        let nc = b.map_or(0, |b| b.nrows);
         let y: Vec<c64> = (0..nc)
             .map(|j| c64::new(1.0 + (j % 7) as f64 / 7.0, (j % 3) as f64 / 3.0))
             .collect();
-        let v = b.mul_transpose_complex(&y);
-        let mut x = f.solve(&v);
-        let zx = self.apply(k, &x);
+        if let Some(b) = b {
+            rhs.push(b.mul_transpose_complex(&y));
+        }
+        let mut x = f.solve_many(&rhs);
+        if !(relative_residual(self, k, &x[0], &rhs[0]) < 1e-12) {
+            return false;
+        }
+        let Some(b) = b else { return true };
+        let (v, x) = (&rhs[1], &mut x[1]);
+        let zx = self.apply(k, x);
         let r: Vec<c64> = v.iter().zip(&zx).map(|(a, c)| a - c).collect();
         for (xi, di) in x.iter_mut().zip(f.solve(&r)) {
             *xi += di;
         }
-        let direct = b.mul_complex(&x);
+        let g = f.compliance(b);
+        let direct = b.mul_complex(x);
         let scale = direct.iter().fold(0.0f64, |m, z| m.max(z.norm()));
         (0..nc).all(|i| {
             let gy: c64 = (0..nc).map(|j| g[i * nc + j] * y[j]).sum();

@@ -40,10 +40,13 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use super::Csc;
 
-/// How much slower per estimated mul-add this LDLᵀ (factor, G, solves) runs than faer's
-/// sparse LU and its blocked solves, measured by `cargo bench --bench goals -- reduction`:
-/// the path is chosen on the estimate times this.
-pub const SCHUR_SLOWDOWN: f64 = 2.5;
+/// Time per estimated mul-add of this LDLᵀ (factor, S⁻¹, G and its checks) over that of
+/// faer's numeric sparse LU, measured by `cargo bench --bench goals -- paths`.
+pub const SCHUR_SLOWDOWN: f64 = 1.2;
+
+/// Time per estimated mul-add of the LU's blocked multi-right-hand-side solves for G over
+/// that of its factorization (same bench).
+pub const BLOCKED_SOLVE_WEIGHT: f64 = 0.2;
 
 /// Pivot columns per panel of the blocked front elimination.
 const PANEL: usize = 32;
@@ -82,10 +85,11 @@ pub struct SchurPlan {
     scatter: Vec<(usize, f64)>,
     /// Supernodes, children before parents.
     supernodes: Vec<Supernode>,
-    /// Estimated mul-adds of this LDLᵀ (with S⁻¹), and of a sparse LU of A with G by n_c
-    /// blocked solves.
+    /// Estimated mul-adds of this LDLᵀ (with S⁻¹), of a sparse LU of A, and of G by n_c
+    /// blocked solves with it.
     pub schur_cost: f64,
-    pub solve_cost: f64,
+    pub lu_cost: f64,
+    pub blocked_cost: f64,
     /// Entries of L (with the explicit zeros amalgamation adds).
     pub factor_entries: usize,
     /// The B whose rows are kept (`None`: no contact).
@@ -331,7 +335,8 @@ impl SchurPlan {
             scatter: t.scatter,
             supernodes: nodes,
             schur_cost: ldlt_cost + nk.powi(3),
-            solve_cost: lu_cost + nc * 2.0 * 2.0 * nnz_l,
+            lu_cost,
+            blocked_cost: nc * 2.0 * 2.0 * nnz_l,
             factor_entries,
             b: None,
         }
@@ -347,9 +352,15 @@ impl SchurPlan {
         })
     }
 
+    /// The LU path's estimated cost in LU-factorization mul-adds: factor and G by n_c
+    /// blocked solves.
+    pub fn solve_cost(&self) -> f64 {
+        self.lu_cost + BLOCKED_SOLVE_WEIGHT * self.blocked_cost
+    }
+
     /// Whether this LDLᵀ is estimated cheaper than a sparse LU with n_c blocked solves.
     pub fn preferred(&self) -> bool {
-        SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost
+        SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost()
     }
 
     /// The dimension of A.
@@ -473,12 +484,8 @@ impl SchurPlan {
                 extend_add(&mut front, m, &cb, &child.rows[child.pivots..], &local);
             }
             let p = node.pivots;
-            eliminate(&mut front, m, p, tolerance, &mut work).map_err(|k| {
-                format!(
-                    "pivot {} of the LDLᵀ elimination vanished",
-                    node.rows[k]
-                )
-            })?;
+            eliminate(&mut front, m, p, tolerance, &mut work)
+                .map_err(|k| format!("pivot {} of the LDLᵀ elimination vanished", node.rows[k]))?;
             let mc = m - p;
             let mut cb = vec![c64::new(0.0, 0.0); mc * mc];
             for b in 0..mc {
@@ -526,51 +533,109 @@ impl LdltFactor {
 
     /// x = A⁻¹ b = T Ã⁻¹ Tᵀ b.
     pub fn solve(&self, b: &[c64]) -> Vec<c64> {
+        self.solve_many(&[b.to_vec()]).pop().unwrap_or_default()
+    }
+
+    /// Several solves in one pass over the factor: each supernode's rows of all right-hand
+    /// sides are gathered into a dense block, updated, and scattered back.
+    pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
         let plan = &*self.plan;
+        let (n, r) = (plan.dim(), rhs.len());
         let zero = c64::new(0.0, 0.0);
-        let mut x = vec![zero; plan.dim()];
-        for (bd, e) in b.iter().zip(&plan.expansion) {
-            for &(q, w) in e {
-                x[q] += bd * w;
+        // x[q * r + c]: coordinate q of right-hand side c.
+        let mut x = vec![zero; n * r];
+        for (c, b) in rhs.iter().enumerate() {
+            for (bd, e) in b.iter().zip(&plan.expansion) {
+                for &(q, w) in e {
+                    x[q * r + c] += bd * w;
+                }
             }
         }
+        let mut local = Vec::new();
         for (node, l) in plan.supernodes.iter().zip(&self.panels) {
-            let (m, rows) = (node.rows.len(), &node.rows);
+            gather(&mut local, &x, &node.rows, r);
+            let m = node.rows.len();
             for k in 0..node.pivots {
-                let xk = x[rows[k]];
-                if xk != zero {
-                    for (i, &r) in rows.iter().enumerate().skip(k + 1) {
-                        x[r] -= l[k * m + i] * xk;
+                let (head, tail) = local.split_at_mut((k + 1) * r);
+                let below = &l[k * m + k + 1..(k + 1) * m];
+                if r == 1 {
+                    let xk = head[k];
+                    for (v, &lik) in tail.iter_mut().zip(below) {
+                        *v -= lik * xk;
+                    }
+                    continue;
+                }
+                let xk = &head[k * r..];
+                for (row, &lik) in tail.chunks_exact_mut(r).zip(below) {
+                    for (v, &xc) in row.iter_mut().zip(xk) {
+                        *v -= lik * xc;
                     }
                 }
             }
             for k in 0..node.pivots {
-                x[rows[k]] /= l[k * m + k];
+                let inv = l[k * m + k].inv();
+                local[k * r..(k + 1) * r].iter_mut().for_each(|v| *v *= inv);
             }
+            scatter(&local, &mut x, &node.rows, r);
         }
-        let e = plan.eliminated;
-        let nk = plan.kept();
+        let (e, nk) = (plan.eliminated, plan.kept());
         if nk > 0 {
-            let y = &self.s_inverse * MatRef::from_column_major_slice(&x[e..], nk, 1);
+            let xn = MatRef::from_row_major_slice(&x[e * r..], nk, r);
+            let y = &self.s_inverse * xn;
             for i in 0..nk {
-                x[e + i] = y[(i, 0)];
+                for c in 0..r {
+                    x[(e + i) * r + c] = y[(i, c)];
+                }
             }
         }
         for (node, l) in plan.supernodes.iter().zip(&self.panels).rev() {
-            let (m, rows) = (node.rows.len(), &node.rows);
+            gather(&mut local, &x, &node.rows, r);
+            let m = node.rows.len();
             for k in (0..node.pivots).rev() {
-                let col = &l[k * m..(k + 1) * m];
-                let mut acc = x[rows[k]];
-                for (i, &r) in rows.iter().enumerate().skip(k + 1) {
-                    acc -= col[i] * x[r];
+                let (head, tail) = local.split_at_mut((k + 1) * r);
+                let below = &l[k * m + k + 1..(k + 1) * m];
+                if r == 1 {
+                    let dot: c64 = tail.iter().zip(below).map(|(&v, &lik)| lik * v).sum();
+                    head[k] -= dot;
+                    continue;
                 }
-                x[rows[k]] = acc;
+                let xk = &mut head[k * r..];
+                for (row, &lik) in tail.chunks_exact(r).zip(below) {
+                    for (v, &xc) in xk.iter_mut().zip(row) {
+                        *v -= lik * xc;
+                    }
+                }
             }
+            scatter(
+                &local[..node.pivots * r],
+                &mut x,
+                &node.rows[..node.pivots],
+                r,
+            );
         }
-        plan.expansion
-            .iter()
-            .map(|e| e.iter().map(|&(q, w)| x[q] * w).sum())
+        (0..r)
+            .map(|c| {
+                plan.expansion
+                    .iter()
+                    .map(|e| e.iter().map(|&(q, w)| x[q * r + c] * w).sum())
+                    .collect()
+            })
             .collect()
+    }
+}
+
+/// local[i * r + c] = x[rows[i] * r + c].
+fn gather(local: &mut Vec<c64>, x: &[c64], rows: &[usize], r: usize) {
+    local.clear();
+    for &row in rows {
+        local.extend_from_slice(&x[row * r..(row + 1) * r]);
+    }
+}
+
+/// x[rows[i] * r + c] = local[i * r + c].
+fn scatter(local: &[c64], x: &mut [c64], rows: &[usize], r: usize) {
+    for (i, &row) in rows.iter().enumerate() {
+        x[row * r..(row + 1) * r].copy_from_slice(&local[i * r..(i + 1) * r]);
     }
 }
 
@@ -762,8 +827,7 @@ fn amalgamate(mut nodes: Vec<Supernode>) -> Vec<Supernode> {
             + trapezoid(np, nodes[p].rows.len())
             - zeros[p];
         let z = total.saturating_sub(actual) as f64 / total as f64;
-        let merge =
-            cols <= 4 || (cols <= 16 && z < 0.8) || (cols <= 48 && z < 0.1) || z < 0.05;
+        let merge = cols <= 4 || (cols <= 16 && z < 0.8) || (cols <= 48 && z < 0.1) || z < 0.05;
         if !merge {
             continue;
         }
@@ -879,7 +943,7 @@ mod tests {
             "error {err:e} of scale {scale:e}"
         );
         assert!(g[5 * nx + 5].norm() == 0.0 && reference[5 * nx + 5].norm() == 0.0);
-        assert!(plan.schur_cost > 0.0 && plan.solve_cost > 0.0);
+        assert!(plan.schur_cost > 0.0 && plan.solve_cost() > 0.0);
     }
 }
 
@@ -907,7 +971,10 @@ mod factor_tests {
             })
             .collect();
         let b = Csc::from_entries(nx, a.ncols, &rows);
-        for plan in [SchurPlan::without_contact(&a), SchurPlan::new(&a, &b).unwrap()] {
+        for plan in [
+            SchurPlan::without_contact(&a),
+            SchurPlan::new(&a, &b).unwrap(),
+        ] {
             let plan = Arc::new(plan);
             let f = plan.factor(&a.values, Some(&im), PIVOT_TOLERANCE).unwrap();
             let x = f.solve(&rhs);
