@@ -369,7 +369,7 @@ impl SparseLu {
 /// faer's pivoting sparse LU, or the kept complex symmetric LDLᵀ of `schur`, which also
 /// carries G = B Z_k⁻¹ Bᵀ from the same elimination.
 pub enum Factor {
-    Lu(SparseLu),
+    Lu(Box<SparseLu>),
     Ldlt(schur::LdltFactor),
 }
 

@@ -202,7 +202,7 @@ impl System {
             Some(im) => SparseLu::factor_complex(&self.pattern, &re, &im)?,
             None => SparseLu::factor_real(&self.pattern, &re)?,
         };
-        Ok(Factor::Lu(lu))
+        Ok(Factor::Lu(Box::new(lu)))
     }
 
     /// The LDLᵀ plan: with B's normals kept (`None` when B does not allow it), or plain.

@@ -57,6 +57,12 @@ pub const PIVOT_TOLERANCE: f64 = 1e-14;
 /// Coordinates of the transformed basis touched by one old dof, with T's weights.
 type Expansion = Vec<(usize, f64)>;
 
+/// Per supernode, its panel (m × pivots, column-major).
+type Panels = Vec<Vec<c64>>;
+
+/// S⁻¹ (n_k × n_k) and G (row-major n_c × n_c).
+type Kept = (Mat<c64>, Vec<c64>);
+
 /// One supernode: its pivot coordinates (elimination order) and its front's rows (the
 /// pivots first), the supernodes whose CBs it receives, and where its own CB goes (`None`:
 /// into S).
@@ -380,7 +386,7 @@ impl SchurPlan {
 
     /// G = B A⁻¹ Bᵀ alone (row-major n_c × n_c), from a factorization thrown away.
     pub fn compliance(&self, re: &[f64], im: Option<&[f64]>) -> Result<Vec<c64>, String> {
-        let (_, _, g) = self.eliminate(re, im, PIVOT_TOLERANCE)?;
+        let (_, (_, g)) = self.eliminate(re, im, PIVOT_TOLERANCE)?;
         Ok(g)
     }
 
@@ -392,7 +398,7 @@ impl SchurPlan {
         im: Option<&[f64]>,
         pivot_tolerance: f64,
     ) -> Result<LdltFactor, String> {
-        let (panels, s_inverse, compliance) = self.eliminate(re, im, pivot_tolerance)?;
+        let (panels, (s_inverse, compliance)) = self.eliminate(re, im, pivot_tolerance)?;
         Ok(LdltFactor {
             plan: Arc::clone(self),
             panels,
@@ -407,7 +413,7 @@ impl SchurPlan {
         re: &[f64],
         im: Option<&[f64]>,
         tolerance: f64,
-    ) -> Result<(Vec<Vec<c64>>, Mat<c64>, Vec<c64>), String> {
+    ) -> Result<(Panels, Kept), String> {
         let mut values = vec![c64::new(0.0, 0.0); self.row_idx.len()];
         for p in 0..self.scatter_ptr.len() - 1 {
             let a = c64::new(re[p], im.map_or(0.0, |v| v[p]));
@@ -447,7 +453,7 @@ impl SchurPlan {
         if !g.iter().all(finite) || !(0..nk).all(|j| inv.col(j).iter().all(finite)) {
             return Err("the Schur complement of the contact normals is singular".into());
         }
-        Ok((panels, inv, g))
+        Ok((panels, (inv, g)))
     }
 
     /// The multifrontal elimination of every non-kept coordinate: returns each supernode's
