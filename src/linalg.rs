@@ -392,6 +392,19 @@ impl Factor {
         }
     }
 
+    /// The solution the factorization's own check computed, when `rhs` is its right-hand
+    /// side (the load: saves the linear solve one pass over the factor).
+    pub fn solution_of(&self, rhs: &[c64]) -> Option<Vec<c64>> {
+        match self {
+            Factor::Ldlt(f) => f
+                .checked
+                .as_ref()
+                .filter(|(b, _)| b == rhs)
+                .map(|(_, x)| x.clone()),
+            Factor::Lu(_) => None,
+        }
+    }
+
     pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
         match self {
             Factor::Lu(lu) => lu.solve_many(rhs),

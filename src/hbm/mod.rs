@@ -251,7 +251,7 @@ impl LinearResponse {
         let mut z = if is_zero(&rhs) {
             rhs.clone()
         } else {
-            lu.solve(&rhs)
+            lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs))
         };
         let mut res = system::relative_residual(system, k, &z, &rhs);
         // Iterative refinement: large, badly conditioned systems (slender parts, fine

@@ -49,6 +49,9 @@ pub struct System {
     plain: OnceLock<Arc<SchurPlan>>,
 }
 
+/// A right-hand side and its solution.
+type Checked = (Vec<c64>, Vec<c64>);
+
 /// Which factorization `System::factor_with` computes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FactorPath {
@@ -192,8 +195,11 @@ impl System {
         let (re, im) = self.dynamic_stiffness(k);
         if let Some(plan) = plan {
             if let Ok(f) = plan.factor(&re.values, im.as_deref(), options.pivot_tolerance) {
-                let f = Factor::Ldlt(f);
-                if self.factor_is_accurate(k, b, &f) {
+                let mut f = Factor::Ldlt(f);
+                if let Some(checked) = self.factor_is_accurate(k, b, &f) {
+                    if let Factor::Ldlt(ldlt) = &mut f {
+                        ldlt.checked = Some(checked);
+                    }
                     return Ok(f);
                 }
             }
@@ -222,7 +228,9 @@ impl System {
     /// B Z_k⁻¹ Bᵀ y refined once, within 1e-11 of its largest entry. The Newton works with
     /// G and the recovery (24) with the solves, so a G that lost accuracy (a pivot-free
     /// elimination of a slender body pressed flat) would leave a gap of that error times λ.
-    fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> bool {
+    /// On success, the checked right-hand side (the load where there is one) and its
+    /// solution.
+    fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> Option<Checked> {
         let n = self.free_count();
         let mut rhs = vec![self.load(k)];
         if rhs[0].iter().all(|z| z.norm() == 0.0) {
@@ -240,9 +248,10 @@ impl System {
         }
         let mut x = f.solve_many(&rhs);
         if !(relative_residual(self, k, &x[0], &rhs[0]) < 1e-12) {
-            return false;
+            return None;
         }
-        let Some(b) = b else { return true };
+        let checked = Some((rhs[0].clone(), x[0].clone()));
+        let Some(b) = b else { return checked };
         let (v, x) = (&rhs[1], &mut x[1]);
         let zx = self.apply(k, x);
         let r: Vec<c64> = v.iter().zip(&zx).map(|(a, c)| a - c).collect();
@@ -252,10 +261,11 @@ impl System {
         let g = f.compliance(b);
         let direct = b.mul_complex(x);
         let scale = direct.iter().fold(0.0f64, |m, z| m.max(z.norm()));
-        (0..nc).all(|i| {
+        let agrees = (0..nc).all(|i| {
             let gy: c64 = (0..nc).map(|j| g[i * nc + j] * y[j]).sum();
             (gy - direct[i]).norm() <= 1e-11 * scale
-        })
+        });
+        checked.filter(|_| agrees)
     }
 
     /// The Schur plan for this B (built once; a different B gets its own, not kept).

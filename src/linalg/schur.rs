@@ -404,6 +404,7 @@ impl SchurPlan {
             panels,
             s_inverse,
             compliance,
+            checked: None,
         })
     }
 
@@ -520,6 +521,8 @@ pub struct LdltFactor {
     panels: Vec<Vec<c64>>,
     s_inverse: Mat<c64>,
     compliance: Vec<c64>,
+    /// A right-hand side and its solution, kept by the caller's check (`System::factor`).
+    pub checked: Option<(Vec<c64>, Vec<c64>)>,
 }
 
 impl LdltFactor {
