@@ -42,7 +42,7 @@ use super::Csc;
 
 /// Time per estimated mul-add of this LDLᵀ (factor, S⁻¹, G and its checks) over that of
 /// faer's numeric sparse LU, measured by `cargo bench --bench goals -- paths`.
-pub const SCHUR_SLOWDOWN: f64 = 1.2;
+pub const SCHUR_SLOWDOWN: f64 = 1.0;
 
 /// Time per estimated mul-add of the LU's blocked multi-right-hand-side solves for G over
 /// that of its factorization (same bench).
