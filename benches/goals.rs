@@ -7,16 +7,18 @@
 //!   factorizations (goal ≤), by the Schur complement and by the blocked solve;
 //! - time per factorization against its flop count (the floor).
 //!
-//! `cargo bench --bench goals [-- strip | damping | reduction | floor]` (default: all). Times
+//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole]`
+//! (default: all). Times
 //! come from one run on a shared machine: the ratios within a table are what to compare.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::hbm::system::{FactorOptions, FactorPath};
 use hbcontact::hbm::System;
-use hbcontact::linalg::schur::SchurPlan;
-use hbcontact::linalg::SparseLu;
+use hbcontact::linalg::schur::{SchurPlan, BLOCKED_SOLVE_WEIGHT, SCHUR_SLOWDOWN};
+use hbcontact::linalg::{Csc, Factor};
 use hbcontact::pipeline::{self, Purpose, RunOptions, Stages, Summary};
 use hbcontact::Silent;
 
@@ -62,25 +64,45 @@ fn max_difference(a: &[faer::c64], b: &[faer::c64]) -> f64 {
         / scale
 }
 
-/// Reduction against factorization on the half-disc refined at the contact.
+/// One factorization of Z_k on a forced path, with G_k for `b` (the LDLᵀ's own; the LU's by
+/// blocked solves): (factor, seconds to factor, seconds for G, G).
+fn factor_and_g(
+    system: &System,
+    k: usize,
+    b: &Csc,
+    path: FactorPath,
+) -> Option<(Factor, f64, f64, Vec<faer::c64>)> {
+    let options = FactorOptions {
+        path,
+        ..Default::default()
+    };
+    let (f, t_factor) = seconds(|| system.factor_with(k, Some(b), &options));
+    let f = f.ok()?;
+    let (g, t_g) = seconds(|| f.compliance(b));
+    Some((f, t_factor, t_g, g))
+}
+
+/// Reduction against factorization on the half-disc refined at the contact: the LDLᵀ (one
+/// elimination gives the factor and G_k) against faer's LU plus n_c blocked solves.
 fn reduction() {
-    println!("\n## Reduction G_k = B Z_k⁻¹ Bᵀ against the factorizations (half_disc, search_distance 0.05)");
+    println!("\n## One factorization per harmonic with G_k = B Z_k⁻¹ Bᵀ (half_disc, search_distance 0.05)");
     println!(
-        "{:>10} {:>6} {:>7} {:>3} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10}",
+        "{:>10} {:>6} {:>7} {:>3} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>6}",
         "lc_contact",
         "nodes",
         "dofs",
         "H",
-        "factor s",
-        "schur s",
-        "solves s",
-        "schur/fac",
+        "LDLt s",
+        "LU s",
+        "LU G s",
+        "LDLt/LU",
         "est. ratio",
         "plan s",
-        "|ΔG|/|G|"
+        "|ΔG|/|G|",
+        "ldlt"
     );
     let work = root().join("output/bench-goals");
-    for (lc, h, solves) in [
+    for (lc, h, all) in [
         (0.004, 5, true),
         (0.002, 5, true),
         (0.001, 5, true),
@@ -99,76 +121,160 @@ fn reduction() {
         let Some(contact) = &m.contact else { return };
         let b = &contact.operator.b_free;
         let system: &System = &m.system;
-        let (plan, t_plan) = seconds(|| SchurPlan::new(&system.k_ff, b));
+        let (plan, t_plan) = seconds(|| system.schur_plan(b));
         let Some(plan) = plan else {
             eprintln!("no Schur plan for this B");
             return;
         };
-        let (mut t_factor, mut t_schur, mut t_solves, mut diff) = (0.0, 0.0, 0.0, 0.0f64);
+        let (mut t_ldlt, mut t_lu, mut t_lu_g, mut diff, mut ldlt) = (0.0, 0.0, 0.0, 0.0f64, 0);
         for k in 0..=h {
-            let (lu, t) = seconds(|| system.factor(k));
-            t_factor += t;
-            let Ok(lu) = lu else { return };
-            let (re, im) = system.dynamic_stiffness(k);
-            let (g, t) = seconds(|| plan.compliance(&re.values, im.as_deref()));
-            t_schur += t;
-            let Ok(g) = g else { return };
-            // The blocked solve on the finest meshes only at k = 1 (it takes minutes), scaled.
-            if solves || k == 1 {
-                let (reference, t) = seconds(|| lu.compliance(b));
-                t_solves += if solves { t } else { t * (h + 1) as f64 };
+            let Some((f, tf, tg, g)) = factor_and_g(system, k, b, FactorPath::Ldlt) else {
+                return;
+            };
+            t_ldlt += tf + tg;
+            ldlt += f.is_ldlt() as usize;
+            drop(f);
+            // The LU path on the finest meshes only at k = 1 (its G takes minutes), scaled.
+            if all || k == 1 {
+                let Some((_, tf, tg, reference)) = factor_and_g(system, k, b, FactorPath::Lu)
+                else {
+                    return;
+                };
+                let scale = if all { 1.0 } else { (h + 1) as f64 };
+                t_lu += tf * scale;
+                t_lu_g += tg * scale;
                 diff = diff.max(max_difference(&g, &reference));
             }
-            drop::<SparseLu>(lu);
         }
         println!(
-            "{lc:>10} {:>6} {:>7} {h:>3} {t_factor:>9.2} {t_schur:>10.2} {:>10} {:>10.2} {:>10.3} {t_plan:>9.2} {diff:>10.1e}",
+            "{lc:>10} {:>6} {:>7} {h:>3} {t_ldlt:>10.2} {:>10} {:>10} {:>10.3} {:>10.3} {t_plan:>9.2} {diff:>10.1e} {ldlt:>3}/{}",
             b.nrows,
             system.free_count(),
-            format!("{t_solves:.2}{}", if solves { "" } else { "*" }),
-            t_schur / t_factor,
-            plan.schur_cost / plan.solve_cost,
+            format!("{t_lu:.2}{}", if all { "" } else { "*" }),
+            format!("{t_lu_g:.2}{}", if all { "" } else { "*" }),
+            t_ldlt / (t_lu + t_lu_g),
+            plan.schur_cost / plan.solve_cost(),
+            h + 1,
         );
     }
-    println!("(* the blocked solve timed at k = 1 and scaled by H + 1; est. ratio = the estimated cost of the Schur path over the solves', which picks the path)");
+    println!("(LDLt s = factor and G by the kept LDLᵀ, all harmonics, checks included; LU s = faer's LU, LU G s = its n_c blocked solves; * timed at k = 1 and scaled by H + 1; est. ratio = estimated mul-adds of the LDLᵀ over the LU path's; ldlt = harmonics that kept the LDLᵀ after its checks)");
 }
 
-/// The path choice on the shipped contact scenes: the estimate against both paths' times.
+/// The path choice on the shipped scenes: the estimate against both paths' measured times,
+/// and the two constants of the estimate they imply (SCHUR_SLOWDOWN, BLOCKED_SOLVE_WEIGHT).
 fn paths() {
-    println!("\n## Reduction path per shipped contact scene (its own H; all harmonics)");
+    println!("\n## Factorization path per shipped scene (its own H; all harmonics; with G where there is contact)");
     println!(
-        "{:>16} {:>6} {:>7} {:>3} {:>10} {:>9} {:>9} {:>12} {:>7}",
-        "scene", "nodes", "dofs", "H", "est. ratio", "schur s", "solves s", "meas. ratio", "chosen"
+        "{:>16} {:>6} {:>7} {:>3} {:>10} {:>9} {:>9} {:>9} {:>12} {:>9} {:>9} {:>7}",
+        "scene",
+        "nodes",
+        "dofs",
+        "H",
+        "est. ratio",
+        "LDLt s",
+        "LU s",
+        "LU G s",
+        "meas. ratio",
+        "slowdown",
+        "G weight",
+        "chosen"
     );
     let work = root().join("output/bench-goals");
-    for scene in ["strip_wall", "reference_strip", "blade_casing", "half_disc"] {
+    for scene in [
+        "strip_wall",
+        "reference_strip",
+        "blade_casing",
+        "half_disc",
+        "quickstart",
+        "cantilever",
+    ] {
         let file = format!("pipelines/{scene}.yaml");
         let Some(p) = pipeline_with(&file, &[]) else {
             return;
         };
         let Some(m) = model(&p, &work) else { return };
-        let Some(contact) = &m.contact else { continue };
-        let b = &contact.operator.b_free;
-        let Some(plan) = SchurPlan::new(&m.system.k_ff, b) else {
-            continue;
+        let empty = Csc::from_entries(0, m.system.free_count(), &[]);
+        let b = m.contact.as_ref().map_or(&empty, |c| &c.operator.b_free);
+        let plan = if b.nrows > 0 {
+            m.system.schur_plan(b)
+        } else {
+            Some(std::sync::Arc::new(SchurPlan::without_contact(
+                &m.system.k_ff,
+            )))
         };
-        let h = p.harmonic_balance.harmonics;
-        let (mut t_schur, mut t_solves) = (0.0, 0.0);
-        for k in 0..=h {
-            let Ok(lu) = m.system.factor(k) else { return };
-            let (re, im) = m.system.dynamic_stiffness(k);
-            t_schur += seconds(|| plan.compliance(&re.values, im.as_deref())).1;
-            t_solves += seconds(|| lu.compliance(b)).1;
+        let Some(plan) = plan else { continue };
+        let h = if b.nrows > 0 {
+            p.harmonic_balance.harmonics
+        } else {
+            1
+        };
+        let (mut t_ldlt, mut t_lu, mut t_g) = (0.0, 0.0, 0.0);
+        for _ in 0..2 {
+            let (mut a, mut c, mut g) = (0.0, 0.0, 0.0);
+            for k in 0..=h {
+                let k = if b.nrows > 0 { k } else { 1 };
+                let Some((_, tf, tg, _)) = factor_and_g(&m.system, k, b, FactorPath::Ldlt) else {
+                    return;
+                };
+                a += tf + tg;
+                let Some((_, tf, tg, _)) = factor_and_g(&m.system, k, b, FactorPath::Lu) else {
+                    return;
+                };
+                c += tf;
+                g += tg;
+            }
+            (t_ldlt, t_lu, t_g) = (a, c, g);
         }
-        let est = plan.schur_cost / plan.solve_cost;
+        let est = plan.schur_cost / plan.solve_cost();
+        let lu_rate = t_lu / plan.lu_cost;
+        let weight = if plan.blocked_cost > 0.0 {
+            format!("{:.2}", t_g / plan.blocked_cost / lu_rate)
+        } else {
+            "-".into()
+        };
         println!(
-            "{scene:>16} {:>6} {:>7} {h:>3} {est:>10.3} {t_schur:>9.3} {t_solves:>9.3} {:>12.3} {:>7}",
+            "{scene:>16} {:>6} {:>7} {h:>3} {est:>10.3} {t_ldlt:>9.3} {t_lu:>9.3} {t_g:>9.3} {:>12.3} {:>9.2} {weight:>9} {:>7}",
             b.nrows,
             m.system.free_count(),
-            t_schur / t_solves,
-            if plan.preferred() { "schur" } else { "solves" },
+            t_ldlt / (t_lu + t_g),
+            t_ldlt / plan.schur_cost / lu_rate,
+            if plan.preferred() { "LDLt" } else { "LU" },
         );
     }
+    println!("(second of two rounds; meas. ratio = LDLt / (LU + LU G); slowdown = time per estimated mul-add of the LDLᵀ over the LU factorization's, G weight = that of the LU's blocked solves for G over its factorization's: the estimate uses SCHUR_SLOWDOWN = {SCHUR_SLOWDOWN}, BLOCKED_SOLVE_WEIGHT = {BLOCKED_SOLVE_WEIGHT})");
+}
+
+/// The whole 601-contact-node half-disc run at H = 10 (goal < 30 s), per stage, without the
+/// stability check by time marching.
+fn whole() {
+    println!("\n## Half-disc, 601 contact nodes, H = 10: the whole run (goal < 30 s)");
+    let sets = vec![
+        "geometry.parameters.lc_contact=0.0005".to_string(),
+        "contact.search_distance=0.05".to_string(),
+        "harmonic_balance.harmonics=10".to_string(),
+        // The stability check (time marching, up to 60 s per march) is issue 10's cost.
+        "stability.check=false".to_string(),
+    ];
+    let _ = run("pipelines/half_disc.yaml", &sets, "half-disc-601-warm");
+    let Some((s, wall)) = run("pipelines/half_disc.yaml", &sets, "half-disc-601") else {
+        return;
+    };
+    let st = &s.stage_seconds;
+    println!(
+        "{:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6}",
+        "run s", "mesh", "factor", "reduce", "newton", "recover", "write", "iters"
+    );
+    println!(
+        "{wall:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>6}",
+        st.get("mesh"),
+        st.get("factor"),
+        st.get("reduce"),
+        st.get("newton"),
+        st.get("recover"),
+        st.get("write"),
+        iterations(&s),
+    );
+    println!("(second of two runs, mesh cached, without the stability check; factor includes G_k where the LDLᵀ was chosen)");
 }
 
 /// Run a pipeline by harmonic balance (plots off) into `work/<tag>`; its summary and wall time.
@@ -329,17 +435,40 @@ fn dense_rate(n: usize) -> f64 {
     8.0 * (n as f64).powi(3) / best
 }
 
-/// Time per factorization against its flop count.
+/// Best of ten (large: three) wall times of factoring Z_1 on a forced path (with G for `b`).
+fn best_factor(system: &System, b: &Csc, path: FactorPath) -> Option<(f64, bool)> {
+    let mut best = (f64::INFINITY, false);
+    let rounds = if system.free_count() < 10_000 { 10 } else { 3 };
+    for _ in 0..rounds {
+        let (f, tf, tg, _) = factor_and_g(system, 1, b, path)?;
+        best = (best.0.min(tf + tg), f.is_ldlt());
+    }
+    Some(best)
+}
+
+/// Time per factorization against its flop count: faer's LU, and the kept LDLᵀ (with G).
 fn floor() {
-    println!("\n## Factorization floor: time per complex factorization against its flop count");
+    println!(
+        "\n## Factorization floor: time per complex factorization of Z_1 against its flop count"
+    );
     let rate = dense_rate(384);
     println!(
         "dense complex matrix product here, now: {:.2} Gflop/s",
         rate * 1e-9
     );
     println!(
-        "{:>28} {:>7} {:>12} {:>11} {:>10} {:>10} {:>11}",
-        "scene", "dofs", "LU Mflop", "factor ms", "floor ms", "time/floor", "Gflop/s"
+        "{:>28} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}",
+        "scene",
+        "dofs",
+        "LU Mflop",
+        "LDLt Mf",
+        "LU ms",
+        "LDLt ms",
+        "LU/LDLt",
+        "LU floor",
+        "LDLt fl",
+        "LU t/fl",
+        "LDLt t/fl"
     );
     let work = root().join("output/bench-goals");
     let scenes: [(&str, Vec<String>); 2] = [
@@ -357,33 +486,65 @@ fn floor() {
             return;
         };
         let Some(m) = model(&p, &work) else { return };
+        let Some(contact) = &m.contact else { return };
+        let b = &contact.operator.b_free;
+        let Some(plan) = m.system.schur_plan(b) else {
+            return;
+        };
         // Complex: 4 real multiplications and 4 additions per complex mul-add.
-        let flops = 8.0 * lu_mul_adds(&m.system.k_ff);
-        let mut best = f64::INFINITY;
-        for _ in 0..3 {
-            let (lu, t) = seconds(|| m.system.factor(1));
-            if lu.is_err() {
-                return;
-            }
-            best = best.min(t);
+        let lu_flops = 8.0 * lu_mul_adds(&m.system.k_ff);
+        let ldlt_flops = 8.0 * plan.schur_cost;
+        let (Some((t_lu, _)), Some((t_ldlt, kept))) = (
+            best_factor(&m.system, b, FactorPath::Lu),
+            best_factor(&m.system, b, FactorPath::Ldlt),
+        ) else {
+            return;
+        };
+        // The LDLᵀ alone (no checks), best of three.
+        let (re, im) = m.system.dynamic_stiffness(1);
+        let mut bare = f64::INFINITY;
+        for _ in 0..10 {
+            let t = seconds(|| plan.factor(&re.values, im.as_deref(), 1e-14)).1;
+            bare = bare.min(t);
         }
-        let floor = flops / rate;
+        let f = plan.factor(&re.values, im.as_deref(), 1e-14).ok();
+        let rhs = vec![faer::c64::new(1.0, 0.5); m.system.free_count()];
+        let mut t_solve = f64::INFINITY;
+        if let Some(f) = &f {
+            for _ in 0..20 {
+                t_solve = t_solve.min(seconds(|| f.solve(&rhs)).1);
+            }
+        }
         println!(
-            "{:>28} {:>7} {:>12.1} {:>11.2} {:>10.2} {:>10.1} {:>11.2}",
+            "{:>28} LDLt without its checks: {:.2} ms; one solve {:.3} ms; {} fronts, widest {}, {} L entries",
+            "",
+            bare * 1e3,
+            t_solve * 1e3,
+            plan.fronts().0,
+            plan.fronts().1,
+            plan.factor_entries,
+        );
+        println!(
+            "{:>28} {:>7} {:>9.1} {:>9.1} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8.1} {:>8.1}{}",
             format!(
                 "{}{}",
                 p.name,
                 if sets.is_empty() { "" } else { " (601 nodes)" }
             ),
             m.system.free_count(),
-            flops * 1e-6,
-            best * 1e3,
-            floor * 1e3,
-            best / floor,
-            flops / best * 1e-9,
+            lu_flops * 1e-6,
+            ldlt_flops * 1e-6,
+            t_lu * 1e3,
+            t_ldlt * 1e3,
+            t_lu / t_ldlt,
+            lu_flops / rate * 1e3,
+            ldlt_flops / rate * 1e3,
+            t_lu / (lu_flops / rate),
+            t_ldlt / (ldlt_flops / rate),
+            if kept { "" } else { " (LDLt fell back to LU)" },
         );
     }
-    println!("(LU flops: faer's AMD estimate on the pattern of Z_k; floor = flops at the dense product's rate)");
+    println!("(best of ten, three at 601 nodes; LU = faer's numeric LU alone, flops its AMD estimate on the pattern of Z_k; LDLt = the kept LDLᵀ with the contact normals last, including G_k = S⁻¹ and its checks, flops from its plan; floor = flops at the dense product's rate)");
 }
 
 fn main() {
@@ -400,11 +561,16 @@ fn main() {
     if want("damping") {
         damping();
     }
-    if want("reduction") {
+    if want("paths") {
         paths();
+    }
+    if want("reduction") {
         reduction();
     }
     if want("floor") {
         floor();
+    }
+    if want("whole") {
+        whole();
     }
 }

@@ -211,7 +211,7 @@ impl Csc {
             .map_err(|e| Error::Model(format!("building a sparse matrix failed: {e:?}")))
     }
 
-    fn triplet_iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+    pub(crate) fn triplet_iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
         (0..self.ncols).flat_map(move |j| {
             (self.col_ptr[j]..self.col_ptr[j + 1])
                 .map(move |p| (self.row_idx[p], j, self.values[p]))
@@ -362,6 +362,79 @@ impl SparseLu {
 
     pub fn solve(&self, rhs: &[c64]) -> Vec<c64> {
         self.solve_many(&[rhs.to_vec()]).pop().unwrap_or_default()
+    }
+}
+
+/// One factorization of Z_k, by whichever path its estimated cost chose (`System::factor`):
+/// faer's pivoting sparse LU, or the kept complex symmetric LDLᵀ of `schur`, which also
+/// carries G = B Z_k⁻¹ Bᵀ from the same elimination.
+pub enum Factor {
+    Lu(Box<SparseLu>),
+    Ldlt(schur::LdltFactor),
+}
+
+impl Factor {
+    pub fn dim(&self) -> usize {
+        match self {
+            Factor::Lu(lu) => lu.dim(),
+            Factor::Ldlt(f) => f.dim(),
+        }
+    }
+
+    pub fn is_ldlt(&self) -> bool {
+        matches!(self, Factor::Ldlt(_))
+    }
+
+    pub fn solve(&self, rhs: &[c64]) -> Vec<c64> {
+        match self {
+            Factor::Lu(lu) => lu.solve(rhs),
+            Factor::Ldlt(f) => f.solve(rhs),
+        }
+    }
+
+    /// The solution the factorization's own check computed, when `rhs` is its right-hand
+    /// side (the load: saves the linear solve one pass over the factor).
+    pub fn solution_of(&self, rhs: &[c64]) -> Option<Vec<c64>> {
+        match self {
+            Factor::Ldlt(f) => f
+                .checked
+                .as_ref()
+                .filter(|(b, _)| b == rhs)
+                .map(|(_, x)| x.clone()),
+            Factor::Lu(_) => None,
+        }
+    }
+
+    pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
+        match self {
+            Factor::Lu(lu) => lu.solve_many(rhs),
+            Factor::Ldlt(f) => f.solve_many(rhs),
+        }
+    }
+
+    /// G = B Z⁻¹ Bᵀ (row-major n_c²): the LDLᵀ's own when its plan was built for this B,
+    /// else blocked solves.
+    pub fn compliance(&self, b: &Csc) -> Vec<c64> {
+        match self {
+            Factor::Lu(lu) => lu.compliance(b),
+            Factor::Ldlt(f) if f.plan().built_for(b) => f.compliance().to_vec(),
+            Factor::Ldlt(f) => {
+                let nc = b.nrows;
+                let mut rows: Vec<Vec<c64>> = vec![vec![c64::new(0.0, 0.0); b.ncols]; nc];
+                for (i, p, v) in b.triplet_iter() {
+                    rows[i][p] = c64::new(v, 0.0);
+                }
+                let x = f.solve_many(&rows);
+                let mut out = vec![c64::new(0.0, 0.0); nc * nc];
+                for (j, xj) in x.iter().enumerate() {
+                    let bx = b.mul_complex(xj);
+                    for (i, v) in bx.into_iter().enumerate() {
+                        out[i * nc + j] = v;
+                    }
+                }
+                out
+            }
+        }
     }
 }
 

@@ -423,8 +423,8 @@ fn a_sweep_failing_part_way_keeps_the_curve_so_far_and_exits_with_its_class() {
 /// TEST GOAL: a contact scene whose body never reaches the obstacle over the range (the wall
 /// 0.5 mm away, amplitudes ≈ 20 µm) sweeps the linear curve: no contact force anywhere, no
 /// fold, and every row equals the linear response of the same model without its contact
-/// (same mass: the contact nodes' redistributed mass; 1e-13); `--resume` of the finished sweep
-/// is refused (nothing to continue).
+/// (same mass: the contact nodes' redistributed mass; to round-off, 8e-13); `--resume` of the
+/// finished sweep is refused (nothing to continue).
 #[test]
 fn a_contact_scene_that_never_touches_sweeps_the_linear_curve_point_by_point() {
     let sets = [
@@ -471,7 +471,10 @@ fn a_contact_scene_that_never_touches_sweeps_the_linear_curve_point_by_point() {
         s.rows.len()
     );
     assert!(s.rows.len() > 5);
-    assert!(worst < 1e-13, "{worst}");
+    // Round-off: the contact sweep factors Z_k with the contact normals ordered last (the
+    // kept LDLᵀ that also gives G_k), the linear solve in another elimination order
+    // (measured 3.0e-13).
+    assert!(worst < 8e-13, "{worst}");
     let again = hbcontact::sweep::resume(&p, &options, &Silent);
     let message = again.err().map(|e| e.to_string()).unwrap_or_default();
     assert!(message.contains("nothing to continue"), "{message}");

@@ -34,7 +34,7 @@ use std::time::Instant;
 use faer::c64;
 
 use crate::contact::ContactOperator;
-use crate::linalg::SparseLu;
+use crate::linalg::Factor;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
@@ -193,7 +193,8 @@ fn prepare(
     for (i, &k) in harmonics.iter().enumerate() {
         let total = Some(harmonics.len() as u64);
         reporter.progress("factor", i as u64, total, &format!("harmonic {k}"));
-        let lu = timed(&mut timings.factor, || system.factor(k))?;
+        let b = contact.map(|op| &op.b_free);
+        let lu = timed(&mut timings.factor, || system.factor(k, b))?;
         timed(&mut timings.linear_solve, || linear.solve(system, k, &lu))?;
         if let Some(op) = contact {
             timed(&mut timings.reduce, || linear.reduce(system, op, k, &lu))?;
@@ -261,23 +262,23 @@ struct LinearResponse {
     warnings: Vec<String>,
     /// The factorizations of Z_k, kept for the recovery (24) and the sweep's ω-derivatives
     /// (contact scenes only).
-    factors: BTreeMap<usize, SparseLu>,
+    factors: BTreeMap<usize, Factor>,
     /// G_k = B Z_k⁻¹ Bᵀ per harmonic (row-major nc × nc).
     compliance: Vec<Vec<c64>>,
 }
 
 impl LinearResponse {
     /// z_k = Z_k⁻¹ (f_k − Z_k,fp u_p,k), refined iteratively and checked for singularity.
-    fn solve(&mut self, system: &System, k: usize, lu: &SparseLu) -> Result<()> {
+    fn solve(&mut self, system: &System, k: usize, lu: &Factor) -> Result<()> {
         let rhs = system.load(k);
         let mut z = if is_zero(&rhs) {
             rhs.clone()
         } else {
-            lu.solve(&rhs)
+            lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs))
         };
         let mut res = system::relative_residual(system, k, &z, &rhs);
         // Iterative refinement: large, badly conditioned systems (slender parts, fine
-        // meshes) lose digits in the LU; a few cheap solves win them back.
+        // meshes) lose digits in the factorization; a few cheap solves win them back.
         for _ in 0..3 {
             if !(res > 1e-14) || !res.is_finite() {
                 break;
@@ -302,9 +303,9 @@ impl LinearResponse {
         system: &System,
         op: &ContactOperator,
         k: usize,
-        lu: &SparseLu,
+        lu: &Factor,
     ) -> Result<()> {
-        let gk = system.compliance(k, &op.b_free, lu);
+        let gk = lu.compliance(&op.b_free);
         if gk.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
             return Err(singular_diagnosis(system, k));
         }

@@ -14,8 +14,8 @@ use faer::c64;
 
 use super::basis::{Symbols, TimeBasis};
 use crate::fem::DofMap;
-use crate::linalg::schur::SchurPlan;
-use crate::linalg::{Csc, LuPattern, SparseLu, Triplets};
+use crate::linalg::schur::{SchurPlan, PIVOT_TOLERANCE};
+use crate::linalg::{Csc, Factor, LuPattern, SparseLu, Triplets};
 use crate::{Error, Result};
 
 /// Complex amplitudes of one harmonic: x(t) = Re(X e^{ikωt}), X = a − i b for a cos + b sin.
@@ -45,6 +45,38 @@ pub struct System {
     /// The Schur-complement plan of G_k = B Z_k⁻¹ Bᵀ and the B it was built for (`None`
     /// plan: B does not allow it), shared by every harmonic and frequency.
     schur: OnceLock<(Csc, Option<Arc<SchurPlan>>)>,
+    /// The plan of a plain LDLᵀ (no contact rows kept).
+    plain: OnceLock<Arc<SchurPlan>>,
+}
+
+/// A right-hand side and its solution.
+type Checked = (Vec<c64>, Vec<c64>);
+
+/// Which factorization `System::factor_with` computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FactorPath {
+    /// The LDLᵀ where its estimated cost is below the LU's, else the LU.
+    Auto,
+    /// The LDLᵀ whenever it factors and passes its checks, else the LU.
+    Ldlt,
+    /// faer's pivoting sparse LU.
+    Lu,
+}
+
+/// How to factor Z_k: the path and the LDLᵀ's pivot threshold (|d| > this × its column).
+#[derive(Clone, Copy, Debug)]
+pub struct FactorOptions {
+    pub path: FactorPath,
+    pub pivot_tolerance: f64,
+}
+
+impl Default for FactorOptions {
+    fn default() -> Self {
+        FactorOptions {
+            path: FactorPath::Auto,
+            pivot_tolerance: PIVOT_TOLERANCE,
+        }
+    }
 }
 
 impl System {
@@ -84,6 +116,7 @@ impl System {
             basis: TimeBasis::Fourier,
             pattern,
             schur: OnceLock::new(),
+            plain: OnceLock::new(),
         })
     }
 
@@ -136,29 +169,103 @@ impl System {
         (re, im)
     }
 
-    /// Factor Z_k (real LU when the scene has no damping or k = 0).
-    pub fn factor(&self, k: usize) -> Result<SparseLu> {
-        let (re, im) = self.dynamic_stiffness(k);
-        match im {
-            Some(im) => SparseLu::factor_complex(&self.pattern, &re, &im),
-            None => SparseLu::factor_real(&self.pattern, &re),
-        }
+    /// Factor Z_k once for everything harmonic k needs (docs/method.md §4–§5): the load
+    /// solve, the recovery solves and, for a contact B, G_k = B Z_k⁻¹ Bᵀ (`Factor::compliance`).
+    /// The complex symmetric LDLᵀ with B's normals kept last where its estimated cost is below
+    /// that of an LU with n_c blocked solves, else faer's LU (real when the scene has no
+    /// damping or k = 0).
+    pub fn factor(&self, k: usize, b: Option<&Csc>) -> Result<Factor> {
+        self.factor_with(k, b, &FactorOptions::default())
     }
 
-    /// G_k = B Z_k⁻¹ Bᵀ (row-major n_c²), docs/method.md §5: from the Schur complement of the
-    /// contact normals where its estimated cost is below that of n_c solves with `lu`, and
-    /// then checked against one solve with `lu`; otherwise (or if the check fails) by the
-    /// blocked solve with `lu`.
-    pub fn compliance(&self, k: usize, b: &Csc, lu: &SparseLu) -> Vec<c64> {
-        if let Some(plan) = self.schur_plan(b).filter(|p| p.preferred()) {
-            let (re, im) = self.dynamic_stiffness(k);
-            if let Ok(g) = plan.compliance(&re.values, im.as_deref()) {
-                if agrees_with_a_solve(&g, b, lu) {
-                    return g;
+    /// `factor` on a chosen path. The LDLᵀ is checked after factoring: one solve's backward
+    /// error below 1e-12 and, with B, G_k y against B Z_k⁻¹ Bᵀ y refined once, within 1e-11
+    /// of its largest entry; a vanishing pivot or a failed check falls back to the LU.
+    pub fn factor_with(
+        &self,
+        k: usize,
+        b: Option<&Csc>,
+        options: &FactorOptions,
+    ) -> Result<Factor> {
+        let plan = match options.path {
+            FactorPath::Lu => None,
+            FactorPath::Auto => self.ldlt_plan(b).filter(|p| p.preferred()),
+            FactorPath::Ldlt => self.ldlt_plan(b),
+        };
+        let (re, im) = self.dynamic_stiffness(k);
+        if let Some(plan) = plan {
+            if let Ok(f) = plan.factor(&re.values, im.as_deref(), options.pivot_tolerance) {
+                let mut f = Factor::Ldlt(f);
+                if let Some(checked) = self.factor_is_accurate(k, b, &f) {
+                    if let Factor::Ldlt(ldlt) = &mut f {
+                        ldlt.checked = Some(checked);
+                    }
+                    return Ok(f);
                 }
             }
         }
-        lu.compliance(b)
+        let lu = match im {
+            Some(im) => SparseLu::factor_complex(&self.pattern, &re, &im)?,
+            None => SparseLu::factor_real(&self.pattern, &re)?,
+        };
+        Ok(Factor::Lu(Box::new(lu)))
+    }
+
+    /// The LDLᵀ plan: with B's normals kept (`None` when B does not allow it), or plain.
+    fn ldlt_plan(&self, b: Option<&Csc>) -> Option<Arc<SchurPlan>> {
+        match b {
+            Some(b) => self.schur_plan(b),
+            None => {
+                Some(Arc::clone(self.plain.get_or_init(|| {
+                    Arc::new(SchurPlan::without_contact(&self.k_ff))
+                })))
+            }
+        }
+    }
+
+    /// The safety net of a pivot-free factorization (one pass over the factor for both
+    /// solves): a solve's normwise backward error below 1e-12, and G_k y against
+    /// B Z_k⁻¹ Bᵀ y refined once, within 1e-11 of its largest entry. The Newton works with
+    /// G and the recovery (24) with the solves, so a G that lost accuracy (a pivot-free
+    /// elimination of a slender body pressed flat) would leave a gap of that error times λ.
+    /// On success, the checked right-hand side (the load where there is one) and its
+    /// solution.
+    fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> Option<Checked> {
+        let n = self.free_count();
+        let mut rhs = vec![self.load(k)];
+        if rhs[0].iter().all(|z| z.norm() == 0.0) {
+            rhs[0] = (0..n)
+                .map(|i| c64::new(1.0 + (i % 5) as f64, (i % 3) as f64 - 1.0))
+                .collect();
+        }
+        let b = b.filter(|b| b.nrows > 0);
+        let nc = b.map_or(0, |b| b.nrows);
+        let y: Vec<c64> = (0..nc)
+            .map(|j| c64::new(1.0 + (j % 7) as f64 / 7.0, (j % 3) as f64 / 3.0))
+            .collect();
+        if let Some(b) = b {
+            rhs.push(b.mul_transpose_complex(&y));
+        }
+        let mut x = f.solve_many(&rhs);
+        if !(relative_residual(self, k, &x[0], &rhs[0]) < 1e-12) {
+            return None;
+        }
+        let checked = Some((rhs[0].clone(), x[0].clone()));
+        let Some(b) = b else { return checked };
+        let (v, x) = (&rhs[1], &mut x[1]);
+        let zx = self.apply(k, x);
+        let r: Vec<c64> = v.iter().zip(&zx).map(|(a, c)| a - c).collect();
+        for (xi, di) in x.iter_mut().zip(f.solve(&r)) {
+            *xi += di;
+        }
+        let g = f.compliance(b);
+        let direct = b.mul_complex(x);
+        let scale = direct.iter().fold(0.0f64, |m, z| m.max(z.norm()));
+        let agrees = (0..nc).all(|i| {
+            let gy: c64 = (0..nc).map(|j| g[i * nc + j] * y[j]).sum();
+            (gy - direct[i]).norm() <= 1e-11 * scale
+        });
+        checked.filter(|_| agrees)
     }
 
     /// The Schur plan for this B (built once; a different B gets its own, not kept).
@@ -270,24 +377,6 @@ impl System {
         }
         motion
     }
-}
-
-/// G y against B Z⁻¹ Bᵀ y from one solve with the LU, for a fixed y with all nodes loaded,
-/// within 1e-11 of the largest entry: the recovery (24) applies the LU to the multipliers the
-/// Newton found with G, so a G that differs from the LU's own B Z⁻¹ Bᵀ leaves a gap of that
-/// difference times λ, which an ill-conditioned G (a slender body pressed flat) amplifies; a
-/// pivot-free elimination that lost accuracy fails it too.
-fn agrees_with_a_solve(g: &[c64], b: &Csc, lu: &SparseLu) -> bool {
-    let nc = b.nrows;
-    let y: Vec<c64> = (0..nc)
-        .map(|j| c64::new(1.0 + (j % 7) as f64 / 7.0, (j % 3) as f64 / 3.0))
-        .collect();
-    let direct = b.mul_complex(&lu.solve(&b.mul_transpose_complex(&y)));
-    let scale = direct.iter().fold(0.0f64, |m, z| m.max(z.norm()));
-    (0..nc).all(|i| {
-        let gy: c64 = (0..nc).map(|j| g[i * nc + j] * y[j]).sum();
-        (gy - direct[i]).norm() <= 1e-11 * scale
-    })
 }
 
 /// Normwise backward error ‖Z x − b‖∞ / (‖Z‖∞ ‖x‖∞ + ‖b‖∞) (Higham, Accuracy and Stability

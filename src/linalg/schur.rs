@@ -1,25 +1,34 @@
-//! The contact compliance G = B A⁻¹ Bᵀ of a complex symmetric sparse A (A = Aᵀ, not
-//! Hermitian: A = Z_k = K − (kω)²M + ikωD) from the Schur complement of the contact
-//! normals, without any solve with the n_c rows of B:
+//! A multifrontal LDLᵀ of a complex symmetric sparse A (A = Aᵀ, not Hermitian: A = Z_k =
+//! K − (kω)²M + ikωD) that is kept, so that one elimination per harmonic gives the load
+//! solve, the recovery solves and the contact compliance G = B A⁻¹ Bᵀ:
 //!
 //! A change of basis u = T ũ per contact node (ũ = (ũ_t, ũ_n): T e_n = b_i/|b_i|², T e_t ⟂ b_i)
 //! gives B T = E_n (each row of B picks one coordinate), so with Ã = Tᵀ A T
 //!
-//! G = B A⁻¹ Bᵀ = E_nᵀ Ã⁻¹ E_n = (Ã⁻¹)_nn = S⁻¹,   S = Ã_nn − Ã_ne Ã_ee⁻¹ Ã_en,
+//! Ã = [L_ee 0; L_ne I] [D 0; 0 S] [L_eeᵀ L_neᵀ; 0 I],   G = E_nᵀ Ã⁻¹ E_n = S⁻¹,
+//! S = Ã_nn − Ã_ne Ã_ee⁻¹ Ã_en,
 //!
-//! the Schur complement of the n_c normal coordinates ("kept", ordered last) after
-//! eliminating every other coordinate e. S comes out of a multifrontal LDLᵀ (no pivoting:
-//! A complex symmetric, pivots checked) of Ã in an AMD order of the eliminated coordinates,
-//! stopped before the kept ones: the roots' contribution blocks sum to S − Ã_nn. No factor is
-//! kept (only S is wanted), and G is one dense inverse of size n_c.
+//! where the n_c normal coordinates are "kept" (ordered last) and every other coordinate e is
+//! eliminated, in an AMD order, without pivoting (A is complex symmetric; each pivot is
+//! checked against its column and a vanishing one is an error, the caller then uses a
+//! pivoting LU). S is inverted densely (n_c × n_c): its inverse is G and serves the solves.
+//! A solve is x = T Ã⁻¹ Tᵀ b: forward with L, D⁻¹ and S⁻¹, backward with Lᵀ. Without contact
+//! (no B) nothing is kept and T = I: a plain LDLᵀ.
 //!
 //! Glossary: front = the dense matrix of one supernode (its pivot columns and the rows of
-//! their structure); contribution block (CB) = the front's trailing Schur complement, added
-//! into the parent's front ("extend-add"); plan = everything that depends on the patterns of
-//! A and B only, built once and shared by every harmonic and frequency.
+//! their structure); panel = the front's pivot columns after elimination (L below a unit
+//! diagonal, D on it), kept as the factor; contribution block (CB) = the front's trailing
+//! Schur complement, added into the parent's front ("extend-add"); relaxed amalgamation =
+//! merging a supernode into its parent when the explicit zeros this adds are few (CHOLMOD's
+//! rule), so fronts are wide enough for the dense kernels; plan = everything that depends on
+//! the patterns of A and B only, built once and shared by every harmonic and frequency.
 //!
-//! Cost (mul-adds): Σ_j c_j(c_j + 3)/2 over eliminated columns j with c_j entries below the
-//! diagonal in L, plus n_c³ for the inverse; the solve path costs n_c · 2 nnz(L + U).
+//! Cost (complex mul-adds): Σ over supernodes and their pivots k of c(c + 3)/2, c = m − k − 1
+//! the rows below pivot k in a front of m rows, plus n_c³ for the inverse of S; a solve costs
+//! 2 nnz(L) + n_c². A sparse LU of A costs about twice the factorization (L and U) plus
+//! n_c · 4 nnz(L) for G by blocked solves.
+
+use std::sync::Arc;
 
 use faer::c64;
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -31,42 +40,66 @@ use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 use super::Csc;
 
-/// How much slower per estimated mul-add the Schur path runs than the blocked solves
-/// (measured by `cargo bench --bench goals -- reduction`: 1.3× at 601 contact nodes, 2–5× at
-/// 63–301, 13–37× at 9, where the fronts are small): the path is chosen on the estimate
-/// times this.
-const SCHUR_SLOWDOWN: f64 = 4.0;
+/// Time per estimated mul-add of this LDLᵀ (factor, S⁻¹, G and its checks) over that of
+/// faer's numeric sparse LU, measured by `cargo bench --bench goals -- paths`.
+pub const SCHUR_SLOWDOWN: f64 = 1.0;
+
+/// Time per estimated mul-add of the LU's blocked multi-right-hand-side solves for G over
+/// that of its factorization (same bench).
+pub const BLOCKED_SOLVE_WEIGHT: f64 = 0.2;
+
+/// Pivot columns per panel of the blocked front elimination.
+const PANEL: usize = 32;
+
+/// The default pivot threshold: |d| > this × max |column| (else the pivot "vanished").
+pub const PIVOT_TOLERANCE: f64 = 1e-14;
 
 /// Coordinates of the transformed basis touched by one old dof, with T's weights.
 type Expansion = Vec<(usize, f64)>;
 
-/// One supernode: pivot columns `first..first + pivots` (elimination order) and its front's
-/// rows (sorted, the pivots first).
-#[derive(Clone, Debug)]
+/// Per supernode, its panel (m × pivots, column-major).
+type Panels = Vec<Vec<c64>>;
+
+/// S⁻¹ (n_k × n_k) and G (row-major n_c × n_c).
+type Kept = (Mat<c64>, Vec<c64>);
+
+/// One supernode: its pivot coordinates (elimination order) and its front's rows (the
+/// pivots first), the supernodes whose CBs it receives, and where its own CB goes (`None`:
+/// into S).
+#[derive(Clone, Debug, Default)]
 struct Supernode {
-    first: usize,
     pivots: usize,
     rows: Vec<usize>,
     children: Vec<usize>,
+    parent: Option<usize>,
 }
 
-/// The symbolic analysis of G = B A⁻¹ Bᵀ for one pattern of A and one B.
+/// The symbolic analysis of the LDLᵀ of Ã for one pattern of A and one B (or none).
 #[derive(Clone, Debug)]
 pub struct SchurPlan {
     /// Coordinates eliminated (the kept ones are `eliminated..eliminated + kept`).
     eliminated: usize,
     /// Per contact node (row of B): its kept coordinate, or `None` for an all-zero row.
     kept_of_row: Vec<Option<usize>>,
+    /// Per dof of A: the coordinates (elimination order) of T's row, with its weights.
+    expansion: Vec<Expansion>,
     /// Ã's lower triangle in elimination order (CSC).
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// For A's nonzero p (its CSC order): the slots of Ã it adds into, with T's weights.
     scatter_ptr: Vec<usize>,
     scatter: Vec<(usize, f64)>,
+    /// Supernodes, children before parents.
     supernodes: Vec<Supernode>,
-    /// Estimated mul-adds of this path and of n_c solves with a sparse LU of A.
+    /// Estimated mul-adds of this LDLᵀ (with S⁻¹), of a sparse LU of A, and of G by n_c
+    /// blocked solves with it.
     pub schur_cost: f64,
-    pub solve_cost: f64,
+    pub lu_cost: f64,
+    pub blocked_cost: f64,
+    /// Entries of L (with the explicit zeros amalgamation adds).
+    pub factor_entries: usize,
+    /// The B whose rows are kept (`None`: no contact).
+    b: Option<Csc>,
 }
 
 /// The basis change T: per old dof the coordinates it expands into, which coordinates are
@@ -75,6 +108,17 @@ struct Basis {
     exp: Vec<Expansion>,
     kept: Vec<bool>,
     kept_dof: Vec<Option<usize>>,
+}
+
+impl Basis {
+    /// T = I, nothing kept (no contact).
+    fn identity(n: usize) -> Basis {
+        Basis {
+            exp: (0..n).map(|d| vec![(d, 1.0)]).collect(),
+            kept: vec![false; n],
+            kept_dof: Vec::new(),
+        }
+    }
 }
 
 /// The basis change for B; `None` when B is not one row per node on at most two dofs of its
@@ -89,10 +133,9 @@ fn expansions(b: &Csc) -> Option<Basis> {
             }
         }
     }
-    let mut exp: Vec<Expansion> = (0..n).map(|d| vec![(d, 1.0)]).collect();
-    let mut kept = vec![false; n];
+    let mut basis = Basis::identity(n);
     let mut used = vec![false; n];
-    let mut kept_dof = vec![None; b.nrows];
+    basis.kept_dof = vec![None; b.nrows];
     for (i, row) in rows.iter().enumerate() {
         if row
             .iter()
@@ -103,27 +146,23 @@ fn expansions(b: &Csc) -> Option<Basis> {
         match row[..] {
             [] => {}
             [(d, v)] => {
-                exp[d] = vec![(d, 1.0 / v)];
-                kept[d] = true;
-                kept_dof[i] = Some(d);
+                basis.exp[d] = vec![(d, 1.0 / v)];
+                basis.kept[d] = true;
+                basis.kept_dof[i] = Some(d);
             }
             [(d1, v1), (d2, v2)] => {
                 // coordinate d1 := t (eliminated), d2 := n (kept).
                 let s2 = v1 * v1 + v2 * v2;
                 let s = s2.sqrt();
-                exp[d1] = vec![(d1, -v2 / s), (d2, v1 / s2)];
-                exp[d2] = vec![(d1, v1 / s), (d2, v2 / s2)];
-                kept[d2] = true;
-                kept_dof[i] = Some(d2);
+                basis.exp[d1] = vec![(d1, -v2 / s), (d2, v1 / s2)];
+                basis.exp[d2] = vec![(d1, v1 / s), (d2, v2 / s2)];
+                basis.kept[d2] = true;
+                basis.kept_dof[i] = Some(d2);
             }
             _ => return None,
         }
     }
-    Some(Basis {
-        exp,
-        kept,
-        kept_dof,
-    })
+    Some(basis)
 }
 
 /// The sorted, deduplicated full pattern of Ã on the coordinates (CSC column lists).
@@ -180,15 +219,86 @@ fn elimination_order(cols: &[Vec<usize>], kept: &[bool], kept_dof: &[Option<usiz
     order
 }
 
+/// Ã's lower triangle in the new order (CSC) and, per nonzero of A, the slots it adds into.
+struct Transformed {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    scatter_ptr: Vec<usize>,
+    scatter: Vec<(usize, f64)>,
+}
+
+fn transform(a: &Csc, exp: &[Expansion], cols: &[Vec<usize>], position: &[usize]) -> Transformed {
+    let n = cols.len();
+    let mut lower: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (c, rows) in cols.iter().enumerate() {
+        let q = position[c];
+        lower[q].extend(rows.iter().map(|&r| position[r]).filter(|&p| p >= q));
+    }
+    let mut col_ptr = vec![0usize];
+    let mut row_idx = Vec::new();
+    for col in &mut lower {
+        col.sort_unstable();
+        row_idx.extend_from_slice(col);
+        col_ptr.push(row_idx.len());
+    }
+    let slot = |p: usize, q: usize| -> usize {
+        let rows = &row_idx[col_ptr[q]..col_ptr[q + 1]];
+        col_ptr[q] + rows.binary_search(&p).unwrap_or(0)
+    };
+    let mut scatter_ptr = vec![0usize];
+    let mut scatter = Vec::new();
+    for c in 0..a.ncols {
+        for p in a.col_ptr[c]..a.col_ptr[c + 1] {
+            let r = a.row_idx[p];
+            for &(x, w) in &exp[r] {
+                for &(y, v) in &exp[c] {
+                    let (px, py) = (position[x], position[y]);
+                    if px >= py {
+                        scatter.push((slot(px, py), w * v));
+                    }
+                }
+            }
+            scatter_ptr.push(scatter.len());
+        }
+    }
+    Transformed {
+        col_ptr,
+        row_idx,
+        scatter_ptr,
+        scatter,
+    }
+}
+
+/// Mul-adds of eliminating `pivots` columns of a front of `m` rows (LDLᵀ, lower triangle).
+fn front_cost(pivots: usize, m: usize) -> f64 {
+    (0..pivots)
+        .map(|k| {
+            let c = (m - k - 1) as f64;
+            c * (c + 3.0) / 2.0
+        })
+        .sum()
+}
+
 impl SchurPlan {
     /// The plan for A's pattern (`a`, values unused) and B; `None` when B is not one row per
     /// contact node on at most two dofs of its own.
     pub fn new(a: &Csc, b: &Csc) -> Option<SchurPlan> {
+        let mut plan = Self::build(a, expansions(b)?);
+        plan.b = Some(b.clone());
+        Some(plan)
+    }
+
+    /// The plan of a plain LDLᵀ of A (no contact: nothing kept).
+    pub fn without_contact(a: &Csc) -> SchurPlan {
+        Self::build(a, Basis::identity(a.ncols))
+    }
+
+    fn build(a: &Csc, basis: Basis) -> SchurPlan {
         let Basis {
             exp,
             kept,
             kept_dof,
-        } = expansions(b)?;
+        } = basis;
         let cols = transformed_pattern(a, &exp);
         let order = elimination_order(&cols, &kept, &kept_dof);
         let n = order.len();
@@ -197,69 +307,114 @@ impl SchurPlan {
             position[c] = new;
         }
         let eliminated = n - kept.iter().filter(|&&k| k).count();
-        // Ã's lower triangle in the new order.
-        let mut lower: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for (c, rows) in cols.iter().enumerate() {
-            let q = position[c];
-            lower[q].extend(rows.iter().map(|&r| position[r]).filter(|&p| p >= q));
-        }
-        let mut col_ptr = vec![0usize];
-        let mut row_idx = Vec::new();
-        for col in &mut lower {
-            col.sort_unstable();
-            row_idx.extend_from_slice(col);
-            col_ptr.push(row_idx.len());
-        }
-        let slot = |p: usize, q: usize| -> usize {
-            let rows = &row_idx[col_ptr[q]..col_ptr[q + 1]];
-            col_ptr[q] + rows.binary_search(&p).unwrap_or(0)
-        };
-        let mut scatter_ptr = vec![0usize];
-        let mut scatter = Vec::new();
-        for c in 0..a.ncols {
-            for p in a.col_ptr[c]..a.col_ptr[c + 1] {
-                let r = a.row_idx[p];
-                for &(x, w) in &exp[r] {
-                    for &(y, v) in &exp[c] {
-                        let (px, py) = (position[x], position[y]);
-                        if px >= py {
-                            scatter.push((slot(px, py), w * v));
-                        }
-                    }
-                }
-                scatter_ptr.push(scatter.len());
-            }
-        }
+        let t = transform(a, &exp, &cols, &position);
         let kept_of_row = kept_dof
             .iter()
             .map(|d| d.map(|d| position[d] - eliminated))
             .collect();
-        let (supernodes, l_entries) = supernodes(&col_ptr, &row_idx, eliminated);
-        let nk = n - eliminated;
-        let nc = b.nrows as f64;
-        let column_cost: f64 = l_entries.iter().map(|&c| (c * (c + 3)) as f64 / 2.0).sum();
-        let nnz_l: f64 = l_entries.iter().map(|&c| (c + 1) as f64).sum();
-        Some(SchurPlan {
+        let expansion = exp
+            .iter()
+            .map(|e| e.iter().map(|&(q, w)| (position[q], w)).collect())
+            .collect();
+        let (fundamental, counts) = supernodes(&t.col_ptr, &t.row_idx, eliminated);
+        let nodes = amalgamate(fundamental);
+        let nk = (n - eliminated) as f64;
+        let nc = kept_dof.len() as f64;
+        // A sparse LU does L and U: twice the symmetric count (in the fundamental structure).
+        let lu_cost: f64 = counts.iter().map(|&c| (c * (c + 3)) as f64).sum();
+        let nnz_l: f64 = counts.iter().map(|&c| (c + 1) as f64).sum();
+        let ldlt_cost: f64 = nodes
+            .iter()
+            .map(|s| front_cost(s.pivots, s.rows.len()))
+            .sum();
+        let factor_entries = nodes
+            .iter()
+            .map(|s| s.pivots * s.rows.len() - s.pivots * (s.pivots - 1) / 2)
+            .sum();
+        SchurPlan {
             eliminated,
             kept_of_row,
-            col_ptr,
-            row_idx,
-            scatter_ptr,
-            scatter,
-            supernodes,
-            schur_cost: column_cost + (nk as f64).powi(3),
-            solve_cost: nc * 2.0 * 2.0 * nnz_l,
+            expansion,
+            col_ptr: t.col_ptr,
+            row_idx: t.row_idx,
+            scatter_ptr: t.scatter_ptr,
+            scatter: t.scatter,
+            supernodes: nodes,
+            schur_cost: ldlt_cost + nk.powi(3),
+            lu_cost,
+            blocked_cost: nc * 2.0 * 2.0 * nnz_l,
+            factor_entries,
+            b: None,
+        }
+    }
+
+    /// Whether G of this plan is B A⁻¹ Bᵀ for this `b`.
+    pub fn built_for(&self, b: &Csc) -> bool {
+        self.b.as_ref().is_some_and(|own| {
+            own.nrows == b.nrows
+                && own.col_ptr == b.col_ptr
+                && own.row_idx == b.row_idx
+                && own.values == b.values
         })
     }
 
-    /// Whether the Schur path is estimated cheaper than n_c solves with a sparse LU.
-    pub fn preferred(&self) -> bool {
-        SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost
+    /// The LU path's estimated cost in LU-factorization mul-adds: factor and G by n_c
+    /// blocked solves.
+    pub fn solve_cost(&self) -> f64 {
+        self.lu_cost + BLOCKED_SOLVE_WEIGHT * self.blocked_cost
     }
 
-    /// G = B A⁻¹ Bᵀ (row-major n_c × n_c) for A = `re` + i `im` (values on the pattern the
-    /// plan was built for); `Err` names a vanishing pivot (the caller then solves instead).
+    /// Whether this LDLᵀ is estimated cheaper than a sparse LU with n_c blocked solves.
+    pub fn preferred(&self) -> bool {
+        SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost()
+    }
+
+    /// The dimension of A.
+    pub fn dim(&self) -> usize {
+        self.expansion.len()
+    }
+
+    /// Supernodes and the largest front (rows), for the benches.
+    pub fn fronts(&self) -> (usize, usize) {
+        let widest = self.supernodes.iter().map(|s| s.rows.len()).max();
+        (self.supernodes.len(), widest.unwrap_or(0))
+    }
+
+    fn kept(&self) -> usize {
+        self.col_ptr.len() - 1 - self.eliminated
+    }
+
+    /// G = B A⁻¹ Bᵀ alone (row-major n_c × n_c), from a factorization thrown away.
     pub fn compliance(&self, re: &[f64], im: Option<&[f64]>) -> Result<Vec<c64>, String> {
+        let (_, (_, g)) = self.eliminate(re, im, PIVOT_TOLERANCE)?;
+        Ok(g)
+    }
+
+    /// Factor A = `re` + i `im` (values on the pattern the plan was built for); `Err` names a
+    /// pivot that vanished (|d| ≤ `pivot_tolerance` × its column) or a singular S.
+    pub fn factor(
+        self: &Arc<Self>,
+        re: &[f64],
+        im: Option<&[f64]>,
+        pivot_tolerance: f64,
+    ) -> Result<LdltFactor, String> {
+        let (panels, (s_inverse, compliance)) = self.eliminate(re, im, pivot_tolerance)?;
+        Ok(LdltFactor {
+            plan: Arc::clone(self),
+            panels,
+            s_inverse,
+            compliance,
+            checked: None,
+        })
+    }
+
+    /// The panels, S⁻¹ and G.
+    fn eliminate(
+        &self,
+        re: &[f64],
+        im: Option<&[f64]>,
+        tolerance: f64,
+    ) -> Result<(Panels, Kept), String> {
         let mut values = vec![c64::new(0.0, 0.0); self.row_idx.len()];
         for p in 0..self.scatter_ptr.len() - 1 {
             let a = c64::new(re[p], im.map_or(0.0, |v| v[p]));
@@ -267,7 +422,7 @@ impl SchurPlan {
                 values[s] += a * w;
             }
         }
-        let nk = self.col_ptr.len() - 1 - self.eliminated;
+        let nk = self.kept();
         let mut schur = vec![c64::new(0.0, 0.0); nk * nk];
         for q in self.eliminated..self.col_ptr.len() - 1 {
             let range = self.col_ptr[q]..self.col_ptr[q + 1];
@@ -275,12 +430,16 @@ impl SchurPlan {
                 schur[(q - self.eliminated) * nk + (r - self.eliminated)] += v;
             }
         }
-        self.eliminate_all(&values, &mut schur, nk)?;
+        let panels = self.eliminate_all(&values, &mut schur, nk, tolerance)?;
         let s = Mat::from_fn(nk, nk, |i, j| {
             let (hi, lo) = if i >= j { (i, j) } else { (j, i) };
             schur[lo * nk + hi]
         });
-        let inv = s.partial_piv_lu().inverse();
+        let inv = if nk > 0 {
+            s.partial_piv_lu().inverse()
+        } else {
+            Mat::zeros(0, 0)
+        };
         let nc = self.kept_of_row.len();
         let mut g = vec![c64::new(0.0, 0.0); nc * nc];
         for (i, ki) in self.kept_of_row.iter().enumerate() {
@@ -291,29 +450,39 @@ impl SchurPlan {
                 }
             }
         }
-        if g.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
+        let finite = |z: &c64| z.re.is_finite() && z.im.is_finite();
+        if !g.iter().all(finite) || !(0..nk).all(|j| inv.col(j).iter().all(finite)) {
             return Err("the Schur complement of the contact normals is singular".into());
         }
-        Ok(g)
+        Ok((panels, (inv, g)))
     }
 
-    /// The multifrontal elimination of every non-kept coordinate: the roots' contribution
-    /// blocks are added into `schur` (lower triangle, column-major nk × nk).
-    fn eliminate_all(&self, values: &[c64], schur: &mut [c64], nk: usize) -> Result<(), String> {
+    /// The multifrontal elimination of every non-kept coordinate: returns each supernode's
+    /// panel (m × pivots, column-major); the roots' contribution blocks are added into
+    /// `schur` (lower triangle, column-major nk × nk).
+    fn eliminate_all(
+        &self,
+        values: &[c64],
+        schur: &mut [c64],
+        nk: usize,
+        tolerance: f64,
+    ) -> Result<Vec<Vec<c64>>, String> {
         let n = self.col_ptr.len() - 1;
         let mut local = vec![usize::MAX; n];
         let mut blocks: Vec<Option<Vec<c64>>> = vec![None; self.supernodes.len()];
-        let mut panel = Vec::new();
+        let mut panels = Vec::with_capacity(self.supernodes.len());
+        let mut work = Vec::new();
         for (s, node) in self.supernodes.iter().enumerate() {
             let m = node.rows.len();
             for (i, &r) in node.rows.iter().enumerate() {
                 local[r] = i;
             }
             let mut front = vec![c64::new(0.0, 0.0); m * m];
-            for j in node.first..node.first + node.pivots {
-                let col = (j - node.first) * m;
+            for &j in &node.rows[..node.pivots] {
+                let lj = local[j];
                 for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                    front[col + local[self.row_idx[p]]] += values[p];
+                    let li = local[self.row_idx[p]];
+                    front[lj.min(li) * m + lj.max(li)] += values[p];
                 }
             }
             for &c in &node.children {
@@ -321,85 +490,241 @@ impl SchurPlan {
                 let cb = blocks[c].take().unwrap_or_default();
                 extend_add(&mut front, m, &cb, &child.rows[child.pivots..], &local);
             }
-            eliminate(&mut front, m, node.pivots, &mut panel).map_err(|k| {
-                format!("pivot {} of the Schur elimination vanished", node.first + k)
-            })?;
             let p = node.pivots;
+            eliminate(&mut front, m, p, tolerance, &mut work)
+                .map_err(|k| format!("pivot {} of the LDLᵀ elimination vanished", node.rows[k]))?;
             let mc = m - p;
             let mut cb = vec![c64::new(0.0, 0.0); mc * mc];
             for b in 0..mc {
                 let from = (p + b) * m + p;
                 cb[b * mc + b..(b + 1) * mc].copy_from_slice(&front[from + b..from + mc]);
             }
-            let is_root = node.rows.get(p).is_none_or(|&r| r >= self.eliminated);
-            if is_root {
-                for &r in &node.rows[p..] {
-                    local[r] = r - self.eliminated;
+            front.truncate(p * m);
+            panels.push(front);
+            match node.parent {
+                Some(_) => blocks[s] = Some(cb),
+                None => {
+                    for &r in &node.rows[p..] {
+                        local[r] = r - self.eliminated;
+                    }
+                    extend_add(schur, nk, &cb, &node.rows[p..], &local);
                 }
-                extend_add(schur, nk, &cb, &node.rows[p..], &local);
-            } else {
-                blocks[s] = Some(cb);
             }
         }
-        Ok(())
+        Ok(panels)
+    }
+}
+
+/// The kept LDLᵀ of one A: solves with A and, with contact, G = B A⁻¹ Bᵀ.
+pub struct LdltFactor {
+    plan: Arc<SchurPlan>,
+    panels: Vec<Vec<c64>>,
+    s_inverse: Mat<c64>,
+    compliance: Vec<c64>,
+    /// A right-hand side and its solution, kept by the caller's check (`System::factor`).
+    pub checked: Option<(Vec<c64>, Vec<c64>)>,
+}
+
+impl LdltFactor {
+    pub fn dim(&self) -> usize {
+        self.plan.dim()
+    }
+
+    /// G = B A⁻¹ Bᵀ (row-major n_c × n_c) for the B of the plan (empty without contact).
+    pub fn compliance(&self) -> &[c64] {
+        &self.compliance
+    }
+
+    /// The plan this factor was computed with.
+    pub fn plan(&self) -> &SchurPlan {
+        &self.plan
+    }
+
+    /// x = A⁻¹ b = T Ã⁻¹ Tᵀ b.
+    pub fn solve(&self, b: &[c64]) -> Vec<c64> {
+        self.solve_many(&[b.to_vec()]).pop().unwrap_or_default()
+    }
+
+    /// Several solves in one pass over the factor: each supernode's rows of all right-hand
+    /// sides are gathered into a dense block, updated, and scattered back.
+    pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
+        let plan = &*self.plan;
+        let (n, r) = (plan.dim(), rhs.len());
+        let zero = c64::new(0.0, 0.0);
+        // x[q * r + c]: coordinate q of right-hand side c.
+        let mut x = vec![zero; n * r];
+        for (c, b) in rhs.iter().enumerate() {
+            for (bd, e) in b.iter().zip(&plan.expansion) {
+                for &(q, w) in e {
+                    x[q * r + c] += bd * w;
+                }
+            }
+        }
+        let mut local = Vec::new();
+        for (node, l) in plan.supernodes.iter().zip(&self.panels) {
+            gather(&mut local, &x, &node.rows, r);
+            let m = node.rows.len();
+            for k in 0..node.pivots {
+                let (head, tail) = local.split_at_mut((k + 1) * r);
+                let below = &l[k * m + k + 1..(k + 1) * m];
+                if r == 1 {
+                    let xk = head[k];
+                    for (v, &lik) in tail.iter_mut().zip(below) {
+                        *v -= lik * xk;
+                    }
+                    continue;
+                }
+                let xk = &head[k * r..];
+                for (row, &lik) in tail.chunks_exact_mut(r).zip(below) {
+                    for (v, &xc) in row.iter_mut().zip(xk) {
+                        *v -= lik * xc;
+                    }
+                }
+            }
+            for k in 0..node.pivots {
+                let inv = l[k * m + k].inv();
+                local[k * r..(k + 1) * r].iter_mut().for_each(|v| *v *= inv);
+            }
+            scatter(&local, &mut x, &node.rows, r);
+        }
+        let (e, nk) = (plan.eliminated, plan.kept());
+        if nk > 0 {
+            let xn = MatRef::from_row_major_slice(&x[e * r..], nk, r);
+            let y = &self.s_inverse * xn;
+            for i in 0..nk {
+                for c in 0..r {
+                    x[(e + i) * r + c] = y[(i, c)];
+                }
+            }
+        }
+        for (node, l) in plan.supernodes.iter().zip(&self.panels).rev() {
+            gather(&mut local, &x, &node.rows, r);
+            let m = node.rows.len();
+            for k in (0..node.pivots).rev() {
+                let (head, tail) = local.split_at_mut((k + 1) * r);
+                let below = &l[k * m + k + 1..(k + 1) * m];
+                if r == 1 {
+                    let dot: c64 = tail.iter().zip(below).map(|(&v, &lik)| lik * v).sum();
+                    head[k] -= dot;
+                    continue;
+                }
+                let xk = &mut head[k * r..];
+                for (row, &lik) in tail.chunks_exact(r).zip(below) {
+                    for (v, &xc) in xk.iter_mut().zip(row) {
+                        *v -= lik * xc;
+                    }
+                }
+            }
+            scatter(
+                &local[..node.pivots * r],
+                &mut x,
+                &node.rows[..node.pivots],
+                r,
+            );
+        }
+        (0..r)
+            .map(|c| {
+                plan.expansion
+                    .iter()
+                    .map(|e| e.iter().map(|&(q, w)| x[q * r + c] * w).sum())
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// local[i * r + c] = x[rows[i] * r + c].
+fn gather(local: &mut Vec<c64>, x: &[c64], rows: &[usize], r: usize) {
+    local.clear();
+    for &row in rows {
+        local.extend_from_slice(&x[row * r..(row + 1) * r]);
+    }
+}
+
+/// x[rows[i] * r + c] = local[i * r + c].
+fn scatter(local: &[c64], x: &mut [c64], rows: &[usize], r: usize) {
+    for (i, &row) in rows.iter().enumerate() {
+        x[row * r..(row + 1) * r].copy_from_slice(&local[i * r..(i + 1) * r]);
     }
 }
 
 /// Add the lower triangle of a contribution block (column-major, rows `rows`) into `front`
-/// (column-major m × m) at the positions `local[row]`.
+/// (column-major m × m, lower triangle) at the positions `local[row]`.
 fn extend_add(front: &mut [c64], m: usize, cb: &[c64], rows: &[usize], local: &[usize]) {
     let mc = rows.len();
     for b in 0..mc {
-        let col = local[rows[b]] * m;
+        let lb = local[rows[b]];
         for a in b..mc {
-            front[col + local[rows[a]]] += cb[b * mc + a];
+            let la = local[rows[a]];
+            front[lb.min(la) * m + lb.max(la)] += cb[b * mc + a];
         }
     }
 }
 
-/// Partial LDLᵀ (no pivoting) of the front's first p columns: afterwards its trailing
-/// (m − p)² lower triangle is the Schur complement. `Err(k)` when pivot k vanishes.
-fn eliminate(front: &mut [c64], m: usize, p: usize, panel: &mut Vec<c64>) -> Result<(), usize> {
-    for k in 0..p {
-        let d = front[k * m + k];
-        let scale = front[k * m + k..(k + 1) * m]
-            .iter()
-            .fold(0.0f64, |a, z| a.max(z.norm()));
-        if !(d.norm() > 1e-300_f64.max(1e-14 * scale)) || !d.re.is_finite() {
-            return Err(k);
-        }
-        let inv = d.inv();
-        let (head, tail) = front.split_at_mut((k + 1) * m);
-        let colk = &head[k * m..];
-        for j in k + 1..p {
-            let s = colk[j] * inv;
-            let colj = &mut tail[(j - k - 1) * m..(j - k) * m];
-            for i in j..m {
-                colj[i] -= colk[i] * s;
+/// Blocked partial LDLᵀ (no pivoting) of the front's first p columns, `PANEL` columns at a
+/// time: each panel is factored column by column (updating only its own columns), then the
+/// trailing lower triangle gets F22 −= L21 D L21ᵀ by one matrix product. Afterwards the
+/// first p columns hold L (unit diagonal implied, D on it) and the trailing (m − p)² lower
+/// triangle is the Schur complement. `Err(k)` when pivot k vanishes.
+fn eliminate(
+    front: &mut [c64],
+    m: usize,
+    p: usize,
+    tolerance: f64,
+    work: &mut Vec<c64>,
+) -> Result<(), usize> {
+    let mut start = 0;
+    while start < p {
+        let end = (start + PANEL).min(p);
+        for k in start..end {
+            let d = front[k * m + k];
+            let scale = front[k * m + k..(k + 1) * m]
+                .iter()
+                .fold(0.0f64, |a, z| a.max(z.norm()));
+            let finite = d.re.is_finite() && d.im.is_finite();
+            if !(d.norm() > 1e-300_f64.max(tolerance * scale)) || !finite {
+                return Err(k);
+            }
+            let inv = d.inv();
+            let (head, tail) = front.split_at_mut((k + 1) * m);
+            let colk = &head[k * m..];
+            for j in k + 1..end {
+                let s = colk[j] * inv;
+                let colj = &mut tail[(j - k - 1) * m..(j - k) * m];
+                for i in j..m {
+                    colj[i] -= colk[i] * s;
+                }
+            }
+            for v in &mut front[k * m + k + 1..(k + 1) * m] {
+                *v *= inv;
             }
         }
-        for v in &mut front[k * m + k + 1..(k + 1) * m] {
-            *v *= inv;
-        }
+        trailing_update(front, m, start, end, work);
+        start = end;
     }
-    let mc = m - p;
-    if mc == 0 || p == 0 {
-        return Ok(());
+    Ok(())
+}
+
+/// F[end.., end..] −= L D Lᵀ (lower triangle) for the panel of columns start..end.
+fn trailing_update(front: &mut [c64], m: usize, start: usize, end: usize, work: &mut Vec<c64>) {
+    let (rest, width) = (m - end, end - start);
+    if rest == 0 {
+        return;
     }
-    // W = L21 D, then F22 −= L21 Wᵀ (lower triangle).
-    panel.clear();
-    panel.resize(mc * p, c64::new(0.0, 0.0));
-    for k in 0..p {
+    work.clear();
+    work.resize(rest * width, c64::new(0.0, 0.0));
+    for c in 0..width {
+        let k = start + c;
         let d = front[k * m + k];
-        for i in 0..mc {
-            panel[k * mc + i] = front[k * m + p + i] * d;
+        for i in 0..rest {
+            work[c * rest + i] = front[k * m + end + i] * d;
         }
     }
-    let (left, right) = front.split_at_mut(p * m);
-    let l21 = MatRef::from_column_major_slice_with_stride(&left[p..], mc, p, m);
-    let w = MatRef::from_column_major_slice(&panel[..], mc, p);
-    let f22 = MatMut::from_column_major_slice_with_stride_mut(&mut right[p..], mc, mc, m);
-    let par = if mc * mc * p > 1 << 21 {
+    let (left, right) = front.split_at_mut(end * m);
+    let l21 = MatRef::from_column_major_slice_with_stride(&left[start * m + end..], rest, width, m);
+    let w = MatRef::from_column_major_slice(&work[..], rest, width);
+    let f22 = MatMut::from_column_major_slice_with_stride_mut(&mut right[end..], rest, rest, m);
+    let par = if rest * rest * width > 1 << 21 {
         faer::get_global_parallelism()
     } else {
         Par::Seq
@@ -415,12 +740,11 @@ fn eliminate(front: &mut [c64], m: usize, p: usize, panel: &mut Vec<c64>) -> Res
         c64::new(-1.0, 0.0),
         par,
     );
-    Ok(())
 }
 
 /// Fundamental supernodes of the elimination of the first `eliminated` columns of a lower
-/// pattern (CSC, sorted), in an order where children come first; and c_j, the entries below
-/// the diagonal of each eliminated column of L.
+/// pattern (CSC, sorted), children before parents; and c_j, the entries below the diagonal
+/// of each eliminated column of L.
 fn supernodes(
     col_ptr: &[usize],
     row_idx: &[usize],
@@ -466,10 +790,10 @@ fn supernodes(
             rows.push(j);
             rows.extend_from_slice(&merged);
             nodes.push(Supernode {
-                first: j,
                 pivots: 1,
                 rows,
                 children,
+                parent: None,
             });
             nodes.len() - 1
         };
@@ -480,7 +804,74 @@ fn supernodes(
             waiting[parent].push(s);
         }
     }
+    for s in 0..nodes.len() {
+        for c in nodes[s].children.clone() {
+            nodes[c].parent = Some(s);
+        }
+    }
     (nodes, counts)
+}
+
+/// Entries of a supernode's L: `pivots` columns of a front of `m` rows.
+fn trapezoid(pivots: usize, m: usize) -> usize {
+    pivots * m - pivots * (pivots.saturating_sub(1)) / 2
+}
+
+/// Relaxed amalgamation (CHOLMOD's rule, cholmod_super.c: nrelax = 4, 16, 48 and zrelax =
+/// 0.8, 0.1, 0.05): a supernode merges into its parent when the merged one has at most 4
+/// pivots, or at most 16 and under 80% explicit zeros in its L, or at most 48 and under 10%,
+/// or any size and under 5%. The merged front's rows are the child's pivots, then the
+/// parent's rows (the child's CB rows are among them). Children before parents, greedily.
+fn amalgamate(mut nodes: Vec<Supernode>) -> Vec<Supernode> {
+    let count = nodes.len();
+    let mut zeros = vec![0usize; count];
+    let mut alive = vec![true; count];
+    for s in 0..count {
+        let Some(p) = nodes[s].parent else { continue };
+        let (ns, np) = (nodes[s].pivots, nodes[p].pivots);
+        let cols = ns + np;
+        let m = ns + nodes[p].rows.len();
+        let total = trapezoid(cols, m);
+        let actual = trapezoid(ns, nodes[s].rows.len()) - zeros[s]
+            + trapezoid(np, nodes[p].rows.len())
+            - zeros[p];
+        let z = total.saturating_sub(actual) as f64 / total as f64;
+        let merge = cols <= 4 || (cols <= 16 && z < 0.8) || (cols <= 48 && z < 0.1) || z < 0.05;
+        if !merge {
+            continue;
+        }
+        let child = std::mem::take(&mut nodes[s].children);
+        for &c in &child {
+            nodes[c].parent = Some(p);
+        }
+        let mut rows = nodes[s].rows[..ns].to_vec();
+        rows.extend_from_slice(&nodes[p].rows);
+        let parent = &mut nodes[p];
+        parent.rows = rows;
+        parent.pivots = cols;
+        parent.children.retain(|&c| c != s);
+        parent.children.extend(child);
+        zeros[p] = total - actual;
+        alive[s] = false;
+    }
+    let mut index = vec![usize::MAX; count];
+    let mut next = 0;
+    for s in 0..count {
+        if alive[s] {
+            index[s] = next;
+            next += 1;
+        }
+    }
+    nodes
+        .into_iter()
+        .zip(alive)
+        .filter(|(_, a)| *a)
+        .map(|(mut node, _)| {
+            node.children.iter_mut().for_each(|c| *c = index[*c]);
+            node.parent = node.parent.map(|p| index[p]);
+            node
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -490,6 +881,10 @@ mod tests {
 
     /// A 2-D grid of nodes with two dofs each, a 5-point coupling between neighbours and a
     /// complex diagonal shift: complex symmetric, sparse, FE-like.
+    pub(super) fn grid_for(nx: usize, ny: usize, shift: f64) -> (Csc, Vec<f64>) {
+        grid(nx, ny, shift)
+    }
+
     fn grid(nx: usize, ny: usize, shift: f64) -> (Csc, Vec<f64>) {
         let node = |x: usize, y: usize| y * nx + x;
         let mut e = Vec::new();
@@ -557,6 +952,48 @@ mod tests {
             "error {err:e} of scale {scale:e}"
         );
         assert!(g[5 * nx + 5].norm() == 0.0 && reference[5 * nx + 5].norm() == 0.0);
-        assert!(plan.schur_cost > 0.0 && plan.solve_cost > 0.0);
+        assert!(plan.schur_cost > 0.0 && plan.solve_cost() > 0.0);
+    }
+}
+
+#[cfg(test)]
+mod factor_tests {
+    use super::*;
+    use crate::linalg::{LuPattern, SparseLu};
+
+    /// TEST GOAL: the kept LDLᵀ (with contact rows kept last, and without contact) solves
+    /// A x = b like a pivoting sparse LU, to round-off (reference: faer's LU).
+    #[test]
+    fn kept_ldlt_solves_like_the_lu() {
+        let (nx, ny) = (30, 20);
+        let (a, _) = tests::grid_for(nx, ny, 3.7);
+        let im: Vec<f64> = a.values.iter().map(|v| 0.05 * v).collect();
+        let lu = SparseLu::factor_complex(&LuPattern::analyse(&a).unwrap(), &a, &im).unwrap();
+        let rhs: Vec<c64> = (0..a.ncols)
+            .map(|i| c64::new((i % 5) as f64 - 2.0, (i % 3) as f64))
+            .collect();
+        let reference = lu.solve(&rhs);
+        let rows: Vec<(usize, usize, f64)> = (0..nx)
+            .flat_map(|x| {
+                let t = 0.2 + 0.07 * x as f64;
+                [(x, 2 * x, t.sin()), (x, 2 * x + 1, t.cos())]
+            })
+            .collect();
+        let b = Csc::from_entries(nx, a.ncols, &rows);
+        for plan in [
+            SchurPlan::without_contact(&a),
+            SchurPlan::new(&a, &b).unwrap(),
+        ] {
+            let plan = Arc::new(plan);
+            let f = plan.factor(&a.values, Some(&im), PIVOT_TOLERANCE).unwrap();
+            let x = f.solve(&rhs);
+            let scale = reference.iter().fold(0.0f64, |m, z| m.max(z.norm()));
+            let err = x
+                .iter()
+                .zip(&reference)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).norm()));
+            assert!(err < 1e-11 * scale, "{err:e} of {scale:e}");
+            assert!(plan.fronts().1 > 1);
+        }
     }
 }
