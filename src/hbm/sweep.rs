@@ -367,7 +367,10 @@ impl<'a> Continuation<'a> {
                 }
             };
             trail.push(self.scaled(&point));
-            if let Some(j) = trail.retraced(&self.scaled(&next), info.step) {
+            if let Some(j) = trail
+                .retraced(&self.scaled(&next), info.step)
+                .map(|j| j + start)
+            {
                 outcome.stopped = Some(retrace_reason(&point, index - 1, j));
                 break;
             }
