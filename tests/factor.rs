@@ -64,12 +64,7 @@ fn scenes() -> Vec<(String, hbcontact::pipeline::Model)> {
 #[test]
 fn ldlt_solves_equal_the_lu_solves_to_round_off() {
     for (name, model) in scenes() {
-        let b = &model
-            .contact
-            .as_ref()
-            .expect("a contact scene")
-            .operator
-            .b_free;
+        let b = contact_rows(&model);
         for k in [0usize, 1, 3] {
             let rhs = right_hand_side(&model.system, k);
             let lu = factor(&model.system, k, Some(b), on(FactorPath::Lu));
@@ -103,12 +98,7 @@ fn ldlt_solves_equal_the_lu_solves_to_round_off() {
 #[test]
 fn compliance_from_the_factor_equals_b_z_inverse_bt_by_lu() {
     for (name, model) in scenes() {
-        let b = &model
-            .contact
-            .as_ref()
-            .expect("a contact scene")
-            .operator
-            .b_free;
+        let b = contact_rows(&model);
         for k in 0..=3 {
             let ldlt = factor(&model.system, k, Some(b), on(FactorPath::Ldlt));
             assert!(
@@ -152,4 +142,14 @@ fn a_failed_pivot_falls_back_to_the_lu_with_the_same_answer() {
         assert_eq!(fallback.solve(&rhs), lu.solve(&rhs));
         assert_eq!(fallback.compliance(b), lu.compliance(b));
     }
+}
+
+/// B on the free dofs of a contact scene.
+fn contact_rows(model: &hbcontact::pipeline::Model) -> &hbcontact::linalg::Csc {
+    &model
+        .contact
+        .as_ref()
+        .expect("a contact scene")
+        .operator
+        .b_free
 }

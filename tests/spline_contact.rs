@@ -12,17 +12,7 @@ use hbcontact::pipeline::stability::Verdict;
 use hbcontact::pipeline::{self, RunOptions, Summary};
 use hbcontact::Silent;
 
-/// `run` on a scene, summary only.
-fn run(name: &str, overrides: &[&str], tag: &str) -> Summary {
-    let p = common::scene(name, overrides);
-    let options = RunOptions {
-        out: Some(common::temp_out(tag)),
-        summary_only: true,
-    };
-    pipeline::run(&p, &options, &Silent)
-        .unwrap_or_else(|e| panic!("{tag}: {e}"))
-        .summary
-}
+use common::run_summary as run;
 
 fn slopes(n: usize) -> Vec<f64> {
     (0..n)

@@ -4,20 +4,11 @@
 mod common;
 
 use hbcontact::pipeline::stability::{Method, Verdict};
-use hbcontact::pipeline::{self, RunOptions, Summary};
+use hbcontact::pipeline::RunOptions;
 use hbcontact::sweep;
 use hbcontact::Silent;
 
-fn run(name: &str, overrides: &[&str], tag: &str) -> Summary {
-    let p = common::scene(name, overrides);
-    let options = RunOptions {
-        out: Some(common::temp_out(tag)),
-        summary_only: true,
-    };
-    pipeline::run(&p, &options, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .summary
-}
+use common::run_summary as run;
 
 /// TEST GOAL: the multiplier the marching measures is the physical one. With the wall out of
 /// reach the strip is linear with mass-proportional damping D = αM alone, under which every

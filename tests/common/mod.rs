@@ -129,3 +129,16 @@ pub fn render_with_paraview(
     }
     last.expect("at least one attempt")
 }
+
+/// `hbcontact run` of a shipped scene through the library, summary only, into
+/// output/test-runs/`tag`.
+pub fn run_summary(name: &str, overrides: &[&str], tag: &str) -> pipeline::Summary {
+    let p = scene(name, overrides);
+    let options = pipeline::RunOptions {
+        out: Some(temp_out(tag)),
+        summary_only: true,
+    };
+    pipeline::run(&p, &options, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{tag}: {e}"))
+        .summary
+}
