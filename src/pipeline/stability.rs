@@ -40,6 +40,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, StabilitySpec};
+use crate::contact::ContactOperator;
 use crate::fem::DofMap;
 use crate::hbm::{self, ContactSolution};
 use crate::pipeline::model::time_basis;
@@ -206,23 +207,45 @@ pub fn by_marching(
     let mut system = marching_model.system.clone();
     system.omega = omega;
     let contact = marching_model.contact.as_ref().map(|c| &c.operator);
-    let hb = hb_settings(p);
-    // The harmonic-balance state on the pipeline's time basis (a spline start's unknowns are
-    // its discrete frequencies); the march itself takes the Fourier loads of `system`.
-    let hb_system = system
-        .clone()
-        .with_basis(time_basis(p, Purpose::HarmonicBalance));
-    let solution = match (contact, start) {
-        (Some(op), Some(s)) => hbm::solve_from(&hb_system, op, &hb, s, reporter),
-        _ => hbm::solve(&hb_system, contact, &hb, reporter),
-    };
-    let solution = match solution {
+    let solution = match harmonic_balance_state(p, &system, contact, start, reporter) {
         Ok(s) => s,
         Err(Error::NotConverged(why)) => return Ok(undecided_without_state(&why)),
         Err(e) => return Err(e),
     };
-    let dofs = &system.dofs;
-    let initial = marching_start(&solution, dofs, spec.perturbation);
+    let marching = Marching::new(&system, diag, contact, &[])?;
+    march_from(p, spec, &marching, &system.dofs, &solution, reporter)
+}
+
+/// The harmonic-balance state at `system`'s ω on the pipeline's time basis (a spline
+/// start's unknowns are its discrete frequencies; the march itself takes the Fourier loads
+/// of `system`): from `start` where given, else cold.
+fn harmonic_balance_state(
+    p: &Pipeline,
+    system: &hbm::System,
+    contact: Option<&ContactOperator>,
+    start: Option<&ContactSolution>,
+    reporter: &dyn Reporter,
+) -> Result<hbm::Solution> {
+    let hb = hb_settings(p);
+    let hb_system = system
+        .clone()
+        .with_basis(time_basis(p, Purpose::HarmonicBalance));
+    match (contact, start) {
+        (Some(op), Some(s)) => hbm::solve_from(&hb_system, op, &hb, s, reporter),
+        _ => hbm::solve(&hb_system, contact, &hb, reporter),
+    }
+}
+
+/// March from `solution`'s state, perturbed by `stability.perturbation`, until the verdict
+/// is clear, `stability.max_periods` or `stability.max_seconds`; the verdict.
+fn march_from(
+    p: &Pipeline,
+    spec: &StabilitySpec,
+    marching: &Marching,
+    dofs: &DofMap,
+    solution: &hbm::Solution,
+    reporter: &dyn Reporter,
+) -> Result<Stability> {
     let clock = Instant::now();
     let out_of_time = AtomicBool::new(false);
     let stop = |changes: &[f64], departures: &[f64]| {
@@ -230,9 +253,8 @@ pub fn by_marching(
         out_of_time.store(late, Ordering::Relaxed);
         late || decided(changes, departures)
     };
-    let marching = Marching::new(&system, diag, contact, &[])?;
     let mut problem = marching.problem();
-    problem.initial = Some(initial);
+    problem.initial = Some(marching_start(solution, dofs, spec.perturbation));
     problem.decided = Some(&stop);
     let settings = TransientSettings {
         courant: p.transient.courant,
@@ -242,7 +264,7 @@ pub fn by_marching(
     };
     let result = transient::run_to_periodic(&problem, &settings, reporter)?;
     reporter.task_done("periods");
-    let distance = end_distance(&solution, dofs, &result.times, &result.displacement);
+    let distance = end_distance(solution, dofs, &result.times, &result.displacement);
     let verdict = judge(&result.changes, &result.departures, distance);
     if verdict.verdict == Verdict::Undecided && out_of_time.load(Ordering::Relaxed) {
         return Ok(Stability {
