@@ -353,6 +353,7 @@ impl<'a> Continuation<'a> {
         };
         self.largest = norm(&point.x);
         let mut trail = Trail::default();
+        trail.push(self.scaled(&point));
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
         let mut index = start + 1;
         while index < self.s.max_points {
@@ -366,14 +367,12 @@ impl<'a> Continuation<'a> {
                     break;
                 }
             };
-            trail.push(self.scaled(&point));
-            if let Some(j) = trail
-                .retraced(&self.scaled(&next), info.step)
-                .map(|j| j + start)
-            {
+            let y = self.scaled(&next);
+            if let Some(j) = trail.retraced(&y, info.step).map(|j| j + start) {
                 outcome.stopped = Some(retrace_reason(&point, index - 1, j));
                 break;
             }
+            trail.push(y);
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }
@@ -557,22 +556,27 @@ impl<'a> Continuation<'a> {
         if force == 0.0 || force > GRAZING * self.largest {
             return None;
         }
-        let clock = Instant::now();
         let back = -p.tangent_omega().signum() * self.s.step * self.span;
+        let dist = (force / self.force).hypot(back / self.span);
+        if dist > JUMP * self.s.max_step {
+            return None;
+        }
+        let clock = Instant::now();
         let frame = self.frame(p.omega + back).ok()?;
         let open = vec![0.0; p.x.len()];
         let o = super::reduced::newton(&frame.problem, &self.newton, &open, self.reporter);
         if !o.converged || norm(&o.multipliers) > self.hb.tolerance * self.force {
             return None;
         }
-        let mut point = self.after(p, o.multipliers, &frame).ok()?;
         // Along the open branch λ stays 0: the direction is ω alone.
-        point.tangent = vec![0.0; p.x.len()];
-        point.tangent.push(back.signum());
-        let dist = (norm(&p.x) / self.force).hypot(back / self.span);
-        if dist > JUMP * self.s.max_step {
-            return None;
-        }
+        let mut tangent = vec![0.0; p.x.len()];
+        tangent.push(back.signum());
+        let point = Point {
+            gaps: frame.problem.gap(&o.multipliers),
+            x: o.multipliers,
+            omega: frame.omega,
+            tangent,
+        };
         let info = PointInfo {
             index,
             omega: point.omega,
