@@ -278,31 +278,13 @@ impl SplineMaps {
     /// Dense P (N × M): P applied to the unit coefficient vectors.
     fn p_matrix(&self) -> Vec<f64> {
         let (m, n) = (self.coefficients(), self.samples);
-        let (mut p, mut e, mut col) = (vec![0.0; n * m], vec![0.0; m], vec![0.0; n]);
-        for b in 0..m {
-            e.iter_mut().for_each(|v| *v = 0.0);
-            e[b] = 1.0;
-            self.to_samples(&e, &mut col);
-            for (k, v) in col.iter().enumerate() {
-                p[k * m + b] = *v;
-            }
-        }
-        p
+        dense(n, m, |e, col| self.to_samples(e, col))
     }
 
     /// Dense Q (M × N): Q applied to the unit sample vectors.
     fn q_matrix(&self) -> Vec<f64> {
         let (m, n) = (self.coefficients(), self.samples);
-        let (mut q, mut e, mut col) = (vec![0.0; m * n], vec![0.0; n], vec![0.0; m]);
-        for k in 0..n {
-            e.iter_mut().for_each(|v| *v = 0.0);
-            e[k] = 1.0;
-            self.to_coefficients(&e, &mut col);
-            for (a, v) in col.iter().enumerate() {
-                q[a * n + k] = *v;
-            }
-        }
-        q
+        dense(m, n, |e, col| self.to_coefficients(e, col))
     }
 }
 
@@ -317,4 +299,19 @@ pub fn evaluate(basis: &TimeBasis, coeffs: &[f64], omega: f64, t: f64) -> f64 {
             (0..count).map(|k| (phasor(coeffs, k) * rotors[k]).re).sum()
         }
     }
+}
+
+/// The row-major `rows` × `cols` matrix of the linear map `apply` (input of length `cols`,
+/// output of length `rows`): its columns are `apply` of the unit vectors.
+fn dense(rows: usize, cols: usize, apply: impl Fn(&[f64], &mut [f64])) -> Vec<f64> {
+    let (mut a, mut e, mut col) = (vec![0.0; rows * cols], vec![0.0; cols], vec![0.0; rows]);
+    for j in 0..cols {
+        e.iter_mut().for_each(|v| *v = 0.0);
+        e[j] = 1.0;
+        apply(&e, &mut col);
+        for (i, v) in col.iter().enumerate() {
+            a[i * cols + j] = *v;
+        }
+    }
+    a
 }
