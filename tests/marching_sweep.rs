@@ -16,7 +16,7 @@ use hbcontact::hbm::sweep::{sweep, PointInfo};
 use hbcontact::hbm::Solution;
 use hbcontact::pipeline::end_state::{self, Marched};
 use hbcontact::pipeline::stability::marching_start;
-use hbcontact::pipeline::{self, summary, Model, Purpose, RunOptions, Stages};
+use hbcontact::pipeline::{self, Model, Purpose, RunOptions, Stages};
 use hbcontact::Silent;
 
 const STEP_HZ: f64 = 10.0;
@@ -45,10 +45,7 @@ fn marching_model(p: &Pipeline, out: &Path) -> (Model, PathBuf) {
 
 /// The probe's first-harmonic amplitude of a harmonic-balance state.
 fn amplitude(model: &Model, s: &Solution) -> f64 {
-    let u: Vec<Vec<f64>> = (0..64)
-        .map(|j| s.field_at(&model.system.dofs, j as f64 / 64.0 * s.period(), 0))
-        .collect();
-    summary::probe_amplitudes(model, &u, 40)["probe"].first_harmonic_x
+    common::hb_probe_amplitudes(model, s, 40)["probe"].first_harmonic_x
 }
 
 /// The continuation on the marching model: every point's (Hz, amplitude), the folds' point

@@ -216,14 +216,7 @@ fn a_continuation_running_back_onto_its_own_curve_stops_with_a_diagnosis() {
 
 /// Time marching of the reference strip with the given `--set`s; the summary.
 fn transient(overrides: &[&str], tag: &str) -> hbcontact::pipeline::Summary {
-    let p = common::scene("reference_strip", overrides);
-    let options = RunOptions {
-        out: Some(common::temp_out(tag)),
-        summary_only: true,
-    };
-    pipeline::run_transient(&p, &options, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"))
-        .summary
+    transient_in(&common::temp_out(tag), overrides).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// TEST GOAL: `transient.start: harmonic_balance` starts the marching on the harmonic-balance
@@ -247,10 +240,7 @@ fn transient_started_from_the_harmonic_balance_state_keeps_it_and_converges_to_t
         let p = common::scene("reference_strip", &[]);
         let model = common::model(&p, pipeline::Purpose::Transient);
         let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
-        let u: Vec<Vec<f64>> = (0..64)
-            .map(|j| solution.field_at(&model.system.dofs, j as f64 / 64.0 * solution.period(), 0))
-            .collect();
-        hbcontact::pipeline::summary::probe_amplitudes(&model, &u, 20)["probe"].first_harmonic_x
+        common::hb_probe_amplitudes(&model, &solution, 20)["probe"].first_harmonic_x
     };
     let (from_hb, from_rest) = (first("harmonic_balance"), first("rest"));
     let (e_hb, e_rest) = ((from_hb - hb).abs() / hb, (from_rest - hb).abs() / hb);

@@ -459,11 +459,8 @@ fn a_contact_scene_that_never_touches_sweeps_the_linear_curve_point_by_point() {
         let mut system = model.system.clone();
         system.omega = 2.0 * std::f64::consts::PI * row.frequency_hz;
         let linear = hbcontact::hbm::solve(&system, None, &hb, &Silent).unwrap();
-        let u: Vec<Vec<f64>> = (0..64)
-            .map(|j| linear.field_at(&system.dofs, j as f64 / 64.0 * linear.period(), 0))
-            .collect();
         let amp =
-            pipeline::summary::probe_amplitudes(&model, &u, hb.harmonics)["probe"].first_harmonic();
+            common::hb_probe_amplitudes(&model, &linear, hb.harmonics)["probe"].first_harmonic();
         worst = worst.max(rel(amp, row.values[0]));
     }
     println!(
