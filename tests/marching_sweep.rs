@@ -146,10 +146,10 @@ fn jump(sweep: &[(f64, f64)]) -> (f64, f64) {
 /// up-sweep falls off the upper branch between the two frequencies that bracket the upper
 /// fold, the down-sweep climbs onto it between those bracketing the grazing fold); and their
 /// amplitudes lie on the stable branches: within 3% on the contacting branch at H = 40
-/// (measured up to 1.7%, around the small kinks the higher harmonics make in it) and 3e-4 on
+/// (measured up to 1.8%, around the small kinks the higher harmonics make in it) and 2.5e-4 on
 /// the open branch (measured 1.3e-4). Then stability: marching started from the
 /// harmonic-balance states at 1640 Hz, perturbed by ±2%, stays on the upper and lower branch
-/// (ends within 1e-5 of the brute-force amplitude; measured 8e-7) and leaves the middle
+/// (ends within 1.6e-6 of the brute-force amplitude; measured up to 8.2e-7) and leaves the middle
 /// branch for one of the stable ones (+2% to the upper, −2% to the lower). Reference: time marching (src/transient, independent of the
 /// harmonic-balance code) on the same discrete model.
 #[test]
@@ -203,7 +203,7 @@ fn brute_force_marching_sweeps_jump_at_the_folds_and_follow_the_stable_branches(
         .map(|&(f, m)| (m - on_branch(open, f).expect("on the open branch")).abs() / m)
         .fold(0.0, f64::max);
     println!("contacting branch: worst {worst:.2e}; open branch: worst {worst_open:.2e}");
-    assert!(worst < 3e-2 && worst_open < 3e-4, "{worst} {worst_open}");
+    assert!(worst < 3e-2 && worst_open < 2.5e-4, "{worst} {worst_open}");
 
     // Stability: from each branch's state near 1640 Hz, perturbed.
     let at = |f: f64, sweep: &[(f64, f64)]| sweep.iter().find(|x| x.0 == f).expect("swept").1;
@@ -238,10 +238,10 @@ fn brute_force_marching_sweeps_jump_at_the_folds_and_follow_the_stable_branches(
             );
             assert!(converged);
             match branch {
-                0 => assert!(e_up < 1e-5, "{e_up}"),
-                2 => assert!(e_low < 1e-5, "{e_low}"),
+                0 => assert!(e_up < 1.6e-6, "{e_up}"),
+                2 => assert!(e_low < 1.6e-6, "{e_low}"),
                 _ => {
-                    assert!(e_up.min(e_low) < 1e-5, "{e_up} {e_low}");
+                    assert!(e_up.min(e_low) < 1.6e-6, "{e_up} {e_low}");
                     assert!((end - start).abs() > 0.1 * start, "{end} {start}");
                 }
             }

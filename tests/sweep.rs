@@ -165,7 +165,8 @@ fn strip_sweep_passes_both_folds_of_the_stiffened_resonance_and_reaches_the_end(
 /// TEST GOAL: the shipped lightly damped fold scene (0.5% damping, wall 0.1 mm away): its
 /// continuation reaches the end frequency through both folds, and light damping bends the
 /// resonance further than the 5%-damped strip's 7% (measured: upper fold 1447.3 Hz, 6.3%
-/// above the linear 1361.6 Hz; lower fold 1390.8 Hz; on the coarse mesh, H = 10).
+/// above the linear 1361.6 Hz; lower fold 1390.8 Hz, each asserted within 2 Hz; on the
+/// coarse mesh, H = 10).
 #[test]
 fn lightly_damped_strip_sweep_passes_both_folds_of_its_bent_resonance() {
     let overrides = ["geometry.parameters.lc=0.025", "stability.check=false"];
@@ -182,11 +183,9 @@ fn lightly_damped_strip_sweep_passes_both_folds_of_its_bent_resonance() {
         .copied()
         .fold((0.0, 0.0), |a, f| if f.0 > a.0 { f } else { a });
     let lower = *folds.last().unwrap();
-    assert!(
-        upper.0 > 1.05 * 1361.6 && upper.0 < 1.08 * 1361.6,
-        "{upper:?}"
-    );
-    assert!(lower.0 > 1361.6 && lower.0 < upper.0 - 30.0, "{lower:?}");
+    assert!(upper.0 > 1.05 * 1361.6, "{upper:?}");
+    assert!((upper.0 - 1447.3).abs() < 2.0, "{upper:?}");
+    assert!((lower.0 - 1390.8).abs() < 2.0, "{lower:?}");
     assert!(lower.1 < upper.1, "{lower:?} {upper:?}");
 }
 
@@ -211,6 +210,11 @@ fn a_continuation_running_back_onto_its_own_curve_stops_with_a_diagnosis() {
         stopped.reason
     );
     assert!(stopped.reason.contains("harmonic_balance.harmonics"));
+    assert!(
+        (stopped.frequency_hz - 1447.8).abs() < 1.0,
+        "{}",
+        stopped.frequency_hz
+    );
     assert!(s.rows.len() > 50);
 }
 
