@@ -199,6 +199,62 @@ fn rerun_skips_points_already_done() {
     );
 }
 
+/// TEST GOAL: a study's points pay for the stability check by time marching (several times
+/// their solve) only when the study tabulates it: with the default outputs every point's
+/// summary says `not_checked` and has no `stability` stage; asking for `stable` and
+/// `multiplier` reruns the points (their records lack the verdict) and tabulates each point's
+/// verdict as its summary states it (1 stable, 0 unstable) with its multiplier.
+#[test]
+fn study_points_run_the_stability_check_only_when_its_outputs_ask_for_it() {
+    let dir = common::temp_out("study-stability");
+    let body =
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n";
+    let plain = strip_study(&dir, body);
+    let out = dir.join("out");
+    run_study(&plain, &out);
+    let rows = table_without_times(&out.join("study.csv"));
+    assert!(!rows[0].iter().any(|c| c == "stable"), "{:?}", rows[0]);
+    for key in column(&rows, "key") {
+        let s = common::read_json(&out.join("points").join(&key).join("summary.json"));
+        assert_eq!(s["stability"]["verdict"], "not_checked", "{key}");
+        assert!(s["stage_seconds"].get("stability").is_none(), "{key}");
+    }
+    let asked = strip_study(
+        &dir,
+        &format!("{body}outputs: [probe_first_harmonic, stable, multiplier]\n"),
+    );
+    run_study(&asked, &out);
+    let m = common::read_json(&out.join("manifest.json"));
+    assert_eq!(
+        m["execution"]["ran"].as_u64(),
+        Some(2),
+        "the verdicts were missing"
+    );
+    let rows = table_without_times(&out.join("study.csv"));
+    let (stable, multiplier) = (column(&rows, "stable"), column(&rows, "multiplier"));
+    for (i, key) in column(&rows, "key").iter().enumerate() {
+        let s = common::read_json(&out.join("points").join(key).join("summary.json"));
+        let verdict = s["stability"]["verdict"].as_str().unwrap().to_string();
+        let expected = match verdict.as_str() {
+            "stable" => "1",
+            "unstable" => "0",
+            other => panic!("point {i}: verdict {other}: {}", s["stability"]["reason"]),
+        };
+        assert!(stable[i].parse::<f64>().unwrap() == expected.parse::<f64>().unwrap());
+        let mu: f64 = multiplier[i].parse().unwrap();
+        let summary_mu = s["stability"]["multiplier"].as_f64().unwrap();
+        assert!(
+            (mu - summary_mu).abs() <= 1e-12 * summary_mu,
+            "{mu} vs {summary_mu}"
+        );
+        // Unstable can also mean "marching settles elsewhere" with μ̂ < 1; stable cannot grow.
+        assert!(
+            verdict != "stable" || mu < 1.0,
+            "point {i}: μ̂ = {mu}, {verdict}"
+        );
+    }
+}
+
 /// TEST GOAL: two shards (`--shard 0/2`, `--shard 1/2`) then `--merge` give the table a
 /// one-process run gives; a merge before the second shard ran reports the missing points
 /// (exit 6) and tabulates them as `missing`.

@@ -34,6 +34,7 @@ use super::plan::{describe, point_dir, Mode, Point};
 use crate::config::Pipeline;
 use crate::output::tables::write_json;
 use crate::pipeline::modes::natural_modes;
+use crate::pipeline::stability::Verdict;
 use crate::pipeline::{self, build, stages, Purpose, RunOptions, Stages, Summary};
 use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
@@ -93,6 +94,9 @@ pub struct Needs {
     pub peak_memory: bool,
     /// Keep the harmonic amplitudes on every node (`amplitudes.vtu`).
     pub amplitudes: bool,
+    /// Run the stability check by time marching (outputs `stable`, `multiplier`). Without
+    /// it the points skip the check, which costs several times their solve.
+    pub stability: bool,
 }
 
 /// Whether a point is done: an ok record for this probe, in full when wanted, with what
@@ -106,6 +110,7 @@ pub fn is_done(out: &Path, point: &Point, needs: &Needs) -> bool {
             && (r.full || !point.full)
             && (1..=needs.modes).all(|k| has(&r, Output::NaturalFrequency(k).name()))
             && (!needs.peak_memory || has(&r, Output::PeakMemory.name()))
+            && (!needs.stability || has(&r, Output::Stable.name()))
             && (r.amplitudes || !needs.amplitudes || point.mode == Mode::Transient)
     })
 }
@@ -138,6 +143,13 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
         .max()
         .unwrap_or(0);
     outputs.extend((1..=harmonics).map(Output::ProbeHarmonic));
+    // Present (if empty when undecided) exactly when the check ran.
+    if s.stability
+        .as_ref()
+        .is_some_and(|st| st.verdict != Verdict::NotChecked)
+    {
+        outputs.extend([Output::Stable, Output::Multiplier]);
+    }
     outputs
         .iter()
         .map(|o| {
@@ -158,11 +170,14 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     };
     let probe = needs.probe.as_deref();
     let memory = needs.peak_memory.then(reset_peak_memory);
+    // The check by time marching only where the study tabulates it.
+    let mut p = point.pipeline.clone();
+    p.stability.check &= needs.stability;
     let start = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let run = match point.mode {
-            Mode::HarmonicBalance => pipeline::run(&point.pipeline, &options, &Silent),
-            Mode::Transient => pipeline::run_transient(&point.pipeline, &options, &Silent),
+            Mode::HarmonicBalance => pipeline::run(&p, &options, &Silent),
+            Mode::Transient => pipeline::run_transient(&p, &options, &Silent),
         }?;
         let peak = memory.map(|reset| reset.and_then(|()| peak_memory_mb()));
         let modes = natural_frequencies(&point.pipeline, &dir, needs.modes)?;

@@ -134,6 +134,7 @@ pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Re
         peak_memory: threads == 1
             && (study.accuracy.is_some() || study.outputs.contains(&Output::PeakMemory)),
         amplitudes: study.accuracy.is_some(),
+        stability: study.outputs.iter().any(Output::needs_stability),
     };
     let execution = execute::execute(&out, &mine, &needs, threads, reporter)?;
     if options.shard.is_some() {

@@ -12,6 +12,7 @@
 //! `peak_memory` (the run's peak resident memory) and, for accuracy rungs, the harmonic
 //! amplitudes kept for the displacement L2 error.
 
+use super::super::pipeline::stability::Verdict;
 use super::super::pipeline::Summary;
 
 /// One tabulated quantity.
@@ -40,11 +41,16 @@ pub enum Output {
     NaturalFrequency(usize),
     /// Peak resident memory of the run [MB] (points run one at a time only).
     PeakMemory,
+    /// The stability verdict by time marching: 1 stable, 0 unstable, empty when undecided.
+    /// Only a study that asks for it (or for `Multiplier`) pays for the check.
+    Stable,
+    /// The check's estimated largest Floquet multiplier modulus μ̂ (as sweep.csv's column).
+    Multiplier,
 }
 
 /// The fixed names, in documentation order (`probe_harmonic_K` and `natural_frequency_K`
 /// come on top).
-const NAMED: [(Output, &str, &str); 15] = [
+const NAMED: [(Output, &str, &str); 17] = [
     (Output::ProbeFirstHarmonic, "probe_first_harmonic", "m"),
     (Output::ProbeFirstHarmonicX, "probe_first_harmonic_x", "m"),
     (Output::ProbeFirstHarmonicY, "probe_first_harmonic_y", "m"),
@@ -60,6 +66,8 @@ const NAMED: [(Output, &str, &str); 15] = [
     (Output::WallTime, "wall_time", "s"),
     (Output::SolveTime, "solve_time", "s"),
     (Output::PeakMemory, "peak_memory", "MB"),
+    (Output::Stable, "stable", "-"),
+    (Output::Multiplier, "multiplier", "-"),
 ];
 
 impl Output {
@@ -187,7 +195,22 @@ impl Output {
                 let st = &s.stage_seconds;
                 st.total() - st.get("mesh") - st.get("write")
             }
+            Output::Stable => match s.stability.as_ref().map(|st| st.verdict) {
+                Some(Verdict::Stable) => 1.0,
+                Some(Verdict::Unstable) => 0.0,
+                _ => f64::NAN,
+            },
+            Output::Multiplier => s
+                .stability
+                .as_ref()
+                .and_then(|st| st.multiplier)
+                .unwrap_or(f64::NAN),
             Output::NaturalFrequency(_) | Output::PeakMemory => f64::NAN,
         }
+    }
+
+    /// Whether asking for this output makes each point run the stability check.
+    pub fn needs_stability(&self) -> bool {
+        matches!(self, Output::Stable | Output::Multiplier)
     }
 }
