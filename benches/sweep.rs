@@ -1,7 +1,9 @@
 //! The cost of a frequency-response curve, in one run: the shipped fold scene
 //! (`pipelines/strip_sweep.yaml`, H = 10) swept by continuation, each point's cost against a
 //! cold single-frequency `run` at the same H (the target: ≤ 0.5×), the solver phases'
-//! shares, and points per minute.
+//! shares, and points per minute. Both sides without the stability check by time marching,
+//! which a run makes once and a sweep at every `stability.every`-th point: its cost is
+//! printed on its own line, per checked point.
 //!
 //! `cargo bench --bench sweep [-- --harmonics 10]`.
 
@@ -37,6 +39,7 @@ fn main() {
     for _ in 0..2 {
         let mut q = p.clone();
         q.harmonic_balance.frequency = 1500.0;
+        q.stability.check = false;
         match pipeline::run(&q, &options("cold", true), &Silent) {
             Ok(r) => cold = r.summary.stage_seconds.total() - r.summary.stage_seconds.get("mesh"),
             Err(e) => return eprintln!("cold run: {e}"),
@@ -54,6 +57,7 @@ fn main() {
     let share = |v: f64| 100.0 * v / sweep;
     let outputs = sweep - (t.factor + t.linear_solve + t.reduce + t.newton + t.recover);
     let sets: usize = s.rows.iter().map(|r| r.factorizations).sum();
+    let checked = s.rows.iter().filter(|r| r.multiplier.is_some()).count();
     println!(
         "frequency sweep of {} ({} to {} Hz, H = {h}); {} points, {} folds, wall {wall:.1} s",
         s.name,
@@ -65,6 +69,11 @@ fn main() {
     println!(
         "per point {per_point:.3} s against a cold run (without meshing) {cold:.3} s: {:.2}x (target ≤ 0.5x)",
         per_point / cold
+    );
+    println!(
+        "stability check (a separate stage): {:.1} s for {checked} checked points, {:.2} s each",
+        s.stage_seconds.get("stability"),
+        s.stage_seconds.get("stability") / checked.max(1) as f64
     );
     println!(
         "sets of factorizations: {sets} ({:.1} per point); points per minute {:.0}",

@@ -146,8 +146,8 @@ fn jump(sweep: &[(f64, f64)]) -> (f64, f64) {
 /// up-sweep falls off the upper branch between the two frequencies that bracket the upper
 /// fold, the down-sweep climbs onto it between those bracketing the grazing fold); and their
 /// amplitudes lie on the stable branches: within 3% on the contacting branch at H = 40
-/// (measured up to 1.8%, around the small kinks the higher harmonics make in it) and 2.5e-4 on
-/// the open branch (measured 1.3e-4). Then stability: marching started from the
+/// (measured up to 1.7%, around the small kinks the higher harmonics make in it) and 2.5e-4 on
+/// the open branch (measured 1.2e-4). Then stability: marching started from the
 /// harmonic-balance states at 1640 Hz, perturbed by ±2%, stays on the upper and lower branch
 /// (ends within 1.6e-6 of the brute-force amplitude; measured up to 8.2e-7) and leaves the middle
 /// branch for one of the stable ones (+2% to the upper, −2% to the lower). Reference: time marching (src/transient, independent of the

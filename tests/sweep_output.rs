@@ -351,8 +351,8 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
 }
 
 /// TEST GOAL: a sweep whose continuation fails part-way (here: the strip with 0.5% damping
-/// from 1000 Hz, whose curve tangles into turning points the continuation cannot follow near
-/// 1362 Hz; stepping past the grazing corners of the 5% strip no longer fails) keeps the curve
+/// and the wall at 50 µm, whose H = 10 curve tangles past its first folds near 1447.5 Hz;
+/// the contact onset of the 0.1 mm wall and the grazing corners no longer fail) keeps the curve
 /// so far: sweep.csv and sweep.json hold every row found, `stopped` names the last row, its
 /// frequency and the class of the exit code (not_converged, 4), the plots, the frames (every
 /// third point, save_every = 3) and the folds found are written; `--resume` with another range
@@ -360,12 +360,15 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
 #[test]
 fn a_sweep_failing_part_way_keeps_the_curve_so_far_and_exits_with_its_class() {
     let out = common::temp_out("sweep-output-fail");
+    // The 0.5%-damped strip with the wall at 50 µm: kinks of the sampled law tangle the
+    // H = 10 curve near 1447.5 Hz, past its first folds, where it stops.
     let steps = [
         "damping.alpha=85.7",
-        "sweep.from=1000",
-        "sweep.to=1400",
+        "geometry.parameters.gap=5e-5",
+        "sweep.from=1200",
+        "sweep.to=1800",
         "sweep.save_every=3",
-        "sweep.write_at=[1200]",
+        "sweep.write_at=[1300]",
     ];
     let o = sweep_cli(&out, &steps, &[]);
     assert_exit(&o, 4, "the failing sweep");

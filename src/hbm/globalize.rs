@@ -243,6 +243,31 @@ impl<'a> Attempts<'a> {
     }
 }
 
+/// The smoothing continuation alone at the problem's own H, from `start`, with c and the
+/// settings' N fixed: a sweep's fixed-ω corrector where the plain Newton fails (where contact
+/// starts on a lightly damped resonance, the exact law's Newton from the open state cycles).
+pub(super) fn smoothed_from(
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    c: f64,
+    start: &[f64],
+    reporter: &dyn Reporter,
+) -> NewtonOutcome {
+    let mut attempts = Attempts {
+        problem,
+        settings,
+        reporter,
+        iterations: 0,
+        log: Vec::new(),
+        reasons: Vec::new(),
+        deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
+        exhausted: None,
+    };
+    let mut o = attempts.smoothed(problem.harmonics, c, start);
+    o.iterations = attempts.iterations;
+    o
+}
+
 /// Solve the reduced contact problem (23) with the globalization above.
 pub(super) fn solve_contact(
     system: &System,

@@ -15,8 +15,10 @@
 //!   tangents flip at kinks; the secant follows the curve through them;
 //! - predictor y_p = y + Δs τ; corrector on R = 0 and τᵀ(y − y_p) = 0. Where the curve is a
 //!   graph over ω (|τ_ω| ≥ `GRAPH_SLOPE`) the corrector keeps ω = ω_p and iterates on λ alone
-//!   (one set of factorizations per point); near a fold ω is an unknown, and Z_k is refactored
-//!   numerically (the symbolic analysis is shared) at every corrector iterate;
+//!   (one set of factorizations per point); near a fold ω is an unknown: a chord corrector on
+//!   the problem frozen at ω_p, g ≈ G(ω_p)λ + r(ω_p) + (ω − ω_p) ∂g/∂ω, then one set of
+//!   factorizations at its ω* and a fixed-ω Newton (two sets per point); where that fails, Z_k
+//!   is refactored numerically (the symbolic analysis is shared) at every corrector iterate;
 //! - folds: sign changes of the secants' ω-components, at the point where ω turns back; a
 //!   back-and-forth within `KINK` of the span over a few points is a kink of
 //!   the sampled law (one sample switching), not reported.
@@ -59,6 +61,9 @@ const CORNER: f64 = 30.0;
 const RECENT: usize = 4;
 /// A point closer than this many steps to an earlier segment of the curve retraces it.
 const RETRACE: f64 = 0.05;
+/// The fixed-ω Newton that puts the chord corrector's point on the curve may move λ by at most
+/// this many arc-length steps (scaled); more means it found another state.
+const CHORD_POLISH: f64 = 0.1;
 /// Corrector iterations before a step is rejected.
 const MAX_CORRECTOR: usize = 12;
 /// A point whose ‖λ‖ is below this fraction of the largest along the curve may be at a
@@ -436,6 +441,8 @@ impl<'a> Continuation<'a> {
                 }
                 Err(why) => {
                     if let Some(found) = self.graze(p, index) {
+                        // Past the corner the curve is a new smooth branch.
+                        *ds = self.s.step;
                         return Ok(found);
                     }
                     return Err(format!(
@@ -495,7 +502,7 @@ impl<'a> Continuation<'a> {
         let x_p: Vec<f64> = (0..n).map(|i| p.x[i] + ds * t[i] * self.force).collect();
         let clock = Instant::now();
         let prepared = self.prepare_seconds();
-        let corrected = self.correct(&x_p, omega_p, t);
+        let corrected = self.correct(&x_p, omega_p, t, ds);
         // The corrector's own time (Newton, bordered solves, ∂g/∂ω) without its factorizations.
         self.timings.newton += clock.elapsed().as_secs_f64() - (self.prepare_seconds() - prepared);
         let (x, frame, corrector, iterations) = corrected?;
@@ -546,23 +553,40 @@ impl<'a> Continuation<'a> {
 
     /// The corner where a contacting branch ends on the open one (grazing): past it along
     /// the secant no solution exists, so no step, however small, converges. The curve goes on
-    /// along the open (linear) branch, back in ω: at one initial step back from `p`, the
-    /// open state (λ = 0) is tried; it is the next point if `p` touches, but barely (‖λ‖ > 0,
-    /// below `GRAZING` of the largest along the curve), the open state solves the complementarity
-    /// there (the linear response does not reach the obstacle) and lies within `JUMP`
-    /// largest steps of `p`. `None`: `p` is not at a grazing corner.
+    /// along the open (linear) branch, on the side of the grazing frequency where the open
+    /// state is feasible (the linear response does not reach the obstacle): back in ω when
+    /// the contacting branch came from that side (a fold: both branches exist there), onward
+    /// when it came from the side where the linear response penetrates (a corner without a
+    /// fold). So the open state (λ = 0) is tried one initial step back from `p`, then one step
+    /// onward; it is the next point if `p` touches, but barely (‖λ‖ below `GRAZING` of the
+    /// largest along the curve; zero when `p` landed on the corner itself), the open state
+    /// solves the complementarity there and lies within `JUMP` largest steps of `p`. `None`:
+    /// `p` is not at a grazing corner.
     fn graze(&mut self, p: &Point, index: usize) -> Option<(Point, Frame, PointInfo)> {
         let force = norm(&p.x);
-        if force == 0.0 || force > GRAZING * self.largest {
+        if force > GRAZING * self.largest || self.largest == 0.0 {
             return None;
         }
-        let back = -p.tangent_omega().signum() * self.s.step * self.span;
-        let dist = (force / self.force).hypot(back / self.span);
-        if dist > JUMP * self.s.max_step {
-            return None;
-        }
+        let onward = p.tangent_omega().signum() * self.s.step * self.span;
+        let (scale, span) = (self.force, self.span);
+        let dist = |shift: f64| (force / scale).hypot(shift / span);
+        [-onward, onward]
+            .into_iter()
+            .filter(|&shift| dist(shift) <= JUMP * self.s.max_step)
+            .find_map(|shift| self.open_point(p, shift, dist(shift), index))
+    }
+
+    /// The open state at ω_p + `shift`, if it solves the complementarity there: the next
+    /// point after the grazing corner `p`, moving along ω alone.
+    fn open_point(
+        &mut self,
+        p: &Point,
+        shift: f64,
+        dist: f64,
+        index: usize,
+    ) -> Option<(Point, Frame, PointInfo)> {
         let clock = Instant::now();
-        let frame = self.frame(p.omega + back).ok()?;
+        let frame = self.frame(p.omega + shift).ok()?;
         let open = vec![0.0; p.x.len()];
         let o = super::reduced::newton(&frame.problem, &self.newton, &open, self.reporter);
         if !o.converged || norm(&o.multipliers) > self.hb.tolerance * self.force {
@@ -570,7 +594,7 @@ impl<'a> Continuation<'a> {
         }
         // Along the open branch λ stays 0: the direction is ω alone.
         let mut tangent = vec![0.0; p.x.len()];
-        tangent.push(back.signum());
+        tangent.push(shift.signum());
         let point = Point {
             gaps: frame.problem.gap(&o.multipliers),
             x: o.multipliers,
@@ -603,29 +627,120 @@ impl<'a> Continuation<'a> {
         x_p: &[f64],
         omega_p: f64,
         t: &[f64],
+        ds: f64,
     ) -> std::result::Result<(Vec<f64>, Frame, Corrector, usize), String> {
         if t[x_p.len()].abs() >= GRAPH_SLOPE {
             let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
-            let o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            let mut o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            // Where the exact law's Newton cycles (where contact starts on a lightly damped
+            // resonance, from the open state): the smoothing continuation, on the same
+            // factorizations. It costs tens of Newton iterations where it runs (on the strip
+            // sweep the correctors' share went from 19% to 35% of the sweep), but only there.
+            if !o.converged {
+                let hb = HbSettings {
+                    samples: self.newton.samples,
+                    ..self.hb.clone()
+                };
+                let c = self.newton.c;
+                o = globalize::smoothed_from(&frame.problem, &hb, c, x_p, self.reporter);
+            }
             if !o.converged {
                 return Err(format!("fixed-ω corrector: {}", o.reason));
             }
             let iterations = o.iterations;
             Ok((o.multipliers, frame, Corrector::FixedFrequency, iterations))
         } else {
-            let (x, frame, it) = self.arclength(x_p, omega_p, t)?;
+            let (x, frame, it) = self.arclength(x_p, omega_p, t, ds)?;
             Ok((x, frame, Corrector::Arclength, it))
         }
     }
 
-    /// Bordered Newton in (λ, ω) from the predictor, Z_k refactored at every iterate.
+    /// The arc-length corrector: the chord corrector first (two sets of factorizations), the
+    /// exact one (a set per iterate) where it fails.
     fn arclength(
         &mut self,
         x_p: &[f64],
         omega_p: f64,
         t: &[f64],
+        ds: f64,
     ) -> std::result::Result<(Vec<f64>, Frame, usize), String> {
-        let n = x_p.len();
+        match self.chord_arclength(x_p, omega_p, t, ds) {
+            Ok(found) => Ok(found),
+            Err(_) => self.exact_arclength(x_p, omega_p, t),
+        }
+    }
+
+    /// Bordered Newton in (λ, ω) on a model of the problem frozen at the predictor ω_p:
+    /// g(λ, ω) ≈ G(ω_p) λ + r(ω_p) + (ω − ω_p) ∂g/∂ω(λ, ω_p), ∂g/∂ω by two solves per harmonic
+    /// with the kept factorizations (no refactoring while it iterates). Its solution (λ*, ω*)
+    /// is off the curve by O((ω* − ω_p)²), small where this corrector runs (near folds, where
+    /// the curve moves little in ω); one set of factorizations at ω* and a fixed-ω Newton from
+    /// λ* put it on the curve. A Newton that moves λ by more than `CHORD_POLISH` of the step
+    /// `ds` found another state (near a grazing corner the open one lies close by), not the
+    /// model's: the exact corrector decides then.
+    fn chord_arclength(
+        &mut self,
+        x_p: &[f64],
+        omega_p: f64,
+        t: &[f64],
+        ds: f64,
+    ) -> std::result::Result<(Vec<f64>, Frame, usize), String> {
+        let base = self.frame(omega_p).map_err(|e| e.to_string())?;
+        let mut model = base.problem.clone();
+        let (mut x, mut omega) = (x_p.to_vec(), omega_p);
+        let mut iterations = 0;
+        loop {
+            let dg = gap_rate(self.system, self.op, &base.linear, &x, self.hb.harmonics);
+            let shift = omega - omega_p;
+            for ((m, r), d) in model
+                .linear_gap
+                .iter_mut()
+                .zip(&base.problem.linear_gap)
+                .zip(&dg)
+            {
+                *m = r + shift * d;
+            }
+            let residual = Residual::new(&model, &self.newton);
+            let e = residual.evaluate(x.clone());
+            if residual.relative(&e) <= self.newton.tolerance && iterations > 0 {
+                break;
+            }
+            if iterations == MAX_CORRECTOR {
+                return Err("the chord corrector did not converge".into());
+            }
+            iterations += 1;
+            let (jac, r_omega) = self.linearization(&model, &residual, &e, &dg);
+            (x, omega) =
+                self.bordered_update(&jac, &r_omega, t, &e.residual, (x, omega), (x_p, omega_p))?;
+        }
+        let frame = self.frame(omega).map_err(|e| e.to_string())?;
+        let o = super::reduced::newton(&frame.problem, &self.newton, &x, self.reporter);
+        if !o.converged {
+            return Err(format!("chord corrector, polish at ω*: {}", o.reason));
+        }
+        let moved = norm(
+            &o.multipliers
+                .iter()
+                .zip(&x)
+                .map(|(a, b)| a - b)
+                .collect::<Vec<_>>(),
+        );
+        if moved > CHORD_POLISH * ds * self.force {
+            return Err(format!(
+                "chord corrector: the polish moved {:.2e} steps",
+                moved / (ds * self.force)
+            ));
+        }
+        Ok((o.multipliers, frame, iterations + o.iterations))
+    }
+
+    /// Bordered Newton in (λ, ω) from the predictor, Z_k refactored at every iterate.
+    fn exact_arclength(
+        &mut self,
+        x_p: &[f64],
+        omega_p: f64,
+        t: &[f64],
+    ) -> std::result::Result<(Vec<f64>, Frame, usize), String> {
         let (mut x, mut omega) = (x_p.to_vec(), omega_p);
         for iteration in 0..=MAX_CORRECTOR {
             let frame = self.frame(omega).map_err(|e| e.to_string())?;
@@ -634,41 +749,58 @@ impl<'a> Continuation<'a> {
             if residual.relative(&e) <= self.newton.tolerance && iteration > 0 {
                 return Ok((x, frame, iteration));
             }
-            let (jac, r_omega) = self.linearization(&frame, &residual, &e);
-            let constraint: f64 = (0..n)
-                .map(|i| t[i] * (x[i] - x_p[i]) / self.force)
-                .sum::<f64>()
-                + t[n] * (omega - omega_p) / self.span;
-            let rhs: Vec<f64> = e.residual.iter().copied().chain([constraint]).collect();
-            let d = self
-                .bordered_solve(&jac, &r_omega, t, &rhs)
-                .ok_or("the bordered corrector matrix is singular")?;
-            for i in 0..n {
-                x[i] -= d[i] * self.force;
-            }
-            omega -= d[n] * self.span;
-            if !(omega > 0.0) {
-                return Err("the corrector left ω > 0".into());
-            }
+            let dg = gap_rate(self.system, self.op, &frame.linear, &e.x, self.hb.harmonics);
+            let (jac, r_omega) = self.linearization(&frame.problem, &residual, &e, &dg);
+            (x, omega) =
+                self.bordered_update(&jac, &r_omega, t, &e.residual, (x, omega), (x_p, omega_p))?;
         }
         Err(format!(
             "the arc-length corrector did not converge in {MAX_CORRECTOR} iterations"
         ))
     }
 
-    /// J and R_ω at the evaluation `e` on `frame`.
+    /// One bordered Newton step on R = 0 and τᵀ(y − y_p) = 0 from (x, ω).
+    fn bordered_update(
+        &self,
+        jac: &Mat<f64>,
+        r_omega: &[f64],
+        t: &[f64],
+        residual: &[f64],
+        (mut x, mut omega): (Vec<f64>, f64),
+        (x_p, omega_p): (&[f64], f64),
+    ) -> std::result::Result<(Vec<f64>, f64), String> {
+        let n = x.len();
+        let constraint: f64 = (0..n)
+            .map(|i| t[i] * (x[i] - x_p[i]) / self.force)
+            .sum::<f64>()
+            + t[n] * (omega - omega_p) / self.span;
+        let rhs: Vec<f64> = residual.iter().copied().chain([constraint]).collect();
+        let d = self
+            .bordered_solve(jac, r_omega, t, &rhs)
+            .ok_or("the bordered corrector matrix is singular")?;
+        for i in 0..n {
+            x[i] -= d[i] * self.force;
+        }
+        omega -= d[n] * self.span;
+        if !(omega > 0.0) {
+            return Err("the corrector left ω > 0".into());
+        }
+        Ok((x, omega))
+    }
+
+    /// J and R_ω = A c ∂g/∂ω at the evaluation `e` of `problem` (A the activity blocks).
     fn linearization(
         &self,
-        frame: &Frame,
+        problem: &ReducedProblem,
         residual: &Residual,
         e: &super::reduced::Evaluation,
+        dg: &[f64],
     ) -> (Mat<f64>, Vec<f64>) {
-        let m = frame.problem.coefficients();
-        let blocks = step::activity_blocks(&residual.sampler, frame.problem.nodes, &e.slopes);
-        let jac = step::dense_jacobian(&frame.problem, self.newton.c, &blocks);
-        let dg = gap_rate(self.system, self.op, &frame.linear, &e.x, self.hb.harmonics);
+        let m = problem.coefficients();
+        let blocks = step::activity_blocks(&residual.sampler, problem.nodes, &e.slopes);
+        let jac = step::dense_jacobian(problem, self.newton.c, &blocks);
         let mut r_omega = vec![0.0; dg.len()];
-        for i in 0..frame.problem.nodes {
+        for i in 0..problem.nodes {
             let a_i = &blocks[i * m * m..(i + 1) * m * m];
             for a in 0..m {
                 r_omega[i * m + a] = (0..m)
@@ -703,7 +835,8 @@ impl<'a> Continuation<'a> {
     fn tangent(&self, frame: &Frame, x: &[f64], previous: &[f64]) -> Result<Vec<f64>> {
         let residual = Residual::new(&frame.problem, &self.newton);
         let e = residual.evaluate(x.to_vec());
-        let (jac, r_omega) = self.linearization(frame, &residual, &e);
+        let dg = gap_rate(self.system, self.op, &frame.linear, x, self.hb.harmonics);
+        let (jac, r_omega) = self.linearization(&frame.problem, &residual, &e, &dg);
         let n = x.len();
         let rhs: Vec<f64> = (0..n).map(|_| 0.0).chain([1.0]).collect();
         let t = self
@@ -1012,4 +1145,40 @@ fn response_change(a: &Solution, b: &Solution) -> f64 {
             .collect()
     };
     relative_change(&flat(a), &flat(b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A trail out along the first axis to x = 6, in unit steps.
+    fn trail_out() -> Trail {
+        let mut trail = Trail::default();
+        for i in 0..=6 {
+            trail.push(vec![i as f64, 0.0]);
+        }
+        trail
+    }
+
+    /// TEST GOAL: a point landing on an earlier segment of the curve (a continuation walking
+    /// back along it) is found, with that segment's index; a point off the curve, or on one of
+    /// the last `RECENT` segments (a kink's back-and-forth), is not.
+    #[test]
+    fn trail_finds_a_point_back_on_an_earlier_segment_only() {
+        let trail = trail_out();
+        assert_eq!(trail.retraced(&[1.5, 0.01], 1.0), Some(2));
+        assert_eq!(trail.retraced(&[1.5, 0.2], 1.0), None, "off the curve");
+        assert_eq!(trail.retraced(&[5.5, 0.0], 1.0), None, "a recent segment");
+        assert_eq!(Trail::default().retraced(&[0.0, 0.0], 1.0), None);
+    }
+
+    /// TEST GOAL: the distance from a segment is the perpendicular one inside it and the
+    /// distance to the nearer end outside.
+    #[test]
+    fn segment_distance_is_perpendicular_inside_and_to_the_end_outside() {
+        let (a, b) = ([0.0, 0.0], [2.0, 0.0]);
+        assert!((segment_distance(&a, &b, &[1.0, 0.5]) - 0.5).abs() < 1e-15);
+        assert!((segment_distance(&a, &b, &[3.0, 0.0]) - 1.0).abs() < 1e-15);
+        assert!((segment_distance(&a, &b, &[-3.0, 4.0]) - 5.0).abs() < 1e-15);
+    }
 }
