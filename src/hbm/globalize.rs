@@ -93,6 +93,24 @@ enum Budget {
 }
 
 impl<'a> Attempts<'a> {
+    /// No run yet; the time budget starts now.
+    fn new(
+        problem: &'a ReducedProblem,
+        settings: &'a HbSettings,
+        reporter: &'a dyn Reporter,
+    ) -> Self {
+        Attempts {
+            problem,
+            settings,
+            reporter,
+            iterations: 0,
+            log: Vec::new(),
+            reasons: Vec::new(),
+            deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
+            exhausted: None,
+        }
+    }
+
     /// Newton settings for rung `h` of the ladder (the same oversampling ratio as at H).
     fn newton_settings(&self, h: usize, c: f64, smoothing: f64) -> NewtonSettings {
         let (top, samples) = (self.settings.harmonics, self.settings.samples);
@@ -253,16 +271,7 @@ pub(super) fn smoothed_from(
     start: &[f64],
     reporter: &dyn Reporter,
 ) -> NewtonOutcome {
-    let mut attempts = Attempts {
-        problem,
-        settings,
-        reporter,
-        iterations: 0,
-        log: Vec::new(),
-        reasons: Vec::new(),
-        deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
-        exhausted: None,
-    };
+    let mut attempts = Attempts::new(problem, settings, reporter);
     let mut o = attempts.smoothed(problem.harmonics, c, start);
     o.iterations = attempts.iterations;
     o
@@ -276,16 +285,7 @@ pub(super) fn solve_contact(
     reporter: &dyn Reporter,
 ) -> Result<ContactSolution> {
     let c = automatic_c(problem, settings)?;
-    let mut attempts = Attempts {
-        problem,
-        settings,
-        reporter,
-        iterations: 0,
-        log: Vec::new(),
-        reasons: Vec::new(),
-        deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
-        exhausted: None,
-    };
+    let mut attempts = Attempts::new(problem, settings, reporter);
     let found = [c, 0.1 * c].into_iter().find_map(|c_try| {
         // Out of time: no further attempt can start.
         if attempts.exhausted == Some(Budget::Time) {
