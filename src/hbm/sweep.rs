@@ -634,9 +634,9 @@ impl<'a> Continuation<'a> {
             let mut o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
             // Where the exact law's Newton cycles (where contact starts on a lightly damped
             // resonance, from the open state): the smoothing continuation, on the same
-            // factorizations. It costs tens of Newton iterations where it runs (on the strip
-            // sweep the correctors' share went from 19% to 35% of the sweep), but only there.
-            if !o.converged {
+            // factorizations. It costs tens of Newton iterations, so steps longer than the
+            // initial one are halved first, which is cheaper wherever it works.
+            if !o.converged && ds < self.s.step {
                 let hb = HbSettings {
                     samples: self.newton.samples,
                     ..self.hb.clone()

@@ -129,32 +129,52 @@ impl Sampled {
         frame_count: usize,
         samples: usize,
     ) -> Self {
+        let mut sampled = Self::harmonic_balance_history(model, solution, frame_count, samples);
         let dofs = &model.system.dofs;
         let period = solution.period();
-        let at = |j: usize, n: usize| j as f64 * period / n as f64;
-        let frames: Vec<Snapshot> = (0..frame_count)
-            .map(|j| solution.snapshot(dofs, at(j, frame_count)))
+        sampled.frames = (0..frame_count)
+            .map(|j| solution.snapshot(dofs, j as f64 * period / frame_count as f64))
             .collect();
+        let c = solution.contact.as_ref().map(|c| c.c);
+        sampled.frame_contact = sampled
+            .frames
+            .iter()
+            .filter_map(|s| {
+                let lambda = solution.multipliers_at(s.time)?;
+                Some(ContactState::new(
+                    contact_gaps(model, &s.displacement),
+                    &lambda,
+                    c,
+                ))
+            })
+            .collect();
+        sampled
+    }
+
+    /// The histories of `harmonic_balance` (the same instants, so the same amplitudes and
+    /// force statistics) without its frame snapshots: what a sweep row needs.
+    pub fn harmonic_balance_history(
+        model: &Model,
+        solution: &Solution,
+        frame_count: usize,
+        samples: usize,
+    ) -> Self {
+        let dofs = &model.system.dofs;
+        let period = solution.period();
         let n = samples.max(4 * frame_count).max(64);
-        let times: Vec<f64> = (0..n).map(|j| at(j, n)).collect();
+        let times: Vec<f64> = (0..n).map(|j| j as f64 * period / n as f64).collect();
         let displacement: Vec<Vec<f64>> = times
             .iter()
             .map(|&t| solution.field_at(dofs, t, 0))
             .collect();
         let c = solution.contact.as_ref().map(|c| c.c);
-        let state = |t: f64, u: &[f64]| {
-            solution
-                .multipliers_at(t)
-                .map(|lambda| ContactState::new(contact_gaps(model, u), &lambda, c))
-        };
-        let frame_contact = frames
-            .iter()
-            .filter_map(|s| state(s.time, &s.displacement))
-            .collect();
         let contact = times
             .iter()
             .zip(&displacement)
-            .filter_map(|(&t, u)| state(t, u))
+            .filter_map(|(&t, u)| {
+                let lambda = solution.multipliers_at(t)?;
+                Some(ContactState::new(contact_gaps(model, u), &lambda, c))
+            })
             .collect();
         let history = History {
             times,
@@ -162,8 +182,8 @@ impl Sampled {
             contact,
         };
         Sampled {
-            frames,
-            frame_contact,
+            frames: Vec::new(),
+            frame_contact: Vec::new(),
             closed_tolerance: history.closed_tolerance(),
             history,
             steps: None,

@@ -496,7 +496,7 @@ fn row(
         .contact
         .as_ref()
         .map_or(hb_settings(p).samples, |c| c.samples);
-    let sampled = Sampled::harmonic_balance(model, solution, p.output.frames, samples);
+    let sampled = Sampled::harmonic_balance_history(model, solution, p.output.frames, samples);
     let summary = pipeline::summary::harmonic_balance(p, mesh.clone(), model, solution, &sampled);
     SweepRow {
         index: info.index,
