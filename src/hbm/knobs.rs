@@ -16,6 +16,7 @@
 //! the vibration with the obstacle away): a face closed all period barely vibrates, and a
 //! change of round-off size relative to nothing is not a change of the answer.
 
+use super::basis::TimeBasis;
 use super::reduced::{self, NewtonOutcome, NewtonSettings, ReducedProblem};
 use super::step::StepMethod;
 use crate::progress::Reporter;
@@ -129,12 +130,13 @@ pub fn adapt_samples(
 }
 
 /// The warnings a check calls for, with its numbers.
-pub fn warnings(check: &KnobCheck, samples: usize) -> Vec<String> {
+pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<String> {
+    let refine = basis.refine_key();
     let mut out = Vec::new();
     if let Some(&last) = check.samples_changes.last() {
         if last > SAMPLES_TOLERANCE {
             out.push(format!(
-                "the contact response still changes by {:.2e} (relative) from N = {} to N = {samples} samples: the answer depends on harmonic_balance.samples; raise it, or raise harmonic_balance.harmonics",
+                "the contact response still changes by {:.2e} (relative) from N = {} to N = {samples} samples: the answer depends on harmonic_balance.samples; raise it, or raise {refine}",
                 last,
                 samples / 2
             ));
@@ -142,7 +144,7 @@ pub fn warnings(check: &KnobCheck, samples: usize) -> Vec<String> {
     }
     match check.c_change {
         Some(change) if change > C_TOLERANCE => out.push(format!(
-            "the contact response changes by {:.1}% between c and c/3 ({:.3e} N/m): at this H the answer depends on the complementarity parameter (a truncation effect, or several periodic states); raise harmonic_balance.harmonics and compare",
+            "the contact response changes by {:.1}% between c and c/3 ({:.3e} N/m): at this H the answer depends on the complementarity parameter (a truncation effect, or several periodic states); raise {refine} and compare",
             100.0 * change,
             check.c_alternative
         )),
@@ -153,4 +155,35 @@ pub fn warnings(check: &KnobCheck, samples: usize) -> Vec<String> {
         _ => {}
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hbm::basis::SplineBasis;
+
+    /// TEST GOAL: a knob check whose answer moves with N and with c says so, and tells the
+    /// user to refine the basis the run used: the harmonics for Fourier, the segments for a
+    /// spline basis (never the harmonics, which a spline run does not read).
+    #[test]
+    fn knob_warnings_name_the_key_that_refines_the_runs_basis() {
+        let check = KnobCheck {
+            samples_initial: 64,
+            samples_changes: vec![0.1],
+            c_alternative: 1e9,
+            c_change: Some(0.5),
+            iterations: 0,
+        };
+        let spline = TimeBasis::Spline(SplineBasis::new(3, 40));
+        for (basis, key) in [
+            (TimeBasis::Fourier, "harmonic_balance.harmonics"),
+            (spline, "harmonic_balance.basis.spline.segments"),
+        ] {
+            let w = warnings(&check, 128, &basis);
+            assert_eq!(w.len(), 2, "{w:?}");
+            assert!(w.iter().all(|m| m.contains(key)), "{key}: {w:?}");
+        }
+        let w = warnings(&check, 128, &TimeBasis::Spline(SplineBasis::new(3, 40)));
+        assert!(w.iter().all(|m| !m.contains("harmonic_balance.harmonics")));
+    }
 }

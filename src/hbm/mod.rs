@@ -96,9 +96,11 @@ pub fn solve(
             timed(&mut timings.recover, || {
                 linear.recover(op, &solution.multipliers, solution.coefficients())
             });
-            linear
-                .warnings
-                .extend(knobs::warnings(&solution.knob_check, solution.samples));
+            linear.warnings.extend(knobs::warnings(
+                &solution.knob_check,
+                solution.samples,
+                &system.basis,
+            ));
             Some(solution)
         }
         _ => None,

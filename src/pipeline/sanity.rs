@@ -23,6 +23,7 @@
 use super::model::Model;
 use crate::config::Pipeline;
 use crate::fem::{self, Material};
+use crate::hbm::basis::TimeBasis;
 use crate::hbm::Solution;
 use crate::mesh::{CellKind, Mesh2d};
 use crate::{Error, Result};
@@ -200,11 +201,23 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
             longest * f_res / (k as f64 * f)
         )));
     }
-    let h = p.harmonic_balance.harmonics;
+    // The highest frequency the time basis holds: H, or ⌊S/2⌋ for S spline segments.
+    let basis = super::model::time_basis(p, super::Purpose::HarmonicBalance);
+    let (h, what) = match &basis {
+        TimeBasis::Spline(s) => (
+            s.frequencies() - 1,
+            format!("the spline basis of {} segments", s.segments),
+        ),
+        TimeBasis::Fourier => {
+            let h = p.harmonic_balance.harmonics;
+            (h, format!("harmonic_balance.harmonics = {h}"))
+        }
+    };
     if p.contact.is_some() && h as f64 * f > f_res {
         warnings.push(format!(
-            "harmonic_balance.harmonics = {h} reaches {:.4e} Hz, beyond the mesh's resolution {f_res:.4e} Hz: the top harmonics describe the mesh, not the body; refine geometry.mesh_size or lower the harmonics",
-            h as f64 * f
+            "{what} reaches {:.4e} Hz, beyond the mesh's resolution {f_res:.4e} Hz: the top harmonics describe the mesh, not the body; refine geometry.mesh_size or lower {}",
+            h as f64 * f,
+            basis.refine_key()
         ));
     }
     Ok(warnings)
@@ -242,7 +255,8 @@ pub fn check_contact_result(model: &Model, solution: &Solution) -> Vec<String> {
     let violation = c.complementarity.violation;
     if violation > VIOLATION_WARN {
         warnings.push(format!(
-            "the contact law holds only loosely at the samples (complementarity violation {violation:.3}, above {VIOLATION_WARN}): typical near grazing, where the contact is short; raise harmonic_balance.harmonics and compare"
+            "the contact law holds only loosely at the samples (complementarity violation {violation:.3}, above {VIOLATION_WARN}): typical near grazing, where the contact is short; raise {} and compare",
+            model.system.basis.refine_key()
         ));
     }
     warnings

@@ -265,7 +265,8 @@ fn march_from(
     let result = transient::run_to_periodic(&problem, &settings, reporter)?;
     reporter.task_done("periods");
     let distance = end_distance(solution, dofs, &result.times, &result.displacement);
-    let verdict = judge(&result.changes, &result.departures, distance);
+    let refine = crate::pipeline::model::time_basis(p, Purpose::HarmonicBalance).refine_key();
+    let verdict = judge(&result.changes, &result.departures, distance, refine);
     if verdict.verdict == Verdict::Undecided && out_of_time.load(Ordering::Relaxed) {
         return Ok(Stability {
             reason: format!(
@@ -338,7 +339,8 @@ fn decided(changes: &[f64], departures: &[f64]) -> bool {
 
 /// The verdict from the period-to-period changes d_k, the departures from the start and the
 /// end state's distance e from the harmonic-balance state (see the header).
-pub fn judge(changes: &[f64], departures: &[f64], e: f64) -> Stability {
+/// `refine` is the key that refines the harmonic-balance state in time.
+pub fn judge(changes: &[f64], departures: &[f64], e: f64, refine: &str) -> Stability {
     let periods = changes.len();
     let d = changes.last().copied().unwrap_or(f64::NAN);
     let left = departures.last().is_some_and(|&x| x > LEFT);
@@ -358,7 +360,7 @@ pub fn judge(changes: &[f64], departures: &[f64], e: f64) -> Stability {
         (Verdict::Unstable, reason)
     } else if settled && e >= SAME_STATE {
         let reason = format!(
-            "time marching from it settles on another state, {:.0}% away in displacement (if the harmonic balance is too coarse to be within {:.0}% of the marched orbit, raise harmonic_balance.harmonics and compare)",
+            "time marching from it settles on another state, {:.0}% away in displacement (if the harmonic balance is too coarse to be within {:.0}% of the marched orbit, raise {refine} and compare)",
             100.0 * e,
             100.0 * SAME_STATE
         );
@@ -408,4 +410,23 @@ fn multiplier(changes: &[f64]) -> Option<f64> {
     let sxy: f64 = tail.iter().map(|(k, l)| (k - mk) * (l - ml)).sum();
     let sxx: f64 = tail.iter().map(|(k, _)| (k - mk).powi(2)).sum();
     Some((sxy / sxx).exp())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: a march that settles (changes decaying by 0.5 per period) on a state 20%
+    /// from the harmonic-balance one is judged unstable, and the reason names the key that
+    /// refines the harmonic-balance state in time, as given.
+    #[test]
+    fn settling_elsewhere_is_unstable_and_names_the_refining_key() {
+        let changes: Vec<f64> = (0..30).map(|k| 0.5f64.powi(k)).collect();
+        let departures = vec![0.0; 30];
+        let key = "harmonic_balance.basis.spline.segments";
+        let s = judge(&changes, &departures, 0.2, key);
+        assert_eq!(s.verdict, Verdict::Unstable);
+        assert!(s.reason.contains(key), "{}", s.reason);
+        assert!((s.multiplier.unwrap() - 0.5).abs() < 1e-9);
+    }
 }
