@@ -69,7 +69,7 @@ pub(super) fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Re
 }
 
 /// Newton iterations one smoothing level may take before the continuation narrows its step.
-const LEVEL_ITERATIONS: usize = 30;
+const LEVEL_ITERATIONS: usize = 12;
 
 /// Every Newton run of one contact solve: iterations, log and why each attempt failed.
 struct Attempts<'a> {
