@@ -368,7 +368,7 @@ fn reference_strip_converges_at_every_h_and_knob_dependence_falls_with_h() {
 
 /// TEST GOAL: with 0.5% damping (alpha = 86) instead of 5%, the reference strip's contact
 /// Newton needs at most 3 times the iterations at every H up to 60 (issue 8's goal; measured
-/// at most 2.9×, at H = 60, where it took 4.7× while a smoothing level could spend 30
+/// at most 2.7×, at H = 60, where it took 4.7× while a smoothing level could spend 30
 /// iterations cycling), with the same answer to the last printed digit; at H = 80 it stops
 /// (exit class not_converged) with a diagnosis that names stiffness damping as the fix.
 #[test]

@@ -69,7 +69,12 @@ pub(super) fn automatic_c(problem: &ReducedProblem, settings: &HbSettings) -> Re
 }
 
 /// Newton iterations one smoothing level may take before the continuation narrows its step.
-const LEVEL_ITERATIONS: usize = 12;
+const LEVEL_ITERATIONS: usize = 30;
+/// Steps of length ≥ 1/2 a smoothing level may take without halving its residual before the
+/// continuation narrows its step: a level cycling between active sets (the 0.5%-damped strip
+/// at H = 60) fails early, one creeping by short steps through many active-set changes (the
+/// undamped strip at H = 40, 15 iterations) goes on.
+const LEVEL_STAGNATION: usize = 8;
 
 /// Every Newton run of one contact solve: iterations, log and why each attempt failed.
 struct Attempts<'a> {
@@ -129,6 +134,7 @@ impl<'a> Attempts<'a> {
             method: StepMethod::Auto,
             smoothing,
             min_iterations: 0,
+            stagnation: 0,
         }
     }
 
@@ -191,6 +197,7 @@ impl<'a> Attempts<'a> {
             settings.smoothing = mu;
             settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
             settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
+            settings.stagnation = LEVEL_STAGNATION;
             let o = self.run(&problem, &settings, &x);
             if self.exhausted == Some(Budget::Time) {
                 return o; // its reason names the iteration the time ran out at
@@ -209,6 +216,7 @@ impl<'a> Attempts<'a> {
         settings.smoothing = 0.0;
         settings.tolerance = self.settings.tolerance;
         settings.max_iterations = self.settings.max_iterations;
+        settings.stagnation = 0;
         // Polish a continuation's end point onto the exact law's active set (nothing to
         // polish when nothing penetrates: λ = 0 is then exact).
         settings.min_iterations = usize::from(force > 0.0);

@@ -83,6 +83,7 @@ fn resolve(
         method: StepMethod::Auto,
         smoothing: 0.0,
         min_iterations: 1,
+        stagnation: 0,
     };
     reduced::newton(problem, &settings, start, reporter)
 }

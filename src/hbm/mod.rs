@@ -160,6 +160,7 @@ pub fn solve_from(
         method: step::StepMethod::Auto,
         smoothing: 0.0,
         min_iterations: 1,
+        stagnation: 0,
     };
     let outcome = timed(&mut timings.newton, || {
         reduced::newton(&problem, &newton, &start.multipliers, reporter)

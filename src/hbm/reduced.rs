@@ -106,6 +106,10 @@ pub struct NewtonSettings {
     /// Newton steps taken even when the start is within the tolerance (1 polishes a
     /// continuation's end point onto the exact law's active set).
     pub min_iterations: usize,
+    /// Give up after this many steps of length ≥ 1/2 without halving the residual (0: never):
+    /// a run cycling between active sets, which a smoothing level narrows its step for. A
+    /// run creeping by short steps through many active-set changes is not stopped by it.
+    pub stagnation: usize,
 }
 
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
@@ -318,11 +322,22 @@ pub fn newton_until(
     }];
     let (mut iterations, mut stalls) = (0, 0);
     let mut history: Vec<f64> = Vec::new();
+    // The residual the last halving reached, and the near-full steps taken since.
+    let (mut mark, mut full_steps) = (residual.relative(&current), 0);
     let reason = loop {
         let rel = residual.relative(&current);
         let within = rel <= settings.tolerance;
         if within && iterations >= settings.min_iterations {
             break None;
+        }
+        if rel <= 0.5 * mark {
+            (mark, full_steps) = (rel, 0);
+        }
+        if settings.stagnation > 0 && full_steps >= settings.stagnation {
+            break Some(format!(
+                "{full_steps} near-full Newton steps did not halve the residual (cycling between \
+                 active sets)"
+            ));
         }
         if !rel.is_finite() {
             break Some("the residual became non-finite".to_string());
@@ -362,6 +377,7 @@ pub fn newton_until(
             Err(_) => (0.0, None),
         };
         let stalled = accepted.is_none();
+        full_steps += usize::from(alpha >= 0.5);
         if let Some(e) = accepted {
             current = e;
         }
@@ -424,6 +440,7 @@ mod tests {
             method: StepMethod::Auto,
             smoothing: 0.0,
             min_iterations: 0,
+            stagnation: 0,
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -478,6 +495,7 @@ mod tests {
                 method: StepMethod::Auto,
                 smoothing: 0.0,
                 min_iterations: 0,
+                stagnation: 0,
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -522,6 +540,7 @@ mod tests {
             method: StepMethod::Auto,
             smoothing: 0.0,
             min_iterations: 0,
+            stagnation: 0,
         };
         settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);

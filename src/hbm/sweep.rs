@@ -273,6 +273,7 @@ impl<'a> Continuation<'a> {
             method: StepMethod::Auto,
             smoothing: 0.0,
             min_iterations: 0,
+            stagnation: 0,
         };
         let (first, force) = match &s.resume {
             None => {
