@@ -159,6 +159,16 @@ impl SplineBasis {
         self.segments / 2 + 1
     }
 
+    /// σ_j / (jω): how much of the exact damping symbol jω frequency j keeps (1 at j = 0). The
+    /// Galerkin derivative's symbol is odd in θ = 2πj/S, so it falls to 0 at the Nyquist
+    /// frequency: cubic splines keep 0.9994 at j = S/4, 0.956 at 3S/8, 0.35 at 0.475 S.
+    pub fn damping_ratio(&self, j: usize) -> f64 {
+        match j {
+            0 => 1.0,
+            _ => self.sigma[self.fold(j)] / self.fold(j) as f64,
+        }
+    }
+
     /// The circulant symbol Σ_{d=−p..p} r_d e^{iθd} of unit integrals r (0 = a, 1 = b, 2 = c).
     fn circulant_symbol(&self, which: usize, j: usize) -> c64 {
         let theta = 2.0 * PI * j as f64 / self.segments as f64;

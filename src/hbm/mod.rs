@@ -111,7 +111,11 @@ pub fn solve(
 /// The settings of a solve: with contact and a spline basis, the contact unknowns are all
 /// ⌊S/2⌋ + 1 discrete frequencies (H = ⌊S/2⌋, S unknowns per node) at N = `samples`, which
 /// must be a multiple of S with at least p + 1 Gauss points per segment (`sampler`).
-fn contact_settings(system: &System, contact: bool, settings: &HbSettings) -> Result<HbSettings> {
+pub(crate) fn contact_settings(
+    system: &System,
+    contact: bool,
+    settings: &HbSettings,
+) -> Result<HbSettings> {
     let basis::TimeBasis::Spline(s) = &system.basis else {
         return Ok(settings.clone());
     };

@@ -90,6 +90,7 @@ impl ContactSolution {
                 c_alternative: c,
                 c_change: None,
                 iterations: 0,
+                underdamped_share: None,
             },
             newton,
         }

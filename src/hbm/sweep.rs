@@ -184,17 +184,17 @@ pub fn sweep(
     reporter: &dyn Reporter,
     on_point: &mut OnPoint,
 ) -> Result<SweepOutcome> {
-    // Not with splines yet. Switched on (solving all ⌊S/2⌋ + 1 discrete frequencies, as a
-    // single solve does), the strip sweep at S = 40 passes the contact onset but crawls for
-    // hundreds of points up tall peaks in λ at nearly fixed ω (1185 and 1553 Hz) that neither
-    // Fourier nor time marching shows: upper discrete frequencies of a coarse spline basis,
-    // whose dispersion error is large, resonating with higher modes. The pipeline refuses it too.
+    // Not with splines yet: the spline's Nyquist frequency has no damping (σ_{S/2} = 0), and a
+    // sweep passes the frequencies where it meets a mesh mode; there Z_{S/2} is singular and
+    // the branch climbs without bound at fixed ω (the strip at S = 80: 1068.1 Hz, mean force
+    // past 1.8 MN/m). docs/method.md §16. The pipeline refuses it too.
     if let super::basis::TimeBasis::Spline(_) = system.basis {
         return Err(Error::Input(format!(
             "harmonic_balance.basis: sweeps do not take the {} basis yet; use basis: fourier",
             system.basis.describe()
         )));
     }
+    let hb = &super::contact_settings(system, contact.is_some(), hb)?;
     match contact {
         Some(op) => Continuation::start(system, op, hb, s, reporter)?.run(on_point),
         None => linear_sweep(system, hb, s, reporter, on_point),
