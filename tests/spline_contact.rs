@@ -362,6 +362,12 @@ fn spline_runs_warn_when_the_response_lives_in_the_bases_underdamped_frequencies
         peak(&fine),
         peak(&fourier)
     );
+    let (coarse_share, fine_share) = (share(&coarse).unwrap(), share(&fine).unwrap());
+    assert!(
+        (0.05..0.2).contains(&coarse_share),
+        "S = 40: {coarse_share}"
+    );
+    assert!(fine_share < 0.012, "S = 160: {fine_share}");
     assert!(warned(&coarse), "S = 40: {:?}", coarse.warnings);
     assert!(!warned(&fine), "S = 160: {:?}", fine.warnings);
     assert!(share(&fourier).is_none() && !warned(&fourier));
