@@ -183,17 +183,18 @@ pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<Str
             ));
         }
     }
-    if let (Some(share), TimeBasis::Spline(s)) = (check.underdamped_share, basis) {
+    let underdamped = check
+        .underdamped_share
+        .filter(|&share| share > UNDERDAMPED_TOLERANCE);
+    if let (Some(share), TimeBasis::Spline(s)) = (underdamped, basis) {
         let from = (1..s.frequencies())
             .find(|&j| s.damping_ratio(j) < DAMPED_SYMBOL)
             .unwrap_or(s.segments / 2);
-        if share > UNDERDAMPED_TOLERANCE {
-            out.push(format!(
+        out.push(format!(
                 "{:.1}% of the contact nodes' vibration lies in the spline basis' discrete frequencies j ≥ {from} (of {}), whose damping its time derivative loses (σ_j/jω below {DAMPED_SYMBOL}, 0 at j = S/2): a structural mode they meet resonates with too little damping, and the answer is not the physical one; raise {refine} (the share falls as S grows) or use basis: fourier, and compare",
                 100.0 * share,
                 s.segments / 2
             ));
-        }
     }
     match check.c_change {
         Some(change) if change > C_TOLERANCE => out.push(format!(

@@ -120,6 +120,19 @@ impl History {
     }
 }
 
+/// The contact state of a harmonic-balance solution at time t with displacement u (`None`
+/// without contact).
+fn harmonic_balance_contact(
+    model: &Model,
+    solution: &Solution,
+    t: f64,
+    u: &[f64],
+) -> Option<ContactState> {
+    let lambda = solution.multipliers_at(t)?;
+    let c = solution.contact.as_ref().map(|c| c.c);
+    Some(ContactState::new(contact_gaps(model, u), &lambda, c))
+}
+
 impl Sampled {
     /// `frames` snapshots, and histories at the solver's samples (at least 4 per frame and
     /// 64 per period) for accurate amplitudes and force statistics.
@@ -135,18 +148,10 @@ impl Sampled {
         sampled.frames = (0..frame_count)
             .map(|j| solution.snapshot(dofs, j as f64 * period / frame_count as f64))
             .collect();
-        let c = solution.contact.as_ref().map(|c| c.c);
         sampled.frame_contact = sampled
             .frames
             .iter()
-            .filter_map(|s| {
-                let lambda = solution.multipliers_at(s.time)?;
-                Some(ContactState::new(
-                    contact_gaps(model, &s.displacement),
-                    &lambda,
-                    c,
-                ))
-            })
+            .filter_map(|s| harmonic_balance_contact(model, solution, s.time, &s.displacement))
             .collect();
         sampled
     }
@@ -167,14 +172,10 @@ impl Sampled {
             .iter()
             .map(|&t| solution.field_at(dofs, t, 0))
             .collect();
-        let c = solution.contact.as_ref().map(|c| c.c);
         let contact = times
             .iter()
             .zip(&displacement)
-            .filter_map(|(&t, u)| {
-                let lambda = solution.multipliers_at(t)?;
-                Some(ContactState::new(contact_gaps(model, u), &lambda, c))
-            })
+            .filter_map(|(&t, u)| harmonic_balance_contact(model, solution, t, u))
             .collect();
         let history = History {
             times,
