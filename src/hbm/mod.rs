@@ -187,7 +187,9 @@ pub fn solve_from(
 }
 
 /// Everything of a solve at the system's ω before the contact Newton: the factorizations,
-/// the linear response and, with contact, the reduced problem (G_k and r).
+/// the linear response and, with contact, the reduced problem (G_k and r). The harmonics are
+/// independent here, so they run in parallel on the current rayon pool (a study's points
+/// bring their own pool, so its cores go to points or to harmonics, never to both at once).
 fn prepare(
     system: &System,
     contact: Option<&ContactOperator>,
@@ -195,20 +197,48 @@ fn prepare(
     reporter: &dyn Reporter,
     timings: &mut Timings,
 ) -> Result<(LinearResponse, Option<ReducedProblem>)> {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
     let harmonics = harmonics_to_compute(system, contact, settings)?;
+    let total = Some(harmonics.len() as u64);
+    let done = AtomicU64::new(0);
+    let wall = Instant::now();
+    let b = contact.map(|op| &op.b_free);
+    let results: Vec<Result<Harmonic>> = harmonics
+        .par_iter()
+        .map(|&k| {
+            let h = Harmonic::compute(system, b, k);
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            reporter.progress("factor", d, total, &format!("harmonic {k}"));
+            h
+        })
+        .collect();
+    reporter.task_done("factor");
     let mut linear = LinearResponse::default();
-    for (i, &k) in harmonics.iter().enumerate() {
-        let total = Some(harmonics.len() as u64);
-        reporter.progress("factor", i as u64, total, &format!("harmonic {k}"));
-        let b = contact.map(|op| &op.b_free);
-        let lu = timed(&mut timings.factor, || system.factor(k, b))?;
-        timed(&mut timings.linear_solve, || linear.solve(system, k, &lu))?;
-        if let Some(op) = contact {
-            timed(&mut timings.reduce, || linear.reduce(system, op, k, &lu))?;
-            linear.factors.insert(k, lu);
+    let mut cpu = Timings::default();
+    for h in results {
+        let h = h?;
+        cpu.factor += h.seconds[0];
+        cpu.linear_solve += h.seconds[1];
+        cpu.reduce += h.seconds[2];
+        linear.residuals.insert(h.k, h.residual);
+        linear.free.insert(h.k, h.free);
+        linear.motion.insert(h.k, system.motion(h.k));
+        if let (Some(gk), Some(factor)) = (h.compliance, h.factor) {
+            linear.compliance.push(gk);
+            linear.factors.insert(h.k, factor);
         }
     }
-    reporter.task_done("factor");
+    // Each phase's share of the parallel block's wall time.
+    let cpu_total = cpu.factor + cpu.linear_solve + cpu.reduce;
+    let scale = if cpu_total > 0.0 {
+        wall.elapsed().as_secs_f64() / cpu_total
+    } else {
+        0.0
+    };
+    timings.factor += cpu.factor * scale;
+    timings.linear_solve += cpu.linear_solve * scale;
+    timings.reduce += cpu.reduce * scale;
     let problem = contact.map(|op| {
         timed(&mut timings.reduce, || ReducedProblem {
             nodes: op.nodes(),
@@ -219,6 +249,42 @@ fn prepare(
         })
     });
     Ok((linear, problem))
+}
+
+/// One harmonic of `prepare`: the linear response z_k and, with contact (`b`), G_k and the
+/// factorization of Z_k (kept for the recovery; without contact it is dropped at once, so a
+/// linear scene holds one factorization per thread, not one per harmonic); the seconds of the
+/// three phases.
+struct Harmonic {
+    k: usize,
+    factor: Option<Factor>,
+    free: Vec<c64>,
+    residual: f64,
+    compliance: Option<Vec<c64>>,
+    seconds: [f64; 3],
+}
+
+impl Harmonic {
+    fn compute(system: &System, b: Option<&crate::linalg::Csc>, k: usize) -> Result<Harmonic> {
+        let mut seconds = [0.0; 3];
+        let factor = timed(&mut seconds[0], || system.factor(k, b))?;
+        let (free, residual) = timed(&mut seconds[1], || linear_solve(system, k, &factor))?;
+        let (compliance, factor) = match b {
+            Some(b) => {
+                let gk = timed(&mut seconds[2], || reduce(system, b, k, &factor))?;
+                (Some(gk), Some(factor))
+            }
+            None => (None, None),
+        };
+        Ok(Harmonic {
+            k,
+            factor,
+            free,
+            residual,
+            compliance,
+            seconds,
+        })
+    }
 }
 
 /// Contact scenes compute every harmonic up to H (contact couples them); linear scenes only
@@ -274,52 +340,43 @@ struct LinearResponse {
     compliance: Vec<Vec<c64>>,
 }
 
+/// z_k = Z_k⁻¹ (f_k − Z_k,fp u_p,k), refined iteratively and checked for singularity; with
+/// its relative residual.
+fn linear_solve(system: &System, k: usize, lu: &Factor) -> Result<(Vec<c64>, f64)> {
+    let rhs = system.load(k);
+    let mut z = if is_zero(&rhs) {
+        rhs.clone()
+    } else {
+        lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs))
+    };
+    let mut res = system::relative_residual(system, k, &z, &rhs);
+    // Iterative refinement: large, badly conditioned systems (slender parts, fine
+    // meshes) lose digits in the factorization; a few cheap solves win them back.
+    for _ in 0..3 {
+        if !(res > 1e-14) || !res.is_finite() {
+            break;
+        }
+        let zz = system.apply(k, &z);
+        let r: Vec<c64> = rhs.iter().zip(&zz).map(|(b, a)| b - a).collect();
+        for (zi, di) in z.iter_mut().zip(&lu.solve(&r)) {
+            *zi += di;
+        }
+        res = system::relative_residual(system, k, &z, &rhs);
+    }
+    check_solve(system, k, res, system::amplification(system, &z, &rhs), &z)?;
+    Ok((z, res))
+}
+
+/// G_k = B Z_k⁻¹ Bᵀ, (19)–(20).
+fn reduce(system: &System, b: &crate::linalg::Csc, k: usize, lu: &Factor) -> Result<Vec<c64>> {
+    let gk = lu.compliance(b);
+    if gk.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
+        return Err(singular_diagnosis(system, k));
+    }
+    Ok(gk)
+}
+
 impl LinearResponse {
-    /// z_k = Z_k⁻¹ (f_k − Z_k,fp u_p,k), refined iteratively and checked for singularity.
-    fn solve(&mut self, system: &System, k: usize, lu: &Factor) -> Result<()> {
-        let rhs = system.load(k);
-        let mut z = if is_zero(&rhs) {
-            rhs.clone()
-        } else {
-            lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs))
-        };
-        let mut res = system::relative_residual(system, k, &z, &rhs);
-        // Iterative refinement: large, badly conditioned systems (slender parts, fine
-        // meshes) lose digits in the factorization; a few cheap solves win them back.
-        for _ in 0..3 {
-            if !(res > 1e-14) || !res.is_finite() {
-                break;
-            }
-            let zz = system.apply(k, &z);
-            let r: Vec<c64> = rhs.iter().zip(&zz).map(|(b, a)| b - a).collect();
-            for (zi, di) in z.iter_mut().zip(&lu.solve(&r)) {
-                *zi += di;
-            }
-            res = system::relative_residual(system, k, &z, &rhs);
-        }
-        check_solve(system, k, res, system::amplification(system, &z, &rhs), &z)?;
-        self.residuals.insert(k, res);
-        self.free.insert(k, z);
-        self.motion.insert(k, system.motion(k));
-        Ok(())
-    }
-
-    /// G_k = B Z_k⁻¹ Bᵀ, (19)–(20).
-    fn reduce(
-        &mut self,
-        system: &System,
-        op: &ContactOperator,
-        k: usize,
-        lu: &Factor,
-    ) -> Result<()> {
-        let gk = lu.compliance(&op.b_free);
-        if gk.iter().any(|z| !z.re.is_finite() || !z.im.is_finite()) {
-            return Err(singular_diagnosis(system, k));
-        }
-        self.compliance.push(gk);
-        Ok(())
-    }
-
     /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic; `multipliers`
     /// node-major with `m` coefficients per node.
     fn recover(&mut self, op: &ContactOperator, multipliers: &[f64], m: usize) {
