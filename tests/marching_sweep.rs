@@ -22,7 +22,7 @@ use hbcontact::Silent;
 const STEP_HZ: f64 = 10.0;
 const MIDDLE_HZ: f64 = 1640.0;
 /// The marching's time step, as a fraction of the stable one: the impacts' timing errs at
-/// first order in it, 1.7% in amplitude at 0.8 (the default) and 0.27% at this.
+/// first order in it, 1.78% in amplitude at 0.8 (the default) and 0.27% at this.
 const COURANT: f64 = 0.2;
 
 fn scene(extra: &[&str]) -> Pipeline {

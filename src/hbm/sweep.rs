@@ -184,10 +184,11 @@ pub fn sweep(
     reporter: &dyn Reporter,
     on_point: &mut OnPoint,
 ) -> Result<SweepOutcome> {
-    // Not with splines yet: the spline's Nyquist frequency has no damping (σ_{S/2} = 0), and a
-    // sweep passes the frequencies where it meets a mesh mode; there Z_{S/2} is singular and
-    // the branch climbs without bound at fixed ω (the strip at S = 80: 1068.1 Hz, mean force
-    // past 1.8 MN/m). docs/method.md §16. The pipeline refuses it too.
+    // Not with splines yet: a sweep passes the frequencies where a spline frequency meets a
+    // mesh mode, and there spline solutions loop or climb where Fourier's, at equal unknowns
+    // and damping, pass cleanly. The undamped Nyquist frequency (σ_{S/2} = 0) is one cause
+    // (the strip at S = 80 climbs without bound at 1068.1 Hz), not the only one: with the
+    // exact damping symbol the loops stay. docs/method.md §16. The pipeline refuses it too.
     if let super::basis::TimeBasis::Spline(_) = system.basis {
         return Err(Error::Input(format!(
             "harmonic_balance.basis: sweeps do not take the {} basis yet; use basis: fourier",
