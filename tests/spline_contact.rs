@@ -120,8 +120,10 @@ fn spline_contact_maps_invert_and_equal_the_per_frequency_forms() {
 
 /// TEST GOAL: with the Fourier basis the contact path through the sampler reproduces the
 /// solver before it (main at 0504752, `hbcontact run pipelines/reference_strip.yaml --set
-/// stability.check=false`, H = 20) to round-off: peak and mean contact force, tension ratio
-/// and probe amplitude within 1e-10 (measured: identical to the last digit).
+/// stability.check=false`, H = 20): peak and mean contact force, tension ratio and probe
+/// amplitude within 1e-7, ten times the Newton's tolerance (identical to the last digit until
+/// the matrix-free steps became inexact, `step::forcing`; since then 1.2e-9 in the peak force
+/// and 1.2e-8 in the tension ratio, a ratio of a small force to the peak).
 #[test]
 fn fourier_basis_through_the_sampler_reproduces_the_previous_solver() {
     let s = run(
@@ -149,8 +151,9 @@ fn fourier_basis_through_the_sampler_reproduces_the_previous_solver() {
         ),
         ("probe first harmonic", probe, 7.906508626105003e-06),
     ] {
+        println!("{what}: relative change {:.1e}", got / before - 1.0);
         assert!(
-            (got / before - 1.0).abs() < 1e-10,
+            (got / before - 1.0).abs() < 1e-7,
             "{what}: {got:e} now, {before:e} before"
         );
     }

@@ -178,6 +178,8 @@ pub(super) struct Residual<'a> {
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
+    /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
+    node_blocks: std::cell::RefCell<step::NodeBlocks>,
 }
 
 impl<'a> Residual<'a> {
@@ -188,6 +190,7 @@ impl<'a> Residual<'a> {
             c: settings.c,
             smoothing: settings.smoothing,
             linear_force: linear_force(problem, settings.samples, settings.c),
+            node_blocks: Default::default(),
         }
     }
 
@@ -243,7 +246,8 @@ impl<'a> Residual<'a> {
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
-    /// The Newton direction: dense LU or matrix-free GMRES (`step`).
+    /// The Newton direction: dense LU or matrix-free GMRES (`step`), the latter to the
+    /// forcing term of `step::forcing` at the current relative residual.
     fn direction(&self, e: &Evaluation, settings: &NewtonSettings) -> Result<Vec<f64>, String> {
         step::direction(
             self.problem,
@@ -252,6 +256,8 @@ impl<'a> Residual<'a> {
             &e.slopes,
             &e.residual,
             settings.method,
+            step::forcing(self.relative(e), settings.tolerance),
+            &mut self.node_blocks.borrow_mut(),
         )
     }
 }
@@ -641,8 +647,17 @@ mod jacobian_tests {
             // finite-difference column instead: J⁻¹ (R(x+εe_k) − R(x))/ε must be e_k.
             let fd: Vec<f64> = rp.iter().zip(&r0).map(|(a, b)| -(a - b) / eps).collect();
             let slopes: Vec<f64> = active.iter().map(|&a| a as u8 as f64).collect();
-            let back = step::direction(&problem, &sampler, c, &slopes, &fd, StepMethod::Dense)
-                .expect("regular");
+            let back = step::direction(
+                &problem,
+                &sampler,
+                c,
+                &slopes,
+                &fd,
+                StepMethod::Dense,
+                1e-6,
+                &mut Default::default(),
+            )
+            .expect("regular");
             for (a, b) in back.iter().zip(&e) {
                 assert!((a - b).abs() < 1e-5, "column {k}: {back:?}");
             }
