@@ -322,8 +322,9 @@ fn sweep_output_keys_are_read_and_write_at_outside_the_range_is_refused() {
 /// TEST GOAL: `harmonic_balance.basis` reads `fourier` (the default) and
 /// `{spline: {degree, segments}}` (degree 3 by default); a degree outside 2 … 7, too few
 /// segments for the degree or for the loads' harmonics, samples that are not a multiple of
-/// the segments with degree + 1 per segment (the contact quadrature), and splines with a
-/// sweep block (not built yet) are refused naming the key and the fix.
+/// the segments with degree + 1 per segment (the contact quadrature), and an even number of
+/// segments in a sweep with contact (an undamped Nyquist frequency) are refused naming the key
+/// and the fix; a sweep without contact takes any S.
 #[test]
 fn time_basis_is_read_defaulted_and_its_limits_named() {
     use hbcontact::config::BasisSpec;
@@ -344,7 +345,15 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
     );
     let k2 = "boundaries.loads.0.harmonics=[{k: 2, cos: [0.0, 1.0], sin: [0.0, 0.0]}]";
     let sweep = "sweep={from: 5.0, to: 15.0}";
-    let cases: [(&str, &str, &[&str], &str); 7] = [
+    let linear = load(&["harmonic_balance.basis={spline: {segments: 64}}", sweep]);
+    assert!(linear.sweep.is_some());
+    let odd = load_pipeline(
+        &root().join("pipelines/strip_sweep.yaml"),
+        &["harmonic_balance.basis={spline: {segments: 41}}".to_string()],
+    )
+    .unwrap();
+    assert!(odd.sweep.is_some() && odd.contact.is_some());
+    let cases: [(&str, &str, &[&str], &str); 6] = [
         (
             "cantilever",
             "{spline: {degree: 1, segments: 16}}",
@@ -364,12 +373,6 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
             "more than 4 segments",
         ),
         (
-            "cantilever",
-            "{spline: {segments: 64}}",
-            &[sweep],
-            "does not support the `sweep` block",
-        ),
-        (
             "strip_wall",
             "{spline: {segments: 64}}",
             &["harmonic_balance.samples=1000"],
@@ -385,7 +388,7 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
             "strip_sweep",
             "{spline: {segments: 64}}",
             &[],
-            "does not support the `sweep` block",
+            "needs an odd number of segments",
         ),
     ];
     for (scene, basis, extra, needle) in cases {

@@ -1236,17 +1236,11 @@ fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
 }
 
 /// A spline basis: samples (if given) a multiple of the segments with at least degree + 1
-/// per segment, no sweeps (yet), and more than two segments per period of every harmonic the
-/// loads excite.
+/// per segment, an odd number of segments in a sweep with contact, and more than two segments
+/// per period of every harmonic the loads excite.
 fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
     let BasisSpec::Spline { degree, segments } = p.harmonic_balance.basis else {
         return Ok(());
-    };
-    let refuse = |what: &str| {
-        Err(config_error(
-            path,
-            format!("harmonic_balance.basis: spline does not support {what} yet; use basis: fourier (the default)"),
-        ))
     };
     if let Some(n) = p.harmonic_balance.samples {
         let per = crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT;
@@ -1257,8 +1251,11 @@ fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
             ));
         }
     }
-    if p.sweep.is_some() {
-        return refuse("the `sweep` block");
+    if p.sweep.is_some() && p.contact.is_some() && segments.is_multiple_of(2) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.segments = {segments} is even: a sweep with contact needs an odd number of segments (with even S the Nyquist frequency S/2 has no damping, σ = 0, and somewhere in a sweep's range S/2·ω meets a mesh mode and the branch climbs without bound: docs/method.md §16); use segments = {}", segments + 1),
+        ));
     }
     let b = &p.boundaries;
     let loads = b

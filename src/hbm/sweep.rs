@@ -184,16 +184,18 @@ pub fn sweep(
     reporter: &dyn Reporter,
     on_point: &mut OnPoint,
 ) -> Result<SweepOutcome> {
-    // Not with splines yet: a sweep passes the frequencies where a spline frequency meets a
-    // mesh mode, and there spline solutions loop or climb where Fourier's, at equal unknowns
-    // and damping, pass cleanly. The undamped Nyquist frequency (σ_{S/2} = 0) is one cause
-    // (the strip at S = 80 climbs without bound at 1068.1 Hz), not the only one: with the
-    // exact damping symbol the loops stay. docs/method.md §16. The pipeline refuses it too.
-    if let super::basis::TimeBasis::Spline(_) = system.basis {
-        return Err(Error::Input(format!(
-            "harmonic_balance.basis: sweeps do not take the {} basis yet; use basis: fourier",
-            system.basis.describe()
-        )));
+    // A spline basis with contact sweeps on odd S only: an even S has a Nyquist frequency
+    // without damping (σ_{S/2} = 0), and a sweep passes the frequencies where S/2·ω meets one
+    // of the mesh's many high modes, where the branch climbs without bound (docs/method.md
+    // §16). The pipeline refuses it too.
+    if let super::basis::TimeBasis::Spline(b) = &system.basis {
+        if contact.is_some() && b.segments.is_multiple_of(2) {
+            return Err(Error::Input(format!(
+                "harmonic_balance.basis: a sweep with contact needs an odd number of spline segments (the {} basis has an undamped Nyquist frequency); use {} segments",
+                system.basis.describe(),
+                b.segments + 1
+            )));
+        }
     }
     let hb = &super::contact_settings(system, contact.is_some(), hb)?;
     match contact {

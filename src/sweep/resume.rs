@@ -100,9 +100,14 @@ pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
     Ok(saved)
 }
 
-/// The saved state fits the model: as many contact unknowns (nodes × (2H + 1)).
+/// The saved state fits the model: as many contact unknowns (nodes × (2H + 1), with
+/// H = ⌊S/2⌋ for a spline basis of S segments).
 pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline) -> Result<()> {
-    let m = 2 * p.harmonic_balance.harmonics + 1;
+    let h = match p.harmonic_balance.basis {
+        crate::config::BasisSpec::Spline { segments, .. } => segments / 2,
+        crate::config::BasisSpec::Fourier => p.harmonic_balance.harmonics,
+    };
+    let m = 2 * h + 1;
     let want = model.contact.as_ref().map_or(0, |c| c.operator.nodes() * m);
     let have = saved.resume.as_ref().map_or(0, |s| s.multipliers.len());
     if have != want {
