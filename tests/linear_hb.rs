@@ -414,11 +414,11 @@ fn fourier_basis_builds_the_classic_dynamic_stiffness_bit_for_bit() {
 }
 
 /// TEST GOAL: a spline basis runs a linear scene end to end (outputs written, the tip
-/// amplitude within 1e-4 of Fourier's at 32 cubic segments), and a sweep with a spline basis
-/// (not built yet; contact scenes run, tests/spline_contact.rs) is refused with exit code 2
-/// and the fix instead of running Fourier silently.
+/// amplitude within 1e-4 of Fourier's at 32 cubic segments), and a contact sweep with an even
+/// number of segments (an undamped Nyquist frequency: docs/method.md §16) is refused with exit
+/// code 2 and the odd S to use instead of running anyway.
 #[test]
-fn spline_basis_runs_linear_pipelines_and_refuses_sweeps() {
+fn spline_basis_runs_linear_pipelines_and_refuses_even_segments_in_contact_sweeps() {
     let spline = "harmonic_balance.basis={spline: {degree: 3, segments: 32}}";
     let amplitude = |tag: &str, sets: &[&str]| -> f64 {
         let out = common::temp_out(tag);
@@ -461,9 +461,10 @@ fn spline_basis_runs_linear_pipelines_and_refuses_sweeps() {
     assert_eq!(refused.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(
-        stderr.contains("harmonic_balance.basis")
+        stderr.contains("harmonic_balance.basis.spline.segments")
             && stderr.contains("sweep")
-            && stderr.contains("basis: fourier"),
+            && stderr.contains("odd")
+            && stderr.contains("segments = 33"),
         "{stderr}"
     );
 }
