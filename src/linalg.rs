@@ -446,30 +446,23 @@ pub fn solve_real(a: &Csc, b: &[f64]) -> Result<Vec<f64>> {
     Ok(lu.solve(&rhs).into_iter().map(|z| z.re).collect())
 }
 
-/// Σ a_i b_i (real or complex) with eight running sums, so the compiler can keep them in
-/// SIMD registers (a single running sum is a chain of dependent adds that it may not reorder).
-pub fn dot<T>(a: &[T], b: &[T]) -> T
-where
-    T: Copy + Default + std::ops::Mul<Output = T> + std::ops::AddAssign + std::iter::Sum,
-{
-    let mut sums = [T::default(); 8];
+/// Σ a_i b_i with eight running sums, so the compiler can keep them in SIMD registers (a
+/// single running sum is a chain of dependent adds that it may not reorder).
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [0.0; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: T = ca
+    let tail: f64 = ca
         .remainder()
         .iter()
         .zip(cb.remainder())
-        .map(|(x, y)| *x * *y)
+        .map(|(x, y)| x * y)
         .sum();
     for (x, y) in ca.zip(cb) {
         for l in 0..8 {
             sums[l] += x[l] * y[l];
         }
     }
-    let mut total = tail;
-    for s in sums {
-        total += s;
-    }
-    total
+    sums.iter().sum::<f64>() + tail
 }
 
 /// The inverse of the row-major n × n matrix `a` by faer's partially pivoted LU, on the
