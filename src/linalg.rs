@@ -465,39 +465,6 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     sums.iter().sum::<f64>() + tail
 }
 
-/// The inverse of the row-major n × n matrix `a` by faer's partially pivoted LU, on the
-/// calling thread: faer's `Mat::partial_piv_lu` spreads even an 81 × 81 matrix over its global
-/// thread pool, which made the contact Newton's many small node blocks slower with two threads
-/// than with one. `None` when the result is not finite (a singular matrix).
-pub fn invert_dense(a: &[f64], n: usize) -> Option<Vec<f64>> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::lu::partial_pivoting::{factor, inverse};
-    use faer::Par;
-    let mut lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
-    let (mut fwd, mut bwd) = (vec![0usize; n], vec![0usize; n]);
-    let scratch = factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default());
-    let (_, perm) = factor::lu_in_place(
-        lu.as_mut(),
-        &mut fwd,
-        &mut bwd,
-        Par::Seq,
-        MemStack::new(&mut MemBuffer::new(scratch)),
-        Default::default(),
-    );
-    let mut out = Mat::<f64>::zeros(n, n);
-    let scratch = inverse::inverse_scratch::<usize, f64>(n, Par::Seq);
-    inverse::inverse(
-        out.as_mut(),
-        lu.as_ref(),
-        lu.as_ref(),
-        perm,
-        Par::Seq,
-        MemStack::new(&mut MemBuffer::new(scratch)),
-    );
-    let inverse: Vec<f64> = (0..n * n).map(|r| out[(r / n, r % n)]).collect();
-    inverse.iter().all(|v| v.is_finite()).then_some(inverse)
-}
-
 /// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,
 /// Alg. 9.5) with modified Gram–Schmidt and Givens rotations. Returns the solution when the
 /// relative residual reaches 1e-2 or better (callers that guard the step, like a line search,

@@ -66,7 +66,7 @@ impl ReducedProblem {
         for (k, gk) in self.compliance.iter().enumerate() {
             let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
             for i in 0..nc {
-                let y = complex_dot(&gk[i * nc..(i + 1) * nc], &lam);
+                let y: c64 = (0..nc).map(|j| gk[i * nc + j] * lam[j]).sum();
                 let gi = &mut g[i * m..(i + 1) * m];
                 set_phasor(gi, k, phasor(gi, k) + y);
             }
@@ -91,25 +91,6 @@ impl ReducedProblem {
             (false, true) => -gij.im,
         }
     }
-}
-
-/// Σ a_j b_j in four running sums (one chain of dependent adds does not pipeline; on the
-/// 601-node half-disc these products are most of every GMRES iteration).
-fn complex_dot(a: &[c64], b: &[c64]) -> c64 {
-    let mut s = [c64::new(0.0, 0.0); 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    let tail: c64 = ca
-        .remainder()
-        .iter()
-        .zip(cb.remainder())
-        .map(|(x, y)| x * y)
-        .sum();
-    for (x, y) in ca.zip(cb) {
-        for l in 0..4 {
-            s[l] += x[l] * y[l];
-        }
-    }
-    s[0] + s[1] + s[2] + s[3] + tail
 }
 
 #[derive(Clone, Debug)]

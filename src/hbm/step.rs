@@ -16,14 +16,14 @@
 //! - J is dense only across the contact nodes of one harmonic: the dense LU costs ⅔ dim³,
 //!   a matrix-free GMRES iteration O(nc·N log N + nc²·H). The step picks by estimated flops.
 
-use faer::linalg::solvers::Solve;
+use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::Mat;
 use num_complex::Complex64;
 
 use super::fourier::{harmonic_of, Sampler};
 use super::reduced::ReducedProblem;
 use super::sampler::ContactSampler;
-use crate::linalg::{dot, gmres, invert_dense};
+use crate::linalg::{dot, gmres};
 
 /// GMRES iterations the cost model assumes per Newton step (measured: 10–40 on the strip and
 /// the half-disc with the node-block preconditioner).
@@ -196,15 +196,22 @@ impl NodeBlocks {
         for (i, ready) in self.inverse_ready.iter_mut().enumerate() {
             if !*ready {
                 let range = i * m * m..(i + 1) * m * m;
-                let block = node_block(problem, self.c, i, &self.blocks[range.clone()]);
-                // A singular node block preconditions as the identity: GMRES converges,
-                // slower.
-                let inverse = invert_dense(&block, m).unwrap_or_else(|| {
-                    (0..m * m)
-                        .map(|r| f64::from(u8::from(r / m == r % m)))
-                        .collect()
-                });
-                self.inverses[range].copy_from_slice(&inverse);
+                let inverse = node_block(problem, self.c, i, &self.blocks[range.clone()])
+                    .partial_piv_lu()
+                    .inverse();
+                let finite = inverse
+                    .col_iter()
+                    .all(|col| col.iter().all(|v| v.is_finite()));
+                for (r, out) in self.inverses[range].iter_mut().enumerate() {
+                    // A singular node block preconditions as the identity: GMRES converges,
+                    // slower.
+                    let identity = f64::from(u8::from(r / m == r % m));
+                    *out = if finite {
+                        inverse[(r / m, r % m)]
+                    } else {
+                        identity
+                    };
+                }
                 *ready = true;
             }
         }
@@ -319,24 +326,21 @@ fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64], scale: f
     }
 }
 
-/// J_ii = I − A_i + c A_i G_ii (row-major). G_ii couples only the cosine and sine of one harmonic, as
+/// J_ii = I − A_i + c A_i G_ii. G_ii couples only the cosine and sine of one harmonic, as
 /// the real 2 × 2 block [[Re g, Im g], [−Im g, Re g]] of g = G_k[i, i] (1 × 1 for the
 /// constant), so A_i G_ii costs 4 M² instead of M³.
-fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64]) -> Vec<f64> {
+fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64]) -> Mat<f64> {
     let m = problem.coefficients();
-    let mut out: Vec<f64> = (0..m * m)
-        .map(|r| f64::from(u8::from(r / m == r % m)) - a_i[r])
-        .collect();
+    let mut out = Mat::<f64>::from_fn(m, m, |a, b| f64::from(u8::from(a == b)) - a_i[a * m + b]);
     let g = |k: usize| c * problem.compliance[k][i * problem.nodes + i];
     let g0 = g(0).re;
     for a in 0..m {
         let row = &a_i[a * m..(a + 1) * m];
-        let out = &mut out[a * m..(a + 1) * m];
-        out[0] += row[0] * g0;
+        out[(a, 0)] += row[0] * g0;
         for k in 1..=(m - 1) / 2 {
             let (gk, cos, sin) = (g(k), 2 * k - 1, 2 * k);
-            out[cos] += row[cos] * gk.re - row[sin] * gk.im;
-            out[sin] += row[cos] * gk.im + row[sin] * gk.re;
+            out[(a, cos)] += row[cos] * gk.re - row[sin] * gk.im;
+            out[(a, sin)] += row[cos] * gk.im + row[sin] * gk.re;
         }
     }
     out
