@@ -279,12 +279,11 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
 
 /// The step without forming J: restarted GMRES on J v = v − A v + c A G v, right-
 /// preconditioned by the inverses of J's node-diagonal blocks J_ii = I − A_i + c A_i G_ii
-/// (`NodeBlocks`, formed once per step at most, so each GMRES iteration costs two M × M
-/// products per node).
-/// Products with A use the activity blocks A_i already formed for the preconditioner (an M × M
-/// product per node, cheaper than the two FFTs of length N that Q D_i P takes, since M ≈ N/8);
-/// products with G go harmonic by harmonic. Inexact Newton: the linear tolerance is loose
-/// because the line search guards the step.
+/// (`NodeBlocks`, formed once per step at most). Products with A use the activity blocks A_i
+/// (an M × M product per node, cheaper than the two FFTs of length N that Q D_i P takes, since
+/// M ≈ N/8), products with G go harmonic by harmonic: a GMRES iteration costs two M × M
+/// products per node and one n_c × n_c product per harmonic. Inexact Newton: the linear
+/// tolerance is the forcing term, loose because the line search guards the step.
 fn krylov_step(
     problem: &ReducedProblem,
     c: f64,
@@ -301,27 +300,27 @@ fn krylov_step(
             *g = c * (*g - r) - x;
         }
         let mut out = v.to_vec();
-        block_products(blocks, m, &gv, &mut out, 1.0);
+        block_products(blocks, m, &gv, &mut out);
         out
     };
     let precondition = |v: &[f64]| -> Vec<f64> {
         let mut out = vec![0.0; v.len()];
-        block_products(inverses, m, v, &mut out, 1.0);
+        block_products(inverses, m, v, &mut out);
         out
     };
     let rhs: Vec<f64> = residual.iter().map(|v| -v).collect();
     gmres(&apply_j, &precondition, &rhs, forcing, 60, 20)
 }
 
-/// out_i += scale · B_i x_i for the row-major M × M blocks B_i of every node.
-fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64], scale: f64) {
+/// out_i += B_i x_i for the row-major M × M blocks B_i of every node.
+fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64]) {
     for ((b, xi), oi) in blocks
         .chunks_exact(m * m)
         .zip(x.chunks_exact(m))
         .zip(out.chunks_exact_mut(m))
     {
         for (row, o) in b.chunks_exact(m).zip(oi.iter_mut()) {
-            *o += scale * dot(row, xi);
+            *o += dot(row, xi);
         }
     }
 }
