@@ -3,7 +3,7 @@
 mod common;
 
 use hbcontact::pipeline::{self, RunOptions};
-use hbcontact::sweep::{self, SweepSummary};
+use hbcontact::sweep::{self, SweepRow, SweepSummary};
 use hbcontact::Silent;
 
 fn run_sweep(name: &str, overrides: &[&str], tag: &str) -> SweepSummary {
@@ -36,6 +36,51 @@ fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
         .first_harmonic()
 }
 
+/// The checks a linear sweep of the cantilever shares with its basis: the peak row lies within
+/// the half-power band ζ of the first natural frequency `modes` reports, and the first row,
+/// the peak and the last row equal single-frequency runs (with `overrides`) to 1e-10. Returns
+/// the peak row.
+fn assert_cantilever_frf<'a>(s: &'a SweepSummary, overrides: &[&str], tag: &str) -> &'a SweepRow {
+    let peak = s
+        .rows
+        .iter()
+        .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
+        .unwrap();
+    let p = common::scene("cantilever", &[]);
+    let options = RunOptions {
+        out: Some(common::temp_out(&format!("{tag}-modes"))),
+        ..Default::default()
+    };
+    let modes = pipeline::modes(&p, &options, 1, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let f1 = modes.summary.modes[0].frequency_hz;
+    let zeta = 0.5 / (2.0 * 2.0 * std::f64::consts::PI * f1);
+    let off = (peak.frequency_hz - f1).abs() / f1;
+    println!(
+        "{} points, peak {:.4} Hz vs f1 {f1:.4} Hz ({off:.2e}), ζ = {zeta:.2e}",
+        s.points, peak.frequency_hz
+    );
+    assert!(off < zeta, "peak {} Hz, f1 {f1} Hz", peak.frequency_hz);
+    // Point by point: the first row, the peak and the last row.
+    for (i, row) in [&s.rows[0], peak, s.rows.last().unwrap()]
+        .into_iter()
+        .enumerate()
+    {
+        let single = single_run(
+            "cantilever",
+            overrides,
+            row.frequency_hz,
+            &format!("{tag}-point-{i}"),
+        );
+        let rel = (row.values[0] - single).abs() / single;
+        println!(
+            "{:.4} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",
+            row.frequency_hz, row.values[0]
+        );
+        assert!(rel < 1e-10, "{} Hz: {rel}", row.frequency_hz);
+    }
+    peak
+}
+
 /// TEST GOAL: without contact the sweep is the linear FRF: every point equals a single-
 /// frequency run at its frequency to round-off, the steps shrink toward the resonance, and
 /// the peak lies at the first natural frequency `modes` reports (within the half-power band,
@@ -55,41 +100,7 @@ fn linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequen
         "ends at {}",
         last.frequency_hz
     );
-    let peak = s
-        .rows
-        .iter()
-        .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
-        .unwrap();
-    let p = common::scene("cantilever", &[]);
-    let modes = pipeline::modes(
-        &p,
-        &RunOptions {
-            out: Some(common::temp_out("sweep-linear-modes")),
-            ..Default::default()
-        },
-        1,
-        &Silent,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let f1 = modes.summary.modes[0].frequency_hz;
-    let zeta = 0.5 / (2.0 * 2.0 * std::f64::consts::PI * f1);
-    let off = (peak.frequency_hz - f1).abs() / f1;
-    println!(
-        "{} points, peak {:.4} Hz vs f1 {f1:.4} Hz ({off:.2e}), ζ = {zeta:.2e}",
-        s.points, peak.frequency_hz
-    );
-    assert!(off < zeta, "peak {} Hz, f1 {f1} Hz", peak.frequency_hz);
-    // Point by point: the first row, the peak and the last row.
-    for (i, row) in [&s.rows[0], peak, last].into_iter().enumerate() {
-        let tag = format!("sweep-linear-point-{i}");
-        let single = single_run("cantilever", &[], row.frequency_hz, &tag);
-        let rel = (row.values[0] - single).abs() / single;
-        println!(
-            "{:.4} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",
-            row.frequency_hz, row.values[0]
-        );
-        assert!(rel < 1e-10, "{} Hz: {rel}", row.frequency_hz);
-    }
+    let peak = assert_cantilever_frf(&s, &[], "sweep-linear");
     // Steps shrink toward the resonance: the rows near the peak are closer than at the ends.
     let spacing = |i: usize| (s.rows[i + 1].frequency_hz - s.rows[i].frequency_hz).abs();
     let ip = peak.index.min(s.rows.len() - 2);
@@ -399,39 +410,7 @@ fn spline_linear_sweep_is_the_spline_frf_point_by_point() {
         "sweep-spline-linear",
     );
     assert!(s.stopped.is_none() && s.folds.is_empty(), "{:?}", s.stopped);
-    let peak = s
-        .rows
-        .iter()
-        .max_by(|a, b| a.values[0].total_cmp(&b.values[0]))
-        .unwrap();
-    // f1 and ζ as in linear_sweep_is_the_frf_point_by_point_and_peaks_at_the_first_natural_frequency.
-    let p = common::scene("cantilever", &[]);
-    let options = RunOptions {
-        out: Some(common::temp_out("sweep-spline-linear-modes")),
-        ..Default::default()
-    };
-    let modes = pipeline::modes(&p, &options, 1, &Silent).unwrap_or_else(|e| panic!("{e}"));
-    let f1 = modes.summary.modes[0].frequency_hz;
-    let zeta = 0.5 / (2.0 * 2.0 * std::f64::consts::PI * f1);
-    let off = (peak.frequency_hz - f1).abs() / f1;
-    println!(
-        "{} points, peak {:.4} Hz vs f1 {f1:.4} Hz ({off:.2e})",
-        s.points, peak.frequency_hz
-    );
-    assert!(off < zeta, "peak {} Hz, f1 {f1} Hz", peak.frequency_hz);
-    for (i, row) in [&s.rows[0], peak, s.rows.last().unwrap()]
-        .into_iter()
-        .enumerate()
-    {
-        let tag = format!("sweep-spline-linear-point-{i}");
-        let single = single_run("cantilever", &[basis], row.frequency_hz, &tag);
-        let rel = (row.values[0] - single).abs() / single;
-        println!(
-            "{:.4} Hz: sweep {:.6e}, run {single:.6e} ({rel:.1e})",
-            row.frequency_hz, row.values[0]
-        );
-        assert!(rel < 1e-10, "{} Hz: {rel}", row.frequency_hz);
-    }
+    assert_cantilever_frf(&s, &[basis], "sweep-spline-linear");
 }
 
 /// TEST GOAL: with contact a spline basis (odd S) sweeps too: on the fold scene from 1000 to
