@@ -446,23 +446,63 @@ pub fn solve_real(a: &Csc, b: &[f64]) -> Result<Vec<f64>> {
     Ok(lu.solve(&rhs).into_iter().map(|z| z.re).collect())
 }
 
-/// Σ a_i b_i with eight running sums, so the compiler can keep them in SIMD registers (a
-/// single running sum is a chain of dependent adds that it may not reorder).
-pub fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut sums = [0.0; 8];
+/// Σ a_i b_i (real or complex) with eight running sums, so the compiler can keep them in
+/// SIMD registers (a single running sum is a chain of dependent adds that it may not reorder).
+pub fn dot<T>(a: &[T], b: &[T]) -> T
+where
+    T: Copy + Default + std::ops::Mul<Output = T> + std::ops::AddAssign + std::iter::Sum,
+{
+    let mut sums = [T::default(); 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let tail: f64 = ca
+    let tail: T = ca
         .remainder()
         .iter()
         .zip(cb.remainder())
-        .map(|(x, y)| x * y)
+        .map(|(x, y)| *x * *y)
         .sum();
     for (x, y) in ca.zip(cb) {
         for l in 0..8 {
             sums[l] += x[l] * y[l];
         }
     }
-    sums.iter().sum::<f64>() + tail
+    let mut total = tail;
+    for s in sums {
+        total += s;
+    }
+    total
+}
+
+/// The inverse of the row-major n × n matrix `a` by faer's partially pivoted LU, on the
+/// calling thread: faer's `Mat::partial_piv_lu` spreads even an 81 × 81 matrix over its global
+/// thread pool, which made the contact Newton's many small node blocks slower with two threads
+/// than with one. `None` when the result is not finite (a singular matrix).
+pub fn invert_dense(a: &[f64], n: usize) -> Option<Vec<f64>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::lu::partial_pivoting::{factor, inverse};
+    use faer::Par;
+    let mut lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+    let (mut fwd, mut bwd) = (vec![0usize; n], vec![0usize; n]);
+    let scratch = factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default());
+    let (_, perm) = factor::lu_in_place(
+        lu.as_mut(),
+        &mut fwd,
+        &mut bwd,
+        Par::Seq,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+        Default::default(),
+    );
+    let mut out = Mat::<f64>::zeros(n, n);
+    let scratch = inverse::inverse_scratch::<usize, f64>(n, Par::Seq);
+    inverse::inverse(
+        out.as_mut(),
+        lu.as_ref(),
+        lu.as_ref(),
+        perm,
+        Par::Seq,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+    );
+    let inverse: Vec<f64> = (0..n * n).map(|r| out[(r / n, r % n)]).collect();
+    inverse.iter().all(|v| v.is_finite()).then_some(inverse)
 }
 
 /// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,

@@ -319,9 +319,11 @@ fn contact_nodes(csv: &BTreeMap<String, Vec<f64>>) -> Vec<usize> {
 
 /// Bound on |law mean − series mean| / mean of the total contact force: both are sampled at
 /// the solver's instants, where the mean of the law's samples is the series' mean coefficient,
-/// so they agree to the Newton's residual (tolerance 1e-8 of the force scale; measured at most
-/// 1.8e-12, strip_wall, after the adaptive-N solve polished from a warm start).
-const MEAN_AGREEMENT: f64 = 1e-10;
+/// so they agree to the Newton's residual: its tolerance is 1e-8 of the force scale (the peak),
+/// up to about 1e-7 of a mean ten times smaller. Measured 1.8e-8 (blade_casing) since the
+/// matrix-free steps stop at the inexact-Newton forcing term; 1.8e-12 before, when every step
+/// was solved to 1e-6 and the last one left the residual at round-off.
+const MEAN_AGREEMENT: f64 = 1e-7;
 
 /// TEST GOAL: the contact output obeys the contact law (docs/method.md (23): at a solution
 /// λ = −Q max(0, P(c g − λ)), so the sampled projection max(0, c g − λ) is the law's pressing

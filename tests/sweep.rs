@@ -238,17 +238,20 @@ fn lightly_damped_fine_mesh_sweep_passes_the_contact_onset() {
 }
 
 /// TEST GOAL: where kinks of the sampled contact law tangle the curve (the 0.5%-damped strip
-/// with the wall at 50 µm, H = 10, near 1447.5 Hz) the continuation stops there with a
-/// diagnosis that names harmonic_balance.harmonics and keeps the curve so far, instead of
-/// tracing the curve twice and reporting the end reached. (With the exact arc-length corrector
-/// a kink turned it round at 1447.8 Hz and the retrace check stopped it; with the chord
-/// corrector and the smoothing fallback it stops at 1447.5 Hz for want of a next point. The
-/// retrace check itself is unit-tested in src/hbm/sweep.rs.)
+/// with the wall at 50 µm, H = 20, near 1346 Hz: four turning points within 1.2 Hz, then the
+/// continuation comes back onto its own path) the sweep stops there with a diagnosis that
+/// names harmonic_balance.harmonics and keeps the curve so far, instead of tracing the curve
+/// twice and reporting the end reached. Where it stops depends on round-off in the tangle (at
+/// H = 10 with the Newton's forcing term capped at 1e-3 it stopped at 1447.5 Hz; with 1e-4
+/// H = 10 passes that tangle and reaches 1800 Hz through 20 turning points), so the test asks
+/// for a stop inside the region of turning points, not at one frequency. The retrace check
+/// itself is unit-tested in src/hbm/sweep.rs.
 #[test]
 fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
     let overrides = [
         "geometry.parameters.lc=0.025",
         "geometry.parameters.gap=5e-5",
+        "harmonic_balance.harmonics=20",
         "stability.check=false",
     ];
     let s = run_sweep("strip_sweep_light", &overrides, "sweep-retrace");
@@ -257,11 +260,11 @@ fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
     assert_eq!(stopped.class, "not_converged");
     assert!(stopped.reason.contains("harmonic_balance.harmonics"));
     assert!(
-        (stopped.frequency_hz - 1447.5).abs() < 1.0,
+        (1340.0..1350.0).contains(&stopped.frequency_hz),
         "{}",
         stopped.frequency_hz
     );
-    assert!(s.rows.len() > 50);
+    assert!(s.rows.len() > 30);
 }
 
 /// Time marching of the reference strip with the given `--set`s; the summary.

@@ -286,9 +286,11 @@ fn fold_peak_and_write_at_points_hold_a_runs_output_at_their_rows() {
 /// TEST GOAL: a sweep stopped by `max_points` (30) says so in sweep.json (`stopped.class`
 /// max_points, at its last row; exit 0) and `--resume` with the budget raised to 80
 /// continues it from there: the rows, folds and written points equal those of the
-/// uninterrupted 80-point sweep (frequencies and outputs to 1e-11; the resumed point is
-/// re-solved from its saved multipliers, so it stays on its branch), and `resumed_from`
-/// names the row it continued from.
+/// uninterrupted 80-point sweep (frequencies and outputs to 1e-9, a tenth of the Newton's
+/// tolerance: the resumed point is re-solved from its saved multipliers, so it stays on its
+/// branch, and its matrix-free steps stop at the forcing term, so it agrees to the Newton's
+/// final residual, not to round-off: measured 1.0e-11), and `resumed_from` names the row it
+/// continued from.
 #[test]
 fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
     let (_, whole) = curve();
@@ -325,13 +327,13 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
         }
     }
     println!("{} rows, largest relative difference {worst:.1e}", a.len());
-    assert!(worst < 1e-11, "{worst}");
+    assert!(worst < 1e-9, "{worst}");
     let fold = |j: &Value| f(&j["folds"][0]["frequency_hz"]);
     assert_eq!(
         whole["folds"].as_array().unwrap().len(),
         resumed["folds"].as_array().unwrap().len()
     );
-    assert!(rel(fold(whole), fold(&resumed)) < 1e-11);
+    assert!(rel(fold(whole), fold(&resumed)) < 1e-9);
     let folders = |j: &Value| -> Vec<String> {
         j["written"]
             .as_array()
@@ -351,8 +353,10 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
 }
 
 /// TEST GOAL: a sweep whose continuation fails part-way (here: the strip with 0.5% damping
-/// and the wall at 50 µm, whose H = 10 curve tangles past its first folds near 1447.5 Hz;
-/// the contact onset of the 0.1 mm wall and the grazing corners no longer fail) keeps the curve
+/// and the wall at 50 µm, whose H = 20 curve tangles at its first folds near 1346 Hz and runs
+/// back onto itself; the contact onset of the 0.1 mm wall, the grazing corners and, since the
+/// Newton's forcing term is capped at 1e-4, the H = 10 tangle near 1447.5 Hz no longer fail)
+/// keeps the curve
 /// so far: sweep.csv and sweep.json hold every row found, `stopped` names the last row, its
 /// frequency and the class of the exit code (not_converged, 4), the plots, the frames (every
 /// third point, save_every = 3) and the folds found are written; `--resume` with another range
@@ -361,10 +365,11 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
 fn a_sweep_failing_part_way_keeps_the_curve_so_far_and_exits_with_its_class() {
     let out = common::temp_out("sweep-output-fail");
     // The 0.5%-damped strip with the wall at 50 µm: kinks of the sampled law tangle the
-    // H = 10 curve near 1447.5 Hz, past its first folds, where it stops.
+    // H = 20 curve near 1346 Hz, at its first folds, where it stops.
     let steps = [
         "damping.alpha=85.7",
         "geometry.parameters.gap=5e-5",
+        "harmonic_balance.harmonics=20",
         "sweep.from=1200",
         "sweep.to=1800",
         "sweep.save_every=3",
