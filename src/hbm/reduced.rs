@@ -63,8 +63,11 @@ impl ReducedProblem {
     pub fn gap(&self, x: &[f64]) -> Vec<f64> {
         let (nc, m) = (self.nodes, self.coefficients());
         let mut g = self.linear_gap.clone();
+        let mut lam = vec![c64::new(0.0, 0.0); nc];
         for (k, gk) in self.compliance.iter().enumerate() {
-            let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
+            for (j, l) in lam.iter_mut().enumerate() {
+                *l = phasor(&x[j * m..(j + 1) * m], k);
+            }
             for i in 0..nc {
                 // Most of a GMRES iteration on the 601-node half-disc.
                 let y = crate::linalg::dot(&gk[i * nc..(i + 1) * nc], &lam);

@@ -23,7 +23,7 @@ use num_complex::Complex64;
 use super::fourier::{harmonic_of, Sampler};
 use super::reduced::ReducedProblem;
 use super::sampler::ContactSampler;
-use crate::linalg::{dot, gmres, invert_dense};
+use crate::linalg::{gmres, DenseLu};
 
 /// GMRES iterations the cost model assumes per Newton step (measured: 10–40 on the strip and
 /// the half-disc with the node-block preconditioner).
@@ -45,8 +45,9 @@ pub enum StepMethod {
 
 /// Estimated flops of the dense step and of the matrix-free one (per Newton iteration). Both
 /// form the activity blocks (an FFT and M² lookups per node); the dense step then assembles
-/// and factors J, the matrix-free one inverts the node blocks (about 2M³ each) and runs GMRES,
-/// whose iteration costs two M × M products per node, the products with G and the
+/// and factors J, the matrix-free one factors the node blocks (⅔M³ each) and runs GMRES,
+/// whose iteration costs an M × M product and two triangular solves per node, the products
+/// with G and the
 /// Gram–Schmidt of about half the iterations' vectors.
 pub fn estimated_flops(nodes: usize, harmonics: usize, samples: usize) -> (f64, f64) {
     let (nc, m, n) = (nodes as f64, (2 * harmonics + 1) as f64, samples as f64);
@@ -56,7 +57,7 @@ pub fn estimated_flops(nodes: usize, harmonics: usize, samples: usize) -> (f64, 
     let per_iteration = nc * 4.0 * m * m
         + 8.0 * nc * nc * (harmonics as f64 + 1.0)
         + 2.0 * dim * ASSUMED_KRYLOV_ITERATIONS / 2.0;
-    let setup = blocks + nc * (2.0 * m.powi(3) + 4.0 * m * m);
+    let setup = blocks + nc * (2.0 / 3.0 * m.powi(3) + 4.0 * m * m);
     (dense, setup + ASSUMED_KRYLOV_ITERATIONS * per_iteration)
 }
 
@@ -141,9 +142,9 @@ pub fn direction(
     };
     match resolve(method, nc, h, n) {
         StepMethod::Krylov => {
-            cache.refresh_inverses(problem);
-            let (blocks, inverses) = (&cache.blocks, &cache.inverses);
-            krylov_step(problem, c, blocks, inverses, residual, forcing).or_else(|why| {
+            cache.refresh_factors(problem);
+            let (blocks, factors) = (&cache.blocks, &cache.factors);
+            krylov_step(problem, c, blocks, factors, residual, forcing).or_else(|why| {
                 if method == StepMethod::Auto && estimated_flops(nc, h, n).0 <= DENSE_FALLBACK {
                     dense(&cache.blocks)
                 } else {
@@ -156,7 +157,7 @@ pub fn direction(
 }
 
 /// The parts of J that belong to one node and depend only on its slopes (and c): A_i and,
-/// once a matrix-free step asks for it, (I − A_i + c A_i G_ii)⁻¹. A Newton run keeps them and
+/// once a matrix-free step asks for it, the LU of I − A_i + c A_i G_ii. A Newton run keeps them and
 /// recomputes a node's only when its slopes change, so once the active set settles the last
 /// steps reuse every block (the same numbers: nothing is approximated).
 #[derive(Default)]
@@ -164,9 +165,10 @@ pub struct NodeBlocks {
     c: f64,
     slopes: Vec<f64>,
     blocks: Vec<f64>,
-    /// J_ii⁻¹ of each node (row-major), valid where `inverse_ready`.
-    inverses: Vec<f64>,
-    inverse_ready: Vec<bool>,
+    /// The LU of J_ii per node, valid where `factor_ready`; `None` for a singular J_ii,
+    /// which preconditions as the identity (GMRES converges, slower).
+    factors: Vec<Option<DenseLu>>,
+    factor_ready: Vec<bool>,
 }
 
 impl NodeBlocks {
@@ -177,8 +179,8 @@ impl NodeBlocks {
                 c,
                 slopes: vec![f64::NAN; slopes.len()], // NaN equals nothing: all recomputed
                 blocks: vec![0.0; nodes * m * m],
-                inverses: vec![0.0; nodes * m * m],
-                inverse_ready: vec![false; nodes],
+                factors: (0..nodes).map(|_| None).collect(),
+                factor_ready: vec![false; nodes],
             };
         }
         for i in 0..nodes {
@@ -189,25 +191,18 @@ impl NodeBlocks {
             if new != old {
                 sampler.activity_block(new, &mut self.blocks[i * m * m..(i + 1) * m * m]);
                 old.copy_from_slice(new);
-                self.inverse_ready[i] = false;
+                self.factor_ready[i] = false;
             }
         }
     }
 
-    fn refresh_inverses(&mut self, problem: &ReducedProblem) {
+    fn refresh_factors(&mut self, problem: &ReducedProblem) {
         let m = problem.coefficients();
-        for (i, ready) in self.inverse_ready.iter_mut().enumerate() {
+        for (i, ready) in self.factor_ready.iter_mut().enumerate() {
             if !*ready {
-                let range = i * m * m..(i + 1) * m * m;
-                let block = node_block(problem, self.c, i, &self.blocks[range.clone()]);
-                // A singular node block preconditions as the identity: GMRES converges,
-                // slower.
-                let inverse = invert_dense(&block, m).unwrap_or_else(|| {
-                    (0..m * m)
-                        .map(|r| f64::from(u8::from(r / m == r % m)))
-                        .collect()
-                });
-                self.inverses[range].copy_from_slice(&inverse);
+                let block =
+                    node_block(problem, self.c, i, &self.blocks[i * m * m..(i + 1) * m * m]);
+                self.factors[i] = DenseLu::new(&block, m);
                 *ready = true;
             }
         }
@@ -274,17 +269,17 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
 }
 
 /// The step without forming J: restarted GMRES on J v = v − A v + c A G v, right-
-/// preconditioned by the inverses of J's node-diagonal blocks J_ii = I − A_i + c A_i G_ii
-/// (`NodeBlocks`, formed once per step at most). Products with A use the activity blocks A_i
+/// preconditioned by J's node-diagonal blocks J_ii = I − A_i + c A_i G_ii solved by their LUs
+/// (`NodeBlocks`, factored once per step at most). Products with A use the activity blocks A_i
 /// (an M × M product per node, cheaper than the two FFTs of length N that Q D_i P takes, since
-/// M ≈ N/8), products with G go harmonic by harmonic: a GMRES iteration costs two M × M
-/// products per node and one n_c × n_c product per harmonic. Inexact Newton: the linear
+/// M ≈ N/8), products with G go harmonic by harmonic: a GMRES iteration costs an M × M
+/// product and two M × M triangular solves per node and one n_c × n_c product per harmonic. Inexact Newton: the linear
 /// tolerance is the forcing term, loose because the line search guards the step.
 fn krylov_step(
     problem: &ReducedProblem,
     c: f64,
     blocks: &[f64],
-    inverses: &[f64],
+    factors: &[Option<DenseLu>],
     residual: &[f64],
     forcing: f64,
 ) -> Result<Vec<f64>, String> {
@@ -300,24 +295,37 @@ fn krylov_step(
         out
     };
     let precondition = |v: &[f64]| -> Vec<f64> {
-        let mut out = vec![0.0; v.len()];
-        block_products(inverses, m, v, &mut out);
+        let mut out = v.to_vec();
+        let mut work = vec![0.0; m];
+        for (lu, x) in factors.iter().zip(out.chunks_exact_mut(m)) {
+            if let Some(lu) = lu {
+                lu.solve_in_place(x, &mut work);
+            }
+        }
         out
     };
     let rhs: Vec<f64> = residual.iter().map(|v| -v).collect();
     gmres(&apply_j, &precondition, &rhs, forcing, 60, 20)
 }
 
-/// out_i += B_i x_i for the row-major M × M blocks B_i of every node.
+/// out_i += B_i x_i for the row-major M × M blocks B_i of every node, by faer's
+/// matrix–vector product on the calling thread.
 fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64]) {
+    use faer::linalg::matmul::matmul;
+    use faer::{Accum, MatMut, MatRef, Par};
     for ((b, xi), oi) in blocks
         .chunks_exact(m * m)
         .zip(x.chunks_exact(m))
         .zip(out.chunks_exact_mut(m))
     {
-        for (row, o) in b.chunks_exact(m).zip(oi.iter_mut()) {
-            *o += dot(row, xi);
-        }
+        matmul(
+            MatMut::from_column_major_slice_mut(oi, m, 1),
+            Accum::Add,
+            MatRef::from_row_major_slice(b, m, m),
+            MatRef::from_column_major_slice(xi, m, 1),
+            1.0,
+            Par::Seq,
+        );
     }
 }
 
