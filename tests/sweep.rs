@@ -267,6 +267,44 @@ fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
     assert!(s.rows.len() > 30);
 }
 
+/// TEST GOAL: where a coarse spline basis makes the curve close on itself (the fold scene at
+/// S = 41, 1150–1300 Hz: a loop near 1183–1193 Hz, where a discrete frequency of the basis
+/// meets a mesh mode; Fourier at about the same unknowns, H = 20, passes the range without a
+/// fold) the sweep stops with the retrace diagnosis, and the diagnosis names the spline's
+/// segments, the key that refines this basis, not the Fourier harmonics; sweep.json names
+/// the basis.
+#[test]
+fn a_spline_sweep_that_loops_names_the_segments_in_its_diagnosis() {
+    let range = ["sweep.from=1150", "sweep.to=1300", "stability.check=false"];
+    let mut spline = vec!["harmonic_balance.basis={spline: {segments: 41}}"];
+    spline.extend(range);
+    let s = run_sweep("strip_sweep", &spline, "sweep-spline-loop");
+    let stopped = s.stopped.as_ref().expect("the S = 41 sweep stops");
+    println!("{} points; {}", s.points, stopped.reason);
+    assert_eq!(stopped.class, "not_converged");
+    assert!(stopped.reason.contains("ran back onto the curve"));
+    assert!(stopped
+        .reason
+        .contains("harmonic_balance.basis.spline.segments"));
+    assert!(!stopped.reason.contains("harmonic_balance.harmonics"));
+    assert!((1175.0..1200.0).contains(&stopped.frequency_hz));
+    assert_eq!(s.basis, "spline (degree 3, 41 segments)");
+    assert_eq!(s.resolution(), s.basis);
+    let mut fourier = vec!["harmonic_balance.harmonics=20"];
+    fourier.extend(range);
+    let f = run_sweep("strip_sweep", &fourier, "sweep-fourier-no-loop");
+    println!(
+        "Fourier H = 20: {} points, {} folds",
+        f.points,
+        f.folds.len()
+    );
+    assert!(f.stopped.is_none() && f.folds.is_empty());
+    assert_eq!(
+        (f.basis.as_str(), f.resolution().as_str()),
+        ("fourier", "H = 20")
+    );
+}
+
 /// Time marching of the reference strip with the given `--set`s; the summary.
 fn transient(overrides: &[&str], tag: &str) -> hbcontact::pipeline::Summary {
     transient_in(&common::temp_out(tag), overrides).unwrap_or_else(|e| panic!("{e}"))

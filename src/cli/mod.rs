@@ -38,12 +38,12 @@ use hbcontact::pipeline::{CheckReport, ModesResult, RunResult};
 pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     let s = &result.summary;
     outln!(
-        "{}: {} points from {:.4} Hz toward {:.4} Hz (H = {})",
+        "{}: {} points from {:.4} Hz toward {:.4} Hz ({})",
         s.name,
         s.points,
         s.from_hz,
         s.to_hz,
-        s.harmonics
+        s.resolution()
     );
     for f in &s.folds {
         outln!(

@@ -105,7 +105,6 @@ impl TimeBasis {
         }
     }
 
-    /// For messages and summaries: `fourier` or `spline (degree p, S segments)`.
     /// The key that refines the basis in time (what to raise when the answer is too coarse
     /// in time: more harmonics, or more spline segments).
     pub fn refine_key(&self) -> &'static str {
@@ -115,6 +114,7 @@ impl TimeBasis {
         }
     }
 
+    /// For messages and summaries: `fourier` or `spline (degree p, S segments)`.
     pub fn describe(&self) -> String {
         match self {
             TimeBasis::Fourier => "fourier".into(),

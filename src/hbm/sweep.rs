@@ -378,7 +378,8 @@ impl<'a> Continuation<'a> {
             };
             let y = self.scaled(&next);
             if let Some(j) = trail.retraced(&y, info.step).map(|j| j + start) {
-                outcome.stopped = Some(retrace_reason(&point, index - 1, j));
+                let key = self.system.basis.refine_key();
+                outcome.stopped = Some(retrace_reason(&point, index - 1, j, key));
                 break;
             }
             trail.push(y);
@@ -451,10 +452,11 @@ impl<'a> Continuation<'a> {
                     }
                     return Err(format!(
                         "at {:.6} Hz the continuation found no next point down to the \
-                         smallest step {:.1e} ({why}); lower sweep.min_step, raise \
-                         harmonic_balance.harmonics or add damping",
+                         smallest step {:.1e} ({why}); lower sweep.min_step, raise {} or add \
+                         damping",
                         hz(p.omega),
-                        self.s.min_step
+                        self.s.min_step,
+                        self.system.basis.refine_key()
                     ));
                 }
             }
@@ -996,13 +998,13 @@ fn segment_distance(a: &[f64], b: &[f64], q: &[f64]) -> f64 {
 }
 
 /// Why a sweep that runs back along its own path stops.
-fn retrace_reason(p: &Point, index: usize, j: usize) -> String {
+fn retrace_reason(p: &Point, index: usize, j: usize, refine_key: &str) -> String {
     format!(
         "at {:.6} Hz (point {index}) the continuation ran back onto the curve it had traced \
          (between points {} and {j}), so it would retrace the curve instead of following it: \
          a sharp kink of the sampled contact law turned it round, or the curve closes on \
-         itself. Raise harmonic_balance.harmonics or the damping, lower sweep.max_step, or \
-         sweep a narrower range",
+         itself. Raise {refine_key} or the damping, lower sweep.max_step, or sweep a \
+         narrower range",
         hz(p.omega),
         j - 1
     )

@@ -123,6 +123,8 @@ pub struct SweepSummary {
     pub from_hz: f64,
     pub to_hz: f64,
     pub harmonics: usize,
+    /// The time basis: `fourier` (with `harmonics`) or `spline (degree p, S segments)`.
+    pub basis: String,
     pub points: usize,
     /// Column names of `values` in the rows.
     pub columns: Vec<String>,
@@ -150,6 +152,18 @@ pub struct SweepSummary {
     /// factorizations, linear solves, reductions, the correctors (`newton`: Newton, bordered
     /// solves and ∂g/∂ω) and the recoveries.
     pub solver_seconds: crate::hbm::Timings,
+}
+
+impl SweepSummary {
+    /// How finely the curve is resolved in time, for headlines and plot titles: `H = 10`,
+    /// or the spline basis.
+    pub fn resolution(&self) -> String {
+        if self.basis == "fourier" {
+            format!("H = {}", self.harmonics)
+        } else {
+            self.basis.clone()
+        }
+    }
 }
 
 /// A finished sweep, complete or not.
@@ -291,6 +305,8 @@ fn summarize(
         from_hz: spec.from_hz,
         to_hz: spec.to_hz,
         harmonics: p.harmonic_balance.harmonics,
+        basis: crate::pipeline::model::time_basis(p, crate::pipeline::Purpose::HarmonicBalance)
+            .describe(),
         points: writer.rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
         folds,

@@ -36,7 +36,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
         if !s.rows.iter().any(|r| r.values[c].is_finite()) {
             continue;
         }
-        let title = format!("{}: {title} (H = {})", s.name, s.harmonics);
+        let title = format!("{}: {title} ({})", s.name, s.resolution());
         response_figure(&title, y_label, &s.rows, c, &s.folds).save(&dir.join(stem))?;
     }
     Ok(())
