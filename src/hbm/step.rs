@@ -47,8 +47,7 @@ pub enum StepMethod {
 /// form the activity blocks (an FFT and M² lookups per node); the dense step then assembles
 /// and factors J, the matrix-free one factors the node blocks (⅔M³ each) and runs GMRES,
 /// whose iteration costs an M × M product and two triangular solves per node, the products
-/// with G and the
-/// Gram–Schmidt of about half the iterations' vectors.
+/// with G and the Gram–Schmidt of about half the iterations' vectors.
 pub fn estimated_flops(nodes: usize, harmonics: usize, samples: usize) -> (f64, f64) {
     let (nc, m, n) = (nodes as f64, (2 * harmonics + 1) as f64, samples as f64);
     let dim = nc * m;
@@ -329,9 +328,9 @@ fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64]) {
     }
 }
 
-/// J_ii = I − A_i + c A_i G_ii (row-major). G_ii couples only the cosine and sine of one harmonic, as
-/// the real 2 × 2 block [[Re g, Im g], [−Im g, Re g]] of g = G_k[i, i] (1 × 1 for the
-/// constant), so A_i G_ii costs 4 M² instead of M³.
+/// J_ii = I − A_i + c A_i G_ii (row-major). G_ii couples only the cosine and sine of one
+/// harmonic, as the real 2 × 2 block [[Re g, Im g], [−Im g, Re g]] of g = G_k[i, i] (1 × 1
+/// for the constant), so A_i G_ii costs 4 M² instead of M³.
 fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64]) -> Vec<f64> {
     let m = problem.coefficients();
     let mut out: Vec<f64> = (0..m * m)
