@@ -243,7 +243,7 @@ fn lightly_damped_fine_mesh_sweep_passes_the_contact_onset() {
 /// names harmonic_balance.harmonics and keeps the curve so far, instead of tracing the curve
 /// twice and reporting the end reached. Where it stops depends on round-off in the tangle (at
 /// H = 10 with the Newton's forcing term capped at 1e-3 it stopped at 1447.5 Hz; with 1e-4
-/// H = 10 passes that tangle and reaches 1800 Hz through 20 turning points), so the test asks
+/// H = 10 passes that tangle and reaches 1800 Hz through 21 turning points), so the test asks
 /// for a stop inside the region of turning points, not at one frequency. The retrace check
 /// itself is unit-tested in src/hbm/sweep.rs.
 #[test]
