@@ -156,9 +156,9 @@ pub fn direction(
 }
 
 /// The parts of J that belong to one node and depend only on its slopes (and c): A_i and,
-/// once a matrix-free step asks for it, the LU of I − A_i + c A_i G_ii. A Newton run keeps them and
-/// recomputes a node's only when its slopes change, so once the active set settles the last
-/// steps reuse every block (the same numbers: nothing is approximated).
+/// once a matrix-free step asks for it, the LU of I − A_i + c A_i G_ii. A Newton run keeps
+/// them and recomputes a node's only when its slopes change, so once the active set settles
+/// the last steps reuse every block (the same numbers: nothing is approximated).
 #[derive(Default)]
 pub struct NodeBlocks {
     c: f64,
@@ -272,8 +272,9 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
 /// (`NodeBlocks`, factored once per step at most). Products with A use the activity blocks A_i
 /// (an M × M product per node, cheaper than the two FFTs of length N that Q D_i P takes, since
 /// M ≈ N/8), products with G go harmonic by harmonic: a GMRES iteration costs an M × M
-/// product and two M × M triangular solves per node and one n_c × n_c product per harmonic. Inexact Newton: the linear
-/// tolerance is the forcing term, loose because the line search guards the step.
+/// product and two M × M triangular solves per node and one n_c × n_c product per harmonic.
+/// Inexact Newton: the linear tolerance is the forcing term, loose because the line search
+/// guards the step.
 fn krylov_step(
     problem: &ReducedProblem,
     c: f64,

@@ -158,7 +158,7 @@ impl SweepSummary {
     /// How finely the curve is resolved in time, for headlines and plot titles: `H = 10`,
     /// or the spline basis.
     pub fn resolution(&self) -> String {
-        if self.basis == "fourier" {
+        if self.basis == crate::hbm::basis::TimeBasis::Fourier.describe() {
             format!("H = {}", self.harmonics)
         } else {
             self.basis.clone()
