@@ -377,23 +377,25 @@ fn reduce(system: &System, b: &crate::linalg::Csc, k: usize, lu: &Factor) -> Res
 }
 
 impl LinearResponse {
-    /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic; `multipliers`
-    /// node-major with `m` coefficients per node.
+    /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic (the harmonics in
+    /// parallel); `multipliers` node-major with `m` coefficients per node.
     fn recover(&mut self, op: &ContactOperator, multipliers: &[f64], m: usize) {
+        use rayon::prelude::*;
         let nc = op.nodes();
-        for (&k, lu) in &self.factors {
-            let Some(z) = self.free.get_mut(&k) else {
-                continue;
-            };
-            let lam: Vec<c64> = (0..nc)
-                .map(|j| fourier::phasor(&multipliers[j * m..(j + 1) * m], k))
-                .collect();
-            if lam.iter().all(|l| l.norm() == 0.0) {
-                continue;
-            }
-            let rhs = op.b_free.mul_transpose_complex(&lam);
-            for (zi, di) in z.iter_mut().zip(lu.solve(&rhs)) {
-                *zi += di;
+        let updates: Vec<(usize, Vec<c64>)> = self
+            .factors
+            .par_iter()
+            .filter_map(|(&k, lu)| {
+                let lam: Vec<c64> = (0..nc)
+                    .map(|j| fourier::phasor(&multipliers[j * m..(j + 1) * m], k))
+                    .collect();
+                let touching = lam.iter().any(|l| l.norm() != 0.0);
+                touching.then(|| (k, lu.solve(&op.b_free.mul_transpose_complex(&lam))))
+            })
+            .collect();
+        for (k, dz) in updates {
+            if let Some(z) = self.free.get_mut(&k) {
+                z.iter_mut().zip(dz).for_each(|(zi, di)| *zi += di);
             }
         }
     }

@@ -683,11 +683,14 @@ fn eliminate(
         let end = (start + PANEL).min(p);
         for k in start..end {
             let d = front[k * m + k];
+            // Sizes as max(|re|, |im|), within √2 of the modulus and without its hypot (a
+            // quarter of the elimination's time with it).
+            let size = |z: &c64| z.re.abs().max(z.im.abs());
             let scale = front[k * m + k..(k + 1) * m]
                 .iter()
-                .fold(0.0f64, |a, z| a.max(z.norm()));
+                .fold(0.0f64, |a, z| a.max(size(z)));
             let finite = d.re.is_finite() && d.im.is_finite();
-            if !(d.norm() > 1e-300_f64.max(tolerance * scale)) || !finite {
+            if !(size(&d) > 1e-300_f64.max(tolerance * scale)) || !finite {
                 return Err(k);
             }
             let inv = d.inv();
