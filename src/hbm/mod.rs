@@ -344,11 +344,11 @@ struct LinearResponse {
 /// its relative residual.
 fn linear_solve(system: &System, k: usize, lu: &Factor) -> Result<(Vec<c64>, f64)> {
     let rhs = system.load(k);
-    let mut z = if is_zero(&rhs) {
-        rhs.clone()
-    } else {
-        lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs))
-    };
+    if is_zero(&rhs) {
+        // An unloaded harmonic: its linear response is zero, exactly.
+        return Ok((rhs, 0.0));
+    }
+    let mut z = lu.solution_of(&rhs).unwrap_or_else(|| lu.solve(&rhs));
     let mut res = system::relative_residual(system, k, &z, &rhs);
     // Iterative refinement: large, badly conditioned systems (slender parts, fine
     // meshes) lose digits in the factorization; a few cheap solves win them back.

@@ -41,12 +41,16 @@ pub struct System {
     pub inputs: BTreeMap<usize, HarmonicInput>,
     /// The time basis (Fourier unless `with_basis` says otherwise).
     pub basis: TimeBasis,
-    pattern: LuPattern,
+    /// The symbolic LU analysis (on first use: a scene whose LDLᵀ passes its checks needs it
+    /// only for the resonance check).
+    pattern: OnceLock<std::result::Result<LuPattern, String>>,
     /// The Schur-complement plan of G_k = B Z_k⁻¹ Bᵀ and the B it was built for (`None`
     /// plan: B does not allow it), shared by every harmonic and frequency.
     schur: OnceLock<(Csc, Option<Arc<SchurPlan>>)>,
     /// The plan of a plain LDLᵀ (no contact rows kept).
     plain: OnceLock<Arc<SchurPlan>>,
+    /// Row sums of |K_ff| and |M_ff| (for ‖Z_k‖∞).
+    row_sums: OnceLock<(Vec<f64>, Vec<f64>)>,
 }
 
 /// A right-hand side and its solution.
@@ -103,7 +107,6 @@ impl System {
         };
         let k_fp = stiffness.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
         let m_fp = mass.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
-        let pattern = LuPattern::analyse(&k_ff)?;
         Ok(System {
             dofs,
             omega,
@@ -114,9 +117,10 @@ impl System {
             m_fp,
             inputs,
             basis: TimeBasis::Fourier,
-            pattern,
+            pattern: OnceLock::new(),
             schur: OnceLock::new(),
             plain: OnceLock::new(),
+            row_sums: OnceLock::new(),
         })
     }
 
@@ -139,8 +143,11 @@ impl System {
     }
 
     /// The symbolic analysis of the free-dof pattern (K, M and every Z_k share it).
-    pub fn lu_pattern(&self) -> &LuPattern {
-        &self.pattern
+    pub fn lu_pattern(&self) -> Result<&LuPattern> {
+        let analysed = self
+            .pattern
+            .get_or_init(|| LuPattern::analyse(&self.k_ff).map_err(|e| e.to_string()));
+        analysed.as_ref().map_err(|e| Error::Model(e.clone()))
     }
 
     pub fn free_count(&self) -> usize {
@@ -205,8 +212,8 @@ impl System {
             }
         }
         let lu = match im {
-            Some(im) => SparseLu::factor_complex(&self.pattern, &re, &im)?,
-            None => SparseLu::factor_real(&self.pattern, &re)?,
+            Some(im) => SparseLu::factor_complex(self.lu_pattern()?, &re, &im)?,
+            None => SparseLu::factor_real(self.lu_pattern()?, &re)?,
         };
         Ok(Factor::Lu(Box::new(lu)))
     }
@@ -228,17 +235,24 @@ impl System {
     /// B Z_k⁻¹ Bᵀ y refined once, within 1e-11 of its largest entry. The Newton works with
     /// G and the recovery (24) with the solves, so a G that lost accuracy (a pivot-free
     /// elimination of a slender body pressed flat) would leave a gap of that error times λ.
-    /// On success, the checked right-hand side (the load where there is one) and its
-    /// solution.
+    /// The solves checked are the load's (where there is one) and Bᵀy's; without either, an
+    /// arbitrary right-hand side's. On success, the load and its solution (`None` load: an
+    /// unloaded harmonic, whose linear response is zero).
     fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> Option<Checked> {
         let n = self.free_count();
-        let mut rhs = vec![self.load(k)];
-        if rhs[0].iter().all(|z| z.norm() == 0.0) {
-            rhs[0] = (0..n)
-                .map(|i| c64::new(1.0 + (i % 5) as f64, (i % 3) as f64 - 1.0))
-                .collect();
-        }
         let b = b.filter(|b| b.nrows > 0);
+        let load = self.load(k);
+        let loaded = load.iter().any(|z| z.norm() != 0.0);
+        let mut rhs = Vec::new();
+        if loaded {
+            rhs.push(load);
+        } else if b.is_none() {
+            rhs.push(
+                (0..n)
+                    .map(|i| c64::new(1.0 + (i % 5) as f64, (i % 3) as f64 - 1.0))
+                    .collect(),
+            );
+        }
         let nc = b.map_or(0, |b| b.nrows);
         let y: Vec<c64> = (0..nc)
             .map(|j| c64::new(1.0 + (j % 7) as f64 / 7.0, (j % 3) as f64 / 3.0))
@@ -247,15 +261,23 @@ impl System {
             rhs.push(b.mul_transpose_complex(&y));
         }
         let mut x = f.solve_many(&rhs);
-        if !(relative_residual(self, k, &x[0], &rhs[0]) < 1e-12) {
-            return None;
+        let mut residuals = Vec::with_capacity(rhs.len());
+        for (xi, bi) in x.iter().zip(&rhs) {
+            let zx = self.apply(k, xi);
+            let r: Vec<c64> = bi.iter().zip(&zx).map(|(a, c)| a - c).collect();
+            if !(backward_error(self, k, &r, xi, bi) < 1e-12) {
+                return None;
+            }
+            residuals.push(r);
         }
-        let checked = Some((rhs[0].clone(), x[0].clone()));
-        let Some(b) = b else { return checked };
-        let (v, x) = (&rhs[1], &mut x[1]);
-        let zx = self.apply(k, x);
-        let r: Vec<c64> = v.iter().zip(&zx).map(|(a, c)| a - c).collect();
-        for (xi, di) in x.iter_mut().zip(f.solve(&r)) {
+        let checked = Some(match loaded {
+            true => (rhs[0].clone(), x[0].clone()),
+            false => (Vec::new(), Vec::new()),
+        });
+        let (Some(b), Some(r), Some(x)) = (b, residuals.last(), x.last_mut()) else {
+            return checked;
+        };
+        for (xi, di) in x.iter_mut().zip(f.solve(r)) {
             *xi += di;
         }
         let g = f.compliance(b);
@@ -346,21 +368,25 @@ impl System {
         rhs
     }
 
-    /// An upper bound of ‖Z_k‖∞ from the row sums of |K| and |M|.
+    /// An upper bound of ‖Z_k‖∞ from the row sums of |K| and |M| (summed once).
     pub fn norm_inf(&self, k: usize) -> f64 {
         let sym = self.symbols(k);
         let (alpha, beta) = self.damping_at(&sym);
-        let n = self.k_ff.nrows;
-        let (mut rk, mut rm) = (vec![0.0; n], vec![0.0; n]);
-        for j in 0..self.k_ff.ncols {
-            for p in self.k_ff.col_ptr[j]..self.k_ff.col_ptr[j + 1] {
-                rk[self.k_ff.row_idx[p]] += self.k_ff.values[p].abs();
-                rm[self.m_ff.row_idx[p]] += self.m_ff.values[p].abs();
+        let (rk, rm) = self.row_sums.get_or_init(|| {
+            let n = self.k_ff.nrows;
+            let (mut rk, mut rm) = (vec![0.0; n], vec![0.0; n]);
+            for j in 0..self.k_ff.ncols {
+                for p in self.k_ff.col_ptr[j]..self.k_ff.col_ptr[j + 1] {
+                    rk[self.k_ff.row_idx[p]] += self.k_ff.values[p].abs();
+                    rm[self.m_ff.row_idx[p]] += self.m_ff.values[p].abs();
+                }
             }
-        }
+            (rk, rm)
+        });
         let (s, q) = (sym.damping.abs(), sym.mass.abs());
-        (0..n)
-            .map(|i| rk[i] * (1.0 + s * beta) + rm[i] * (q + s * alpha))
+        rk.iter()
+            .zip(rm)
+            .map(|(rk, rm)| rk * (1.0 + s * beta) + rm * (q + s * alpha))
             .fold(0.0, f64::max)
     }
 
@@ -385,11 +411,13 @@ impl System {
 /// on fine meshes).
 pub fn relative_residual(system: &System, k: usize, x: &[c64], b: &[c64]) -> f64 {
     let zx = system.apply(k, x);
-    let r = zx
-        .iter()
-        .zip(b)
-        .map(|(a, b)| (a - b).norm())
-        .fold(0.0, f64::max);
+    let r: Vec<c64> = zx.iter().zip(b).map(|(a, b)| b - a).collect();
+    backward_error(system, k, &r, x, b)
+}
+
+/// ‖r‖∞ / (‖Z_k‖∞ ‖x‖∞ + ‖b‖∞) for the residual r = b − Z_k x already formed.
+fn backward_error(system: &System, k: usize, r: &[c64], x: &[c64], b: &[c64]) -> f64 {
+    let r = r.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let bn = b.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let xn = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let den = system.norm_inf(k) * xn + bn;

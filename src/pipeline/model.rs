@@ -202,6 +202,14 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         set,
         redistribution: mass.redistribution,
     });
+    if let (Purpose::HarmonicBalance, Some(c)) = (purpose, &contact) {
+        // The two symbolic analyses, one per core: the LU's (the resonance check, and the
+        // fallback) and the LDLᵀ's with the contact normals kept.
+        rayon::join(
+            || system.lu_pattern().is_ok(),
+            || system.schur_plan(&c.operator.b_free),
+        );
+    }
     let probes = p
         .output
         .probes

@@ -109,7 +109,7 @@ fn nearest_modes(model: &Model, kw: f64) -> Result<Vec<NearMode>> {
         &system.m_ff,
         count,
         kw * kw,
-        Some(system.lu_pattern()),
+        system.lu_pattern().ok(),
     )
     .ok()
     .filter(|m| m.iter().all(|(w2, _)| w2.is_finite()));
