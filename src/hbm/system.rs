@@ -236,8 +236,8 @@ impl System {
     /// G and the recovery (24) with the solves, so a G that lost accuracy (a pivot-free
     /// elimination of a slender body pressed flat) would leave a gap of that error times λ.
     /// The solves checked are the load's (where there is one) and Bᵀy's; without either, an
-    /// arbitrary right-hand side's. On success, the load and its solution (`None` load: an
-    /// unloaded harmonic, whose linear response is zero).
+    /// arbitrary right-hand side's. On success, the load and its solution (an empty pair for
+    /// an unloaded harmonic, whose linear response is zero and not solved for).
     fn factor_is_accurate(&self, k: usize, b: Option<&Csc>, f: &Factor) -> Option<Checked> {
         let n = self.free_count();
         let b = b.filter(|b| b.nrows > 0);
