@@ -84,8 +84,8 @@ pub struct Csc {
 impl Csc {
     /// Duplicates are summed in the order given. Linear in the entries: a counting sort by
     /// column, duplicates merged through a row-to-slot map, then each column's distinct rows
-    /// (a dozen or two from an assembly) sorted (a global sort of the assembly's triplets
-    /// was most of the strip's assembly).
+    /// (a dozen or two from an assembly) sorted (a global sort of the element triplets took
+    /// about a third of the strip's assembly).
     pub fn from_entries(nrows: usize, ncols: usize, entries: &[(usize, usize, f64)]) -> Self {
         let mut start = vec![0usize; ncols + 1];
         for &(_, j, _) in entries {
