@@ -263,8 +263,7 @@ impl System {
         let mut x = f.solve_many(&rhs);
         let mut residuals = Vec::with_capacity(rhs.len());
         for (xi, bi) in x.iter().zip(&rhs) {
-            let zx = self.apply(k, xi);
-            let r: Vec<c64> = bi.iter().zip(&zx).map(|(a, c)| a - c).collect();
+            let r = self.residual(k, xi, bi);
             if !(backward_error(self, k, &r, xi, bi) < 1e-12) {
                 return None;
             }
@@ -303,6 +302,12 @@ impl System {
         } else {
             SchurPlan::new(&self.k_ff, b).map(Arc::new)
         }
+    }
+
+    /// r = b − Z_k x.
+    pub fn residual(&self, k: usize, x: &[c64], b: &[c64]) -> Vec<c64> {
+        let zx = self.apply(k, x);
+        b.iter().zip(&zx).map(|(b, a)| b - a).collect()
     }
 
     /// Z_k x for a complex vector (residual checks).
@@ -410,13 +415,11 @@ impl System {
 /// however ill-conditioned Z is (a residual relative to ‖b‖ alone is not, for slender parts
 /// on fine meshes).
 pub fn relative_residual(system: &System, k: usize, x: &[c64], b: &[c64]) -> f64 {
-    let zx = system.apply(k, x);
-    let r: Vec<c64> = zx.iter().zip(b).map(|(a, b)| b - a).collect();
-    backward_error(system, k, &r, x, b)
+    backward_error(system, k, &system.residual(k, x, b), x, b)
 }
 
 /// ‖r‖∞ / (‖Z_k‖∞ ‖x‖∞ + ‖b‖∞) for the residual r = b − Z_k x already formed.
-fn backward_error(system: &System, k: usize, r: &[c64], x: &[c64], b: &[c64]) -> f64 {
+pub fn backward_error(system: &System, k: usize, r: &[c64], x: &[c64], b: &[c64]) -> f64 {
     let r = r.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let bn = b.iter().map(|z| z.norm()).fold(0.0, f64::max);
     let xn = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
