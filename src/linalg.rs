@@ -455,6 +455,14 @@ impl Factor {
         }
     }
 
+    /// B Z⁻¹ b: the LDLᵀ's forward half when its plan was built for this B, else a solve.
+    pub fn contact_rows_of_solve(&self, b: &Csc, rhs: &[c64]) -> Vec<c64> {
+        match self {
+            Factor::Ldlt(f) if f.plan().built_for(b) => f.contact_rows_of_solve(rhs),
+            _ => b.mul_complex(&self.solve(rhs)),
+        }
+    }
+
     /// G = B Z⁻¹ Bᵀ (row-major n_c²): the LDLᵀ's own when its plan was built for this B,
     /// else blocked solves.
     pub fn compliance(&self, b: &Csc) -> Vec<c64> {
@@ -576,12 +584,14 @@ impl DenseLu {
 }
 
 /// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,
-/// Alg. 9.5) with modified Gram–Schmidt and Givens rotations. Returns the solution when the
+/// Alg. 9.5) with modified Gram–Schmidt and Givens rotations, for A x = b with A M⁻¹ given
+/// by `apply(v, out)` (out = A v) after `precondition(v, out)` (out = M⁻¹ v); both write into
+/// `out`, so an iteration allocates only its new basis vector. Returns the solution when the
 /// relative residual reaches 1e-2 or better (callers that guard the step, like a line search,
 /// accept a loose solve), else why it stalled.
 pub fn gmres(
-    apply: &dyn Fn(&[f64]) -> Vec<f64>,
-    precondition: &dyn Fn(&[f64]) -> Vec<f64>,
+    apply: &mut dyn FnMut(&[f64], &mut [f64]),
+    precondition: &mut dyn FnMut(&[f64], &mut [f64]),
     b: &[f64],
     tolerance: f64,
     restart: usize,
@@ -594,23 +604,35 @@ pub fn gmres(
     if b_norm == 0.0 {
         return Ok(x);
     }
+    let (mut z, mut w) = (vec![0.0; n], vec![0.0; n]);
+    // w = b − A M⁻¹ x.
+    let residual = |apply: &mut dyn FnMut(&[f64], &mut [f64]),
+                    precondition: &mut dyn FnMut(&[f64], &mut [f64]),
+                    x: &[f64],
+                    z: &mut [f64],
+                    w: &mut [f64]| {
+        precondition(x, z);
+        apply(z, w);
+        w.iter_mut().zip(b).for_each(|(wi, bi)| *wi = bi - *wi);
+    };
     let mut last = f64::INFINITY;
     for _ in 0..max_restarts {
-        let ax = apply(&precondition(&x));
-        let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
-        let beta = norm(&r);
+        residual(apply, precondition, &x, &mut z, &mut w);
+        let beta = norm(&w);
         last = beta / b_norm;
         if last <= tolerance {
-            return Ok(precondition(&x));
+            precondition(&x, &mut z);
+            return Ok(z);
         }
-        let mut v: Vec<Vec<f64>> = vec![r.iter().map(|a| a / beta).collect()];
+        let mut v: Vec<Vec<f64>> = vec![w.iter().map(|a| a / beta).collect()];
         let mut h = vec![vec![0.0; restart]; restart + 1];
         let (mut cs, mut sn) = (vec![0.0; restart], vec![0.0; restart]);
         let mut g = vec![0.0; restart + 1];
         g[0] = beta;
         let mut used = 0;
         for j in 0..restart {
-            let mut w = apply(&precondition(&v[j]));
+            precondition(&v[j], &mut z);
+            apply(&z, &mut w);
             for (i, vi) in v.iter().enumerate() {
                 let hij = dot(&w, vi);
                 h[i][j] = hij;
@@ -653,12 +675,12 @@ pub fn gmres(
             }
         }
     }
-    let ax = apply(&precondition(&x));
-    let r: Vec<f64> = b.iter().zip(&ax).map(|(a, c)| a - c).collect();
-    let rel = norm(&r) / b_norm;
+    residual(apply, precondition, &x, &mut z, &mut w);
+    let rel = norm(&w) / b_norm;
     if rel <= 1e-2 {
         // Loose but still a descent direction for the line search.
-        Ok(precondition(&x))
+        precondition(&x, &mut z);
+        Ok(z)
     } else {
         Err(format!("the Krylov solve of the Newton step stalled at relative residual {rel:.2e} (was {last:.2e})"))
     }

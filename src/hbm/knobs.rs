@@ -3,8 +3,9 @@
 //! truncation error, with the parameter c. After a converged solve:
 //! - N is doubled while the answer changes by more than `SAMPLES_TOLERANCE` (at most
 //!   `MAX_DOUBLINGS` times), each solve warm-started from the last; the N used is reported;
-//! - the solution is re-solved once at c/3 from the converged λ, and the change is reported
-//!   (a warning above `C_TOLERANCE`).
+//! - the solution is re-solved once at c/3 at the final N, and the change is reported (a
+//!   warning above `C_TOLERANCE`). That re-solve starts from the first converged λ, side by
+//!   side with the first doubling, and is redone from the final λ when N moves on.
 //!
 //! "The answer" is what a user reads: the contact nodes' vibration and the mean contact
 //! force. The change between solutions a and b is the larger of
@@ -143,9 +144,22 @@ pub fn adapt_samples(
         iterations: 0,
         underdamped_share: None,
     };
+    // The first doubling and the c/3 re-solve at its N run side by side (the Newton is
+    // sequential, the machine has a second core); the latter stands when the doublings stop
+    // at that N, else it is redone at the N they reach.
+    let solve =
+        |n: usize, c: f64, start: &[f64]| resolve(problem, n, c, tolerance, start, reporter);
+    let (first, mut alt) = rayon::join(
+        || solve(2 * samples, c, &solved.multipliers),
+        || solve(2 * samples, c / 3.0, &solved.multipliers),
+    );
+    check.iterations += alt.iterations;
     let (mut n, mut best) = (samples, solved);
+    let mut next = Some(first);
     for _ in 0..MAX_DOUBLINGS {
-        let o = resolve(problem, 2 * n, c, tolerance, &best.multipliers, reporter);
+        let o = next
+            .take()
+            .unwrap_or_else(|| solve(2 * n, c, &best.multipliers));
         check.iterations += o.iterations;
         if !o.converged {
             break;
@@ -157,8 +171,10 @@ pub fn adapt_samples(
             break;
         }
     }
-    let alt = resolve(problem, n, c / 3.0, tolerance, &best.multipliers, reporter);
-    check.iterations += alt.iterations;
+    if n != 2 * samples {
+        alt = solve(n, c / 3.0, &best.multipliers);
+        check.iterations += alt.iterations;
+    }
     if alt.converged {
         check.c_change = Some(relative_change(
             problem,

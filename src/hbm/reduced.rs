@@ -61,8 +61,18 @@ impl ReducedProblem {
 
     /// g = G x + r.
     pub fn gap(&self, x: &[f64]) -> Vec<f64> {
+        let mut g = vec![0.0; self.linear_gap.len()];
+        self.compliance_product(x, &mut g);
+        for (gi, ri) in g.iter_mut().zip(&self.linear_gap) {
+            *gi += ri;
+        }
+        g
+    }
+
+    /// out = G x (the gap without its linear part), harmonic by harmonic.
+    pub fn compliance_product(&self, x: &[f64], out: &mut [f64]) {
         let (nc, m) = (self.nodes, self.coefficients());
-        let mut g = self.linear_gap.clone();
+        out.fill(0.0);
         let mut lam = vec![c64::new(0.0, 0.0); nc];
         for (k, gk) in self.compliance.iter().enumerate() {
             for (j, l) in lam.iter_mut().enumerate() {
@@ -71,11 +81,10 @@ impl ReducedProblem {
             for i in 0..nc {
                 // Most of a GMRES iteration on the 601-node half-disc.
                 let y = crate::linalg::dot(&gk[i * nc..(i + 1) * nc], &lam);
-                let gi = &mut g[i * m..(i + 1) * m];
+                let gi = &mut out[i * m..(i + 1) * m];
                 set_phasor(gi, k, phasor(gi, k) + y);
             }
         }
-        g
     }
 
     /// Real-form entry of G between coefficient `a` of node i and coefficient `b` of node j

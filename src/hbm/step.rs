@@ -284,28 +284,26 @@ fn krylov_step(
     forcing: f64,
 ) -> Result<Vec<f64>, String> {
     let m = problem.coefficients();
-    let linear_gap = &problem.linear_gap;
-    let apply_j = |v: &[f64]| -> Vec<f64> {
-        let mut gv = problem.gap(v);
-        for ((g, r), x) in gv.iter_mut().zip(linear_gap).zip(v) {
-            *g = c * (*g - r) - x;
+    let mut gv = vec![0.0; residual.len()];
+    let mut apply_j = |v: &[f64], out: &mut [f64]| {
+        problem.compliance_product(v, &mut gv);
+        for (g, x) in gv.iter_mut().zip(v) {
+            *g = c * *g - x;
         }
-        let mut out = v.to_vec();
-        block_products(blocks, m, &gv, &mut out);
-        out
+        out.copy_from_slice(v);
+        block_products(blocks, m, &gv, out);
     };
-    let precondition = |v: &[f64]| -> Vec<f64> {
-        let mut out = v.to_vec();
-        let mut work = vec![0.0; m];
+    let mut work = vec![0.0; m];
+    let mut precondition = |v: &[f64], out: &mut [f64]| {
+        out.copy_from_slice(v);
         for (lu, x) in factors.iter().zip(out.chunks_exact_mut(m)) {
             if let Some(lu) = lu {
                 lu.solve_in_place(x, &mut work);
             }
         }
-        out
     };
     let rhs: Vec<f64> = residual.iter().map(|v| -v).collect();
-    gmres(&apply_j, &precondition, &rhs, forcing, 60, 20)
+    gmres(&mut apply_j, &mut precondition, &rhs, forcing, 60, 20)
 }
 
 /// out_i += B_i x_i for the row-major M × M blocks B_i of every node, by faer's

@@ -260,7 +260,7 @@ impl System {
         if let Some(b) = b {
             rhs.push(b.mul_transpose_complex(&y));
         }
-        let mut x = f.solve_many(&rhs);
+        let x = f.solve_many(&rhs);
         let mut residuals = Vec::with_capacity(rhs.len());
         for (xi, bi) in x.iter().zip(&rhs) {
             let r = self.residual(k, xi, bi);
@@ -273,14 +273,17 @@ impl System {
             true => (rhs[0].clone(), x[0].clone()),
             false => (Vec::new(), Vec::new()),
         });
-        let (Some(b), Some(r), Some(x)) = (b, residuals.last(), x.last_mut()) else {
+        let (Some(b), Some(r), Some(x)) = (b, residuals.last(), x.last()) else {
             return checked;
         };
-        for (xi, di) in x.iter_mut().zip(f.solve(r)) {
-            *xi += di;
-        }
+        // B x refined once: B (x + Z_k⁻¹ r).
         let g = f.compliance(b);
-        let direct = b.mul_complex(x);
+        let direct: Vec<c64> = b
+            .mul_complex(x)
+            .iter()
+            .zip(f.contact_rows_of_solve(b, r))
+            .map(|(bx, bd)| bx + bd)
+            .collect();
         let scale = direct.iter().fold(0.0f64, |m, z| m.max(z.norm()));
         let agrees = (0..nc).all(|i| {
             let gy: c64 = (0..nc).map(|j| g[i * nc + j] * y[j]).sum();

@@ -57,8 +57,9 @@ pub const PIVOT_TOLERANCE: f64 = 1e-14;
 /// Coordinates of the transformed basis touched by one old dof, with T's weights.
 type Expansion = Vec<(usize, f64)>;
 
-/// Per supernode, its panel (m × pivots, column-major).
-type Panels = Vec<Vec<c64>>;
+/// Every supernode's panel in one array, at `panel_start`: per pivot column k its rows k..m
+/// (D on top, then L below its unit diagonal), columns one after the other (`trapezoid_column`).
+type Panels = Vec<c64>;
 
 /// S⁻¹ (n_k × n_k) and G (row-major n_c × n_c).
 type Kept = (Mat<c64>, Vec<c64>);
@@ -91,6 +92,10 @@ pub struct SchurPlan {
     scatter: Vec<(usize, f64)>,
     /// Supernodes, children before parents.
     supernodes: Vec<Supernode>,
+    /// Where each supernode's panel starts in the factor's one array (and its length).
+    panel_start: Vec<usize>,
+    /// The eliminations' scratch buffers, handed back after each one for the next.
+    scratch: ScratchPool,
     /// Estimated mul-adds of this LDLᵀ (with S⁻¹), of a sparse LU of A, and of G by n_c
     /// blocked solves with it.
     pub schur_cost: f64,
@@ -329,7 +334,7 @@ impl SchurPlan {
             .sum();
         let factor_entries = nodes
             .iter()
-            .map(|s| s.pivots * s.rows.len() - s.pivots * (s.pivots - 1) / 2)
+            .map(|s| trapezoid(s.pivots, s.rows.len()))
             .sum();
         SchurPlan {
             eliminated,
@@ -339,7 +344,12 @@ impl SchurPlan {
             row_idx: t.row_idx,
             scatter_ptr: t.scatter_ptr,
             scatter: t.scatter,
+            panel_start: nodes.iter().fold(vec![0], |mut v, s| {
+                v.push(v[v.len() - 1] + trapezoid(s.pivots, s.rows.len()));
+                v
+            }),
             supernodes: nodes,
+            scratch: ScratchPool::default(),
             schur_cost: ldlt_cost + nk.powi(3),
             lu_cost,
             blocked_cost: nc * 2.0 * 2.0 * nnz_l,
@@ -415,7 +425,21 @@ impl SchurPlan {
         im: Option<&[f64]>,
         tolerance: f64,
     ) -> Result<(Panels, Kept), String> {
-        let mut values = vec![c64::new(0.0, 0.0); self.row_idx.len()];
+        let mut scratch = self.scratch.take();
+        let result = self.eliminate_with(re, im, tolerance, &mut scratch);
+        self.scratch.give_back(scratch);
+        result
+    }
+
+    fn eliminate_with(
+        &self,
+        re: &[f64],
+        im: Option<&[f64]>,
+        tolerance: f64,
+        scratch: &mut Scratch,
+    ) -> Result<(Panels, Kept), String> {
+        let zero = c64::new(0.0, 0.0);
+        let values = refill(&mut scratch.values, self.row_idx.len());
         for p in 0..self.scatter_ptr.len() - 1 {
             let a = c64::new(re[p], im.map_or(0.0, |v| v[p]));
             for &(s, w) in &self.scatter[self.scatter_ptr[p]..self.scatter_ptr[p + 1]] {
@@ -423,25 +447,27 @@ impl SchurPlan {
             }
         }
         let nk = self.kept();
-        let mut schur = vec![c64::new(0.0, 0.0); nk * nk];
+        let mut schur = std::mem::take(&mut scratch.schur);
+        refill(&mut schur, nk * nk);
         for q in self.eliminated..self.col_ptr.len() - 1 {
             let range = self.col_ptr[q]..self.col_ptr[q + 1];
             for (&r, &v) in self.row_idx[range.clone()].iter().zip(&values[range]) {
                 schur[(q - self.eliminated) * nk + (r - self.eliminated)] += v;
             }
         }
-        let panels = self.eliminate_all(&values, &mut schur, nk, tolerance)?;
+        let panels = self.eliminate_all(&mut schur, nk, tolerance, scratch)?;
         let s = Mat::from_fn(nk, nk, |i, j| {
             let (hi, lo) = if i >= j { (i, j) } else { (j, i) };
             schur[lo * nk + hi]
         });
+        scratch.schur = schur;
         let inv = if nk > 0 {
             s.partial_piv_lu().inverse()
         } else {
             Mat::zeros(0, 0)
         };
         let nc = self.kept_of_row.len();
-        let mut g = vec![c64::new(0.0, 0.0); nc * nc];
+        let mut g = vec![zero; nc * nc];
         for (i, ki) in self.kept_of_row.iter().enumerate() {
             for (j, kj) in self.kept_of_row.iter().enumerate() {
                 if let (Some(a), Some(b)) = (ki, kj) {
@@ -457,33 +483,37 @@ impl SchurPlan {
         Ok((panels, (inv, g)))
     }
 
-    /// The multifrontal elimination of every non-kept coordinate: returns each supernode's
-    /// panel (m × pivots, column-major); the roots' contribution blocks are added into
+    /// The multifrontal elimination of every non-kept coordinate (Ã's values in
+    /// `scratch.values`): returns the panels; the roots' contribution blocks are added into
     /// `schur` (lower triangle, column-major nk × nk).
     fn eliminate_all(
         &self,
-        values: &[c64],
         schur: &mut [c64],
         nk: usize,
         tolerance: f64,
-    ) -> Result<Vec<Vec<c64>>, String> {
+        scratch: &mut Scratch,
+    ) -> Result<Panels, String> {
         let n = self.col_ptr.len() - 1;
-        let mut local = vec![usize::MAX; n];
-        let mut blocks: Vec<Option<Vec<c64>>> = vec![None; self.supernodes.len()];
-        let mut panels = Vec::with_capacity(self.supernodes.len());
-        let mut work = Vec::new();
-        // One front buffer for all supernodes: a fresh zeroed m × m per supernode, kept as the
-        // panel, cost more in page faults than the elimination itself (38% of the strip's
-        // factorizations at H = 20) and kept m² where the panel needs p·m.
-        let mut buffer: Vec<c64> = Vec::new();
+        let Scratch {
+            values,
+            local,
+            front: buffer,
+            work,
+            blocks,
+            spare,
+            ..
+        } = scratch;
+        local.clear();
+        local.resize(n, usize::MAX);
+        blocks.clear();
+        blocks.resize_with(self.supernodes.len(), || None);
+        let mut panels = vec![c64::new(0.0, 0.0); self.panel_start[self.supernodes.len()]];
         for (s, node) in self.supernodes.iter().enumerate() {
             let m = node.rows.len();
             for (i, &r) in node.rows.iter().enumerate() {
                 local[r] = i;
             }
-            buffer.clear();
-            buffer.resize(m * m, c64::new(0.0, 0.0));
-            let front = &mut buffer[..];
+            let front = refill(buffer, m * m);
             for &j in &node.rows[..node.pivots] {
                 let lj = local[j];
                 for p in self.col_ptr[j]..self.col_ptr[j + 1] {
@@ -494,25 +524,32 @@ impl SchurPlan {
             for &c in &node.children {
                 let child = &self.supernodes[c];
                 let cb = blocks[c].take().unwrap_or_default();
-                extend_add(front, m, &cb, &child.rows[child.pivots..], &local);
+                extend_add(front, m, &cb, &child.rows[child.pivots..], local);
+                spare.push(cb);
             }
             let p = node.pivots;
-            eliminate(front, m, p, tolerance, &mut work)
+            eliminate(front, m, p, tolerance, work)
                 .map_err(|k| format!("pivot {} of the LDLᵀ elimination vanished", node.rows[k]))?;
             let mc = m - p;
-            let mut cb = vec![c64::new(0.0, 0.0); mc * mc];
+            let mut cb = spare.pop().unwrap_or_default();
+            refill(&mut cb, mc * mc);
             for b in 0..mc {
                 let from = (p + b) * m + p;
                 cb[b * mc + b..(b + 1) * mc].copy_from_slice(&front[from + b..from + mc]);
             }
-            panels.push(front[..p * m].to_vec());
+            let panel = &mut panels[self.panel_start[s]..self.panel_start[s + 1]];
+            for k in 0..p {
+                let at = trapezoid(k, m);
+                panel[at..at + m - k].copy_from_slice(&front[k * m + k..(k + 1) * m]);
+            }
             match node.parent {
                 Some(_) => blocks[s] = Some(cb),
                 None => {
                     for &r in &node.rows[p..] {
                         local[r] = r - self.eliminated;
                     }
-                    extend_add(schur, nk, &cb, &node.rows[p..], &local);
+                    extend_add(schur, nk, &cb, &node.rows[p..], local);
+                    spare.push(cb);
                 }
             }
         }
@@ -520,10 +557,64 @@ impl SchurPlan {
     }
 }
 
+/// One elimination's scratch: Ã's values, the local row numbers, the front, the trailing
+/// update's product, the contribution blocks waiting for their parent, spent ones to reuse,
+/// and S. Kept by the plan between eliminations: fresh zeroed buffers per supernode and per
+/// harmonic cost more in page faults than the elimination itself (38% of the strip's
+/// factorizations at H = 20 for the fronts alone).
+#[derive(Default)]
+struct Scratch {
+    values: Vec<c64>,
+    local: Vec<usize>,
+    front: Vec<c64>,
+    work: Vec<c64>,
+    blocks: Vec<Option<Vec<c64>>>,
+    spare: Vec<Vec<c64>>,
+    schur: Vec<c64>,
+}
+
+/// Scratch buffers between eliminations, one per elimination running at a time (a clone is
+/// an empty pool).
+#[derive(Default)]
+struct ScratchPool(std::sync::Mutex<Vec<Scratch>>);
+
+impl ScratchPool {
+    fn take(&self) -> Scratch {
+        let mut pool = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        pool.pop().unwrap_or_default()
+    }
+
+    fn give_back(&self, scratch: Scratch) {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(scratch);
+    }
+}
+
+impl Clone for ScratchPool {
+    fn clone(&self) -> Self {
+        ScratchPool::default()
+    }
+}
+
+impl std::fmt::Debug for ScratchPool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ScratchPool")
+    }
+}
+
+/// `v` as `len` zeros, reusing its memory.
+fn refill(v: &mut Vec<c64>, len: usize) -> &mut [c64] {
+    v.clear();
+    v.resize(len, c64::new(0.0, 0.0));
+    v
+}
+
 /// The kept LDLᵀ of one A: solves with A and, with contact, G = B A⁻¹ Bᵀ.
 pub struct LdltFactor {
     plan: Arc<SchurPlan>,
-    panels: Vec<Vec<c64>>,
+    panels: Panels,
     s_inverse: Mat<c64>,
     compliance: Vec<c64>,
     /// A right-hand side and its solution, kept by the caller's check (`System::factor`).
@@ -545,6 +636,11 @@ impl LdltFactor {
         &self.plan
     }
 
+    /// Supernode s's panel (m × pivots, column-major).
+    fn panel(&self, s: usize) -> &[c64] {
+        &self.panels[self.plan.panel_start[s]..self.plan.panel_start[s + 1]]
+    }
+
     /// x = A⁻¹ b = T Ã⁻¹ Tᵀ b.
     pub fn solve(&self, b: &[c64]) -> Vec<c64> {
         self.solve_many(&[b.to_vec()]).pop().unwrap_or_default()
@@ -554,24 +650,68 @@ impl LdltFactor {
     /// sides are gathered into a dense block, updated, and scattered back.
     pub fn solve_many(&self, rhs: &[Vec<c64>]) -> Vec<Vec<c64>> {
         let plan = &*self.plan;
-        let (n, r) = (plan.dim(), rhs.len());
-        let zero = c64::new(0.0, 0.0);
-        // x[q * r + c]: coordinate q of right-hand side c.
-        let mut x = vec![zero; n * r];
+        let r = rhs.len();
+        let mut x = self.transformed(rhs);
+        self.forward(&mut x, r);
+        self.apply_s_inverse(&mut x, r);
+        self.backward(&mut x, r);
+        (0..r)
+            .map(|c| {
+                plan.expansion
+                    .iter()
+                    .map(|e| e.iter().map(|&(q, w)| x[q * r + c] * w).sum())
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// B A⁻¹ b for the B of the plan, without the backward sweep: B T = E_n reads B x off
+    /// the kept coordinates of x̃ = Ã⁻¹ Tᵀ b, which the forward sweep and S⁻¹ give.
+    pub fn contact_rows_of_solve(&self, b: &[c64]) -> Vec<c64> {
+        let plan = &*self.plan;
+        let mut x = self.transformed(std::slice::from_ref(&b.to_vec()));
+        self.forward(&mut x, 1);
+        self.apply_s_inverse(&mut x, 1);
+        plan.kept_of_row
+            .iter()
+            .map(|k| k.map_or(c64::new(0.0, 0.0), |k| x[plan.eliminated + k]))
+            .collect()
+    }
+
+    /// Tᵀ b per right-hand side: x[q * r + c] is coordinate q of right-hand side c.
+    fn transformed(&self, rhs: &[Vec<c64>]) -> Vec<c64> {
+        let (n, r) = (self.plan.dim(), rhs.len());
+        let mut x = vec![c64::new(0.0, 0.0); n * r];
         for (c, b) in rhs.iter().enumerate() {
-            for (bd, e) in b.iter().zip(&plan.expansion) {
+            for (bd, e) in b.iter().zip(&self.plan.expansion) {
                 for &(q, w) in e {
                     x[q * r + c] += bd * w;
                 }
             }
         }
+        x
+    }
+
+    /// x ← D⁻¹ L⁻¹ x over the eliminated coordinates (the kept ones receive their updates).
+    /// A supernode whose pivot rows are all zero changes nothing and is skipped: a right-hand
+    /// side on the contact normals alone (Bᵀy) passes through untouched.
+    fn forward(&self, x: &mut [c64], r: usize) {
         let mut local = Vec::new();
-        for (node, l) in plan.supernodes.iter().zip(&self.panels) {
-            gather(&mut local, &x, &node.rows, r);
+        let zero = c64::new(0.0, 0.0);
+        for (s, node) in self.plan.supernodes.iter().enumerate() {
+            let pivots = &node.rows[..node.pivots];
+            if pivots
+                .iter()
+                .all(|&q| x[q * r..(q + 1) * r].iter().all(|v| *v == zero))
+            {
+                continue;
+            }
+            let l = self.panel(s);
+            gather(&mut local, x, &node.rows, r);
             let m = node.rows.len();
             for k in 0..node.pivots {
                 let (head, tail) = local.split_at_mut((k + 1) * r);
-                let below = &l[k * m + k + 1..(k + 1) * m];
+                let below = &trapezoid_column(l, m, k)[1..];
                 if r == 1 {
                     let xk = head[k];
                     for (v, &lik) in tail.iter_mut().zip(below) {
@@ -587,12 +727,16 @@ impl LdltFactor {
                 }
             }
             for k in 0..node.pivots {
-                let inv = l[k * m + k].inv();
+                let inv = trapezoid_column(l, m, k)[0].inv();
                 local[k * r..(k + 1) * r].iter_mut().for_each(|v| *v *= inv);
             }
-            scatter(&local, &mut x, &node.rows, r);
+            scatter(&local, x, &node.rows, r);
         }
-        let (e, nk) = (plan.eliminated, plan.kept());
+    }
+
+    /// x_n ← S⁻¹ x_n on the kept coordinates.
+    fn apply_s_inverse(&self, x: &mut [c64], r: usize) {
+        let (e, nk) = (self.plan.eliminated, self.plan.kept());
         if nk > 0 {
             let xn = MatRef::from_row_major_slice(&x[e * r..], nk, r);
             let y = &self.s_inverse * xn;
@@ -602,12 +746,18 @@ impl LdltFactor {
                 }
             }
         }
-        for (node, l) in plan.supernodes.iter().zip(&self.panels).rev() {
-            gather(&mut local, &x, &node.rows, r);
+    }
+
+    /// x ← L⁻ᵀ x over the eliminated coordinates.
+    fn backward(&self, x: &mut [c64], r: usize) {
+        let mut local = Vec::new();
+        for (s, node) in self.plan.supernodes.iter().enumerate().rev() {
+            let l = self.panel(s);
+            gather(&mut local, x, &node.rows, r);
             let m = node.rows.len();
             for k in (0..node.pivots).rev() {
                 let (head, tail) = local.split_at_mut((k + 1) * r);
-                let below = &l[k * m + k + 1..(k + 1) * m];
+                let below = &trapezoid_column(l, m, k)[1..];
                 if r == 1 {
                     let dot: c64 = tail.iter().zip(below).map(|(&v, &lik)| lik * v).sum();
                     head[k] -= dot;
@@ -620,22 +770,15 @@ impl LdltFactor {
                     }
                 }
             }
-            scatter(
-                &local[..node.pivots * r],
-                &mut x,
-                &node.rows[..node.pivots],
-                r,
-            );
+            scatter(&local[..node.pivots * r], x, &node.rows[..node.pivots], r);
         }
-        (0..r)
-            .map(|c| {
-                plan.expansion
-                    .iter()
-                    .map(|e| e.iter().map(|&(q, w)| x[q * r + c] * w).sum())
-                    .collect()
-            })
-            .collect()
     }
+}
+
+/// Column k of a panel of m rows stored as a trapezoid: its rows k..m (the diagonal first).
+fn trapezoid_column(panel: &[c64], m: usize, k: usize) -> &[c64] {
+    let at = trapezoid(k, m);
+    &panel[at..at + m - k]
 }
 
 /// local[i * r + c] = x[rows[i] * r + c].
@@ -970,7 +1113,9 @@ mod factor_tests {
     use crate::linalg::{LuPattern, SparseLu};
 
     /// TEST GOAL: the kept LDLᵀ (with contact rows kept last, and without contact) solves
-    /// A x = b like a pivoting sparse LU, to round-off (reference: faer's LU).
+    /// A x = b like a pivoting sparse LU, to round-off (reference: faer's LU), for a full
+    /// right-hand side and for Bᵀy (whose forward sweep is skipped); and its contact rows of
+    /// a solve (forward sweep and S⁻¹ only) are B times the LU's solution.
     #[test]
     fn kept_ldlt_solves_like_the_lu() {
         let (nx, ny) = (30, 20);
@@ -1003,5 +1148,22 @@ mod factor_tests {
             assert!(err < 1e-11 * scale, "{err:e} of {scale:e}");
             assert!(plan.fronts().1 > 1);
         }
+        let close = |p: &[c64], q: &[c64]| {
+            let scale = q.iter().fold(0.0f64, |m, z| m.max(z.norm()));
+            let err = p
+                .iter()
+                .zip(q)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).norm()));
+            assert!(
+                p.len() == q.len() && err < 1e-11 * scale,
+                "{err:e} of {scale:e}"
+            );
+        };
+        let plan = Arc::new(SchurPlan::new(&a, &b).unwrap());
+        let f = plan.factor(&a.values, Some(&im), PIVOT_TOLERANCE).unwrap();
+        let y: Vec<c64> = (0..nx).map(|i| c64::new(1.0, i as f64 / 7.0)).collect();
+        let bty = b.mul_transpose_complex(&y);
+        close(&f.solve(&bty), &lu.solve(&bty));
+        close(&f.contact_rows_of_solve(&rhs), &b.mul_complex(&reference));
     }
 }
