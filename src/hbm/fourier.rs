@@ -164,6 +164,21 @@ impl Sampler {
     }
 }
 
+/// The value alone at t, Σ_k Re(z_k e^{ikωt}), with e^{ikωt} by repeated multiplication by
+/// e^{iωt}: one sine and cosine per call instead of `evaluate`'s three rotors per harmonic
+/// (the summary's and the output's contact histories evaluate every node's multipliers at
+/// every sample). The recurrence's round-off grows like k ε, 1e-14 at k = 40.
+pub fn value(coeffs: &[f64], omega: f64, t: f64) -> f64 {
+    let harmonics = (coeffs.len() - 1) / 2;
+    let step = c64::from_polar(1.0, omega * t);
+    let (mut rot, mut out) = (c64::new(1.0, 0.0), 0.0);
+    for k in 0..=harmonics {
+        out += (phasor(coeffs, k) * rot).re;
+        rot *= step;
+    }
+    out
+}
+
 /// Evaluate the series (and its first two time derivatives) at time `t`.
 pub fn evaluate(coeffs: &[f64], omega: f64, t: f64) -> [f64; 3] {
     let harmonics = (coeffs.len() - 1) / 2;
@@ -180,6 +195,26 @@ pub fn evaluate(coeffs: &[f64], omega: f64, t: f64) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// TEST GOAL: the value by the rotation recurrence equals `evaluate`'s (one rotor per
+    /// harmonic) to round-off at H = 40 over a period (where the histories evaluate it).
+    #[test]
+    fn value_by_recurrence_equals_the_rotor_sum() {
+        let h = 40;
+        let coeffs: Vec<f64> = (0..2 * h + 1)
+            .map(|m| ((m * 37 + 5) % 11) as f64 / 11.0 - 0.4)
+            .collect();
+        let scale: f64 = coeffs.iter().map(|c| c.abs()).sum();
+        let period = 2.0 * std::f64::consts::PI / 7700.0;
+        for j in 0..97 {
+            let t = j as f64 * period / 97.0;
+            let (fast, slow) = (value(&coeffs, 7700.0, t), evaluate(&coeffs, 7700.0, t)[0]);
+            assert!(
+                (fast - slow).abs() < 1e-13 * scale,
+                "t = {t}: {fast} vs {slow}"
+            );
+        }
+    }
 
     #[test]
     fn fft_maps_match_the_dense_ones_and_invert() {

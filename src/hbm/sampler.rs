@@ -292,7 +292,7 @@ impl SplineMaps {
 /// basis' frequencies 0..H) for period 2π/ω: Fourier's series, or Re Σ_j z_j E_j(t).
 pub fn evaluate(basis: &TimeBasis, coeffs: &[f64], omega: f64, t: f64) -> f64 {
     match basis {
-        TimeBasis::Fourier => fourier::evaluate(coeffs, omega, t)[0],
+        TimeBasis::Fourier => fourier::value(coeffs, omega, t),
         TimeBasis::Spline(s) => {
             let count = coeffs.len().div_ceil(2);
             let rotors = s.rotors(count, omega, t, 0);

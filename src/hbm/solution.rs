@@ -170,6 +170,26 @@ impl Solution {
         u
     }
 
+    /// `field_at` on the dofs `which` only (its values in that order): what a time history
+    /// of a few nodes costs, not the whole field's.
+    pub fn field_on(&self, dofs: &DofMap, which: &[usize], t: f64, derivative: u32) -> Vec<f64> {
+        let mut u = vec![0.0; which.len()];
+        for (map, index) in [
+            (&self.free, dofs.free_map()),
+            (&self.motion, dofs.prescribed_map()),
+        ] {
+            for (&k, z) in map {
+                let f = self.basis.rotor(k, self.omega, t, derivative);
+                for (u, &d) in u.iter_mut().zip(which) {
+                    if let Some(i) = index[d] {
+                        *u += (z[i] * f).re;
+                    }
+                }
+            }
+        }
+        u
+    }
+
     /// The complex amplitude of Fourier harmonic k on all dofs (for a spline basis the
     /// harmonic k content of the solution's frequency k; its aliases at k ± lS are left out).
     pub fn amplitude(&self, dofs: &DofMap, k: usize) -> Vec<c64> {

@@ -93,22 +93,16 @@ fn probe_figures(model: &Model, sampled: &Sampled, period: f64) -> Vec<(String, 
     model
         .probes
         .iter()
-        .map(|(name, nodes)| {
-            let n = nodes.len().max(1) as f64;
-            let mean = |c: usize| -> Vec<f64> {
-                h.displacement
-                    .iter()
-                    .map(|u| nodes.iter().map(|&i| u[2 * i + c]).sum::<f64>() / n)
-                    .collect()
-            };
+        .zip(&h.probe_means)
+        .map(|((name, _), [x, y])| {
             let s = style(h.times.len());
             let fig = Figure::new(
                 format!("probe {name}: mean displacement over one period"),
                 time_axis(period),
                 Axis::linear("displacement [m]"),
             )
-            .add("u_x", over_period(&h.times, &mean(0), period), s)
-            .add("u_y", over_period(&h.times, &mean(1), period), s);
+            .add("u_x", over_period(&h.times, x, period), s)
+            .add("u_y", over_period(&h.times, y, period), s);
             (format!("probe_{name}"), fig)
         })
         .collect()

@@ -4,6 +4,8 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::model::Model;
 use crate::config::{ContactSpec, FieldName};
 use crate::contact::geometry::obstacle_outline;
@@ -80,8 +82,8 @@ impl ContactState {
 /// Time histories over one period.
 pub struct History {
     pub times: Vec<f64>,
-    /// Displacement on all dofs at each time.
-    pub displacement: Vec<Vec<f64>>,
+    /// Per probe group (`Model::probes` order), its nodes' mean u_x and u_y at each time.
+    pub probe_means: Vec<[Vec<f64>; 2]>,
     /// The contact state at each time (empty without contact).
     pub contact: Vec<ContactState>,
 }
@@ -118,6 +120,54 @@ impl History {
     fn closed_tolerance(&self) -> f64 {
         (1e-3 * self.max_opening()).max(self.max_penetration())
     }
+
+    /// The history at `times` of the displacement `u(j, dof)` at instant j (read at the probe
+    /// and contact nodes only), with the multipliers λ(t_j) where there is contact (`None`:
+    /// none) and the law's c (harmonic balance) or none (time marching).
+    fn new(
+        model: &Model,
+        times: Vec<f64>,
+        u: impl Fn(usize, usize) -> f64,
+        lambda: impl Fn(usize) -> Option<Vec<f64>>,
+        c: Option<f64>,
+    ) -> History {
+        let mut probe_means: Vec<[Vec<f64>; 2]> =
+            vec![[Vec::new(), Vec::new()]; model.probes.len()];
+        let mut contact = Vec::new();
+        for j in 0..times.len() {
+            for ((_, nodes), means) in model.probes.iter().zip(&mut probe_means) {
+                let n = nodes.len().max(1) as f64;
+                for (comp, series) in means.iter_mut().enumerate() {
+                    series.push(nodes.iter().map(|&i| u(j, 2 * i + comp)).sum::<f64>() / n);
+                }
+            }
+            if let Some(l) = lambda(j) {
+                contact.push(ContactState::new(
+                    contact_gaps_with(model, |d| u(j, d)),
+                    &l,
+                    c,
+                ));
+            }
+        }
+        History {
+            times,
+            probe_means,
+            contact,
+        }
+    }
+}
+
+/// The dofs a history reads: both components of every probe and contact node, ascending.
+fn history_dofs(model: &Model) -> Vec<usize> {
+    let contact = model.contact.as_ref().map_or(&[][..], |c| &c.set.nodes[..]);
+    let probes = model.probes.iter().flat_map(|(_, nodes)| nodes);
+    let mut dofs: Vec<usize> = probes
+        .chain(contact)
+        .flat_map(|&n| [2 * n, 2 * n + 1])
+        .collect();
+    dofs.sort_unstable();
+    dofs.dedup();
+    dofs
 }
 
 /// The contact state of a harmonic-balance solution at time t with displacement u (`None`
@@ -146,6 +196,7 @@ impl Sampled {
         let dofs = &model.system.dofs;
         let period = solution.period();
         sampled.frames = (0..frame_count)
+            .into_par_iter()
             .map(|j| solution.snapshot(dofs, j as f64 * period / frame_count as f64))
             .collect();
         sampled.frame_contact = sampled
@@ -168,20 +219,22 @@ impl Sampled {
         let period = solution.period();
         let n = samples.max(4 * frame_count).max(64);
         let times: Vec<f64> = (0..n).map(|j| j as f64 * period / n as f64).collect();
-        let displacement: Vec<Vec<f64>> = times
+        // The field at the probe and contact nodes only: the whole field at every sample
+        // cost more than the solve (H = 40 on the strip: 1280 samples of 1762 dofs).
+        let read = history_dofs(model);
+        let values: Vec<Vec<f64>> = times
             .iter()
-            .map(|&t| solution.field_at(dofs, t, 0))
+            .map(|&t| solution.field_on(dofs, &read, t, 0))
             .collect();
-        let contact = times
-            .iter()
-            .zip(&displacement)
-            .filter_map(|(&t, u)| harmonic_balance_contact(model, solution, t, u))
-            .collect();
-        let history = History {
-            times,
-            displacement,
-            contact,
-        };
+        let at = |j: usize, d: usize| read.binary_search(&d).map_or(0.0, |r| values[j][r]);
+        let c = solution.contact.as_ref().map(|c| c.c);
+        let history = History::new(
+            model,
+            times.clone(),
+            at,
+            |j| solution.multipliers_at(times[j]),
+            c,
+        );
         Sampled {
             frames: Vec::new(),
             frame_contact: Vec::new(),
@@ -209,7 +262,6 @@ impl Sampled {
                     .map(|_| result.contact_force[j].clone()),
             })
             .collect();
-        let displacement: Vec<Vec<f64>> = frames.iter().map(|s| s.displacement.clone()).collect();
         let contact: Vec<ContactState> = frames
             .iter()
             .filter_map(|s| {
@@ -228,11 +280,13 @@ impl Sampled {
                 total_force: result.total_contact_history.iter().map(|v| -v).collect(),
             }
         });
-        let history = History {
-            times: result.times.clone(),
-            displacement,
-            contact: contact.clone(),
-        };
+        let history = History::new(
+            model,
+            result.times.clone(),
+            |j, d| frames[j].displacement[d],
+            |j| frames[j].contact_force.clone(),
+            None,
+        );
         Sampled {
             frames,
             frame_contact: contact,
@@ -256,7 +310,7 @@ impl Sampled {
     ) -> Result<SeriesWritten> {
         let written = write_series(dir, model, self, fields, reporter)?;
         let h = &self.history;
-        write_probes(&dir.join("probes.csv"), model, &h.times, &h.displacement)?;
+        write_probes(&dir.join("probes.csv"), model, h)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
             write_contact_history(&dir.join("contact.csv"), model, &h.times, &h.contact)?;
             let outline = obstacle_outline(&model.mesh, spec, &c.set);
@@ -293,6 +347,11 @@ fn vector3(u: &[f64]) -> Vec<f64> {
 
 /// Normal gap B u − g0 of every contact node for a displacement on all dofs.
 pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
+    contact_gaps_with(model, |d| u[d])
+}
+
+/// `contact_gaps` with the displacement of dof d given by `u(d)`.
+fn contact_gaps_with(model: &Model, u: impl Fn(usize) -> f64) -> Vec<f64> {
     let Some(c) = &model.contact else {
         return Vec::new();
     };
@@ -301,7 +360,7 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
         .iter()
         .zip(&c.set.normals)
         .zip(&c.set.gaps)
-        .map(|((&n, nrm), &g0)| nrm[0] * u[2 * n] + nrm[1] * u[2 * n + 1] - g0)
+        .map(|((&n, nrm), &g0)| nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1) - g0)
         .collect()
 }
 
@@ -322,8 +381,9 @@ pub fn nodal_pressure(model: &Model, i: usize, force: f64) -> f64 {
 /// The progress task of the VTU series: one step per frame file written.
 pub const WRITE_TASK: &str = "write frames";
 
-/// Write one VTU per snapshot and the `.pvd`; returns the file names. Each frame is reported
-/// to `reporter` when written (`WRITE_TASK`, j of the frame count, the file name).
+/// Write one VTU per snapshot and the `.pvd`; returns the file names. The frames are written
+/// a thread's worth at a time, side by side, and reported to `reporter` in frame order once
+/// written (`WRITE_TASK`, j of the frame count, the file name).
 pub fn write_series(
     dir: &Path,
     model: &Model,
@@ -332,76 +392,91 @@ pub fn write_series(
     reporter: &dyn Reporter,
 ) -> Result<SeriesWritten> {
     let total = sampled.frames.len() as u64;
-    let nn = model.mesh.nodes.len();
     let mut entries = Vec::new();
     let mut files = Vec::new();
-    let want = |f: FieldName| fields.contains(&f);
-    for (j, s) in sampled.frames.iter().enumerate() {
-        let mut points = Vec::new();
-        if want(FieldName::Displacement) {
-            points.push(Field {
-                name: "displacement".into(),
-                components: 3,
-                values: vector3(&s.displacement),
-            });
+    // As many frames at a time as there are threads, each batch reported in frame order.
+    let batch = rayon::current_num_threads().max(1);
+    for (b, chunk) in sampled.frames.chunks(batch).enumerate() {
+        let names = chunk
+            .par_iter()
+            .enumerate()
+            .map(|(i, s)| write_frame(dir, model, sampled, b * batch + i, s, fields))
+            .collect::<Result<Vec<String>>>()?;
+        for ((i, s), name) in chunk.iter().enumerate().zip(names) {
+            let j = b * batch + i;
+            reporter.progress(WRITE_TASK, j as u64 + 1, Some(total), &name);
+            entries.push((s.time, name.clone()));
+            files.push(name);
         }
-        if want(FieldName::Velocity) {
-            points.push(Field {
-                name: "velocity".into(),
-                components: 3,
-                values: vector3(&s.velocity),
-            });
-        }
-        if want(FieldName::Acceleration) {
-            points.push(Field {
-                name: "acceleration".into(),
-                components: 3,
-                values: vector3(&s.acceleration),
-            });
-        }
-        if let (true, Some(c), Some(state)) = (
-            want(FieldName::Contact),
-            &model.contact,
-            sampled.frame_contact.get(j),
-        ) {
-            let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
-            let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
-            let mut status = vec![-1.0; nn];
-            for (i, &n) in c.set.nodes.iter().enumerate() {
-                opening[n] = -state.gap[i];
-                force[n] = state.force[i];
-                series[n] = state.series[i];
-                pressure[n] = nodal_pressure(model, i, state.force[i]);
-                status[n] = if state.closed(i, sampled.closed_tolerance) {
-                    1.0
-                } else {
-                    0.0
-                };
-            }
-            for (name, values) in [
-                ("contact_opening", opening),
-                ("contact_force", force),
-                ("contact_pressure", pressure),
-                ("contact_status", status),
-                ("contact_force_series", series),
-            ] {
-                points.push(Field {
-                    name: name.into(),
-                    components: 1,
-                    values,
-                });
-            }
-        }
-        let cells = stress_fields(model, &s.displacement, fields);
-        let name = format!("frame_{j:04}.vtu");
-        write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
-        reporter.progress(WRITE_TASK, j as u64 + 1, Some(total), &name);
-        entries.push((s.time, name.clone()));
-        files.push(name);
     }
     reporter.task_done(WRITE_TASK);
     write_pvd(&dir.join("series.pvd"), &entries)?;
     Ok(SeriesWritten { files })
+}
+
+/// `frame_<j>.vtu`: frame j's point fields (displacement, velocity, acceleration, contact)
+/// and cell fields (stresses) that `fields` asks for; returns the file's name.
+fn write_frame(
+    dir: &Path,
+    model: &Model,
+    sampled: &Sampled,
+    j: usize,
+    s: &Snapshot,
+    fields: &[FieldName],
+) -> Result<String> {
+    let nn = model.mesh.nodes.len();
+    let want = |f: FieldName| fields.contains(&f);
+    let mut points = Vec::new();
+    for (field, name, values) in [
+        (FieldName::Displacement, "displacement", &s.displacement),
+        (FieldName::Velocity, "velocity", &s.velocity),
+        (FieldName::Acceleration, "acceleration", &s.acceleration),
+    ] {
+        if want(field) {
+            points.push(Field {
+                name: name.into(),
+                components: 3,
+                values: vector3(values),
+            });
+        }
+    }
+    if let (true, Some(c), Some(state)) = (
+        want(FieldName::Contact),
+        &model.contact,
+        sampled.frame_contact.get(j),
+    ) {
+        let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
+        let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
+        let mut status = vec![-1.0; nn];
+        for (i, &n) in c.set.nodes.iter().enumerate() {
+            opening[n] = -state.gap[i];
+            force[n] = state.force[i];
+            series[n] = state.series[i];
+            pressure[n] = nodal_pressure(model, i, state.force[i]);
+            status[n] = if state.closed(i, sampled.closed_tolerance) {
+                1.0
+            } else {
+                0.0
+            };
+        }
+        for (name, values) in [
+            ("contact_opening", opening),
+            ("contact_force", force),
+            ("contact_pressure", pressure),
+            ("contact_status", status),
+            ("contact_force_series", series),
+        ] {
+            points.push(Field {
+                name: name.into(),
+                components: 1,
+                values,
+            });
+        }
+    }
+    let cells = stress_fields(model, &s.displacement, fields);
+    let name = format!("frame_{j:04}.vtu");
+    write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
+    Ok(name)
 }
 
 /// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`); the
@@ -463,26 +538,17 @@ pub fn write_amplitudes(dir: &Path, model: &Model, solution: &Solution) -> Resul
 }
 
 /// `probes.csv`: time and each probe's mean displacement (x, y) over its nodes.
-pub fn write_probes(
-    path: &Path,
-    model: &Model,
-    times: &[f64],
-    displacements: &[Vec<f64>],
-) -> Result<()> {
+pub fn write_probes(path: &Path, model: &Model, history: &History) -> Result<()> {
     let mut header = vec!["time".to_string()];
     for (name, _) in &model.probes {
         header.push(format!("{name}_ux"));
         header.push(format!("{name}_uy"));
     }
-    let rows: Vec<Vec<f64>> = times
-        .iter()
-        .zip(displacements)
-        .map(|(&t, u)| {
-            let mut row = vec![t];
-            for (_, nodes) in &model.probes {
-                let n = nodes.len().max(1) as f64;
-                row.push(nodes.iter().map(|&i| u[2 * i]).sum::<f64>() / n);
-                row.push(nodes.iter().map(|&i| u[2 * i + 1]).sum::<f64>() / n);
+    let rows: Vec<Vec<f64>> = (0..history.times.len())
+        .map(|j| {
+            let mut row = vec![history.times[j]];
+            for [x, y] in &history.probe_means {
+                row.extend([x[j], y[j]]);
             }
             row
         })

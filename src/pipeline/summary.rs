@@ -10,7 +10,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::model::{Effects, Model};
-use super::report::{truncated_law_force, Sampled};
+use super::report::{truncated_law_force, History, Sampled};
 use super::resonance::ResonanceCheck;
 use super::stages::StageTimes;
 use crate::config::Pipeline;
@@ -421,12 +421,12 @@ fn half_range(series: &[f64]) -> f64 {
 /// first-harmonic amplitude of each component of the probe's mean displacement.
 pub fn probe_amplitudes(
     model: &Model,
-    displacements: &[Vec<f64>],
+    history: &History,
     harmonics: usize,
 ) -> BTreeMap<String, ProbeAmplitudes> {
-    let count = displacements.len().max(1) as f64;
+    let count = history.times.len().max(1) as f64;
     let top = harmonics
-        .min((displacements.len() / 2).saturating_sub(1))
+        .min((history.times.len() / 2).saturating_sub(1))
         .max(1);
     let amplitude = |series: &[f64], k: usize| -> f64 {
         let (mut a, mut b) = (0.0, 0.0);
@@ -444,16 +444,10 @@ pub fn probe_amplitudes(
     model
         .probes
         .iter()
-        .map(|(name, nodes)| {
-            let n = nodes.len().max(1) as f64;
-            let component = |c: usize| -> Vec<f64> {
-                displacements
-                    .iter()
-                    .map(|u| nodes.iter().map(|&i| u[2 * i + c]).sum::<f64>() / n)
-                    .collect()
-            };
-            let (px, hx) = measure(&component(0));
-            let (py, hy) = measure(&component(1));
+        .zip(&history.probe_means)
+        .map(|((name, _), [x, y])| {
+            let (px, hx) = measure(x);
+            let (py, hy) = measure(y);
             let amplitudes = ProbeAmplitudes {
                 half_peak_to_peak_x: px,
                 first_harmonic_x: hx[0],
@@ -503,7 +497,7 @@ pub fn harmonic_balance(
     Summary {
         linear_residuals: Some(solution.residuals.clone()),
         contact,
-        probes: probe_amplitudes(model, &history.displacement, p.harmonic_balance.harmonics),
+        probes: probe_amplitudes(model, history, p.harmonic_balance.harmonics),
         warnings: solution.warnings.clone(),
         max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(p, RunMode::HarmonicBalance, mesh, model, Some(solution))
@@ -544,11 +538,7 @@ pub fn transient(
         .collect();
     Summary {
         contact,
-        probes: probe_amplitudes(
-            model,
-            &sampled.history.displacement,
-            p.harmonic_balance.harmonics,
-        ),
+        probes: probe_amplitudes(model, &sampled.history, p.harmonic_balance.harmonics),
         warnings,
         transient: Some(TransientInfo {
             dt: result.dt,

@@ -144,15 +144,13 @@ pub fn run_summary(name: &str, overrides: &[&str], tag: &str) -> pipeline::Summa
 }
 
 /// The probes' amplitudes of a harmonic-balance state, from the displacements at 64
-/// instants of its period (what a run's summary computes from its frames), up to harmonic
+/// instants of its period (what a run's summary computes from its history), up to harmonic
 /// `harmonics`.
 pub fn hb_probe_amplitudes(
     model: &Model,
     solution: &Solution,
     harmonics: usize,
 ) -> std::collections::BTreeMap<String, pipeline::summary::ProbeAmplitudes> {
-    let u: Vec<Vec<f64>> = (0..64)
-        .map(|j| solution.field_at(&model.system.dofs, j as f64 / 64.0 * solution.period(), 0))
-        .collect();
-    pipeline::summary::probe_amplitudes(model, &u, harmonics)
+    let sampled = pipeline::report::Sampled::harmonic_balance_history(model, solution, 1, 64);
+    pipeline::summary::probe_amplitudes(model, &sampled.history, harmonics)
 }
