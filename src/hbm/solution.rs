@@ -146,24 +146,11 @@ impl Solution {
     /// Displacement (derivative 0), velocity (1) or acceleration (2) at time t on all dofs.
     pub fn field_at(&self, dofs: &DofMap, t: f64, derivative: u32) -> Vec<f64> {
         let mut u = vec![0.0; dofs.total()];
-        let count = self
-            .free
-            .keys()
-            .chain(self.motion.keys())
-            .max()
-            .map_or(0, |k| k + 1);
-        let rotors = match &self.basis {
-            TimeBasis::Spline(s) => s.rotors(count, self.omega, t, derivative),
-            TimeBasis::Fourier => Vec::new(),
-        };
+        let rotors = self.rotors(t, derivative);
         for (map, targets) in [(&self.free, &dofs.free), (&self.motion, &dofs.prescribed)] {
             for (&k, z) in map {
-                let f = rotors
-                    .get(k)
-                    .copied()
-                    .unwrap_or_else(|| self.basis.rotor(k, self.omega, t, derivative));
                 for (i, &d) in targets.iter().enumerate() {
-                    u[d] += (z[i] * f).re;
+                    u[d] += (z[i] * rotors[k]).re;
                 }
             }
         }
@@ -174,20 +161,31 @@ impl Solution {
     /// of a few nodes costs, not the whole field's.
     pub fn field_on(&self, dofs: &DofMap, which: &[usize], t: f64, derivative: u32) -> Vec<f64> {
         let mut u = vec![0.0; which.len()];
+        let rotors = self.rotors(t, derivative);
         for (map, index) in [
             (&self.free, dofs.free_map()),
             (&self.motion, dofs.prescribed_map()),
         ] {
             for (&k, z) in map {
-                let f = self.basis.rotor(k, self.omega, t, derivative);
                 for (u, &d) in u.iter_mut().zip(which) {
                     if let Some(i) = index[d] {
-                        *u += (z[i] * f).re;
+                        *u += (z[i] * rotors[k]).re;
                     }
                 }
             }
         }
         u
+    }
+
+    /// The basis' rotors E_k^{(d)}(t) for every harmonic (or discrete frequency) stored.
+    fn rotors(&self, t: f64, derivative: u32) -> Vec<c64> {
+        let count = self
+            .free
+            .keys()
+            .chain(self.motion.keys())
+            .max()
+            .map_or(0, |k| k + 1);
+        self.basis.rotors(count, self.omega, t, derivative)
     }
 
     /// The complex amplitude of Fourier harmonic k on all dofs (for a spline basis the

@@ -332,10 +332,10 @@ impl SchurPlan {
             .iter()
             .map(|s| front_cost(s.pivots, s.rows.len()))
             .sum();
-        let factor_entries = nodes
-            .iter()
-            .map(|s| trapezoid(s.pivots, s.rows.len()))
-            .sum();
+        let panel_start = nodes.iter().fold(vec![0], |mut v, s| {
+            v.push(v[v.len() - 1] + trapezoid(s.pivots, s.rows.len()));
+            v
+        });
         SchurPlan {
             eliminated,
             kept_of_row,
@@ -344,16 +344,13 @@ impl SchurPlan {
             row_idx: t.row_idx,
             scatter_ptr: t.scatter_ptr,
             scatter: t.scatter,
-            panel_start: nodes.iter().fold(vec![0], |mut v, s| {
-                v.push(v[v.len() - 1] + trapezoid(s.pivots, s.rows.len()));
-                v
-            }),
+            factor_entries: panel_start[nodes.len()],
+            panel_start,
             supernodes: nodes,
             scratch: ScratchPool::default(),
             schur_cost: ldlt_cost + nk.powi(3),
             lu_cost,
             blocked_cost: nc * 2.0 * 2.0 * nnz_l,
-            factor_entries,
             b: None,
         }
     }
@@ -507,7 +504,7 @@ impl SchurPlan {
         local.resize(n, usize::MAX);
         blocks.clear();
         blocks.resize_with(self.supernodes.len(), || None);
-        let mut panels = vec![c64::new(0.0, 0.0); self.panel_start[self.supernodes.len()]];
+        let mut panels = Vec::with_capacity(self.panel_start[self.supernodes.len()]);
         for (s, node) in self.supernodes.iter().enumerate() {
             let m = node.rows.len();
             for (i, &r) in node.rows.iter().enumerate() {
@@ -537,11 +534,11 @@ impl SchurPlan {
                 let from = (p + b) * m + p;
                 cb[b * mc + b..(b + 1) * mc].copy_from_slice(&front[from + b..from + mc]);
             }
-            let panel = &mut panels[self.panel_start[s]..self.panel_start[s + 1]];
+            // Supernode s's panel at panel_start[s]: its columns from the diagonal down.
             for k in 0..p {
-                let at = trapezoid(k, m);
-                panel[at..at + m - k].copy_from_slice(&front[k * m + k..(k + 1) * m]);
+                panels.extend_from_slice(&front[k * m + k..(k + 1) * m]);
             }
+            debug_assert_eq!(panels.len(), self.panel_start[s + 1]);
             match node.parent {
                 Some(_) => blocks[s] = Some(cb),
                 None => {
@@ -636,7 +633,7 @@ impl LdltFactor {
         &self.plan
     }
 
-    /// Supernode s's panel (m × pivots, column-major).
+    /// Supernode s's panel (its pivot columns from the diagonal down, `trapezoid_column`).
     fn panel(&self, s: usize) -> &[c64] {
         &self.panels[self.plan.panel_start[s]..self.plan.panel_start[s + 1]]
     }
@@ -669,7 +666,7 @@ impl LdltFactor {
     /// the kept coordinates of x̃ = Ã⁻¹ Tᵀ b, which the forward sweep and S⁻¹ give.
     pub fn contact_rows_of_solve(&self, b: &[c64]) -> Vec<c64> {
         let plan = &*self.plan;
-        let mut x = self.transformed(std::slice::from_ref(&b.to_vec()));
+        let mut x = self.transformed(&[b]);
         self.forward(&mut x, 1);
         self.apply_s_inverse(&mut x, 1);
         plan.kept_of_row
@@ -679,11 +676,11 @@ impl LdltFactor {
     }
 
     /// Tᵀ b per right-hand side: x[q * r + c] is coordinate q of right-hand side c.
-    fn transformed(&self, rhs: &[Vec<c64>]) -> Vec<c64> {
+    fn transformed<B: AsRef<[c64]>>(&self, rhs: &[B]) -> Vec<c64> {
         let (n, r) = (self.plan.dim(), rhs.len());
         let mut x = vec![c64::new(0.0, 0.0); n * r];
         for (c, b) in rhs.iter().enumerate() {
-            for (bd, e) in b.iter().zip(&self.plan.expansion) {
+            for (bd, e) in b.as_ref().iter().zip(&self.plan.expansion) {
                 for &(q, w) in e {
                     x[q * r + c] += bd * w;
                 }

@@ -262,17 +262,6 @@ impl Sampled {
                     .map(|_| result.contact_force[j].clone()),
             })
             .collect();
-        let contact: Vec<ContactState> = frames
-            .iter()
-            .filter_map(|s| {
-                let lambda = s.contact_force.as_ref()?;
-                Some(ContactState::new(
-                    contact_gaps(model, &s.displacement),
-                    lambda,
-                    None,
-                ))
-            })
-            .collect();
         let steps = model.contact.as_ref().map(|_| {
             let count = result.total_contact_history.len();
             StepHistory {
@@ -287,9 +276,10 @@ impl Sampled {
             |j| frames[j].contact_force.clone(),
             None,
         );
+        // The history is taken at the frames: its contact states are the frames'.
         Sampled {
+            frame_contact: history.contact.clone(),
             frames,
-            frame_contact: contact,
             closed_tolerance: history.closed_tolerance(),
             history,
             steps,
