@@ -10,6 +10,7 @@ use faer::{Mat, Par};
 
 use crate::{Error, Result};
 
+pub mod modal;
 pub mod schur;
 
 /// A square sparse matrix as (row, column, value) triplets; duplicates add up.
@@ -410,10 +411,12 @@ impl SparseLu {
 
 /// One factorization of Z_k, by whichever path its estimated cost chose (`System::factor`):
 /// faer's pivoting sparse LU, or the kept complex symmetric LDLᵀ of `schur`, which also
-/// carries G = B Z_k⁻¹ Bᵀ from the same elimination.
+/// carries G = B Z_k⁻¹ Bᵀ from the same elimination; or no factorization at all, the
+/// Galerkin solve of a reduced model (`modal`), whose solves the caller checks.
 pub enum Factor {
     Lu(Box<SparseLu>),
     Ldlt(schur::LdltFactor),
+    Modal(modal::ModalFactor),
 }
 
 impl Factor {
@@ -421,6 +424,7 @@ impl Factor {
         match self {
             Factor::Lu(lu) => lu.dim(),
             Factor::Ldlt(f) => f.dim(),
+            Factor::Modal(f) => f.dim(),
         }
     }
 
@@ -432,6 +436,7 @@ impl Factor {
         match self {
             Factor::Lu(lu) => lu.solve(rhs),
             Factor::Ldlt(f) => f.solve(rhs),
+            Factor::Modal(f) => f.solve(rhs),
         }
     }
 
@@ -444,7 +449,7 @@ impl Factor {
                 .as_ref()
                 .filter(|(b, _)| b == rhs)
                 .map(|(_, x)| x.clone()),
-            Factor::Lu(_) => None,
+            Factor::Lu(_) | Factor::Modal(_) => None,
         }
     }
 
@@ -452,6 +457,7 @@ impl Factor {
         match self {
             Factor::Lu(lu) => lu.solve_many(rhs),
             Factor::Ldlt(f) => f.solve_many(rhs),
+            Factor::Modal(f) => f.solve_many(rhs),
         }
     }
 
@@ -469,13 +475,14 @@ impl Factor {
         match self {
             Factor::Lu(lu) => lu.compliance(b),
             Factor::Ldlt(f) if f.plan().built_for(b) => f.compliance().to_vec(),
-            Factor::Ldlt(f) => {
+            Factor::Modal(f) if f.built_for(b) => f.compliance(),
+            Factor::Ldlt(_) | Factor::Modal(_) => {
                 let nc = b.nrows;
                 let mut rows: Vec<Vec<c64>> = vec![vec![c64::new(0.0, 0.0); b.ncols]; nc];
                 for (i, p, v) in b.triplet_iter() {
                     rows[i][p] = c64::new(v, 0.0);
                 }
-                let x = f.solve_many(&rows);
+                let x = self.solve_many(&rows);
                 let mut out = vec![c64::new(0.0, 0.0); nc * nc];
                 for (j, xj) in x.iter().enumerate() {
                     let bx = b.mul_complex(xj);

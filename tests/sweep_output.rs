@@ -286,11 +286,11 @@ fn fold_peak_and_write_at_points_hold_a_runs_output_at_their_rows() {
 /// TEST GOAL: a sweep stopped by `max_points` (30) says so in sweep.json (`stopped.class`
 /// max_points, at its last row; exit 0) and `--resume` with the budget raised to 80
 /// continues it from there: the rows, folds and written points equal those of the
-/// uninterrupted 80-point sweep (frequencies and outputs to 1e-9, a tenth of the Newton's
-/// tolerance: the resumed point is re-solved from its saved multipliers, so it stays on its
-/// branch, and its matrix-free steps stop at the forcing term, so it agrees to the Newton's
-/// final residual, not to round-off: measured 1.0e-11), and `resumed_from` names the row it
-/// continued from.
+/// uninterrupted 80-point sweep (frequencies and outputs to 1e-7: the resumed point is
+/// re-solved from its saved multipliers, so it stays on its branch, and each invocation's
+/// frames come from its own reduced model of Z_k(ω)⁻¹, whose points pass a 1e-10 backward
+/// error but differ from the factorizations' by up to a few 1e-8 in the probe's amplitude:
+/// measured 3.9e-8), and `resumed_from` names the row it continued from.
 #[test]
 fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
     let (_, whole) = curve();
@@ -327,13 +327,13 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
         }
     }
     println!("{} rows, largest relative difference {worst:.1e}", a.len());
-    assert!(worst < 1e-9, "{worst}");
+    assert!(worst < 1e-7, "{worst}");
     let fold = |j: &Value| f(&j["folds"][0]["frequency_hz"]);
     assert_eq!(
         whole["folds"].as_array().unwrap().len(),
         resumed["folds"].as_array().unwrap().len()
     );
-    assert!(rel(fold(whole), fold(&resumed)) < 1e-9);
+    assert!(rel(fold(whole), fold(&resumed)) < 1e-7);
     let folders = |j: &Value| -> Vec<String> {
         j["written"]
             .as_array()
@@ -476,10 +476,10 @@ fn a_contact_scene_that_never_touches_sweeps_the_linear_curve_point_by_point() {
         s.rows.len()
     );
     assert!(s.rows.len() > 5);
-    // Round-off: the contact sweep factors Z_k with the contact normals ordered last (the
-    // kept LDLᵀ that also gives G_k), the linear solve in another elimination order
-    // (measured 3.0e-13).
-    assert!(worst < 8e-13, "{worst}");
+    // The contact sweep's frames come from its reduced model of Z_k(ω)⁻¹ (docs/method.md
+    // §14, "Reduced frames"): each point passes a 1e-10 backward error, and the probe's
+    // amplitude lies within a few 1e-8 of the factored linear solve (measured 2.1e-8).
+    assert!(worst < 5e-8, "{worst}");
     let again = hbcontact::sweep::resume(&p, &options, &Silent);
     let message = again.err().map(|e| e.to_string()).unwrap_or_default();
     assert!(message.contains("nothing to continue"), "{message}");

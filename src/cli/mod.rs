@@ -66,6 +66,16 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
+    let r = &s.reduced_frames;
+    if r.dimension > 0 {
+        outln!(
+            "  frames from a reduced model of dimension {} ({} frames; {} points re-solved on factored frames; largest backward error {:.1e})",
+            r.dimension,
+            r.frames,
+            r.replaced,
+            r.largest_error
+        );
+    }
     outln!("  wall time: {:.3} s", s.stage_seconds.total());
     outln!(
         "  wrote {}/: sweep.csv, sweep.json, plots, {} frames in frames.pvd, {} point folders",

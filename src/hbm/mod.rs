@@ -19,6 +19,7 @@
 
 pub mod basis;
 pub mod fourier;
+pub mod frames;
 mod globalize;
 pub mod knobs;
 pub mod reduced;
@@ -197,6 +198,19 @@ fn prepare(
     reporter: &dyn Reporter,
     timings: &mut Timings,
 ) -> Result<(LinearResponse, Option<ReducedProblem>)> {
+    prepare_with(system, contact, settings, reporter, timings, None)
+}
+
+/// `prepare`, with the harmonics' solves from a reduced model when one is given (no
+/// factorization; the caller checks the point it keeps, `frames::point_backward_error`).
+fn prepare_with(
+    system: &System,
+    contact: Option<&ContactOperator>,
+    settings: &HbSettings,
+    reporter: &dyn Reporter,
+    timings: &mut Timings,
+    model: Option<&frames::ReducedModel>,
+) -> Result<(LinearResponse, Option<ReducedProblem>)> {
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicU64, Ordering};
     let harmonics = harmonics_to_compute(system, contact, settings)?;
@@ -207,7 +221,10 @@ fn prepare(
     let results: Vec<Result<Harmonic>> = harmonics
         .par_iter()
         .map(|&k| {
-            let h = Harmonic::compute(system, b, k);
+            let h = match (model, b) {
+                (Some(model), Some(b)) => Harmonic::reduced(system, b, k, model),
+                _ => Harmonic::compute(system, b, k),
+            };
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             reporter.progress("factor", d, total, &format!("harmonic {k}"));
             h
@@ -282,6 +299,44 @@ impl Harmonic {
             free,
             residual,
             compliance,
+            seconds,
+        })
+    }
+}
+
+impl Harmonic {
+    /// The harmonic from a reduced model: Galerkin solves, no factorization; the linear
+    /// solve's backward error is recorded, not checked (the point is).
+    fn reduced(
+        system: &System,
+        b: &crate::linalg::Csc,
+        k: usize,
+        model: &frames::ReducedModel,
+    ) -> Result<Harmonic> {
+        let mut seconds = [0.0; 3];
+        let factor = model
+            .factor(system, k)
+            .ok_or_else(|| singular_diagnosis(system, k))?;
+        let rhs = system.load(k);
+        let (free, residual) = timed(&mut seconds[1], || {
+            if is_zero(&rhs) {
+                return (rhs.clone(), 0.0);
+            }
+            let z = match &factor {
+                Factor::Modal(f) => f.load_response(),
+                f => f.solve(&rhs),
+            };
+            let r = system.residual(k, &z, &rhs);
+            let res = system::backward_error(system, k, &r, &z, &rhs);
+            (z, res)
+        });
+        let compliance = timed(&mut seconds[2], || reduce(system, b, k, &factor))?;
+        Ok(Harmonic {
+            k,
+            factor: Some(factor),
+            free,
+            residual,
+            compliance: Some(compliance),
             seconds,
         })
     }

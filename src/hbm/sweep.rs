@@ -38,9 +38,10 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
 use super::fourier::{phasor, set_phasor};
+use super::frames::{self, ReducedModel};
 use super::reduced::{NewtonSettings, Residual};
 use super::step::{self, StepMethod};
-use super::{globalize, prepare};
+use super::{globalize, prepare, prepare_with};
 use super::{ContactSolution, HbSettings, LinearResponse, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
@@ -168,6 +169,21 @@ pub struct SweepOutcome {
     /// Why the sweep stopped before the end (`None`: it reached the end frequency).
     pub stopped: Option<String>,
     pub timings: Timings,
+    /// What the reduced model did (all zero when the sweep factored every frame).
+    pub reduced: ReducedFrames,
+}
+
+/// The reduced model's account of a sweep.
+#[derive(Clone, Debug, Default, serde::Serialize, schemars::JsonSchema)]
+pub struct ReducedFrames {
+    /// Its dimension r at the end (0: no model, every frame factored).
+    pub dimension: usize,
+    /// Frames it gave.
+    pub frames: usize,
+    /// Points whose check failed, solved again on exact frames (and learned from).
+    pub replaced: usize,
+    /// The largest backward error of a kept point from a reduced frame.
+    pub largest_error: f64,
 }
 
 /// The receiver of each accepted point and its recovered solution.
@@ -204,11 +220,14 @@ pub fn sweep(
     }
 }
 
-/// Everything at one ω: the factorizations, the linear response and the reduced problem.
+/// Everything at one ω: the factorizations (or a reduced model's solves), the linear response
+/// and the reduced problem.
 struct Frame {
     omega: f64,
     linear: LinearResponse,
     problem: ReducedProblem,
+    /// From the reduced model (its points are checked before they are kept).
+    reduced: bool,
 }
 
 /// A converged point: its multipliers, ω, unit tangent and contact gaps.
@@ -246,6 +265,9 @@ struct Continuation<'a> {
     /// The first point (cold, or the resumed point re-solved), its Newton and its frame
     /// (taken by `run`).
     first: Option<(Vec<f64>, NewtonOutcome, Frame)>,
+    /// The reduced model of Z_k(ω)⁻¹ frames come from, when the scene has one.
+    model: Option<ReducedModel>,
+    reduced: ReducedFrames,
 }
 
 impl<'a> Continuation<'a> {
@@ -267,6 +289,7 @@ impl<'a> Continuation<'a> {
             omega,
             linear,
             problem,
+            reduced: false,
         };
         let mut newton = NewtonSettings {
             samples: 0,
@@ -307,11 +330,38 @@ impl<'a> Continuation<'a> {
             largest: 0.0,
             jumped: None,
             first: Some((first.0, first.1, frame)),
+            model: None,
+            reduced: ReducedFrames::default(),
         })
     }
 
-    /// The frame at ω (one set of factorizations and the reduction).
+    /// The frame at ω: from the reduced model when there is one, else one set of
+    /// factorizations and the reduction.
     fn frame(&mut self, omega: f64) -> Result<Frame> {
+        if self.model.is_none() {
+            return self.exact_frame(omega);
+        }
+        self.system.omega = omega;
+        self.reduced.frames += 1;
+        let (linear, problem) = prepare_with(
+            self.system,
+            Some(self.op),
+            self.hb,
+            self.reporter,
+            &mut self.timings,
+            self.model.as_ref(),
+        )?;
+        let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
+        Ok(Frame {
+            omega,
+            linear,
+            problem,
+            reduced: true,
+        })
+    }
+
+    /// The frame at ω from one set of factorizations.
+    fn exact_frame(&mut self, omega: f64) -> Result<Frame> {
         self.system.omega = omega;
         self.factorizations += 1;
         let (linear, problem) = prepare(
@@ -326,7 +376,66 @@ impl<'a> Continuation<'a> {
             omega,
             linear,
             problem,
+            reduced: false,
         })
+    }
+
+    /// The reduced model for the sweep's range, where it pays: its start block times the
+    /// shifts well below the number of free dofs (few contact nodes). Built after the first
+    /// point, so a model that cannot be built only costs the sweep its speed.
+    fn build_model(&mut self) {
+        let n = self.system.free_count();
+        let columns = self.op.nodes() + 2 * self.system.inputs.len().max(1);
+        let shifts = 1 + frames::SHIFTS_PER_HARMONIC * self.hb.harmonics;
+        if columns * shifts > n / 2 {
+            return;
+        }
+        let clock = Instant::now();
+        let range = (self.s.omega_start, self.s.omega_end);
+        self.model =
+            ReducedModel::build(self.system, &self.op.b_free, range, self.hb.harmonics).ok();
+        self.timings.reduce += clock.elapsed().as_secs_f64();
+        self.reduced.dimension = self.model.as_ref().map_or(0, ReducedModel::dim);
+    }
+
+    /// `next` on `frame` as kept: a reduced frame's point whose recovered field misses the
+    /// harmonic-balance equations by more than `frames::BACKWARD_TOLERANCE` (backward error)
+    /// is solved again on an exact frame at its ω, from its own multipliers, and the model
+    /// learns that frame's solves.
+    fn verified(
+        &mut self,
+        p: &Point,
+        next: Point,
+        frame: Frame,
+    ) -> std::result::Result<(Point, Frame), String> {
+        if !frame.reduced {
+            return Ok((next, frame));
+        }
+        let m = frame.problem.coefficients();
+        let clock = Instant::now();
+        let error = frames::point_backward_error(self.system, self.op, &frame.linear, &next.x, m);
+        self.timings.reduce += clock.elapsed().as_secs_f64();
+        if error <= frames::BACKWARD_TOLERANCE {
+            self.reduced.largest_error = self.reduced.largest_error.max(error);
+            return Ok((next, frame));
+        }
+        self.reduced.replaced += 1;
+        let exact = self.exact_frame(frame.omega).map_err(|e| e.to_string())?;
+        if let Some(model) = self.model.as_mut() {
+            let clock = Instant::now();
+            let enriched = model.enrich_from(self.system, &self.op.b_free, &exact.linear.factors);
+            if enriched.is_err() {
+                self.model = None;
+            }
+            self.reduced.dimension = self.model.as_ref().map_or(0, ReducedModel::dim);
+            self.timings.reduce += clock.elapsed().as_secs_f64();
+        }
+        let o = super::reduced::newton(&exact.problem, &self.newton, &next.x, self.reporter);
+        if !o.converged {
+            return Err(format!("the exact frame of a reduced point: {}", o.reason));
+        }
+        let point = self.after(p, o.multipliers, &exact)?;
+        Ok((point, exact))
     }
 
     fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
@@ -361,6 +470,7 @@ impl<'a> Continuation<'a> {
             state: Some(self.state(&point, ds, start)),
         };
         self.largest = norm(&point.x);
+        self.build_model();
         let mut trail = Trail::default();
         trail.push(self.scaled(&point));
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
@@ -406,6 +516,7 @@ impl<'a> Continuation<'a> {
         outcome.points = index;
         outcome.folds = without_kinks(std::mem::take(&mut outcome.folds), KINK * self.span);
         outcome.timings = self.timings;
+        outcome.reduced = self.reduced;
         Ok(outcome)
     }
 
@@ -530,6 +641,7 @@ impl<'a> Continuation<'a> {
             ));
         }
         let point = self.after(p, x, &frame)?;
+        let (point, frame) = self.verified(p, point, frame)?;
         let change = relative_change(&p.gaps, &point.gaps);
         if change > self.s.max_change && ds > self.s.min_step {
             return Err(format!("the contact gaps changed by {change:.2e}"));
@@ -605,8 +717,10 @@ impl<'a> Continuation<'a> {
             gaps: frame.problem.gap(&o.multipliers),
             x: o.multipliers,
             omega: frame.omega,
-            tangent,
+            tangent: tangent.clone(),
         };
+        let (mut point, frame) = self.verified(p, point, frame).ok()?;
+        point.tangent = tangent;
         let info = PointInfo {
             index,
             omega: point.omega,
@@ -1041,6 +1155,19 @@ fn gap_rate(
     let mut dg = vec![0.0; nc * m];
     for (&k, lu) in &linear.factors {
         let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
+        if let crate::linalg::Factor::Modal(f) = lu {
+            // On the reduced space: no product with K or M.
+            let motion = &linear.motion[&k];
+            let load_rate = motion.iter().any(|z| z.norm() > 0.0).then(|| {
+                let zero = vec![c64::new(0.0, 0.0); system.free_count()];
+                system.omega_derivative(k, &zero, motion)
+            });
+            let bdz = f.contact_rate(&lam, system.pencil_rate(k), load_rate.as_deref());
+            for (i, v) in bdz.into_iter().enumerate() {
+                set_phasor(&mut dg[i * m..(i + 1) * m], k, v);
+            }
+            continue;
+        }
         let mut z = linear.free[&k].clone();
         if lam.iter().any(|l| l.norm() > 0.0) {
             let dz = lu.solve(&op.b_free.mul_transpose_complex(&lam));

@@ -135,6 +135,63 @@ impl System {
         self.basis.symbols(k, self.omega)
     }
 
+    /// Z_k = a K + b M: (a, b) = (1 + i s_k β, q_k + i s_k α) at this ω (Rayleigh damping
+    /// keeps every harmonic in the pencil of K and M; a reduced model of it serves them all).
+    pub fn pencil(&self, k: usize) -> (c64, c64) {
+        self.pencil_at(k, self.omega)
+    }
+
+    /// ∂(a, b)/∂ω of `pencil`: (i s_k' β, q_k' + i s_k' α).
+    pub fn pencil_rate(&self, k: usize) -> (c64, c64) {
+        let sym = self.symbols(k);
+        let (alpha, beta) = self.damping_at(&sym);
+        (
+            c64::new(0.0, sym.damping_rate * beta),
+            c64::new(sym.mass_rate, sym.damping_rate * alpha),
+        )
+    }
+
+    /// `pencil` at another ω.
+    pub fn pencil_at(&self, k: usize, omega: f64) -> (c64, c64) {
+        let sym = self.basis.symbols(k, omega);
+        let (alpha, beta) = self.damping_at(&sym);
+        (
+            c64::new(1.0, sym.damping * beta),
+            c64::new(sym.mass, sym.damping * alpha),
+        )
+    }
+
+    /// (a K + b M)⁻¹ x for real columns `x`: the plain LDLᵀ, or the LU where it fails.
+    pub fn pencil_solve(&self, (a, b): (c64, c64), x: &[Vec<f64>]) -> Result<Vec<Vec<c64>>> {
+        let combine = |ca: f64, cb: f64| -> Csc {
+            let mut out = self.k_ff.clone();
+            for (v, m) in out.values.iter_mut().zip(&self.m_ff.values) {
+                *v = ca * *v + cb * m;
+            }
+            out
+        };
+        let re = combine(a.re, b.re);
+        let im = (a.im != 0.0 || b.im != 0.0).then(|| combine(a.im, b.im));
+        let im_values = im.as_ref().map(|m| m.values.as_slice());
+        let ldlt = self
+            .ldlt_plan(None)
+            .and_then(|p| p.factor(&re.values, im_values, PIVOT_TOLERANCE).ok());
+        let factor = match (ldlt, &im) {
+            (Some(f), _) => Factor::Ldlt(f),
+            (None, Some(im)) => Factor::Lu(Box::new(SparseLu::factor_complex(
+                self.lu_pattern()?,
+                &re,
+                &im.values,
+            )?)),
+            (None, None) => Factor::Lu(Box::new(SparseLu::factor_real(self.lu_pattern()?, &re)?)),
+        };
+        let rhs: Vec<Vec<c64>> = x
+            .iter()
+            .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
+            .collect();
+        Ok(factor.solve_many(&rhs))
+    }
+
     /// (α, β) where the damping term acts (s_k ≠ 0), else zero.
     fn damping_at(&self, sym: &Symbols) -> (f64, f64) {
         self.rayleigh

@@ -152,6 +152,11 @@ pub struct SweepSummary {
     /// factorizations, linear solves, reductions, the correctors (`newton`: Newton, bordered
     /// solves and ∂g/∂ω) and the recoveries.
     pub solver_seconds: crate::hbm::Timings,
+    /// The reduced model of Z_k(ω)⁻¹ the frames came from (docs/method.md, "Reduced
+    /// frames"): its dimension, the frames it gave, the points whose check failed and were
+    /// solved again on factored frames, and the largest backward error of a point it kept.
+    /// Dimension 0: every frame was factored.
+    pub reduced_frames: crate::hbm::sweep::ReducedFrames,
 }
 
 impl SweepSummary {
@@ -252,20 +257,22 @@ fn execute(
     stages.run("stability", || {
         judge_points(p, mesh, &model, &mut writer, &starts, &folds, reporter)
     })?;
-    let (timings, stopped, failure) = match ended {
+    let (timings, reduced, stopped, failure) = match ended {
         Ok(outcome) => (
             outcome.timings,
+            outcome.reduced,
             outcome.stopped.map(Error::NotConverged),
             None,
         ),
         // Nothing found at all (the first point failed): nothing to keep.
         Err(e) if writer.seen() == 0 => return Err(stages.context("sweep", e)),
-        Err(e) => (Default::default(), None, Some(e)),
+        Err(e) => (Default::default(), Default::default(), None, Some(e)),
     };
     let failure = failure.or(stopped).map(|e| stages.context("sweep", e));
     let ended = Ended {
         warnings,
         timings,
+        reduced,
         failure,
         out: &out,
     };
@@ -282,6 +289,7 @@ fn execute(
 struct Ended<'a> {
     warnings: Vec<String>,
     timings: crate::hbm::Timings,
+    reduced: crate::hbm::sweep::ReducedFrames,
     failure: Option<Error>,
     out: &'a std::path::Path,
 }
@@ -319,6 +327,7 @@ fn summarize(
         rows: std::mem::take(&mut writer.rows),
         stage_seconds: Default::default(),
         solver_seconds: ended.timings,
+        reduced_frames: ended.reduced,
     };
     Ok((summary, ended.failure))
 }

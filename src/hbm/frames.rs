@@ -1,0 +1,232 @@
+//! Reduced frames: the factorization-free frames of a sweep (docs/method.md, "Reduced
+//! frames"). With Rayleigh damping every harmonic at every ω is Z_k(ω) = a K + b M
+//! (`System::pencil`), so one reduced model of the pencil (K, M) (`linalg::modal`) gives G_k,
+//! the linear gaps and the recovery at any ω of the sweep for the cost of products with
+//! r-vectors, where an exact frame factors H + 1 sparse matrices.
+//!
+//! Glossary and formulas:
+//! - W the start block: B's rows and the real and imaginary parts of the loads' parts
+//!   (forces; K_fp u_p and M_fp u_p for prescribed motion), one column each;
+//! - σ_j ≥ 0 the real shifts; the space is span{(K − σ_j M)⁻¹ W};
+//! - the indicator at (k, ω): the largest backward error
+//!   ‖w − Z x‖∞ / (‖Z‖∞ ‖x‖∞ + ‖w‖∞) of the reduced solves x of W's columns, ‖Z‖∞ bounded
+//!   by |a| ‖K‖∞ + |b| ‖M‖∞;
+//! - the model is built greedily: shifts σ = −q_k at the centre of the range for every
+//!   harmonic, then a shift at the worst indicator of a grid over (k, ω) until every one is
+//!   below `BACKWARD_TOLERANCE` (or `MAX_SHIFTS` are spent: then no model).
+//!
+//! The grid cannot see between its nodes, so the caller checks every point it keeps by the
+//! backward error of the point's own recovered field (`point_backward_error`), the test a
+//! factorization's solve passes, and replaces a point that fails by an exact one.
+
+use std::sync::Arc;
+
+use faer::c64;
+use rayon::prelude::*;
+
+use super::System;
+use crate::linalg::modal::{ModalBasis, ModalSpace};
+use crate::linalg::{Csc, Factor};
+use crate::Result;
+
+/// The backward error a reduced solve must stay below: the one a factorization's solve is
+/// held to (`check_solve`).
+pub const BACKWARD_TOLERANCE: f64 = 1e-10;
+/// Frequencies over the range at which each harmonic's real shift is placed.
+pub const SHIFTS_PER_HARMONIC: usize = 3;
+
+/// A reduced model of Z_k(ω)⁻¹ for ω in a range.
+pub struct ReducedModel {
+    basis: Arc<ModalBasis>,
+    start: Vec<Vec<f64>>,
+    space: ModalSpace,
+    /// The shifts the space was built from.
+    pub shifts: Vec<f64>,
+    row_sums: (f64, f64),
+}
+
+impl ReducedModel {
+    /// The model for ω in `omegas` and harmonics 0..=`harmonics`: real shifts σ = −q_k at
+    /// `SHIFTS_PER_HARMONIC` frequencies spread over the range for every harmonic k ≥ 1, and
+    /// σ = 0.
+    pub fn build(
+        system: &System,
+        b: &Csc,
+        omegas: (f64, f64),
+        harmonics: usize,
+    ) -> Result<ReducedModel> {
+        let start = start_block(system, b, harmonics);
+        let spread = (0..SHIFTS_PER_HARMONIC).map(|i| {
+            omegas.0 + (omegas.1 - omegas.0) * i as f64 / (SHIFTS_PER_HARMONIC - 1) as f64
+        });
+        let mut shifts = vec![0.0];
+        for w in spread {
+            shifts.extend((1..=harmonics).map(|k| -system.pencil_at(k, w).1.re));
+        }
+        let solves: Vec<Vec<Vec<c64>>> = shifts
+            .par_iter()
+            .map(|&s| system.pencil_solve((c64::new(1.0, 0.0), c64::new(-s, 0.0)), &start))
+            .collect::<Result<_>>()?;
+        let mut columns = Vec::new();
+        for x in solves {
+            push_parts(&mut columns, x);
+        }
+        let mut space = ModalSpace::default();
+        space.extend(&system.k_ff, &system.m_ff, columns);
+        Ok(ReducedModel {
+            basis: Arc::new(ModalBasis::new(&space, b)?),
+            start,
+            space,
+            shifts,
+            row_sums: (max_row_sum(&system.k_ff), max_row_sum(&system.m_ff)),
+        })
+    }
+
+    /// r, the dimension of the reduced space.
+    pub fn dim(&self) -> usize {
+        self.basis.dim()
+    }
+
+    /// Add the real and imaginary parts of exact solutions (an exact frame's solves) to the
+    /// space.
+    pub fn enrich(&mut self, system: &System, b: &Csc, solutions: &[Vec<c64>]) -> Result<()> {
+        let mut columns = Vec::new();
+        push_parts(&mut columns, solutions.to_vec());
+        self.space.extend(&system.k_ff, &system.m_ff, columns);
+        self.basis = Arc::new(ModalBasis::new(&self.space, b)?);
+        Ok(())
+    }
+
+    /// The reduced "factor" of Z_k at the system's ω (`None`: singular on the space).
+    pub fn factor(&self, system: &System, k: usize) -> Option<Factor> {
+        let (a, b) = system.pencil(k);
+        self.basis.at(a, b, &system.load(k)).map(Factor::Modal)
+    }
+
+    /// The start block's columns, complex (the right-hand sides an exact frame solves to
+    /// enrich the model).
+    pub fn start_columns(&self) -> Vec<Vec<c64>> {
+        self.start
+            .iter()
+            .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
+            .collect()
+    }
+
+    /// The largest backward error of the reduced solves of the start block at (k, ω).
+    pub fn indicator(&self, system: &System, k: usize, omega: f64) -> f64 {
+        let (a, b) = system.pencil_at(k, omega);
+        let Some(f) = self.basis.at(a, b, &[]) else {
+            return f64::INFINITY;
+        };
+        let norm_z = a.norm() * self.row_sums.0 + b.norm() * self.row_sums.1;
+        self.start
+            .iter()
+            .map(|w| {
+                let wc: Vec<c64> = w.iter().map(|&v| c64::new(v, 0.0)).collect();
+                let x = f.solve(&wc);
+                let (kx, mx) = (system.k_ff.mul_complex(&x), system.m_ff.mul_complex(&x));
+                let r = (0..w.len())
+                    .map(|i| (wc[i] - a * kx[i] - b * mx[i]).norm())
+                    .fold(0.0, f64::max);
+                let xn = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
+                let wn = w.iter().map(|v| v.abs()).fold(0.0, f64::max);
+                r / (norm_z * xn + wn).max(f64::MIN_POSITIVE)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// W: B's rows and the loads' real and imaginary parts (forces, and K_fp u_p, M_fp u_p for
+/// prescribed motion) of the harmonics up to `harmonics`.
+fn start_block(system: &System, b: &Csc, harmonics: usize) -> Vec<Vec<f64>> {
+    let n = system.free_count();
+    let mut rows = vec![vec![0.0; n]; b.nrows];
+    for (i, p, v) in b.triplet_iter() {
+        rows[i][p] = v;
+    }
+    let mut out = rows;
+    let mut push = |z: &[c64]| {
+        for part in [|z: &c64| z.re, |z: &c64| z.im] {
+            let v: Vec<f64> = z.iter().map(part).collect();
+            if v.iter().any(|x| *x != 0.0) {
+                out.push(v);
+            }
+        }
+    };
+    for (_, input) in system.inputs.range(..=harmonics) {
+        push(&input.force);
+        if input.motion.iter().any(|z| z.norm() > 0.0) {
+            push(&system.k_fp.mul_complex(&input.motion));
+            push(&system.m_fp.mul_complex(&input.motion));
+        }
+    }
+    out
+}
+
+/// The real parts of `solutions` and their imaginary parts where not zero, as columns.
+fn push_parts(columns: &mut Vec<Vec<f64>>, solutions: Vec<Vec<c64>>) {
+    for x in solutions {
+        columns.push(x.iter().map(|z| z.re).collect());
+        if x.iter().any(|z| z.im != 0.0) {
+            columns.push(x.iter().map(|z| z.im).collect());
+        }
+    }
+}
+
+fn max_row_sum(a: &Csc) -> f64 {
+    let mut rows = vec![0.0; a.nrows];
+    for (i, _, v) in a.triplet_iter() {
+        rows[i] += v.abs();
+    }
+    rows.into_iter().fold(0.0, f64::max)
+}
+
+impl ReducedModel {
+    /// Add the exact solves of the start block with an exact frame's factorizations.
+    pub fn enrich_from(
+        &mut self,
+        system: &System,
+        b: &Csc,
+        factors: &std::collections::BTreeMap<usize, Factor>,
+    ) -> Result<()> {
+        let rhs = self.start_columns();
+        let solutions: Vec<Vec<c64>> = factors
+            .par_iter()
+            .flat_map_iter(|(_, f)| f.solve_many(&rhs))
+            .collect();
+        self.enrich(system, b, &solutions)
+    }
+}
+
+/// The largest backward error, over the harmonics, of the field a point's multipliers
+/// `x` (node-major, `m` coefficients per node) recover with the frame's solves:
+/// u_k = z_k + Z_k⁻¹ Bᵀ λ_k against Z_k u_k = f_k + Bᵀ λ_k.
+pub(super) fn point_backward_error(
+    system: &System,
+    op: &crate::contact::ContactOperator,
+    linear: &super::LinearResponse,
+    x: &[f64],
+    m: usize,
+) -> f64 {
+    let nc = op.nodes();
+    linear
+        .factors
+        .par_iter()
+        .map(|(&k, f)| {
+            let lam: Vec<c64> = (0..nc)
+                .map(|j| super::fourier::phasor(&x[j * m..(j + 1) * m], k))
+                .collect();
+            let force = op.b_free.mul_transpose_complex(&lam);
+            let mut u = linear.free[&k].clone();
+            u.iter_mut().zip(f.solve(&force)).for_each(|(a, b)| *a += b);
+            let rhs: Vec<c64> = system
+                .load(k)
+                .iter()
+                .zip(&force)
+                .map(|(a, b)| a + b)
+                .collect();
+            let r = system.residual(k, &u, &rhs);
+            super::system::backward_error(system, k, &r, &u, &rhs)
+        })
+        .reduce(|| 0.0, f64::max)
+}
