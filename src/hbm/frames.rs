@@ -7,17 +7,16 @@
 //! Glossary and formulas:
 //! - W the start block: B's rows and the real and imaginary parts of the loads' parts
 //!   (forces; K_fp u_p and M_fp u_p for prescribed motion), one column each;
-//! - σ_j ≥ 0 the real shifts; the space is span{(K − σ_j M)⁻¹ W};
-//! - the indicator at (k, ω): the largest backward error
-//!   ‖w − Z x‖∞ / (‖Z‖∞ ‖x‖∞ + ‖w‖∞) of the reduced solves x of W's columns, ‖Z‖∞ bounded
-//!   by |a| ‖K‖∞ + |b| ‖M‖∞;
-//! - the model is built greedily: shifts σ = −q_k at the centre of the range for every
-//!   harmonic, then a shift at the worst indicator of a grid over (k, ω) until every one is
-//!   below `BACKWARD_TOLERANCE` (or `MAX_SHIFTS` are spent: then no model).
+//! - σ_j ≥ 0 the real shifts: 0, and −q_k at `SHIFTS_PER_HARMONIC` frequencies spread over
+//!   the range for every harmonic k ≥ 1; the space is span{(K − σ_j M)⁻¹ W}, grown later by
+//!   the exact solves of W at frames where a point failed its check (`enrich_from`);
+//! - the check of a kept point: the backward error ‖f_k + Bᵀλ_k − Z_k u_k‖∞ /
+//!   (‖Z_k‖∞ ‖u_k‖∞ + ‖f_k + Bᵀλ_k‖∞) of its recovered field, for every harmonic, below
+//!   `BACKWARD_TOLERANCE` (`point_backward_error`), the test a factorization's solve passes.
 //!
-//! The grid cannot see between its nodes, so the caller checks every point it keeps by the
-//! backward error of the point's own recovered field (`point_backward_error`), the test a
-//! factorization's solve passes, and replaces a point that fails by an exact one.
+//! The projection interpolates the exact solves at the shifts and is only as good as its
+//! space in between, so nothing is trusted unchecked: the caller replaces a point that fails
+//! by an exact one and enriches the model there.
 
 use std::sync::Arc;
 
@@ -42,7 +41,6 @@ pub struct ReducedModel {
     space: ModalSpace,
     /// The shifts the space was built from.
     pub shifts: Vec<f64>,
-    row_sums: (f64, f64),
 }
 
 impl ReducedModel {
@@ -78,7 +76,6 @@ impl ReducedModel {
             start,
             space,
             shifts,
-            row_sums: (max_row_sum(&system.k_ff), max_row_sum(&system.m_ff)),
         })
     }
 
@@ -110,29 +107,6 @@ impl ReducedModel {
             .iter()
             .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
             .collect()
-    }
-
-    /// The largest backward error of the reduced solves of the start block at (k, ω).
-    pub fn indicator(&self, system: &System, k: usize, omega: f64) -> f64 {
-        let (a, b) = system.pencil_at(k, omega);
-        let Some(f) = self.basis.at(a, b, &[]) else {
-            return f64::INFINITY;
-        };
-        let norm_z = a.norm() * self.row_sums.0 + b.norm() * self.row_sums.1;
-        self.start
-            .iter()
-            .map(|w| {
-                let wc: Vec<c64> = w.iter().map(|&v| c64::new(v, 0.0)).collect();
-                let x = f.solve(&wc);
-                let (kx, mx) = (system.k_ff.mul_complex(&x), system.m_ff.mul_complex(&x));
-                let r = (0..w.len())
-                    .map(|i| (wc[i] - a * kx[i] - b * mx[i]).norm())
-                    .fold(0.0, f64::max);
-                let xn = x.iter().map(|z| z.norm()).fold(0.0, f64::max);
-                let wn = w.iter().map(|v| v.abs()).fold(0.0, f64::max);
-                r / (norm_z * xn + wn).max(f64::MIN_POSITIVE)
-            })
-            .fold(0.0, f64::max)
     }
 }
 
@@ -171,14 +145,6 @@ fn push_parts(columns: &mut Vec<Vec<f64>>, solutions: Vec<Vec<c64>>) {
             columns.push(x.iter().map(|z| z.im).collect());
         }
     }
-}
-
-fn max_row_sum(a: &Csc) -> f64 {
-    let mut rows = vec![0.0; a.nrows];
-    for (i, _, v) in a.triplet_iter() {
-        rows[i] += v.abs();
-    }
-    rows.into_iter().fold(0.0, f64::max)
 }
 
 impl ReducedModel {

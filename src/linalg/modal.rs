@@ -10,9 +10,9 @@
 //! - the Galerkin solve Z x = f on span Φ: x = Φ diag(d) Φᵀ f, d_j = 1/(a θ_j + b);
 //! - G = B Z⁻¹ Bᵀ ≈ (BΦ) diag(d) (BΦ)ᵀ, which interpolates the exact G at every shift (and
 //!   its σ-derivative: the space holds both sides' solves of a symmetric pencil);
-//! - the residual ρ = f − Z x is M⁻¹-orthogonal to nothing in particular but Φᵀρ = 0: the
-//!   caller judges a reduced solve by ρ against the scale of Z x and f (a backward error),
-//!   the same test a factorization's solves pass.
+//! - the residual ρ = f − Z x satisfies Φᵀρ = 0 and nothing more: the caller judges a
+//!   reduced solve by ρ against the scale of Z x and f (a backward error), the same test a
+//!   factorization's solves pass.
 
 use faer::c64;
 use faer::linalg::matmul::matmul;
