@@ -14,6 +14,26 @@ fn max_norm(v: &[c64]) -> f64 {
     v.iter().map(|z| z.norm()).fold(0.0, f64::max)
 }
 
+/// The swept strip's model, its B and the reduced model over 1000–1800 Hz at H = 10.
+fn strip_and_model() -> (
+    hbcontact::pipeline::Model,
+    hbcontact::linalg::Csc,
+    ReducedModel,
+) {
+    let p = common::scene("strip_sweep", &[]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let b = model
+        .contact
+        .as_ref()
+        .expect("contact")
+        .operator
+        .b_free
+        .clone();
+    let rom = ReducedModel::build(&model.system, &b, (TWO_PI * 1000.0, TWO_PI * 1800.0), 10)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (model, b, rom)
+}
+
 fn relative(a: &[c64], b: &[c64]) -> f64 {
     let diff: Vec<c64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
     max_norm(&diff) / max_norm(a)
@@ -27,18 +47,8 @@ fn relative(a: &[c64], b: &[c64]) -> f64 {
 /// reduction, 1997). Measured: at most 2.1e-8 (G_0), 1.2e-9 elsewhere.
 #[test]
 fn a_reduced_model_gives_the_compliance_and_linear_gap_of_the_factorizations() {
-    let p = common::scene("strip_sweep", &[]);
-    let mut model = common::model(&p, Purpose::HarmonicBalance);
-    let b = model
-        .contact
-        .as_ref()
-        .expect("contact")
-        .operator
-        .b_free
-        .clone();
+    let (mut model, b, rom) = strip_and_model();
     let h = 10;
-    let rom = ReducedModel::build(&model.system, &b, (TWO_PI * 1000.0, TWO_PI * 1800.0), h)
-        .unwrap_or_else(|e| panic!("{e}"));
     assert!(
         rom.dim() < model.system.free_count() / 4,
         "r = {}",
@@ -73,17 +83,7 @@ fn a_reduced_model_gives_the_compliance_and_linear_gap_of_the_factorizations() {
 /// an arbitrary λ at a frequency between the shifts.
 #[test]
 fn the_reduced_frames_gap_rate_equals_the_factored_one() {
-    let p = common::scene("strip_sweep", &[]);
-    let mut model = common::model(&p, Purpose::HarmonicBalance);
-    let b = model
-        .contact
-        .as_ref()
-        .expect("contact")
-        .operator
-        .b_free
-        .clone();
-    let rom = ReducedModel::build(&model.system, &b, (TWO_PI * 1000.0, TWO_PI * 1800.0), 10)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let (mut model, b, rom) = strip_and_model();
     model.system.omega = TWO_PI * 1420.3;
     let system = &model.system;
     for k in [1, 2, 7] {

@@ -338,45 +338,35 @@ impl<'a> Continuation<'a> {
     /// The frame at ω: from the reduced model when there is one, else one set of
     /// factorizations and the reduction.
     fn frame(&mut self, omega: f64) -> Result<Frame> {
-        if self.model.is_none() {
-            return self.exact_frame(omega);
-        }
+        self.frame_from(omega, self.model.is_some())
+    }
+
+    /// The frame at ω from one set of factorizations.
+    fn exact_frame(&mut self, omega: f64) -> Result<Frame> {
+        self.frame_from(omega, false)
+    }
+
+    fn frame_from(&mut self, omega: f64, reduced: bool) -> Result<Frame> {
         self.system.omega = omega;
-        self.reduced.frames += 1;
+        if reduced {
+            self.reduced.frames += 1;
+        } else {
+            self.factorizations += 1;
+        }
         let (linear, problem) = prepare_with(
             self.system,
             Some(self.op),
             self.hb,
             self.reporter,
             &mut self.timings,
-            self.model.as_ref(),
+            self.model.as_ref().filter(|_| reduced),
         )?;
         let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
         Ok(Frame {
             omega,
             linear,
             problem,
-            reduced: true,
-        })
-    }
-
-    /// The frame at ω from one set of factorizations.
-    fn exact_frame(&mut self, omega: f64) -> Result<Frame> {
-        self.system.omega = omega;
-        self.factorizations += 1;
-        let (linear, problem) = prepare(
-            self.system,
-            Some(self.op),
-            self.hb,
-            self.reporter,
-            &mut self.timings,
-        )?;
-        let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
-        Ok(Frame {
-            omega,
-            linear,
-            problem,
-            reduced: false,
+            reduced,
         })
     }
 
