@@ -73,7 +73,7 @@ impl Triplets {
 
 /// A compressed-sparse-column real matrix (duplicates summed, explicit zeros kept so that
 /// matrices combined from the same blocks share one pattern).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Csc {
     pub nrows: usize,
     pub ncols: usize,
@@ -253,6 +253,15 @@ impl Csc {
             .collect();
         SparseColMat::try_new_from_triplets(self.nrows, self.ncols, &trip)
             .map_err(|e| Error::Model(format!("building a sparse matrix failed: {e:?}")))
+    }
+
+    /// The rows as dense vectors (a few contact rows, never a whole matrix).
+    pub fn dense_rows(&self) -> Vec<Vec<f64>> {
+        let mut rows = vec![vec![0.0; self.ncols]; self.nrows];
+        for (i, p, v) in self.triplet_iter() {
+            rows[i][p] = v;
+        }
+        rows
     }
 
     pub(crate) fn triplet_iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
@@ -478,10 +487,11 @@ impl Factor {
             Factor::Modal(f) if f.built_for(b) => f.compliance(),
             Factor::Ldlt(_) | Factor::Modal(_) => {
                 let nc = b.nrows;
-                let mut rows: Vec<Vec<c64>> = vec![vec![c64::new(0.0, 0.0); b.ncols]; nc];
-                for (i, p, v) in b.triplet_iter() {
-                    rows[i][p] = c64::new(v, 0.0);
-                }
+                let rows: Vec<Vec<c64>> = b
+                    .dense_rows()
+                    .into_iter()
+                    .map(|r| r.into_iter().map(|v| c64::new(v, 0.0)).collect())
+                    .collect();
                 let x = self.solve_many(&rows);
                 let mut out = vec![c64::new(0.0, 0.0); nc * nc];
                 for (j, xj) in x.iter().enumerate() {

@@ -69,7 +69,7 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     let r = &s.reduced_frames;
     if r.dimension > 0 {
         outln!(
-            "  frames from a reduced model of dimension {} ({} frames; {} points re-solved on factored frames; largest backward error {:.1e})",
+            "  frames from a reduced model of dimension {} ({} frames; points re-solved on factored frames: {}; largest backward error {:.1e})",
             r.dimension,
             r.frames,
             r.replaced,

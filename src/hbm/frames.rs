@@ -24,7 +24,7 @@ use faer::c64;
 use rayon::prelude::*;
 
 use super::System;
-use crate::linalg::modal::{ModalBasis, ModalSpace};
+use crate::linalg::modal::{ModalBasis, ModalFactor, ModalSpace};
 use crate::linalg::{Csc, Factor};
 use crate::Result;
 
@@ -94,10 +94,11 @@ impl ReducedModel {
         Ok(())
     }
 
-    /// The reduced "factor" of Z_k at the system's ω (`None`: singular on the space).
-    pub fn factor(&self, system: &System, k: usize) -> Option<Factor> {
+    /// The reduced solve of Z_k at the system's ω, made with harmonic k's `load`
+    /// (`system.load(k)`; `None`: singular on the space).
+    pub fn factor(&self, system: &System, k: usize, load: &[c64]) -> Option<ModalFactor> {
         let (a, b) = system.pencil(k);
-        self.basis.at(a, b, &system.load(k)).map(Factor::Modal)
+        self.basis.at(a, b, load)
     }
 
     /// The start block's columns, complex (the right-hand sides an exact frame solves to
@@ -113,36 +114,26 @@ impl ReducedModel {
 /// W: B's rows and the loads' real and imaginary parts (forces, and K_fp u_p, M_fp u_p for
 /// prescribed motion) of the harmonics up to `harmonics`.
 fn start_block(system: &System, b: &Csc, harmonics: usize) -> Vec<Vec<f64>> {
-    let n = system.free_count();
-    let mut rows = vec![vec![0.0; n]; b.nrows];
-    for (i, p, v) in b.triplet_iter() {
-        rows[i][p] = v;
-    }
-    let mut out = rows;
-    let mut push = |z: &[c64]| {
-        for part in [|z: &c64| z.re, |z: &c64| z.im] {
-            let v: Vec<f64> = z.iter().map(part).collect();
-            if v.iter().any(|x| *x != 0.0) {
-                out.push(v);
-            }
-        }
-    };
+    let mut out = b.dense_rows();
     for (_, input) in system.inputs.range(..=harmonics) {
-        push(&input.force);
+        let mut loads = vec![input.force.clone()];
         if input.motion.iter().any(|z| z.norm() > 0.0) {
-            push(&system.k_fp.mul_complex(&input.motion));
-            push(&system.m_fp.mul_complex(&input.motion));
+            loads.push(system.k_fp.mul_complex(&input.motion));
+            loads.push(system.m_fp.mul_complex(&input.motion));
         }
+        push_parts(&mut out, loads);
     }
     out
 }
 
-/// The real parts of `solutions` and their imaginary parts where not zero, as columns.
-fn push_parts(columns: &mut Vec<Vec<f64>>, solutions: Vec<Vec<c64>>) {
-    for x in solutions {
-        columns.push(x.iter().map(|z| z.re).collect());
-        if x.iter().any(|z| z.im != 0.0) {
-            columns.push(x.iter().map(|z| z.im).collect());
+/// The real and imaginary parts of `vectors` that are not zero, as columns.
+fn push_parts(columns: &mut Vec<Vec<f64>>, vectors: Vec<Vec<c64>>) {
+    for x in vectors {
+        for part in [|z: &c64| z.re, |z: &c64| z.im] {
+            let v: Vec<f64> = x.iter().map(part).collect();
+            if v.iter().any(|x| *x != 0.0) {
+                columns.push(v);
+            }
         }
     }
 }

@@ -314,22 +314,20 @@ impl Harmonic {
         model: &frames::ReducedModel,
     ) -> Result<Harmonic> {
         let mut seconds = [0.0; 3];
-        let factor = model
-            .factor(system, k)
-            .ok_or_else(|| singular_diagnosis(system, k))?;
         let rhs = system.load(k);
+        let modal = model
+            .factor(system, k, &rhs)
+            .ok_or_else(|| singular_diagnosis(system, k))?;
         let (free, residual) = timed(&mut seconds[1], || {
             if is_zero(&rhs) {
                 return (rhs.clone(), 0.0);
             }
-            let z = match &factor {
-                Factor::Modal(f) => f.load_response(),
-                f => f.solve(&rhs),
-            };
+            let z = modal.load_response();
             let r = system.residual(k, &z, &rhs);
             let res = system::backward_error(system, k, &r, &z, &rhs);
             (z, res)
         });
+        let factor = Factor::Modal(modal);
         let compliance = timed(&mut seconds[2], || reduce(system, b, k, &factor))?;
         Ok(Harmonic {
             k,

@@ -385,7 +385,6 @@ impl<'a> Continuation<'a> {
         self.model =
             ReducedModel::build(self.system, &self.op.b_free, range, self.hb.harmonics).ok();
         self.timings.reduce += clock.elapsed().as_secs_f64();
-        self.reduced.dimension = self.model.as_ref().map_or(0, ReducedModel::dim);
     }
 
     /// `next` on `frame` as kept: a reduced frame's point whose recovered field misses the
@@ -417,7 +416,6 @@ impl<'a> Continuation<'a> {
             if enriched.is_err() {
                 self.model = None;
             }
-            self.reduced.dimension = self.model.as_ref().map_or(0, ReducedModel::dim);
             self.timings.reduce += clock.elapsed().as_secs_f64();
         }
         let o = super::reduced::newton(&exact.problem, &self.newton, &next.x, self.reporter);
@@ -506,7 +504,10 @@ impl<'a> Continuation<'a> {
         outcome.points = index;
         outcome.folds = without_kinks(std::mem::take(&mut outcome.folds), KINK * self.span);
         outcome.timings = self.timings;
-        outcome.reduced = self.reduced;
+        outcome.reduced = ReducedFrames {
+            dimension: self.model.as_ref().map_or(0, ReducedModel::dim),
+            ..self.reduced
+        };
         Ok(outcome)
     }
 

@@ -171,19 +171,13 @@ impl System {
             out
         };
         let re = combine(a.re, b.re);
-        let im = (a.im != 0.0 || b.im != 0.0).then(|| combine(a.im, b.im));
-        let im_values = im.as_ref().map(|m| m.values.as_slice());
+        let im = (a.im != 0.0 || b.im != 0.0).then(|| combine(a.im, b.im).values);
         let ldlt = self
             .ldlt_plan(None)
-            .and_then(|p| p.factor(&re.values, im_values, PIVOT_TOLERANCE).ok());
-        let factor = match (ldlt, &im) {
-            (Some(f), _) => Factor::Ldlt(f),
-            (None, Some(im)) => Factor::Lu(Box::new(SparseLu::factor_complex(
-                self.lu_pattern()?,
-                &re,
-                &im.values,
-            )?)),
-            (None, None) => Factor::Lu(Box::new(SparseLu::factor_real(self.lu_pattern()?, &re)?)),
+            .and_then(|p| p.factor(&re.values, im.as_deref(), PIVOT_TOLERANCE).ok());
+        let factor = match ldlt {
+            Some(f) => Factor::Ldlt(f),
+            None => self.lu(&re, im.as_deref())?,
         };
         let rhs: Vec<Vec<c64>> = x
             .iter()
@@ -268,9 +262,15 @@ impl System {
                 }
             }
         }
+        self.lu(&re, im.as_deref())
+    }
+
+    /// faer's pivoting LU of the matrix with real part `re` and imaginary part `im` on its
+    /// pattern (real when `None`).
+    fn lu(&self, re: &Csc, im: Option<&[f64]>) -> Result<Factor> {
         let lu = match im {
-            Some(im) => SparseLu::factor_complex(self.lu_pattern()?, &re, &im)?,
-            None => SparseLu::factor_real(self.lu_pattern()?, &re)?,
+            Some(im) => SparseLu::factor_complex(self.lu_pattern()?, re, im)?,
+            None => SparseLu::factor_real(self.lu_pattern()?, re)?,
         };
         Ok(Factor::Lu(Box::new(lu)))
     }

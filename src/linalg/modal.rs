@@ -126,10 +126,7 @@ impl ModalBasis {
 
     /// Whether BΦ was formed for this B.
     pub fn built_for(&self, b: &Csc) -> bool {
-        self.b.nrows == b.nrows
-            && self.b.col_ptr == b.col_ptr
-            && self.b.row_idx == b.row_idx
-            && self.b.values == b.values
+        self.b == *b
     }
 
     /// The reduced solve of Z = a K + b M (`None` when a θ_j + b vanishes: Z singular on the
@@ -230,13 +227,17 @@ impl ModalFactor {
             .collect()
     }
 
-    /// The response to the load: Φ diag(d) Φᵀ f.
+    /// The response to the load: Φ diag(d) Φᵀ f, column by column of Φ.
     pub fn load_response(&self) -> Vec<c64> {
         let phi = &self.basis.phi;
-        let y: Vec<c64> = self.load.iter().zip(&self.d).map(|(l, d)| l * d).collect();
-        (0..self.basis.n)
-            .map(|i| y.iter().enumerate().map(|(c, v)| v * phi[(i, c)]).sum())
-            .collect()
+        let mut x = vec![c64::new(0.0, 0.0); self.basis.n];
+        for (c, (l, d)) in self.load.iter().zip(&self.d).enumerate() {
+            let (y, col) = (l * d, phi.col(c));
+            x.iter_mut()
+                .enumerate()
+                .for_each(|(i, xi)| *xi += y * col[i]);
+        }
+        x
     }
 
     /// ∂(B u)/∂ω at fixed λ for u = Z⁻¹(f + Bᵀλ) on the space, whose pencil moves at

@@ -357,12 +357,7 @@ impl SchurPlan {
 
     /// Whether G of this plan is B A⁻¹ Bᵀ for this `b`.
     pub fn built_for(&self, b: &Csc) -> bool {
-        self.b.as_ref().is_some_and(|own| {
-            own.nrows == b.nrows
-                && own.col_ptr == b.col_ptr
-                && own.row_idx == b.row_idx
-                && own.values == b.values
-        })
+        self.b.as_ref() == Some(b)
     }
 
     /// The LU path's estimated cost in LU-factorization mul-adds: factor and G by n_c
