@@ -3,7 +3,8 @@
 //! cold single-frequency `run` at the same H (the target: ≤ 0.5×), the solver phases'
 //! shares, and points per minute. Both sides without the stability check by time marching,
 //! which a run makes once and a sweep at every `stability.every`-th point: its cost is
-//! printed on its own line, per checked point.
+//! printed on its own line, per checked point. Last, the same sweep with every frame factored
+//! (`sweep.reduced_frames: false`), per point against the reduced frames'.
 //!
 //! `cargo bench --bench sweep [-- --harmonics 10]`.
 
@@ -79,6 +80,25 @@ fn main() {
         "sets of factorizations: {sets} ({:.1} per point); points per minute {:.0}",
         sets as f64 / s.points as f64,
         60.0 / per_point
+    );
+    let mut q = p.clone();
+    q.stability.check = false;
+    if let Some(spec) = q.sweep.as_mut() {
+        spec.reduced_frames = false;
+    }
+    let factored = match hbcontact::sweep::run(&q, &options("factored", false), &Silent) {
+        Ok(r) => r.summary,
+        Err(e) => return eprintln!("factored sweep: {e}"),
+    };
+    let factored_point = factored.stage_seconds.get("sweep") / factored.points as f64;
+    let r = &s.reduced_frames;
+    println!(
+        "reduced model: r = {}, {} frames, {} points re-solved on factorizations; every frame factored instead (`sweep.reduced_frames: false`): {factored_point:.3} s per point, {:.2}x a cold run, {:.2}x the reduced frames' point",
+        r.dimension,
+        r.frames,
+        r.replaced,
+        factored_point / cold,
+        factored_point / per_point
     );
     println!(
         "shares of the sweep: factor {:.0}%, linear solve {:.0}%, reduce {:.0}%, correctors {:.0}%, recover {:.0}%, outputs per point {:.0}%",

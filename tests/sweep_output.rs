@@ -352,6 +352,51 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
     assert_eq!(resumed["frames"].as_array().unwrap().len(), 80);
 }
 
+/// TEST GOAL: `sweep.reduced_frames: false` factors every frame (sweep.json's
+/// `reduced_frames` all zero, where the default sweep of this range takes its frames from a
+/// model), and then a sweep stopped after 30 points and resumed gives the rows of the
+/// uninterrupted one to round-off (1e-9; measured 5.6e-13), where the reduced
+/// frames' two invocations agree to a few 1e-8.
+#[test]
+fn factored_frames_resume_to_the_uninterrupted_rows_to_round_off() {
+    let (_, model) = curve();
+    assert!(model["reduced_frames"]["frames"].as_u64().unwrap() > 0);
+    let factored = ["sweep.reduced_frames=false"];
+    let whole_out = common::temp_out("sweep-output-factored");
+    let o = sweep_cli(&whole_out, &[factored[0], "sweep.max_points=60"], &[]);
+    assert_exit(&o, 0, "the factored sweep");
+    let whole = common::read_json(&whole_out.join("sweep.json"));
+    let r = &whole["reduced_frames"];
+    assert_eq!(
+        (r["dimension"].as_u64(), r["frames"].as_u64()),
+        (Some(0), Some(0)),
+        "{r}"
+    );
+    let out = common::temp_out("sweep-output-factored-resume");
+    let first = sweep_cli(&out, &[factored[0], "sweep.max_points=30"], &[]);
+    assert_exit(&first, 0, "the interrupted factored sweep");
+    let second = sweep_cli(&out, &[factored[0], "sweep.max_points=60"], &["--resume"]);
+    assert_exit(&second, 0, "the resumed factored sweep");
+    let resumed = common::read_json(&out.join("sweep.json"));
+    let (a, b) = (
+        whole["rows"].as_array().unwrap(),
+        resumed["rows"].as_array().unwrap(),
+    );
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (ra, rb) in a.iter().zip(b) {
+        worst = worst.max(rel(f(&ra["frequency_hz"]), f(&rb["frequency_hz"])));
+        let values = |r: &Value| r["values"].as_array().unwrap().clone();
+        for (va, vb) in values(ra).iter().zip(&values(rb)) {
+            if va.is_f64() && f(va) != 0.0 {
+                worst = worst.max(rel(f(va), f(vb)));
+            }
+        }
+    }
+    println!("{} rows, largest relative difference {worst:.1e}", a.len());
+    assert!(worst < 1e-9, "{worst}");
+}
+
 /// TEST GOAL: a sweep whose continuation fails part-way (here: the strip with 0.5% damping
 /// and the wall at 50 µm, whose H = 20 curve tangles at its first folds near 1346 Hz and runs
 /// back onto itself; the contact onset of the 0.1 mm wall, the grazing corners and, since the

@@ -288,6 +288,8 @@ pub struct SweepSpec {
     pub write_at: Vec<f64>,
     /// Every n-th point is a frame of `frames.pvd` (0: none).
     pub save_every: usize,
+    /// Frames from a reduced model of the pencil where it pays (false: factor every frame).
+    pub reduced_frames: bool,
 }
 
 impl Default for SweepSpec {
@@ -302,6 +304,7 @@ impl Default for SweepSpec {
             max_change: 0.1,
             write_at: Vec::new(),
             save_every: 1,
+            reduced_frames: true,
         }
     }
 }

@@ -45,17 +45,19 @@ pub struct ReducedModel {
 
 impl ReducedModel {
     /// The model for ω in `omegas` and harmonics 0..=`harmonics`: real shifts σ = −q_k at
-    /// `SHIFTS_PER_HARMONIC` frequencies spread over the range for every harmonic k ≥ 1, and
-    /// σ = 0.
+    /// `frequencies` frequencies spread evenly over the range (one: its start) for every
+    /// harmonic k ≥ 1, and σ = 0.
     pub fn build(
         system: &System,
         b: &Csc,
         omegas: (f64, f64),
+        frequencies: usize,
         harmonics: usize,
     ) -> Result<ReducedModel> {
         let start = start_block(system, b, harmonics);
-        let spread = (0..SHIFTS_PER_HARMONIC).map(|i| {
-            omegas.0 + (omegas.1 - omegas.0) * i as f64 / (SHIFTS_PER_HARMONIC - 1) as f64
+        let spread = (0..frequencies).map(|i| {
+            let t = i as f64 / frequencies.saturating_sub(1).max(1) as f64;
+            omegas.0 + (omegas.1 - omegas.0) * t
         });
         let mut shifts = vec![0.0];
         for w in spread {

@@ -89,6 +89,9 @@ pub struct SweepSettings {
     pub max_change: f64,
     /// Continue a sweep from its last saved point instead of starting at `omega_start`.
     pub resume: Option<ContinuationState>,
+    /// Frequencies over the range at which the reduced model places its shifts
+    /// (`frames::SHIFTS_PER_HARMONIC` by default; 0: no model, every frame factored).
+    pub model_frequencies: usize,
 }
 
 /// Where a continuation stands after a point: with the same settings, continuing from it
@@ -376,14 +379,15 @@ impl<'a> Continuation<'a> {
     fn build_model(&mut self) {
         let n = self.system.free_count();
         let columns = self.op.nodes() + 2 * self.system.inputs.len().max(1);
-        let shifts = 1 + frames::SHIFTS_PER_HARMONIC * self.hb.harmonics;
-        if columns * shifts > n / 2 {
+        let frequencies = self.s.model_frequencies;
+        let shifts = 1 + frequencies * self.hb.harmonics;
+        if frequencies == 0 || columns * shifts > n / 2 {
             return;
         }
         let clock = Instant::now();
         let range = (self.s.omega_start, self.s.omega_end);
-        self.model =
-            ReducedModel::build(self.system, &self.op.b_free, range, self.hb.harmonics).ok();
+        let (b, h) = (&self.op.b_free, self.hb.harmonics);
+        self.model = ReducedModel::build(self.system, b, range, frequencies, h).ok();
         self.timings.reduce += clock.elapsed().as_secs_f64();
     }
 

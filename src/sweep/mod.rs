@@ -442,6 +442,11 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
         max_points: spec.max_points,
         max_change: spec.max_change,
         resume,
+        model_frequencies: if spec.reduced_frames {
+            crate::hbm::frames::SHIFTS_PER_HARMONIC
+        } else {
+            0
+        },
     }
 }
 
