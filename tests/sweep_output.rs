@@ -283,6 +283,28 @@ fn fold_peak_and_write_at_points_hold_a_runs_output_at_their_rows() {
     }
 }
 
+/// The largest relative difference between two sweep.json's rows (frequency and every
+/// nonzero value), which must be as many, with the same indices and correctors.
+fn rows_difference(whole: &Value, resumed: &Value) -> f64 {
+    let rows = |j: &Value| j["rows"].as_array().unwrap().clone();
+    let (a, b) = (rows(whole), rows(resumed));
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (ra, rb) in a.iter().zip(&b) {
+        assert_eq!(ra["index"], rb["index"]);
+        assert_eq!(ra["corrector"], rb["corrector"]);
+        worst = worst.max(rel(f(&ra["frequency_hz"]), f(&rb["frequency_hz"])));
+        let values = |r: &Value| r["values"].as_array().unwrap().clone();
+        for (va, vb) in values(ra).iter().zip(&values(rb)) {
+            if va.is_f64() && f(va) != 0.0 {
+                worst = worst.max(rel(f(va), f(vb)));
+            }
+        }
+    }
+    println!("{} rows, largest relative difference {worst:.1e}", a.len());
+    worst
+}
+
 /// TEST GOAL: a sweep stopped by `max_points` (30) says so in sweep.json (`stopped.class`
 /// max_points, at its last row; exit 0) and `--resume` with the budget raised to 80
 /// continues it from there: the rows, folds and written points equal those of the
@@ -305,28 +327,7 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
     assert_exit(&second, 0, "the resumed sweep");
     let resumed = common::read_json(&out.join("sweep.json"));
     assert_eq!(resumed["resumed_from"], serde_json::json!([29]));
-    let (a, b) = (
-        whole["rows"].as_array().unwrap(),
-        resumed["rows"].as_array().unwrap(),
-    );
-    assert_eq!(a.len(), b.len());
-    let mut worst: f64 = 0.0;
-    for (ra, rb) in a.iter().zip(b) {
-        assert_eq!(ra["index"], rb["index"]);
-        assert_eq!(ra["corrector"], rb["corrector"]);
-        worst = worst.max(rel(f(&ra["frequency_hz"]), f(&rb["frequency_hz"])));
-        for (va, vb) in ra["values"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .zip(rb["values"].as_array().unwrap())
-        {
-            if va.is_f64() && f(va) != 0.0 {
-                worst = worst.max(rel(f(va), f(vb)));
-            }
-        }
-    }
-    println!("{} rows, largest relative difference {worst:.1e}", a.len());
+    let worst = rows_difference(whole, &resumed);
     assert!(worst < 1e-7, "{worst}");
     let fold = |j: &Value| f(&j["folds"][0]["frequency_hz"]);
     assert_eq!(
@@ -378,22 +379,7 @@ fn factored_frames_resume_to_the_uninterrupted_rows_to_round_off() {
     let second = sweep_cli(&out, &[factored[0], "sweep.max_points=60"], &["--resume"]);
     assert_exit(&second, 0, "the resumed factored sweep");
     let resumed = common::read_json(&out.join("sweep.json"));
-    let (a, b) = (
-        whole["rows"].as_array().unwrap(),
-        resumed["rows"].as_array().unwrap(),
-    );
-    assert_eq!(a.len(), b.len());
-    let mut worst: f64 = 0.0;
-    for (ra, rb) in a.iter().zip(b) {
-        worst = worst.max(rel(f(&ra["frequency_hz"]), f(&rb["frequency_hz"])));
-        let values = |r: &Value| r["values"].as_array().unwrap().clone();
-        for (va, vb) in values(ra).iter().zip(&values(rb)) {
-            if va.is_f64() && f(va) != 0.0 {
-                worst = worst.max(rel(f(va), f(vb)));
-            }
-        }
-    }
-    println!("{} rows, largest relative difference {worst:.1e}", a.len());
+    let worst = rows_difference(&whole, &resumed);
     assert!(worst < 1e-9, "{worst}");
 }
 
