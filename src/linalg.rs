@@ -603,9 +603,10 @@ impl DenseLu {
 /// Restarted, right-preconditioned GMRES (Saad, Iterative Methods for Sparse Linear Systems,
 /// Alg. 9.5) with modified Gram–Schmidt and Givens rotations, for A x = b with A M⁻¹ given
 /// by `apply(v, out)` (out = A v) after `precondition(v, out)` (out = M⁻¹ v); both write into
-/// `out`, so an iteration allocates only its new basis vector. Returns the solution when the
-/// relative residual reaches 1e-2 or better (callers that guard the step, like a line search,
-/// accept a loose solve), else why it stalled.
+/// `out`, and the basis and the Hessenberg matrix are allocated once per call, so an iteration
+/// allocates nothing. Returns the solution when the relative residual reaches 1e-2 or better
+/// (callers that guard the step, like a line search, accept a loose solve), else why it
+/// stalled.
 pub fn gmres(
     apply: &mut dyn FnMut(&[f64], &mut [f64]),
     precondition: &mut dyn FnMut(&[f64], &mut [f64]),
@@ -633,6 +634,12 @@ pub fn gmres(
         w.iter_mut().zip(b).for_each(|(wi, bi)| *wi = bi - *wi);
     };
     let mut last = f64::INFINITY;
+    // The Krylov basis (row-major, one vector per row) and the Hessenberg matrix (row i,
+    // column j at i · restart + j), allocated once and reused by every cycle.
+    let mut v: Vec<f64> = Vec::with_capacity((restart + 1) * n);
+    let mut h = vec![0.0; (restart + 1) * restart];
+    let (mut cs, mut sn) = (vec![0.0; restart], vec![0.0; restart]);
+    let mut g = vec![0.0; restart + 1];
     for _ in 0..max_restarts {
         residual(apply, precondition, &x, &mut z, &mut w);
         let beta = norm(&w);
@@ -641,53 +648,53 @@ pub fn gmres(
             precondition(&x, &mut z);
             return Ok(z);
         }
-        let mut v: Vec<Vec<f64>> = vec![w.iter().map(|a| a / beta).collect()];
-        let mut h = vec![vec![0.0; restart]; restart + 1];
-        let (mut cs, mut sn) = (vec![0.0; restart], vec![0.0; restart]);
-        let mut g = vec![0.0; restart + 1];
+        v.clear();
+        v.extend(w.iter().map(|a| a / beta));
+        h.fill(0.0);
+        g.fill(0.0);
         g[0] = beta;
         let mut used = 0;
         for j in 0..restart {
-            precondition(&v[j], &mut z);
+            precondition(&v[j * n..(j + 1) * n], &mut z);
             apply(&z, &mut w);
-            for (i, vi) in v.iter().enumerate() {
+            for (i, vi) in v.chunks_exact(n).enumerate() {
                 let hij = dot(&w, vi);
-                h[i][j] = hij;
+                h[i * restart + j] = hij;
                 for (wk, vk) in w.iter_mut().zip(vi) {
                     *wk -= hij * vk;
                 }
             }
             let wn = norm(&w);
-            h[j + 1][j] = wn;
+            h[(j + 1) * restart + j] = wn;
             for i in 0..j {
-                let t = cs[i] * h[i][j] + sn[i] * h[i + 1][j];
-                h[i + 1][j] = -sn[i] * h[i][j] + cs[i] * h[i + 1][j];
-                h[i][j] = t;
+                let (a, b) = (h[i * restart + j], h[(i + 1) * restart + j]);
+                h[i * restart + j] = cs[i] * a + sn[i] * b;
+                h[(i + 1) * restart + j] = -sn[i] * a + cs[i] * b;
             }
-            let d = (h[j][j] * h[j][j] + h[j + 1][j] * h[j + 1][j]).sqrt();
+            let (a, b) = (h[j * restart + j], h[(j + 1) * restart + j]);
+            let d = (a * a + b * b).sqrt();
             if d == 0.0 {
                 break;
             }
-            cs[j] = h[j][j] / d;
-            sn[j] = h[j + 1][j] / d;
-            h[j][j] = d;
-            h[j + 1][j] = 0.0;
+            cs[j] = a / d;
+            sn[j] = b / d;
+            h[j * restart + j] = d;
+            h[(j + 1) * restart + j] = 0.0;
             g[j + 1] = -sn[j] * g[j];
             g[j] *= cs[j];
             used = j + 1;
             if g[j + 1].abs() / b_norm <= tolerance || wn == 0.0 {
                 break;
             }
-            v.push(w.iter().map(|a| a / wn).collect());
+            v.extend(w.iter().map(|a| a / wn));
         }
-        // Back substitution for y, then x += V y.
-        let mut y = vec![0.0; used];
+        // Back substitution for y (in g's first entries), then x += V y.
         for i in (0..used).rev() {
-            let s: f64 = ((i + 1)..used).map(|k| h[i][k] * y[k]).sum();
-            y[i] = (g[i] - s) / h[i][i];
+            let s: f64 = ((i + 1)..used).map(|k| h[i * restart + k] * g[k]).sum();
+            g[i] = (g[i] - s) / h[i * restart + i];
         }
-        for (k, yk) in y.iter().enumerate() {
-            for (xi, vi) in x.iter_mut().zip(&v[k]) {
+        for (yk, vk) in g[..used].iter().zip(v.chunks_exact(n)) {
+            for (xi, vi) in x.iter_mut().zip(vk) {
                 *xi += yk * vi;
             }
         }
