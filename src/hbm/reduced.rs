@@ -62,18 +62,19 @@ impl ReducedProblem {
     /// g = G x + r.
     pub fn gap(&self, x: &[f64]) -> Vec<f64> {
         let mut g = vec![0.0; self.linear_gap.len()];
-        self.compliance_product(x, &mut g);
+        self.compliance_product(x, &mut g, &mut Vec::new());
         for (gi, ri) in g.iter_mut().zip(&self.linear_gap) {
             *gi += ri;
         }
         g
     }
 
-    /// out = G x (the gap without its linear part), harmonic by harmonic.
-    pub fn compliance_product(&self, x: &[f64], out: &mut [f64]) {
+    /// out = G x (the gap without its linear part), harmonic by harmonic; `lam` holds one
+    /// harmonic's phasors of x (resized to n_c), so a caller in a loop allocates it once.
+    pub fn compliance_product(&self, x: &[f64], out: &mut [f64], lam: &mut Vec<c64>) {
         let (nc, m) = (self.nodes, self.coefficients());
         out.fill(0.0);
-        let mut lam = vec![c64::new(0.0, 0.0); nc];
+        lam.resize(nc, c64::new(0.0, 0.0));
         for (k, gk) in self.compliance.iter().enumerate() {
             for (j, l) in lam.iter_mut().enumerate() {
                 *l = phasor(&x[j * m..(j + 1) * m], k);

@@ -284,9 +284,9 @@ fn krylov_step(
     forcing: f64,
 ) -> Result<Vec<f64>, String> {
     let m = problem.coefficients();
-    let mut gv = vec![0.0; residual.len()];
+    let (mut gv, mut lam) = (vec![0.0; residual.len()], Vec::new());
     let mut apply_j = |v: &[f64], out: &mut [f64]| {
-        problem.compliance_product(v, &mut gv);
+        problem.compliance_product(v, &mut gv, &mut lam);
         for (g, x) in gv.iter_mut().zip(v) {
             *g = c * *g - x;
         }
