@@ -81,7 +81,7 @@ impl ReducedProblem {
             }
             for i in 0..nc {
                 // Most of a GMRES iteration on the 601-node half-disc.
-                let y = crate::linalg::dot(&gk[i * nc..(i + 1) * nc], &lam);
+                let y = crate::linalg::dot(&gk[i * nc..(i + 1) * nc], lam);
                 let gi = &mut out[i * m..(i + 1) * m];
                 set_phasor(gi, k, phasor(gi, k) + y);
             }
