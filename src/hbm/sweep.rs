@@ -1152,11 +1152,7 @@ fn gap_rate(
         let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
         if let crate::linalg::Factor::Modal(f) = lu {
             // On the reduced space: no product with K or M.
-            let motion = &linear.motion[&k];
-            let load_rate = motion.iter().any(|z| z.norm() > 0.0).then(|| {
-                let zero = vec![c64::new(0.0, 0.0); system.free_count()];
-                system.omega_derivative(k, &zero, motion)
-            });
+            let load_rate = system.motion_rate(k, &linear.motion[&k]);
             let bdz = f.contact_rate(&lam, system.pencil_rate(k), load_rate.as_deref());
             for (i, v) in bdz.into_iter().enumerate() {
                 set_phasor(&mut dg[i * m..(i + 1) * m], k, v);

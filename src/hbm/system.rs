@@ -163,15 +163,8 @@ impl System {
 
     /// (a K + b M)⁻¹ x for real columns `x`: the plain LDLᵀ, or the LU where it fails.
     pub fn pencil_solve(&self, (a, b): (c64, c64), x: &[Vec<f64>]) -> Result<Vec<Vec<c64>>> {
-        let combine = |ca: f64, cb: f64| -> Csc {
-            let mut out = self.k_ff.clone();
-            for (v, m) in out.values.iter_mut().zip(&self.m_ff.values) {
-                *v = ca * *v + cb * m;
-            }
-            out
-        };
-        let re = combine(a.re, b.re);
-        let im = (a.im != 0.0 || b.im != 0.0).then(|| combine(a.im, b.im).values);
+        let re = self.combination(a.re, b.re);
+        let im = (a.im != 0.0 || b.im != 0.0).then(|| self.combination(a.im, b.im).values);
         let ldlt = self
             .ldlt_plan(None)
             .and_then(|p| p.factor(&re.values, im.as_deref(), PIVOT_TOLERANCE).ok());
@@ -184,6 +177,15 @@ impl System {
             .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
             .collect();
         Ok(factor.solve_many(&rhs))
+    }
+
+    /// ca K + cb M on the pattern K and M share.
+    fn combination(&self, ca: f64, cb: f64) -> Csc {
+        let mut out = self.k_ff.clone();
+        for (v, m) in out.values.iter_mut().zip(&self.m_ff.values) {
+            *v = ca * *v + cb * m;
+        }
+        out
     }
 
     /// (α, β) where the damping term acts (s_k ≠ 0), else zero.
@@ -209,10 +211,7 @@ impl System {
     /// or s_k = 0.
     pub fn dynamic_stiffness(&self, k: usize) -> (Csc, Option<Vec<f64>>) {
         let sym = self.symbols(k);
-        let mut re = self.k_ff.clone();
-        for (v, m) in re.values.iter_mut().zip(&self.m_ff.values) {
-            *v += sym.mass * m;
-        }
+        let re = self.combination(1.0, sym.mass);
         let im = self
             .rayleigh
             .filter(|_| sym.damping != 0.0)
@@ -387,24 +386,33 @@ impl System {
     /// −2k²ω M + ik(αM + βK)): how the dynamic stiffness of harmonic k acting on the state
     /// changes with ω (the sweep's R_ω).
     pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
-        let sym = self.symbols(k);
-        let (alpha, beta) = self.damping_at(&sym);
-        let rate = |kx: Vec<c64>, mx: Vec<c64>| -> Vec<c64> {
-            kx.iter()
-                .zip(&mx)
-                .map(|(&kv, &mv)| {
-                    mv * sym.mass_rate + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha)
-                })
-                .collect()
-        };
-        let mut out = rate(self.k_ff.mul_complex(x), self.m_ff.mul_complex(x));
-        if motion.iter().any(|z| z.norm() > 0.0) {
-            let fp = rate(self.k_fp.mul_complex(motion), self.m_fp.mul_complex(motion));
+        let mut out = self.pencil_rate_times(k, (&self.k_ff, &self.m_ff), x);
+        if let Some(fp) = self.motion_rate(k, motion) {
             for (o, v) in out.iter_mut().zip(fp) {
                 *o += v;
             }
         }
         out
+    }
+
+    /// The prescribed motion's part of `omega_derivative`, ∂Z_k,fp/∂ω u_p (`None` when the
+    /// motion is zero, so nothing moves with ω).
+    pub fn motion_rate(&self, k: usize, motion: &[c64]) -> Option<Vec<c64>> {
+        let moves = motion.iter().any(|z| z.norm() > 0.0);
+        moves.then(|| self.pencil_rate_times(k, (&self.k_fp, &self.m_fp), motion))
+    }
+
+    /// (∂q_k/∂ω) M x + i(∂σ_k/∂ω)(αM + βK) x for the stiffness and mass blocks `(kk, mm)`.
+    fn pencil_rate_times(&self, k: usize, (kk, mm): (&Csc, &Csc), x: &[c64]) -> Vec<c64> {
+        let sym = self.symbols(k);
+        let (alpha, beta) = self.damping_at(&sym);
+        let (kx, mx) = (kk.mul_complex(x), mm.mul_complex(x));
+        kx.iter()
+            .zip(&mx)
+            .map(|(&kv, &mv)| {
+                mv * sym.mass_rate + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha)
+            })
+            .collect()
     }
 
     /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k, times the basis' load factor γ_k
