@@ -356,7 +356,7 @@ fn a_resumed_sweep_gives_the_rows_of_the_uninterrupted_one() {
 /// TEST GOAL: `sweep.reduced_frames: false` factors every frame (sweep.json's
 /// `reduced_frames` all zero, where the default sweep of this range takes its frames from a
 /// model), and then a sweep stopped after 30 points and resumed gives the rows of the
-/// uninterrupted one to round-off (1e-9; measured 5.6e-13), where the reduced
+/// uninterrupted one to round-off (1e-12; measured 5.6e-13), where the reduced
 /// frames' two invocations agree to a few 1e-8.
 #[test]
 fn factored_frames_resume_to_the_uninterrupted_rows_to_round_off() {
@@ -380,7 +380,7 @@ fn factored_frames_resume_to_the_uninterrupted_rows_to_round_off() {
     assert_exit(&second, 0, "the resumed factored sweep");
     let resumed = common::read_json(&out.join("sweep.json"));
     let worst = rows_difference(&whole, &resumed);
-    assert!(worst < 1e-9, "{worst}");
+    assert!(worst < 1e-12, "{worst}");
 }
 
 /// TEST GOAL: a sweep whose continuation fails part-way (here: the strip with 0.5% damping
