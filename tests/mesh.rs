@@ -1,15 +1,7 @@
 //! The geometry stage: gmsh runs on every shipped .geo, the .msh files read back with their
 //! physical groups, areas match the exact ones, the cache works, and errors are clear.
 
-mod common {
-    use std::path::PathBuf;
-    pub fn root() -> PathBuf {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-    }
-    pub fn venv_python() -> PathBuf {
-        root().join(".venv/bin/python")
-    }
-}
+mod common;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -455,13 +447,10 @@ fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let fake = dir.join("fake-gmsh.sh");
-    std::fs::write(
+    common::write_executable(
         &fake,
         "#!/bin/sh\nif [ \"$1\" = --version ]; then echo 4.15.2; exit 0; fi\nkill -9 $$\n",
-    )
-    .unwrap();
-    use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    );
     let mut r = request("quickstart.geo", 1);
     r.gmsh = Some(fake);
     let e = mesh_geometry(&r, &dir.join("cache"))

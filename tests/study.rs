@@ -460,24 +460,21 @@ fn slurm_job_array_merges_into_the_one_process_table() {
 /// hbcontact process: counted by a logging `python` in front of the venv's.
 #[test]
 fn each_geometry_is_meshed_by_one_gmsh_process() {
-    use std::os::unix::fs::PermissionsExt;
     let dir = common::temp_out("study-gmsh-processes");
     let bin = dir.join("bin");
     std::fs::create_dir_all(&bin).unwrap();
     let log = dir.join("python.log");
     let _ = std::fs::remove_file(&log);
     let python = bin.join("python");
-    std::fs::write(
+    common::write_executable(
         &python,
-        format!(
+        &format!(
             "#!/bin/sh\necho \"$1\" >> '{}'\nexec '{}' \"$@\"\n",
             log.display(),
             common::venv_python().display()
         ),
-    )
-    .unwrap();
-    std::fs::set_permissions(&python, std::fs::Permissions::from_mode(0o755)).unwrap();
-    std::fs::copy(common::root().join(".venv/bin/gmsh"), bin.join("gmsh")).unwrap();
+    );
+    common::copy_executable(&common::root().join(".venv/bin/gmsh"), &bin.join("gmsh"));
     let study = strip_study(
         &dir,
         "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 1.5e-7, 2.0e-7]}\n",

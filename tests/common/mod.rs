@@ -26,6 +26,25 @@ pub fn venv_python() -> PathBuf {
     p
 }
 
+/// Make `to` an executable copy of `from` without this process ever holding a write handle
+/// to `to`: a test thread that forks meanwhile would inherit the handle, and exec of `to`
+/// would fail with "Text file busy" (ETXTBSY, rust-lang/rust#114554). `cp`, another
+/// process, writes it.
+pub fn copy_executable(from: &Path, to: &Path) {
+    let status = Command::new("cp").arg(from).arg(to).status().unwrap();
+    assert!(status.success(), "cp {} {}", from.display(), to.display());
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(to, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+/// An executable script `path` with `text` (written beside it as `<path>.txt` first, then
+/// `copy_executable`).
+pub fn write_executable(path: &Path, text: &str) {
+    let source = path.with_extension("txt");
+    std::fs::write(&source, text).unwrap();
+    copy_executable(&source, path);
+}
+
 pub fn hbcontact(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hbcontact"))
         .args(args)
