@@ -568,7 +568,7 @@ impl DenseLu {
             MemStack::new(&mut MemBuffer::new(scratch)),
             Default::default(),
         );
-        let lu: Vec<f64> = (0..n * n).map(|r| lu[(r % n, r / n)]).collect();
+        let lu: Vec<f64> = (0..n).flat_map(|j| lu.col(j).iter().copied()).collect();
         let regular = (0..n).all(|i| lu[i * n + i] != 0.0) && lu.iter().all(|v| v.is_finite());
         regular.then_some(DenseLu { lu, forward })
     }

@@ -10,7 +10,8 @@
 //! - Samples sit at t_n = nT/N, n = 0..N−1; with N > 2H, Q P = I exactly (discrete
 //!   orthogonality), which the Newton relies on.
 
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use num_complex::Complex64;
 
@@ -85,12 +86,12 @@ impl Sampler {
     /// internal invariant).
     pub fn new(harmonics: usize, samples: usize) -> Self {
         debug_assert!(samples > 2 * harmonics);
-        let mut planner = FftPlanner::new();
+        let (forward, inverse) = plans(samples);
         Sampler {
             harmonics,
             samples,
-            forward: planner.plan_fft_forward(samples),
-            inverse: planner.plan_fft_inverse(samples),
+            forward,
+            inverse,
         }
     }
 
@@ -162,6 +163,26 @@ impl Sampler {
         }
         q
     }
+}
+
+/// The forward and inverse FFT plans of length N, planned once per process: a Newton run
+/// makes a sampler per N, and rustfft's planning (twiddles, the algorithm's choice) cost 3%
+/// of the reference strip's Newton at H = 40 when each planned its own.
+fn plans(samples: usize) -> (Arc<dyn Fft<f64>>, Arc<dyn Fft<f64>>) {
+    type Plans = HashMap<usize, (Arc<dyn Fft<f64>>, Arc<dyn Fft<f64>>)>;
+    static PLANS: OnceLock<Mutex<(FftPlanner<f64>, Plans)>> = OnceLock::new();
+    let cache = PLANS.get_or_init(|| Mutex::new((FftPlanner::new(), HashMap::new())));
+    let mut guard = cache.lock().unwrap_or_else(|e| e.into_inner());
+    let (planner, plans) = &mut *guard;
+    plans
+        .entry(samples)
+        .or_insert_with(|| {
+            (
+                planner.plan_fft_forward(samples),
+                planner.plan_fft_inverse(samples),
+            )
+        })
+        .clone()
 }
 
 /// The value alone at t, Σ_k Re(z_k e^{ikωt}), with e^{ikωt} by repeated multiplication by

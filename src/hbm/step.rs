@@ -17,10 +17,10 @@
 //!   a matrix-free GMRES iteration O(nc·N log N + nc²·H). The step picks by estimated flops.
 
 use faer::linalg::solvers::Solve;
-use faer::Mat;
+use faer::{c64, Mat};
 use num_complex::Complex64;
 
-use super::fourier::{harmonic_of, Sampler};
+use super::fourier::{cos_index, harmonic_of, sin_index, Sampler};
 use super::reduced::ReducedProblem;
 use super::sampler::ContactSampler;
 use crate::linalg::{gmres, DenseLu};
@@ -82,24 +82,34 @@ pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
     let m = 2 * h + 1;
     let mut spectrum: Vec<Complex64> = slopes.iter().map(|&v| Complex64::new(v, 0.0)).collect();
     sampler.forward_in_place(&mut spectrum);
-    // Ĉ_j = mean(s cos jθ), Ŝ_j = mean(s sin jθ) for j = 0..2H (2H < N).
+    // Ĉ_j = mean(s cos jθ) and Ŝ_j = mean(s sin jθ) for j = 0..2H (2H < N); Ĉ is even in j,
+    // Ŝ odd.
     let scale = 1.0 / n as f64;
-    let c_hat = |j: i64| spectrum[j.unsigned_abs() as usize].re * scale;
-    let s_hat = |j: i64| -spectrum[j.unsigned_abs() as usize].im * scale * j.signum() as f64;
-    // Basis p_a: index 0 the constant (cos 0θ), 2k−1 cos kθ, 2k sin kθ.
-    let kind = |a: usize| -> (i64, bool) { (harmonic_of(a) as i64, a > 0 && a.is_multiple_of(2)) };
-    for a in 0..m {
-        let (p, a_sin) = kind(a);
-        let weight = if a == 0 { 1.0 } else { 2.0 };
-        for b in 0..m {
-            let (q, b_sin) = kind(b);
-            let mean = match (a_sin, b_sin) {
-                (false, false) => 0.5 * (c_hat(p - q) + c_hat(p + q)),
-                (true, true) => 0.5 * (c_hat(p - q) - c_hat(p + q)),
-                (false, true) => 0.5 * (s_hat(p + q) - s_hat(p - q)),
-                (true, false) => 0.5 * (s_hat(p + q) + s_hat(p - q)),
-            };
-            out[a * m + b] = weight * mean;
+    let c_table: Vec<f64> = spectrum[..=2 * h].iter().map(|z| z.re * scale).collect();
+    let s_table: Vec<f64> = spectrum[..=2 * h].iter().map(|z| -z.im * scale).collect();
+    let c_hat = |j: i64| c_table[j.unsigned_abs() as usize];
+    let s_hat = |j: i64| s_table[j.unsigned_abs() as usize] * j.signum() as f64;
+    // Basis p_a: index 0 the constant (cos 0θ), 2k−1 cos kθ, 2k sin kθ; harmonics p (rows)
+    // and q (columns) fill their cos/sin block, weight 1 for the constant's row, else 2.
+    for p in 0..=h {
+        let weight = if p == 0 { 1.0 } else { 2.0 };
+        for q in 0..=h {
+            let (pi, qi) = (p as i64, q as i64);
+            let (difference, sum) = (pi - qi, pi + qi);
+            let cos_cos = 0.5 * (c_hat(difference) + c_hat(sum));
+            let cos_sin = 0.5 * (s_hat(sum) - s_hat(difference));
+            out[cos_index(p) * m + cos_index(q)] = weight * cos_cos;
+            if q > 0 {
+                out[cos_index(p) * m + sin_index(q)] = weight * cos_sin;
+            }
+            if p > 0 {
+                let sin_cos = 0.5 * (s_hat(sum) + s_hat(difference));
+                out[sin_index(p) * m + cos_index(q)] = weight * sin_cos;
+                if q > 0 {
+                    let sin_sin = 0.5 * (c_hat(difference) - c_hat(sum));
+                    out[sin_index(p) * m + sin_index(q)] = weight * sin_sin;
+                }
+            }
         }
     }
 }
@@ -332,19 +342,20 @@ fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64]) {
 /// for the constant), so A_i G_ii costs 4 M² instead of M³.
 fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64]) -> Vec<f64> {
     let m = problem.coefficients();
-    let mut out: Vec<f64> = (0..m * m)
-        .map(|r| f64::from(u8::from(r / m == r % m)) - a_i[r])
+    let mut out: Vec<f64> = a_i.iter().map(|a| -a).collect();
+    for d in 0..m {
+        out[d * m + d] += 1.0;
+    }
+    let g: Vec<c64> = (0..=(m - 1) / 2)
+        .map(|k| c * problem.compliance[k][i * problem.nodes + i])
         .collect();
-    let g = |k: usize| c * problem.compliance[k][i * problem.nodes + i];
-    let g0 = g(0).re;
-    for a in 0..m {
-        let row = &a_i[a * m..(a + 1) * m];
-        let out = &mut out[a * m..(a + 1) * m];
-        out[0] += row[0] * g0;
-        for k in 1..=(m - 1) / 2 {
-            let (gk, cos, sin) = (g(k), 2 * k - 1, 2 * k);
-            out[cos] += row[cos] * gk.re - row[sin] * gk.im;
-            out[sin] += row[cos] * gk.im + row[sin] * gk.re;
+    for (row, out) in a_i.chunks_exact(m).zip(out.chunks_exact_mut(m)) {
+        out[0] += row[0] * g[0].re;
+        let pairs = row[1..].chunks_exact(2).zip(out[1..].chunks_exact_mut(2));
+        for ((a, o), gk) in pairs.zip(&g[1..]) {
+            // a = (cos, sin) entries of harmonic k in this row of A_i.
+            o[0] += a[0] * gk.re - a[1] * gk.im;
+            o[1] += a[0] * gk.im + a[1] * gk.re;
         }
     }
     out
