@@ -487,12 +487,7 @@ impl Factor {
             Factor::Modal(f) if f.built_for(b) => f.compliance(),
             Factor::Ldlt(_) | Factor::Modal(_) => {
                 let nc = b.nrows;
-                let rows: Vec<Vec<c64>> = b
-                    .dense_rows()
-                    .into_iter()
-                    .map(|r| r.into_iter().map(|v| c64::new(v, 0.0)).collect())
-                    .collect();
-                let x = self.solve_many(&rows);
+                let x = self.solve_many(&complex_columns(&b.dense_rows()));
                 let mut out = vec![c64::new(0.0, 0.0); nc * nc];
                 for (j, xj) in x.iter().enumerate() {
                     let bx = b.mul_complex(xj);
@@ -504,6 +499,14 @@ impl Factor {
             }
         }
     }
+}
+
+/// Real columns as complex ones (the right-hand sides a complex factor solves).
+pub fn complex_columns(columns: &[Vec<f64>]) -> Vec<Vec<c64>> {
+    columns
+        .iter()
+        .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
+        .collect()
 }
 
 /// Solve a real sparse system A x = b once (tests and small static problems).

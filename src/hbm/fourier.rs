@@ -56,6 +56,11 @@ pub fn phasor(coeffs: &[f64], k: usize) -> c64 {
     }
 }
 
+/// Harmonic k's phasor of every node's coefficients (`coeffs` node-major, `m` per node).
+pub fn node_phasors(coeffs: &[f64], m: usize, k: usize) -> Vec<c64> {
+    coeffs.chunks_exact(m).map(|c| phasor(c, k)).collect()
+}
+
 /// Store z_k as real coefficients (k = 0 keeps the real part only).
 pub fn set_phasor(coeffs: &mut [f64], k: usize, z: c64) {
     if k == 0 {

@@ -25,7 +25,7 @@ use rayon::prelude::*;
 
 use super::System;
 use crate::linalg::modal::{ModalBasis, ModalFactor, ModalSpace};
-use crate::linalg::{Csc, Factor};
+use crate::linalg::{complex_columns, Csc, Factor};
 use crate::Result;
 
 /// The backward error a reduced solve must stay below: the one a factorization's solve is
@@ -96,6 +96,21 @@ impl ReducedModel {
         Ok(())
     }
 
+    /// Add the exact solves of the start block with an exact frame's factorizations.
+    pub fn enrich_from(
+        &mut self,
+        system: &System,
+        b: &Csc,
+        factors: &std::collections::BTreeMap<usize, Factor>,
+    ) -> Result<()> {
+        let rhs = self.start_columns();
+        let solutions: Vec<Vec<c64>> = factors
+            .par_iter()
+            .flat_map_iter(|(_, f)| f.solve_many(&rhs))
+            .collect();
+        self.enrich(system, b, &solutions)
+    }
+
     /// The reduced solve of Z_k at the system's ω, made with harmonic k's `load`
     /// (`system.load(k)`; `None`: singular on the space).
     pub fn factor(&self, system: &System, k: usize, load: &[c64]) -> Option<ModalFactor> {
@@ -106,10 +121,7 @@ impl ReducedModel {
     /// The start block's columns, complex (the right-hand sides an exact frame solves to
     /// enrich the model).
     pub fn start_columns(&self) -> Vec<Vec<c64>> {
-        self.start
-            .iter()
-            .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
-            .collect()
+        complex_columns(&self.start)
     }
 }
 
@@ -140,23 +152,6 @@ fn push_parts(columns: &mut Vec<Vec<f64>>, vectors: Vec<Vec<c64>>) {
     }
 }
 
-impl ReducedModel {
-    /// Add the exact solves of the start block with an exact frame's factorizations.
-    pub fn enrich_from(
-        &mut self,
-        system: &System,
-        b: &Csc,
-        factors: &std::collections::BTreeMap<usize, Factor>,
-    ) -> Result<()> {
-        let rhs = self.start_columns();
-        let solutions: Vec<Vec<c64>> = factors
-            .par_iter()
-            .flat_map_iter(|(_, f)| f.solve_many(&rhs))
-            .collect();
-        self.enrich(system, b, &solutions)
-    }
-}
-
 /// The largest backward error, over the harmonics, of the field a point's multipliers
 /// `x` (node-major, `m` coefficients per node) recover with the frame's solves:
 /// u_k = z_k + Z_k⁻¹ Bᵀ λ_k against Z_k u_k = f_k + Bᵀ λ_k.
@@ -167,23 +162,16 @@ pub(super) fn point_backward_error(
     x: &[f64],
     m: usize,
 ) -> f64 {
-    let nc = op.nodes();
     linear
         .factors
         .par_iter()
         .map(|(&k, f)| {
-            let lam: Vec<c64> = (0..nc)
-                .map(|j| super::fourier::phasor(&x[j * m..(j + 1) * m], k))
-                .collect();
-            let force = op.b_free.mul_transpose_complex(&lam);
-            let mut u = linear.free[&k].clone();
-            u.iter_mut().zip(f.solve(&force)).for_each(|(a, b)| *a += b);
-            let rhs: Vec<c64> = system
-                .load(k)
-                .iter()
-                .zip(&force)
-                .map(|(a, b)| a + b)
-                .collect();
+            let lam = super::fourier::node_phasors(x, m, k);
+            let (mut u, mut rhs) = (linear.free[&k].clone(), system.load(k));
+            if let Some((force, dz)) = super::contact_part(op, f, &lam) {
+                u.iter_mut().zip(dz).for_each(|(a, b)| *a += b);
+                rhs.iter_mut().zip(force).for_each(|(a, b)| *a += b);
+            }
             let r = system.residual(k, &u, &rhs);
             super::system::backward_error(system, k, &r, &u, &rhs)
         })

@@ -434,16 +434,12 @@ impl LinearResponse {
     /// parallel); `multipliers` node-major with `m` coefficients per node.
     fn recover(&mut self, op: &ContactOperator, multipliers: &[f64], m: usize) {
         use rayon::prelude::*;
-        let nc = op.nodes();
         let updates: Vec<(usize, Vec<c64>)> = self
             .factors
             .par_iter()
             .filter_map(|(&k, lu)| {
-                let lam: Vec<c64> = (0..nc)
-                    .map(|j| fourier::phasor(&multipliers[j * m..(j + 1) * m], k))
-                    .collect();
-                let touching = lam.iter().any(|l| l.norm() != 0.0);
-                touching.then(|| (k, lu.solve(&op.b_free.mul_transpose_complex(&lam))))
+                let lam = fourier::node_phasors(multipliers, m, k);
+                contact_part(op, lu, &lam).map(|(_, dz)| (k, dz))
             })
             .collect();
         for (k, dz) in updates {
@@ -452,6 +448,21 @@ impl LinearResponse {
             }
         }
     }
+}
+
+/// Bᵀλ_k and the field's contact part Z_k⁻¹ Bᵀλ_k by `factor`, for harmonic k's phasors
+/// `lam` of the multipliers (`None` where every λ_k is zero: nothing to solve).
+fn contact_part(
+    op: &ContactOperator,
+    factor: &Factor,
+    lam: &[c64],
+) -> Option<(Vec<c64>, Vec<c64>)> {
+    let touching = lam.iter().any(|l| l.norm() != 0.0);
+    touching.then(|| {
+        let force = op.b_free.mul_transpose_complex(lam);
+        let dz = factor.solve(&force);
+        (force, dz)
+    })
 }
 
 impl LinearResponse {

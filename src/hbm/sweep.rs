@@ -35,9 +35,9 @@
 use std::time::Instant;
 
 use faer::linalg::solvers::Solve;
-use faer::{c64, Mat};
+use faer::Mat;
 
-use super::fourier::{phasor, set_phasor};
+use super::fourier::{node_phasors, set_phasor};
 use super::frames::{self, ReducedModel};
 use super::reduced::{NewtonSettings, Residual};
 use super::step::{self, StepMethod};
@@ -1149,7 +1149,7 @@ fn gap_rate(
     let (nc, m) = (op.nodes(), 2 * harmonics + 1);
     let mut dg = vec![0.0; nc * m];
     for (&k, lu) in &linear.factors {
-        let lam: Vec<c64> = (0..nc).map(|j| phasor(&x[j * m..(j + 1) * m], k)).collect();
+        let lam = node_phasors(x, m, k);
         if let crate::linalg::Factor::Modal(f) = lu {
             // On the reduced space: no product with K or M.
             let load_rate = system.motion_rate(k, &linear.motion[&k]);
@@ -1160,8 +1160,7 @@ fn gap_rate(
             continue;
         }
         let mut z = linear.free[&k].clone();
-        if lam.iter().any(|l| l.norm() > 0.0) {
-            let dz = lu.solve(&op.b_free.mul_transpose_complex(&lam));
+        if let Some((_, dz)) = super::contact_part(op, lu, &lam) {
             for (a, b) in z.iter_mut().zip(dz) {
                 *a += b;
             }

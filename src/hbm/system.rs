@@ -15,7 +15,7 @@ use faer::c64;
 use super::basis::{Symbols, TimeBasis};
 use crate::fem::DofMap;
 use crate::linalg::schur::{SchurPlan, PIVOT_TOLERANCE};
-use crate::linalg::{Csc, Factor, LuPattern, SparseLu, Triplets};
+use crate::linalg::{complex_columns, Csc, Factor, LuPattern, SparseLu, Triplets};
 use crate::{Error, Result};
 
 /// Complex amplitudes of one harmonic: x(t) = Re(X e^{ikωt}), X = a − i b for a cos + b sin.
@@ -172,11 +172,7 @@ impl System {
             Some(f) => Factor::Ldlt(f),
             None => self.lu(&re, im.as_deref())?,
         };
-        let rhs: Vec<Vec<c64>> = x
-            .iter()
-            .map(|c| c.iter().map(|&v| c64::new(v, 0.0)).collect())
-            .collect();
-        Ok(factor.solve_many(&rhs))
+        Ok(factor.solve_many(&complex_columns(x)))
     }
 
     /// ca K + cb M on the pattern K and M share.
@@ -353,10 +349,7 @@ impl System {
         let (built_for, plan) = self
             .schur
             .get_or_init(|| (b.clone(), SchurPlan::new(&self.k_ff, b).map(Arc::new)));
-        let same = built_for.col_ptr == b.col_ptr
-            && built_for.row_idx == b.row_idx
-            && built_for.values == b.values;
-        if same {
+        if built_for == b {
             plan.clone()
         } else {
             SchurPlan::new(&self.k_ff, b).map(Arc::new)
