@@ -5,9 +5,10 @@
 //!   within 3×);
 //! - the half-disc refined at the contact: the reduction G_k = B Z_k⁻¹ Bᵀ against the
 //!   factorizations (goal ≤), by the Schur complement and by the blocked solve;
-//! - time per factorization against its flop count (the floor).
+//! - time per factorization against its flop count (the floor);
+//! - the product G v of a GMRES iteration, as the Newton does it against a dot product per row.
 //!
-//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole]`
+//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products]`
 //! (default: all). Times
 //! come from one run on a shared machine: the ratios within a table are what to compare.
 
@@ -552,6 +553,74 @@ fn floor() {
     println!("(best of ten, three at 601 nodes; LU = faer's numeric LU alone, flops its AMD estimate on the pattern of Z_k; LDLt = the kept LDLᵀ with the contact normals last, including G_k = S⁻¹ and its checks, flops from its plan; floor = flops at the dense product's rate)");
 }
 
+/// One product G v (all harmonics) by `ReducedProblem::compliance_product` (faer's complex
+/// matrix–vector product per harmonic) against a dot product per row of G_k, at the contact
+/// node counts of the strip, the half-disc and the refined half-disc (synthetic G_k: the
+/// time does not depend on the values).
+fn products() {
+    use faer::c64;
+    use hbcontact::hbm::basis::TimeBasis;
+    use hbcontact::hbm::fourier::{phasor, set_phasor};
+    use hbcontact::hbm::reduced::ReducedProblem;
+    println!("\n## The product G v of a GMRES iteration: faer's matrix–vector product against a dot per row");
+    println!(
+        "{:>6} {:>4} {:>14} {:>14} {:>7}",
+        "nodes", "H", "faer µs", "row dots µs", "ratio"
+    );
+    for (nc, h) in [(9usize, 40usize), (63, 5), (151, 5), (601, 10)] {
+        let m = 2 * h + 1;
+        let entry = |k: usize, i: usize, j: usize| {
+            let d = (i as f64 - j as f64).abs();
+            c64::new(1.0 / (1.0 + d + k as f64), 0.1 / (1.0 + d))
+        };
+        let problem = ReducedProblem {
+            nodes: nc,
+            harmonics: h,
+            compliance: (0..=h)
+                .map(|k| (0..nc * nc).map(|r| entry(k, r / nc, r % nc)).collect())
+                .collect(),
+            linear_gap: vec![0.0; nc * m],
+            basis: TimeBasis::Fourier,
+        };
+        let x: Vec<f64> = (0..nc * m).map(|r| (r as f64 * 0.37).sin()).collect();
+        let (mut fast, mut slow) = (vec![0.0; nc * m], vec![0.0; nc * m]);
+        let mut scratch = Vec::new();
+        let reps = (2e8 as usize / (nc * nc * (h + 1))).clamp(10, 100_000);
+        let best = |f: &mut dyn FnMut()| {
+            (0..5)
+                .map(|_| seconds(|| (0..reps).for_each(|_| f())).1 / reps as f64)
+                .fold(f64::INFINITY, f64::min)
+        };
+        let t_fast = best(&mut || problem.compliance_product(&x, &mut fast, &mut scratch));
+        let mut lam = vec![c64::new(0.0, 0.0); nc];
+        let t_slow = best(&mut || {
+            slow.fill(0.0);
+            for (k, gk) in problem.compliance.iter().enumerate() {
+                for (j, l) in lam.iter_mut().enumerate() {
+                    *l = phasor(&x[j * m..(j + 1) * m], k);
+                }
+                for i in 0..nc {
+                    let y = hbcontact::linalg::dot(&gk[i * nc..(i + 1) * nc], &lam);
+                    set_phasor(&mut slow[i * m..(i + 1) * m], k, y);
+                }
+            }
+        });
+        let differ = fast
+            .iter()
+            .zip(&slow)
+            .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()));
+        println!(
+            "{nc:>6} {h:>4} {:>14.2} {:>14.2} {:>6.2}× (max difference {differ:.1e})",
+            t_fast * 1e6,
+            t_slow * 1e6,
+            t_slow / t_fast
+        );
+    }
+    println!(
+        "(best of five batches; faer on both cores from 2¹⁶ entries of G_k, i.e. at 601 nodes)"
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args()
         .skip(1)
@@ -577,5 +646,8 @@ fn main() {
     }
     if want("whole") {
         whole();
+    }
+    if want("products") {
+        products();
     }
 }

