@@ -447,7 +447,13 @@ impl SchurPlan {
                 schur[(q - self.eliminated) * nk + (r - self.eliminated)] += v;
             }
         }
-        let panels = self.eliminate_all(&mut schur, nk, tolerance, scratch)?;
+        let panels = pulp::Arch::new().dispatch(Elimination {
+            plan: self,
+            schur: &mut schur,
+            nk,
+            tolerance,
+            scratch,
+        })?;
         let s = Mat::from_fn(nk, nk, |i, j| {
             let (hi, lo) = if i >= j { (i, j) } else { (j, i) };
             schur[lo * nk + hi]
@@ -478,6 +484,7 @@ impl SchurPlan {
     /// The multifrontal elimination of every non-kept coordinate (Ã's values in
     /// `scratch.values`): returns the panels; the roots' contribution blocks are added into
     /// `schur` (lower triangle, column-major nk × nk).
+    #[inline(always)]
     fn eliminate_all(
         &self,
         schur: &mut [c64],
@@ -549,6 +556,33 @@ impl SchurPlan {
     }
 }
 
+/// `SchurPlan::eliminate_all` as a `pulp::WithSimd` operation, so that `Arch::dispatch`
+/// compiles it (and the front kernels it inlines) for the widest instruction set the machine
+/// has, with a baseline fallback.
+struct Elimination<'a> {
+    plan: &'a SchurPlan,
+    schur: &'a mut [c64],
+    nk: usize,
+    tolerance: f64,
+    scratch: &'a mut Scratch,
+}
+
+impl pulp::WithSimd for Elimination<'_> {
+    type Output = Result<Panels, String>;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+        let Elimination {
+            plan,
+            schur,
+            nk,
+            tolerance,
+            scratch,
+        } = self;
+        plan.eliminate_all(schur, nk, tolerance, scratch)
+    }
+}
+
 /// One elimination's scratch: Ã's values, the local row numbers, the front, the trailing
 /// update's product, the contribution blocks waiting for their parent, spent ones to reuse,
 /// and S. Kept by the plan between eliminations: fresh zeroed buffers per supernode and per
@@ -597,6 +631,7 @@ impl std::fmt::Debug for ScratchPool {
 }
 
 /// `v` as `len` zeros, reusing its memory.
+#[inline(always)]
 fn refill(v: &mut Vec<c64>, len: usize) -> &mut [c64] {
     v.clear();
     v.resize(len, c64::new(0.0, 0.0));
@@ -790,6 +825,7 @@ fn scatter(local: &[c64], x: &mut [c64], rows: &[usize], r: usize) {
 
 /// Add the lower triangle of a contribution block (column-major, rows `rows`) into `front`
 /// (column-major m × m, lower triangle) at the positions `local[row]`.
+#[inline(always)]
 fn extend_add(front: &mut [c64], m: usize, cb: &[c64], rows: &[usize], local: &[usize]) {
     let mc = rows.len();
     for b in 0..mc {
@@ -806,6 +842,7 @@ fn extend_add(front: &mut [c64], m: usize, cb: &[c64], rows: &[usize], local: &[
 /// trailing lower triangle gets F22 −= L21 D L21ᵀ by one matrix product. Afterwards the
 /// first p columns hold L (unit diagonal implied, D on it) and the trailing (m − p)² lower
 /// triangle is the Schur complement. `Err(k)` when pivot k vanishes.
+#[inline(always)]
 fn eliminate(
     front: &mut [c64],
     m: usize,
