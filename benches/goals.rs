@@ -559,7 +559,6 @@ fn floor() {
 /// time does not depend on the values).
 fn products() {
     use faer::c64;
-    use hbcontact::hbm::basis::TimeBasis;
     use hbcontact::hbm::fourier::{phasor, set_phasor};
     use hbcontact::hbm::reduced::ReducedProblem;
     println!("\n## The product G v of a GMRES iteration: faer's matrix–vector product against a dot per row");
@@ -573,15 +572,7 @@ fn products() {
             let d = (i as f64 - j as f64).abs();
             c64::new(1.0 / (1.0 + d + k as f64), 0.1 / (1.0 + d))
         };
-        let problem = ReducedProblem {
-            nodes: nc,
-            harmonics: h,
-            compliance: (0..=h)
-                .map(|k| (0..nc * nc).map(|r| entry(k, r / nc, r % nc)).collect())
-                .collect(),
-            linear_gap: vec![0.0; nc * m],
-            basis: TimeBasis::Fourier,
-        };
+        let problem = ReducedProblem::from_compliance(nc, h, entry);
         let x: Vec<f64> = (0..nc * m).map(|r| (r as f64 * 0.37).sin()).collect();
         let (mut fast, mut slow) = (vec![0.0; nc * m], vec![0.0; nc * m]);
         let mut scratch = Vec::new();

@@ -237,6 +237,17 @@ fn lightly_damped_fine_mesh_sweep_passes_the_contact_onset() {
     assert!(rel < 2e-3, "{rel}");
 }
 
+/// The overrides of the 0.5%-damped strip with the wall at 50 µm on the coarse mesh, with
+/// `harmonics` (a `harmonic_balance.harmonics=` override).
+fn tangled_scene(harmonics: &str) -> [&str; 4] {
+    [
+        "geometry.parameters.lc=0.025",
+        "geometry.parameters.gap=5e-5",
+        harmonics,
+        "stability.check=false",
+    ]
+}
+
 /// TEST GOAL: where kinks of the sampled contact law tangle the curve (the 0.5%-damped strip
 /// with the wall at 50 µm, H = 20, near 1346 Hz: four turning points within 1.2 Hz, then the
 /// continuation comes back onto its own path) the sweep stops there with a diagnosis that
@@ -248,13 +259,11 @@ fn lightly_damped_fine_mesh_sweep_passes_the_contact_onset() {
 /// src/hbm/sweep.rs.
 #[test]
 fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
-    let overrides = [
-        "geometry.parameters.lc=0.025",
-        "geometry.parameters.gap=5e-5",
-        "harmonic_balance.harmonics=20",
-        "stability.check=false",
-    ];
-    let s = run_sweep("strip_sweep_light", &overrides, "sweep-retrace");
+    let s = run_sweep(
+        "strip_sweep_light",
+        &tangled_scene("harmonic_balance.harmonics=20"),
+        "sweep-retrace",
+    );
     let stopped = s.stopped.expect("the sweep stops");
     println!("{} points; {}", s.points, stopped.reason);
     assert_eq!(stopped.class, "not_converged");
@@ -275,13 +284,11 @@ fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
 /// keeping the curve so far. The README's sweep section quotes these numbers.
 #[test]
 fn at_ten_harmonics_the_tangled_scene_passes_its_first_tangle_and_stops_at_a_later_one() {
-    let overrides = [
-        "geometry.parameters.lc=0.025",
-        "geometry.parameters.gap=5e-5",
-        "harmonic_balance.harmonics=10",
-        "stability.check=false",
-    ];
-    let s = run_sweep("strip_sweep_light", &overrides, "sweep-tangle-h10");
+    let s = run_sweep(
+        "strip_sweep_light",
+        &tangled_scene("harmonic_balance.harmonics=10"),
+        "sweep-tangle-h10",
+    );
     let folds: Vec<f64> = s.folds.iter().map(|f| f.frequency_hz).collect();
     println!(
         "{} points, folds {folds:?}, stopped {:?}",

@@ -37,6 +37,28 @@ impl ReducedProblem {
         2 * self.harmonics + 1
     }
 
+    /// A Fourier problem with G_k[i, j] = `entry(k, i, j)` and no linear gap (for tests and
+    /// benchmarks of the products with G).
+    pub fn from_compliance(
+        nodes: usize,
+        harmonics: usize,
+        entry: impl Fn(usize, usize, usize) -> c64,
+    ) -> ReducedProblem {
+        ReducedProblem {
+            nodes,
+            harmonics,
+            compliance: (0..=harmonics)
+                .map(|k| {
+                    (0..nodes * nodes)
+                        .map(|r| entry(k, r / nodes, r % nodes))
+                        .collect()
+                })
+                .collect(),
+            linear_gap: vec![0.0; nodes * (2 * harmonics + 1)],
+            basis: TimeBasis::Fourier,
+        }
+    }
+
     /// The contact sampler of this problem's basis and frequencies at N = `samples`.
     pub fn sampler(&self, samples: usize) -> ContactSampler {
         ContactSampler::new(&self.basis, self.harmonics, samples)
@@ -622,15 +644,7 @@ mod jacobian_tests {
                     ((i * 5 + j * 13 + 2 * k) % 7) as f64 - 3.0,
                 )
             };
-            let problem = ReducedProblem {
-                nodes: nc,
-                harmonics: h,
-                compliance: (0..=h)
-                    .map(|k| (0..nc * nc).map(|r| entry(k, r / nc, r % nc)).collect())
-                    .collect(),
-                linear_gap: vec![0.0; nc * m],
-                basis: TimeBasis::Fourier,
-            };
+            let problem = ReducedProblem::from_compliance(nc, h, entry);
             let x: Vec<f64> = (0..nc * m)
                 .map(|r| ((r * 37 % 19) as f64) / 19.0 - 0.4)
                 .collect();
