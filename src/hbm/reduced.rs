@@ -93,8 +93,9 @@ impl ReducedProblem {
 
     /// out = G x (the gap without its linear part), harmonic by harmonic: y_k = G_k λ_k by
     /// faer's complex matrix–vector product (its SIMD kernels: 1.5× a dot product per row at
-    /// n_c = 9, 2.3–2.5× at 63–151 nodes, `cargo bench --bench goals -- products`), on both
-    /// cores from 2¹⁶ entries, where one harmonic's product takes tens of µs (most of a GMRES
+    /// n_c = 9, 2.3–2.5× at 63–151 nodes, `cargo bench --bench goals -- products`), with
+    /// faer's global parallelism (both cores for a run, one inside a study's parallel points)
+    /// from 2¹⁶ entries, where one harmonic's product takes tens of µs (most of a GMRES
     /// iteration on the 601-node half-disc).
     /// `scratch` holds one harmonic's phasors of x and of y (resized to 2 n_c), so a caller in
     /// a loop allocates it once.
