@@ -17,7 +17,7 @@
 //! the vibration with the obstacle away): a face closed all period barely vibrates, and a
 //! change of round-off size relative to nothing is not a change of the answer.
 
-use super::basis::TimeBasis;
+use super::basis::{SplineBasis, TimeBasis};
 use super::fourier::harmonic_of;
 use super::reduced::{self, NewtonOutcome, NewtonSettings, ReducedProblem};
 use super::step::StepMethod;
@@ -66,12 +66,13 @@ const DAMPED_SYMBOL: f64 = 0.95;
 
 /// A spline basis' upper discrete frequencies are nearly undamped (σ_j/jω → 0 at Nyquist):
 /// where the contact response lives there, a structural mode they meet resonates with the
-/// damping the basis lost, not the physical one. The share of the vibration ‖g̃‖ in them.
-fn underdamped_share(problem: &ReducedProblem, x: &[f64]) -> Option<f64> {
+/// damping the basis lost, not the physical one. The share of the vibration ‖g̃‖ in them,
+/// from the gap coefficients `g` of a solution.
+pub fn underdamped_share(problem: &ReducedProblem, g: &[f64]) -> Option<f64> {
     let TimeBasis::Spline(basis) = &problem.basis else {
         return None;
     };
-    let (m, g) = (problem.coefficients(), problem.gap(x));
+    let m = problem.coefficients();
     let (mut upper, mut all) = (0.0, 0.0);
     for i in 0..problem.nodes {
         for q in 1..m {
@@ -83,6 +84,14 @@ fn underdamped_share(problem: &ReducedProblem, x: &[f64]) -> Option<f64> {
         }
     }
     Some(if all > 0.0 { (upper / all).sqrt() } else { 0.0 })
+}
+
+/// The lowest discrete frequency of `s` whose damping symbol keeps less than
+/// `DAMPED_SYMBOL` of jω: where the basis' underdamped band starts.
+pub fn underdamped_from(s: &SplineBasis) -> usize {
+    (1..s.frequencies())
+        .find(|&j| s.damping_ratio(j) < DAMPED_SYMBOL)
+        .unwrap_or(s.segments / 2)
 }
 
 /// The change of the answer from multipliers `a` to `b` (see the header).
@@ -182,7 +191,7 @@ pub fn adapt_samples(
             &alt.multipliers,
         ));
     }
-    check.underdamped_share = underdamped_share(problem, &best.multipliers);
+    check.underdamped_share = underdamped_share(problem, &problem.gap(&best.multipliers));
     (n, best, check)
 }
 
@@ -203,9 +212,7 @@ pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<Str
         .underdamped_share
         .filter(|&share| share > UNDERDAMPED_TOLERANCE);
     if let (Some(share), TimeBasis::Spline(s)) = (underdamped, basis) {
-        let from = (1..s.frequencies())
-            .find(|&j| s.damping_ratio(j) < DAMPED_SYMBOL)
-            .unwrap_or(s.segments / 2);
+        let from = underdamped_from(s);
         out.push(format!(
                 "{:.1}% of the contact nodes' vibration lies in the spline basis' discrete frequencies j ≥ {from} (of {}), whose damping its time derivative loses (σ_j/jω below {DAMPED_SYMBOL}, 0 at j = S/2): a structural mode they meet resonates with too little damping, and the answer is not the physical one; raise {refine} (the share falls as S grows) or use basis: fourier, and compare",
                 100.0 * share,
@@ -230,7 +237,6 @@ pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<Str
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hbm::basis::SplineBasis;
 
     /// TEST GOAL: a knob check whose answer moves with N and with c says so, and tells the
     /// user to refine the basis the run used: the harmonics for Fourier, the segments for a

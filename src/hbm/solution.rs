@@ -67,7 +67,8 @@ pub struct ContactSolution {
 
 impl ContactSolution {
     /// The solution a converged Newton found at N = `samples` and `c`, without the knob
-    /// checks (a continuation point or a re-solve from a checked solution).
+    /// checks (a continuation point or a re-solve from a checked solution); the spline
+    /// basis' underdamped share, a measure of the solution alone, is kept.
     pub fn unchecked(
         problem: &super::ReducedProblem,
         samples: usize,
@@ -76,6 +77,7 @@ impl ContactSolution {
     ) -> ContactSolution {
         let x = &newton.multipliers;
         let gaps = problem.gap(x);
+        let underdamped_share = super::knobs::underdamped_share(problem, &gaps);
         ContactSolution {
             harmonics: problem.harmonics,
             samples,
@@ -90,7 +92,7 @@ impl ContactSolution {
                 c_alternative: c,
                 c_change: None,
                 iterations: 0,
-                underdamped_share: None,
+                underdamped_share,
             },
             newton,
         }

@@ -30,6 +30,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Pipeline, SweepSpec};
+use crate::hbm::basis::TimeBasis;
+use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
 use crate::hbm::ContactSolution;
 use crate::mesh::Mesh2d;
@@ -76,6 +78,11 @@ pub struct SweepRow {
     /// The estimated largest Floquet multiplier modulus (`pipeline::stability`), where the
     /// point was checked by marching.
     pub multiplier: Option<f64>,
+    /// Spline basis with contact: the share of the contact nodes' vibration in the basis'
+    /// underdamped discrete frequencies (`hbm::knobs::underdamped_share`; the summary warns
+    /// over the rows above `UNDERDAMPED_TOLERANCE`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub underdamped_share: Option<f64>,
 }
 
 /// JSON writes NaN as null; read it back as NaN.
@@ -307,14 +314,17 @@ fn summarize(
     let folds = writer.folds(spec);
     let (written, missing) = stages.run("points", || writer.write_points(&folds))?;
     ended.warnings.extend(missing);
+    let basis = crate::pipeline::model::time_basis(p, crate::pipeline::Purpose::HarmonicBalance);
+    ended
+        .warnings
+        .extend(underdamped_rows(&writer.rows, &basis));
     let stopped = stop_report(spec, writer, ended.failure.as_ref(), ended.out, p);
     let summary = SweepSummary {
         name: p.name.clone(),
         from_hz: spec.from_hz,
         to_hz: spec.to_hz,
         harmonics: p.harmonic_balance.harmonics,
-        basis: crate::pipeline::model::time_basis(p, crate::pipeline::Purpose::HarmonicBalance)
-            .describe(),
+        basis: basis.describe(),
         points: writer.rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
         folds,
@@ -540,7 +550,47 @@ fn row(
         seconds: info.seconds,
         stable: None,
         multiplier: None,
+        underdamped_share: solution
+            .contact
+            .as_ref()
+            .and_then(|c| c.knob_check.underdamped_share),
     }
+}
+
+/// The rows of a spline curve whose vibration lives in the basis' underdamped frequencies
+/// (docs/method.md §16): a single run warns of its own; a sweep passes many frequencies, so
+/// it names the stretch, the worst point and the key to raise.
+fn underdamped_rows(rows: &[SweepRow], basis: &TimeBasis) -> Option<String> {
+    let TimeBasis::Spline(s) = basis else {
+        return None;
+    };
+    let over: Vec<(&SweepRow, f64)> = rows
+        .iter()
+        .filter_map(|r| {
+            Some((
+                r,
+                r.underdamped_share.filter(|&v| v > UNDERDAMPED_TOLERANCE)?,
+            ))
+        })
+        .collect();
+    let &(worst, share) = over.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let hz = over.iter().map(|(r, _)| r.frequency_hz);
+    let (lo, hi) = (
+        hz.clone().fold(f64::INFINITY, f64::min),
+        hz.fold(0.0, f64::max),
+    );
+    Some(format!(
+        "at {} of {} points ({lo:.1}-{hi:.1} Hz; the largest {:.1}% at {:.1} Hz, row {}) more than {:.0}% of the contact nodes' vibration lies in the spline basis' discrete frequencies j >= {} (of {}), whose damping its time derivative loses: there the curve follows a resonance of the basis, not of the structure; raise {} (the share falls as S grows) or use basis: fourier, and compare",
+        over.len(),
+        rows.len(),
+        100.0 * share,
+        worst.frequency_hz,
+        worst.index,
+        100.0 * UNDERDAMPED_TOLERANCE,
+        underdamped_from(s),
+        s.segments / 2,
+        basis.refine_key()
+    ))
 }
 
 /// sweep.csv: frequency, the outputs, then how each point was found.
@@ -575,4 +625,56 @@ pub fn csv(s: &SweepSummary) -> String {
 /// The JSON Schema of sweep.json.
 pub fn sweep_schema() -> serde_json::Value {
     serde_json::to_value(schemars::schema_for!(SweepSummary)).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hbm::basis::SplineBasis;
+
+    fn row(index: usize, frequency_hz: f64, share: Option<f64>) -> SweepRow {
+        SweepRow {
+            index,
+            frequency_hz,
+            values: vec![1.0],
+            corrector: Corrector::Arclength,
+            newton_iterations: 1,
+            factorizations: 1,
+            step: 0.01,
+            tangent_frequency: 1.0,
+            seconds: 0.0,
+            stable: None,
+            multiplier: None,
+            underdamped_share: share,
+        }
+    }
+
+    /// TEST GOAL: a spline curve warns over exactly the rows whose underdamped share exceeds
+    /// the single run's tolerance, naming their count, their stretch (wherever the curve ran
+    /// back), the worst point and the segments key; rows at or below it, rows without
+    /// contact and Fourier curves do not warn.
+    #[test]
+    fn the_underdamped_warning_counts_the_rows_above_tolerance_and_names_the_worst() {
+        let spline = TimeBasis::Spline(SplineBasis::new(3, 41));
+        let rows = vec![
+            row(0, 1000.0, None),
+            row(1, 1001.0, Some(0.02)),
+            row(2, 1002.0, Some(UNDERDAMPED_TOLERANCE)),
+            row(3, 1004.0, Some(0.3)),
+            row(4, 1003.0, Some(0.9)),
+            row(5, 1001.5, Some(0.06)),
+        ];
+        let w = underdamped_rows(&rows, &spline).expect("a warning");
+        assert!(
+            w.starts_with(
+                "at 3 of 6 points (1001.5-1004.0 Hz; the largest 90.0% at 1003.0 Hz, row 4)"
+            ),
+            "{w}"
+        );
+        // Cubic, S = 41: σ_j/jω = 0.956 near j = 3S/8 = 15.4, below 0.95 from j = 16.
+        assert!(w.contains("j >= 16 (of 20)"), "{w}");
+        assert!(w.contains("harmonic_balance.basis.spline.segments"), "{w}");
+        assert_eq!(underdamped_rows(&rows[..3], &spline), None);
+        assert_eq!(underdamped_rows(&rows, &TimeBasis::Fourier), None);
+    }
 }

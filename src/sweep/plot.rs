@@ -119,6 +119,7 @@ mod tests {
             seconds: 0.0,
             stable,
             multiplier: None,
+            underdamped_share: None,
         }
     }
 
