@@ -185,7 +185,10 @@ fn harmonic_balance_contact(
 
 impl Sampled {
     /// `frames` snapshots, and histories at the solver's samples (at least 4 per frame and
-    /// 64 per period) for accurate amplitudes and force statistics.
+    /// 64 per period) for accurate amplitudes and force statistics, rounded up to a multiple
+    /// of the frames so that every frame's instant is a row of the histories (a Fourier N
+    /// already is; a spline basis' N = 8S is not for odd S, and its solver instants are
+    /// Gauss points anyway).
     pub fn harmonic_balance(
         model: &Model,
         solution: &Solution,
@@ -217,7 +220,10 @@ impl Sampled {
     ) -> Self {
         let dofs = &model.system.dofs;
         let period = solution.period();
-        let n = samples.max(4 * frame_count).max(64);
+        let n = samples
+            .max(4 * frame_count)
+            .max(64)
+            .next_multiple_of(frame_count.max(1));
         let times: Vec<f64> = (0..n).map(|j| j as f64 * period / n as f64).collect();
         // The field at the probe and contact nodes only: the whole field at every sample
         // cost more than the solve (H = 40 on the strip: 1280 samples of 1762 dofs).

@@ -153,7 +153,12 @@ pub struct MeshInfo {
 pub struct EffectsSummary {
     #[serde(flatten)]
     pub effects: Effects,
-    /// Harmonics factored and solved (harmonic balance only).
+    /// The time basis of the harmonic-balance solve: `fourier`, or `spline (degree p, S
+    /// segments)` (harmonic balance only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_basis: Option<String>,
+    /// Harmonics factored and solved; for a spline basis its discrete frequencies j (harmonic
+    /// balance only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub harmonics_computed: Option<Vec<usize>>,
     /// `real` (undamped) or `complex` factorizations (harmonic balance only).
@@ -335,6 +340,7 @@ pub fn contact_setup(model: &Model) -> Option<ContactSetup> {
 pub fn effects(model: &Model, solution: Option<&Solution>) -> EffectsSummary {
     EffectsSummary {
         effects: model.effects.clone(),
+        time_basis: solution.map(|s| s.basis.describe()),
         harmonics_computed: solution.map(Solution::harmonics),
         arithmetic: solution.map(|s| {
             if s.complex_arithmetic {
