@@ -422,7 +422,7 @@ fn check_contact_output(name: &str, out: &Path, scale: f64, mean_agreement: f64)
     let summary = common::read_json(&out.join("summary.json"));
     let c = &summary["contact"];
     let tolerance = c["closed_opening_tolerance"].as_f64().unwrap();
-    let read = meshio_check(&out, Some(tolerance), &[]);
+    let read = meshio_check(out, Some(tolerance), &[]);
     let [closed, node_frames, min_series, max_closed, min_open] = read.contact.unwrap();
     println!(
         "{name}: {closed} of {node_frames} node-frames closed (tolerance {tolerance:.3e} m): \
