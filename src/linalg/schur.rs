@@ -679,9 +679,12 @@ impl LdltFactor {
         let plan = &*self.plan;
         let r = rhs.len();
         let mut x = self.transformed(rhs);
-        self.forward(&mut x, r);
-        self.apply_s_inverse(&mut x, r);
-        self.backward(&mut x, r);
+        pulp::Arch::new().dispatch(Sweeps {
+            factor: self,
+            x: &mut x,
+            r,
+            backward: true,
+        });
         (0..r)
             .map(|c| {
                 plan.expansion
@@ -697,8 +700,12 @@ impl LdltFactor {
     pub fn contact_rows_of_solve(&self, b: &[c64]) -> Vec<c64> {
         let plan = &*self.plan;
         let mut x = self.transformed(&[b]);
-        self.forward(&mut x, 1);
-        self.apply_s_inverse(&mut x, 1);
+        pulp::Arch::new().dispatch(Sweeps {
+            factor: self,
+            x: &mut x,
+            r: 1,
+            backward: false,
+        });
         plan.kept_of_row
             .iter()
             .map(|k| k.map_or(c64::new(0.0, 0.0), |k| x[plan.eliminated + k]))
@@ -722,6 +729,7 @@ impl LdltFactor {
     /// x ← D⁻¹ L⁻¹ x over the eliminated coordinates (the kept ones receive their updates).
     /// A supernode whose pivot rows are all zero changes nothing and is skipped: a right-hand
     /// side on the contact normals alone (Bᵀy) passes through untouched.
+    #[inline(always)]
     fn forward(&self, x: &mut [c64], r: usize) {
         let mut local = Vec::new();
         let zero = c64::new(0.0, 0.0);
@@ -776,6 +784,7 @@ impl LdltFactor {
     }
 
     /// x ← L⁻ᵀ x over the eliminated coordinates.
+    #[inline(always)]
     fn backward(&self, x: &mut [c64], r: usize) {
         let mut local = Vec::new();
         for (s, node) in self.plan.supernodes.iter().enumerate().rev() {
@@ -802,13 +811,44 @@ impl LdltFactor {
     }
 }
 
+/// A solve's sweeps (forward, S⁻¹ and, if asked, backward) as a `pulp::WithSimd`
+/// operation, compiled like `Elimination` for the widest instruction set the machine has:
+/// their column updates are complex mul-adds, which SSE2 does by shuffles.
+struct Sweeps<'a> {
+    factor: &'a LdltFactor,
+    x: &'a mut [c64],
+    r: usize,
+    backward: bool,
+}
+
+impl pulp::WithSimd for Sweeps<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let Sweeps {
+            factor,
+            x,
+            r,
+            backward,
+        } = self;
+        factor.forward(x, r);
+        factor.apply_s_inverse(x, r);
+        if backward {
+            factor.backward(x, r);
+        }
+    }
+}
+
 /// Column k of a panel of m rows stored as a trapezoid: its rows k..m (the diagonal first).
+#[inline(always)]
 fn trapezoid_column(panel: &[c64], m: usize, k: usize) -> &[c64] {
     let at = trapezoid(k, m);
     &panel[at..at + m - k]
 }
 
 /// local[i * r + c] = x[rows[i] * r + c].
+#[inline(always)]
 fn gather(local: &mut Vec<c64>, x: &[c64], rows: &[usize], r: usize) {
     local.clear();
     for &row in rows {
@@ -817,6 +857,7 @@ fn gather(local: &mut Vec<c64>, x: &[c64], rows: &[usize], r: usize) {
 }
 
 /// x[rows[i] * r + c] = local[i * r + c].
+#[inline(always)]
 fn scatter(local: &[c64], x: &mut [c64], rows: &[usize], r: usize) {
     for (i, &row) in rows.iter().enumerate() {
         x[row * r..(row + 1) * r].copy_from_slice(&local[i * r..(i + 1) * r]);
@@ -993,6 +1034,7 @@ fn supernodes(
 }
 
 /// Entries of a supernode's L: `pivots` columns of a front of `m` rows.
+#[inline(always)]
 fn trapezoid(pivots: usize, m: usize) -> usize {
     pivots * m - pivots * (pivots.saturating_sub(1)) / 2
 }
