@@ -608,10 +608,16 @@ pub fn run_to_periodic(
     .sqrt();
     let mut last_state = start_state.clone();
     // The update of a massive dof: v = keep·v_half + push_i·r, push_i = Δt / (m_i (1 + αΔt/2)).
-    let massive: Vec<usize> = (0..n).filter(|&i| !is_z[i]).collect();
-    let push: Vec<f64> = massive
-        .iter()
-        .map(|&i| dt / (mass[i] * (1.0 + damp)))
+    // Massless dofs get push 0 and a value the condensation then overwrites, so that the
+    // loop runs over contiguous slices.
+    let push: Vec<f64> = (0..n)
+        .map(|i| {
+            if is_z[i] {
+                0.0
+            } else {
+                dt / (mass[i] * (1.0 + damp))
+            }
+        })
         .collect();
     let keep = (1.0 - damp) / (1.0 + damp);
     let inv_dt = 1.0 / dt;
@@ -629,9 +635,11 @@ pub fn run_to_periodic(
             if beta != 0.0 {
                 product.mul(&v_half, &mut kv);
             }
-            for (&i, &push) in massive.iter().zip(&push) {
-                let r = f[i] - ku[i] - beta * kv[i];
-                u_next[i] = u[i] + dt * (keep * v_half[i] + push * r);
+            let lanes = u_next.iter_mut().zip(&u).zip(&v_half).zip(&push);
+            for ((((un, &u), &v), &push), (&f, (&ku, &kv))) in
+                lanes.zip(f.iter().zip(ku.iter().zip(&kv)))
+            {
+                *un = u + dt * (keep * v + push * (f - ku - beta * kv));
             }
             if let Some(w) = &lumped_w {
                 // Forward-increment multipliers on massive contact dofs.
