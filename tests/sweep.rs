@@ -531,7 +531,7 @@ fn spline_linear_sweep_is_the_spline_frf_point_by_point() {
 /// TEST GOAL: with contact a spline basis (odd S) sweeps too: on the fold scene from 1000 to
 /// 1150 Hz, where the strip starts to strike the wall, the S = 41 curve reaches the end without
 /// a fold or a stop, its end point equals a single-frequency spline run there (measured
-/// 6e-12: the same N, one fixed at the first point, the other adapted), and its amplitude lies
+/// 9.7e-9: the same N, one fixed at the first point, the other adapted), and its amplitude lies
 /// within 1% of Fourier's at equal unknowns, H = 20 (measured 0.46%); stopped after 10 points
 /// and resumed, it ends on the same point (1e-7: each curve's frames come from its own reduced
 /// model, which the resumed one builds afresh; measured 3.5e-9). Every contact row carries the
