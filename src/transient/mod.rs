@@ -538,62 +538,14 @@ pub fn run_to_periodic(
     reporter: &dyn Reporter,
 ) -> Result<TransientResult> {
     let start = Instant::now();
-    let (k, mass) = (problem.stiffness, problem.mass);
-    let n = mass.len();
-    let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
-    let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
-    let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
-    let rows = contact_rows(problem, &is_z)?;
-    let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
-    let g0 = problem.contact.as_ref().map(|c| c.g0);
-    let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
-    let (dt, steps, per_sample) = time_step(problem, settings, beta)?;
-    let s = settings.samples_per_period.max(1);
-    let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
-    let s_weight = 1.0 / (1.0 + beta / dt);
-    let damp = alpha * dt / 2.0;
-    let product = RowPairs::new(k);
-
-    // Three rotating buffers: no allocation in the time loop.
-    let (mut u, mut u_prev, mut u_next) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let (mut v_half, mut f, mut ku, mut kv) =
-        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut w_massive = vec![0.0; n];
-    let mut contact = ContactState {
-        lambda: vec![0.0; nc],
-        active: vec![false; nc],
-    };
-    let mut record = LastPeriod::new(s, steps, per_sample, nc, problem.probes.len());
+    let (stepper, steps, per_sample) = Stepper::new(problem, settings)?;
+    let (n, dt) = (problem.mass.len(), stepper.dt);
+    let mut s = stepper.start(problem)?;
+    let samples = settings.samples_per_period.max(1);
+    let nc = s.contact.lambda.len();
+    let mut record = LastPeriod::new(samples, steps, per_sample, nc, problem.probes.len());
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
     let (mut changes, mut departures) = (Vec::new(), Vec::new());
-
-    if let Some(init) = &problem.initial {
-        if init.displacement.len() != n || init.velocity.len() != n {
-            return Err(Error::Model(
-                "internal: the initial state has the wrong size".into(),
-            ));
-        }
-        u.copy_from_slice(&init.displacement);
-        v_half.copy_from_slice(&init.velocity);
-    }
-    (problem.force)(0.0, &mut f);
-    if let Some(c) = &condensation {
-        // The static state of the massless dofs under the massive ones (s = 1); at rest w = 0.
-        let w: Vec<f64> = (0..n)
-            .map(|i| {
-                if is_z[i] {
-                    0.0
-                } else {
-                    u[i] + beta * v_half[i]
-                }
-            })
-            .collect();
-        let start = u.clone();
-        c.condense(&w, &mut u, &start, 1.0, &f, &mut contact)?;
-    }
-    for i in 0..n {
-        u_prev[i] = u[i] - dt * v_half[i];
-    }
     let period = problem.period;
     let state_of = |u: &[f64], v: &[f64]| -> Vec<f64> {
         u.iter()
@@ -601,95 +553,35 @@ pub fn run_to_periodic(
             .chain(v.iter().map(|v| v * period))
             .collect()
     };
-    let start_state = state_of(&u, &v_half);
+    let start_state = state_of(&s.u, &s.v_half);
     // ‖u‖² + ‖u̇/ω‖²: the displacement amplitude of a harmonic motion, whatever its phase.
     let start_amplitude = (norm(&start_state[..n]).powi(2)
         + (norm(&start_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
     .sqrt();
     let mut last_state = start_state.clone();
-    // The update of a massive dof: v = keep·v_half + push_i·r, push_i = Δt / (m_i (1 + αΔt/2)).
-    // Massless dofs get push 0 and a value the condensation then overwrites, so that the
-    // loop runs over contiguous slices.
-    let push: Vec<f64> = (0..n)
-        .map(|i| {
-            if is_z[i] {
-                0.0
-            } else {
-                dt / (mass[i] * (1.0 + damp))
-            }
-        })
-        .collect();
-    let keep = (1.0 - damp) / (1.0 + damp);
-    let inv_dt = 1.0 / dt;
-    // f at the step's start: the condensation's f(t + Δt) of the step before, when it ran.
-    let mut f_next = vec![0.0; n];
-    let mut have_f = false;
     while periods < settings.max_periods {
         for step in 0..steps {
-            let index = periods * steps + step;
-            let t = index as f64 * dt;
-            if !have_f {
-                (problem.force)(t, &mut f);
-            }
-            product.mul(&u, &mut ku);
-            if beta != 0.0 {
-                product.mul(&v_half, &mut kv);
-            }
-            let lanes = u_next.iter_mut().zip(&u).zip(&v_half).zip(&push);
-            for ((((un, &u), &v), &push), (&f, (&ku, &kv))) in
-                lanes.zip(f.iter().zip(ku.iter().zip(&kv)))
-            {
-                *un = u + dt * (keep * v + push * (f - ku - beta * kv));
-            }
-            if let Some(w) = &lumped_w {
-                // Forward-increment multipliers on massive contact dofs.
-                let g0 = g0.unwrap_or(&[]);
-                let q: Vec<f64> = (0..nc)
-                    .map(|a| rows[a].iter().map(|&(d, v)| v * u_next[d]).sum::<f64>() - g0[a])
-                    .collect();
-                let p = solve_lcp(w, &q, &mut contact.active)?;
-                for a in 0..nc {
-                    contact.lambda[a] = -p[a];
-                    for &(d, v) in &rows[a] {
-                        u_next[d] += dt * dt * v * contact.lambda[a] / mass[d] / (1.0 + damp);
-                    }
-                }
-            }
-            if let Some(c) = &condensation {
-                (problem.force)((index + 1) as f64 * dt, &mut f_next);
-                let rate = beta * inv_dt;
-                for (((w, &z), &un), &u) in w_massive.iter_mut().zip(&is_z).zip(&u_next).zip(&u) {
-                    *w = if z { 0.0 } else { un + rate * (un - u) };
-                }
-                c.condense(&w_massive, &mut u_next, &u, s_weight, &f_next, &mut contact)?;
-                std::mem::swap(&mut f, &mut f_next);
-                have_f = true;
-            }
-            for ((v, &un), &u) in v_half.iter_mut().zip(&u_next).zip(&u) {
-                *v = (un - u) * inv_dt;
-            }
+            stepper.step(&mut s, periods * steps + step)?;
             record.record(
                 step,
                 dt,
-                [&u_prev, &u, &u_next],
-                &contact.lambda,
+                [&s.u_prev, &s.u, &s.u_next],
+                &s.contact.lambda,
                 &problem.probes,
             );
-            // Rotate: (prev, current, next) ← (current, next, old prev).
-            std::mem::swap(&mut u_prev, &mut u);
-            std::mem::swap(&mut u, &mut u_next);
+            s.rotate();
         }
         periods += 1;
-        if u.iter().any(|v| !v.is_finite()) {
+        if s.u.iter().any(|v| !v.is_finite()) {
             return Err(Error::NotConverged(format!(
                 "time marching blew up in period {periods} (dt = {dt:e} s): lower transient.courant (now {})",
                 settings.courant
             )));
         }
-        let state = state_of(&u, &v_half);
+        let state = state_of(&s.u, &s.v_half);
         change = relative_change(&state, &last_state);
         changes.push(change);
-        departures.push(distance(&u, &start_state[..n]) / start_amplitude);
+        departures.push(distance(&s.u, &start_state[..n]) / start_amplitude);
         let status = format!("change {change:.2e}");
         reporter.progress(
             "periods",
@@ -720,11 +612,11 @@ pub fn run_to_periodic(
         changes,
         departures,
         end_state: InitialState {
-            displacement: u.clone(),
-            velocity: v_half.clone(),
+            displacement: s.u.clone(),
+            velocity: s.v_half.clone(),
         },
-        times: (0..s)
-            .map(|i| i as f64 * problem.period / s as f64)
+        times: (0..samples)
+            .map(|i| i as f64 * problem.period / samples as f64)
             .collect(),
         displacement: record.displacement,
         velocity: record.velocity,
@@ -734,6 +626,215 @@ pub fn run_to_periodic(
         total_contact_history: record.total_contact_history,
         wall_time: start.elapsed(),
     })
+}
+
+/// What a march keeps fixed: the product with K, the step's coefficients and the contact
+/// treatment (the condensation of the massless dofs, or W of the massive contact dofs).
+struct Stepper<'a> {
+    force: &'a (dyn Fn(f64, &mut [f64]) + Sync),
+    mass: &'a [f64],
+    product: RowPairs,
+    is_z: Vec<bool>,
+    rows: Vec<Vec<(usize, f64)>>,
+    g0: Option<&'a [f64]>,
+    condensation: Option<Condensation<'a>>,
+    lumped_w: Option<DMatrix<f64>>,
+    /// The update of a massive dof is v = keep·v_half + push_i·r with push_i =
+    /// Δt / (m_i (1 + αΔt/2)); massless dofs get push 0 and a value the condensation then
+    /// overwrites, so that the update runs over contiguous slices.
+    push: Vec<f64>,
+    keep: f64,
+    dt: f64,
+    beta: f64,
+    damp: f64,
+    /// The massless dofs' backward-Euler weight 1/(1 + β/Δt).
+    s_weight: f64,
+}
+
+/// The march's state and buffers (no allocation in the time loop): u at the previous,
+/// current and next step (rotated after each), v at the half step, f at the step's start
+/// (`f_ready`: the condensation's f(t + Δt) of the step before), K u, K v, the massive
+/// dofs' u + βu̇, and the contact multipliers.
+struct MarchState {
+    u_prev: Vec<f64>,
+    u: Vec<f64>,
+    u_next: Vec<f64>,
+    v_half: Vec<f64>,
+    f: Vec<f64>,
+    f_next: Vec<f64>,
+    f_ready: bool,
+    ku: Vec<f64>,
+    kv: Vec<f64>,
+    w_massive: Vec<f64>,
+    contact: ContactState,
+}
+
+impl MarchState {
+    /// (prev, current, next) ← (current, next, old prev).
+    fn rotate(&mut self) {
+        std::mem::swap(&mut self.u_prev, &mut self.u);
+        std::mem::swap(&mut self.u, &mut self.u_next);
+    }
+}
+
+impl<'a> Stepper<'a> {
+    /// The stepper, the steps per period and the steps per output sample.
+    fn new(
+        problem: &TransientProblem<'a>,
+        settings: &TransientSettings,
+    ) -> Result<(Self, usize, usize)> {
+        let (k, mass) = (problem.stiffness, problem.mass);
+        let n = mass.len();
+        let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
+        let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
+        let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
+        let rows = contact_rows(problem, &is_z)?;
+        let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
+        let g0 = problem.contact.as_ref().map(|c| c.g0);
+        let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
+        let (dt, steps, per_sample) = time_step(problem, settings, beta)?;
+        let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
+        let damp = alpha * dt / 2.0;
+        let push = (0..n)
+            .map(|i| {
+                if is_z[i] {
+                    0.0
+                } else {
+                    dt / (mass[i] * (1.0 + damp))
+                }
+            })
+            .collect();
+        let stepper = Stepper {
+            force: problem.force,
+            mass,
+            product: RowPairs::new(k),
+            is_z,
+            rows,
+            g0,
+            condensation,
+            lumped_w,
+            push,
+            keep: (1.0 - damp) / (1.0 + damp),
+            dt,
+            beta,
+            damp,
+            s_weight: 1.0 / (1.0 + beta / dt),
+        };
+        Ok((stepper, steps, per_sample))
+    }
+
+    /// The state at t = 0: rest or the problem's initial state, the massless dofs condensed.
+    fn start(&self, problem: &TransientProblem) -> Result<MarchState> {
+        let n = self.mass.len();
+        let nc = self.rows.len();
+        let zeros = || vec![0.0; n];
+        let mut s = MarchState {
+            u_prev: zeros(),
+            u: zeros(),
+            u_next: zeros(),
+            v_half: zeros(),
+            f: zeros(),
+            f_next: zeros(),
+            f_ready: false,
+            ku: zeros(),
+            kv: zeros(),
+            w_massive: zeros(),
+            contact: ContactState {
+                lambda: vec![0.0; nc],
+                active: vec![false; nc],
+            },
+        };
+        if let Some(init) = &problem.initial {
+            if init.displacement.len() != n || init.velocity.len() != n {
+                return Err(Error::Model(
+                    "internal: the initial state has the wrong size".into(),
+                ));
+            }
+            s.u.copy_from_slice(&init.displacement);
+            s.v_half.copy_from_slice(&init.velocity);
+        }
+        (self.force)(0.0, &mut s.f);
+        if let Some(c) = &self.condensation {
+            // The static state of the massless dofs under the massive ones (s = 1); at rest
+            // w = 0.
+            let w: Vec<f64> = (0..n)
+                .map(|i| {
+                    if self.is_z[i] {
+                        0.0
+                    } else {
+                        s.u[i] + self.beta * s.v_half[i]
+                    }
+                })
+                .collect();
+            let start = s.u.clone();
+            c.condense(&w, &mut s.u, &start, 1.0, &s.f, &mut s.contact)?;
+        }
+        for i in 0..n {
+            s.u_prev[i] = s.u[i] - self.dt * s.v_half[i];
+        }
+        Ok(s)
+    }
+
+    /// Step `index` (t = index · Δt): u_next, the contact multipliers and v_half.
+    fn step(&self, s: &mut MarchState, index: usize) -> Result<()> {
+        let (dt, beta) = (self.dt, self.beta);
+        if !s.f_ready {
+            (self.force)(index as f64 * dt, &mut s.f);
+        }
+        self.product.mul(&s.u, &mut s.ku);
+        if beta != 0.0 {
+            self.product.mul(&s.v_half, &mut s.kv);
+        }
+        let lanes = s.u_next.iter_mut().zip(&s.u).zip(&s.v_half).zip(&self.push);
+        let loads = s.f.iter().zip(s.ku.iter().zip(&s.kv));
+        for ((((un, &u), &v), &push), (&f, (&ku, &kv))) in lanes.zip(loads) {
+            *un = u + dt * (self.keep * v + push * (f - ku - beta * kv));
+        }
+        if let Some(w) = &self.lumped_w {
+            self.forward_increment(w, s)?;
+        }
+        if let Some(c) = &self.condensation {
+            (self.force)((index + 1) as f64 * dt, &mut s.f_next);
+            let rate = beta * (1.0 / dt);
+            let lanes = s.w_massive.iter_mut().zip(&self.is_z);
+            for ((w, &z), (&un, &u)) in lanes.zip(s.u_next.iter().zip(&s.u)) {
+                *w = if z { 0.0 } else { un + rate * (un - u) };
+            }
+            c.condense(
+                &s.w_massive,
+                &mut s.u_next,
+                &s.u,
+                self.s_weight,
+                &s.f_next,
+                &mut s.contact,
+            )?;
+            std::mem::swap(&mut s.f, &mut s.f_next);
+            s.f_ready = true;
+        }
+        let inv_dt = 1.0 / dt;
+        for ((v, &un), &u) in s.v_half.iter_mut().zip(&s.u_next).zip(&s.u) {
+            *v = (un - u) * inv_dt;
+        }
+        Ok(())
+    }
+
+    /// Forward-increment multipliers on massive contact dofs: remove the predicted
+    /// penetration of u_next.
+    fn forward_increment(&self, w: &DMatrix<f64>, s: &mut MarchState) -> Result<()> {
+        let (rows, g0) = (&self.rows, self.g0.unwrap_or(&[]));
+        let q: Vec<f64> = (0..rows.len())
+            .map(|a| rows[a].iter().map(|&(d, v)| v * s.u_next[d]).sum::<f64>() - g0[a])
+            .collect();
+        let p = solve_lcp(w, &q, &mut s.contact.active)?;
+        let (dt, damp) = (self.dt, self.damp);
+        for (a, row) in rows.iter().enumerate() {
+            s.contact.lambda[a] = -p[a];
+            for &(d, v) in row {
+                s.u_next[d] += dt * dt * v * s.contact.lambda[a] / self.mass[d] / (1.0 + damp);
+            }
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
