@@ -99,21 +99,11 @@ pub struct TransientResult {
     pub wall_time: Duration,
 }
 
-/// y = K x for symmetric K stored by columns (a gather per column, no scatter).
-fn sym_mul(k: &Csc, x: &[f64], y: &mut [f64]) {
-    for (j, yj) in y.iter_mut().enumerate() {
-        let mut s = 0.0;
-        for p in k.col_ptr[j]..k.col_ptr[j + 1] {
-            s += k.values[p] * x[k.row_idx[p]];
-        }
-        *yj = s;
-    }
-}
-
 /// Symmetric K laid out for the marching's product y = K x, the bulk of its time: rows
 /// grouped in pairs that share their column pattern (a node's two dofs, in an assembly), so
 /// each column index and x entry is read once for both rows; rows without a partner stand
-/// alone. The same sums as `sym_mul`, in the same order.
+/// alone. The same sums, in the same order, as a gather per column of K stored by columns
+/// (the test's `sym_mul`). The one product of the marching and its step-size estimate.
 struct RowPairs {
     /// Per group: its first row, whether it is a pair, and its columns' range in `cols`.
     groups: Vec<(usize, bool, std::ops::Range<usize>)>,
@@ -177,7 +167,7 @@ impl RowPairs {
 
 /// The largest ω² of M⁻¹K over the massive dofs, by power iteration (an upper bound of the
 /// condensed system's, whose Schur complement is softer).
-pub fn estimate_max_eigenvalue(k: &Csc, mass: &[f64]) -> f64 {
+fn estimate_max_eigenvalue(k: &RowPairs, mass: &[f64]) -> f64 {
     let n = mass.len();
     let mut x: Vec<f64> = (0..n)
         .map(|i| {
@@ -191,7 +181,7 @@ pub fn estimate_max_eigenvalue(k: &Csc, mass: &[f64]) -> f64 {
     let mut y = vec![0.0; n];
     let mut lambda = 0.0;
     for _ in 0..300 {
-        sym_mul(k, &x, &mut y);
+        k.mul(&x, &mut y);
         for i in 0..n {
             y[i] = if mass[i] > 0.0 { y[i] / mass[i] } else { 0.0 };
         }
@@ -474,10 +464,11 @@ impl LastPeriod {
 /// samples: (Δt, steps per period, steps per sample).
 fn time_step(
     problem: &TransientProblem,
+    product: &RowPairs,
     settings: &TransientSettings,
     beta: f64,
 ) -> Result<(f64, usize, usize)> {
-    let omega_max = estimate_max_eigenvalue(problem.stiffness, problem.mass).sqrt() * 1.05;
+    let omega_max = estimate_max_eigenvalue(product, problem.mass).sqrt() * 1.05;
     if !(omega_max > 0.0 && omega_max.is_finite()) {
         return Err(Error::Model(
             "time marching: no massive dof or no stiffness".into(),
@@ -692,7 +683,8 @@ impl<'a> Stepper<'a> {
         let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
         let g0 = problem.contact.as_ref().map(|c| c.g0);
         let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
-        let (dt, steps, per_sample) = time_step(problem, settings, beta)?;
+        let product = RowPairs::new(k);
+        let (dt, steps, per_sample) = time_step(problem, &product, settings, beta)?;
         let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
         let damp = alpha * dt / 2.0;
         let push = (0..n)
@@ -707,7 +699,7 @@ impl<'a> Stepper<'a> {
         let stepper = Stepper {
             force: problem.force,
             mass,
-            product: RowPairs::new(k),
+            product,
             is_z,
             rows,
             g0,
@@ -777,7 +769,7 @@ impl<'a> Stepper<'a> {
 
     /// Step `index` (t = index · Δt): u_next, the contact multipliers and v_half.
     fn step(&self, s: &mut MarchState, index: usize) -> Result<()> {
-        let (dt, beta) = (self.dt, self.beta);
+        let (dt, beta, inv_dt) = (self.dt, self.beta, 1.0 / self.dt);
         if !s.f_ready {
             (self.force)(index as f64 * dt, &mut s.f);
         }
@@ -795,7 +787,7 @@ impl<'a> Stepper<'a> {
         }
         if let Some(c) = &self.condensation {
             (self.force)((index + 1) as f64 * dt, &mut s.f_next);
-            let rate = beta * (1.0 / dt);
+            let rate = beta * inv_dt;
             let lanes = s.w_massive.iter_mut().zip(&self.is_z);
             for ((w, &z), (&un, &u)) in lanes.zip(s.u_next.iter().zip(&s.u)) {
                 *w = if z { 0.0 } else { un + rate * (un - u) };
@@ -811,7 +803,6 @@ impl<'a> Stepper<'a> {
             std::mem::swap(&mut s.f, &mut s.f_next);
             s.f_ready = true;
         }
-        let inv_dt = 1.0 / dt;
         for ((v, &un), &u) in s.v_half.iter_mut().zip(&s.u_next).zip(&s.u) {
             *v = (un - u) * inv_dt;
         }
@@ -840,6 +831,18 @@ impl<'a> Stepper<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// y = K x for symmetric K stored by columns (a gather per column, no scatter): the
+    /// plain product the marching used before `RowPairs`.
+    fn sym_mul(k: &Csc, x: &[f64], y: &mut [f64]) {
+        for (j, yj) in y.iter_mut().enumerate() {
+            let mut s = 0.0;
+            for p in k.col_ptr[j]..k.col_ptr[j + 1] {
+                s += k.values[p] * x[k.row_idx[p]];
+            }
+            *yj = s;
+        }
+    }
 
     /// TEST GOAL: the paired-row product is `sym_mul`, bit for bit (the same sums in the same
     /// order), on a pattern with node pairs and a lone dof (a node with one dof held):
