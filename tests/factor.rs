@@ -57,6 +57,32 @@ fn scenes() -> Vec<(String, hbcontact::pipeline::Model)> {
         .collect()
 }
 
+/// TEST GOAL: Z_k x by `System::apply` (one pass over the pattern K and M share, reading
+/// row j as column j of the symmetric matrices) equals the column-by-column product with the
+/// assembled Z_k = re + i·im of `System::dynamic_stiffness`, to round-off, on the strip and
+/// the half-disc, statically and at two harmonics.
+#[test]
+fn the_one_pass_dynamic_stiffness_product_equals_the_assembled_matrixs() {
+    for (name, model) in scenes() {
+        let system = &model.system;
+        let x: Vec<c64> = (0..system.free_count())
+            .map(|i| c64::new(((i * 7) % 11) as f64 - 5.0, ((i * 3) % 5) as f64))
+            .collect();
+        for k in [0usize, 1, 3] {
+            let (re, im) = system.dynamic_stiffness(k);
+            let mut reference = vec![c64::new(0.0, 0.0); re.nrows];
+            for (j, xj) in x.iter().enumerate() {
+                for p in re.col_ptr[j]..re.col_ptr[j + 1] {
+                    let z = c64::new(re.values[p], im.as_ref().map_or(0.0, |v| v[p]));
+                    reference[re.row_idx[p]] += z * xj;
+                }
+            }
+            let diff = relative_difference(&system.apply(k, &x), &reference);
+            assert!(diff < 1e-13, "{name}, k = {k}: {diff:e}");
+        }
+    }
+}
+
 /// TEST GOAL: the LDLᵀ solve of Z_k x = f equals the pivoting LU's to round-off, with the
 /// contact normals kept last and without contact (plain LDLᵀ), on the strip and the
 /// half-disc, statically (real) and at two harmonics (complex, indefinite above the first

@@ -46,6 +46,8 @@ pub struct KnobCheck {
     pub c_change: Option<f64>,
     /// Newton iterations the checks took.
     pub iterations: usize,
+    /// Wall time of the checks [s]: the run's `knob_check` stage, apart from its `newton`.
+    pub seconds: f64,
     /// Spline basis only: the share of the contact nodes' vibration (gap coefficients of the
     /// frequencies j ≥ 1, in norm) carried by discrete frequencies whose damping symbol keeps
     /// less than `DAMPED_SYMBOL` of the exact jω (see `underdamped_share`). Absent for
@@ -145,12 +147,14 @@ pub fn adapt_samples(
     tolerance: f64,
     reporter: &dyn Reporter,
 ) -> (usize, NewtonOutcome, KnobCheck) {
+    let clock = std::time::Instant::now();
     let mut check = KnobCheck {
         samples_initial: samples,
         samples_changes: Vec::new(),
         c_alternative: c / 3.0,
         c_change: None,
         iterations: 0,
+        seconds: 0.0,
         underdamped_share: None,
     };
     // The first doubling and the c/3 re-solve at its N run side by side (the Newton is
@@ -192,6 +196,7 @@ pub fn adapt_samples(
         ));
     }
     check.underdamped_share = underdamped_share(problem, &problem.gap(&best.multipliers));
+    check.seconds = clock.elapsed().as_secs_f64();
     (n, best, check)
 }
 
@@ -249,6 +254,7 @@ mod tests {
             c_alternative: 1e9,
             c_change: Some(0.5),
             iterations: 0,
+            seconds: 0.0,
             underdamped_share: None,
         };
         let spline = TimeBasis::Spline(SplineBasis::new(3, 40));

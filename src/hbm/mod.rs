@@ -94,6 +94,8 @@ pub fn solve(
             let solution = timed(&mut timings.newton, || {
                 globalize::solve_contact(system, &problem, settings, reporter)
             })?;
+            timings.knob_check = solution.knob_check.seconds;
+            timings.newton -= timings.knob_check;
             timed(&mut timings.recover, || {
                 linear.recover(op, &solution.multipliers, solution.coefficients())
             });

@@ -362,15 +362,24 @@ impl System {
         b.iter().zip(&zx).map(|(b, a)| b - a).collect()
     }
 
-    /// Z_k x for a complex vector (residual checks).
+    /// Z_k x = a K x + b M x, (a, b) = `pencil(k)`, for a complex vector (residual checks),
+    /// in one pass over the pattern K and M share: both are symmetric, so row j of each is
+    /// its column j, and each entry of x is read where it is needed (no scattered adds).
     pub fn apply(&self, k: usize, x: &[c64]) -> Vec<c64> {
-        let sym = self.symbols(k);
-        let (kx, mx) = (self.k_ff.mul_complex(x), self.m_ff.mul_complex(x));
-        let (alpha, beta) = self.damping_at(&sym);
-        kx.iter()
-            .zip(&mx)
-            .map(|(&kv, &mv)| {
-                kv + mv * sym.mass + c64::new(0.0, sym.damping) * (kv * beta + mv * alpha)
+        let (a, b) = self.pencil(k);
+        let (kk, mm) = (&self.k_ff, &self.m_ff);
+        let zero = c64::new(0.0, 0.0);
+        (0..kk.ncols)
+            .map(|j| {
+                let range = kk.col_ptr[j]..kk.col_ptr[j + 1];
+                let rows = &kk.row_idx[range.clone()];
+                let (kv, mv) = (&kk.values[range.clone()], &mm.values[range]);
+                let (mut kx, mut mx) = (zero, zero);
+                for ((&r, &kp), &mp) in rows.iter().zip(kv).zip(mv) {
+                    kx += x[r] * kp;
+                    mx += x[r] * mp;
+                }
+                a * kx + b * mx
             })
             .collect()
     }

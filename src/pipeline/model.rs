@@ -203,12 +203,10 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         redistribution: mass.redistribution,
     });
     if let (Purpose::HarmonicBalance, Some(c)) = (purpose, &contact) {
-        // The two symbolic analyses, one per core: the LU's (the resonance check, and the
-        // fallback) and the LDLᵀ's with the contact normals kept.
-        rayon::join(
-            || system.lu_pattern().is_ok(),
-            || system.schur_plan(&c.operator.b_free),
-        );
+        // The LDLᵀ's symbolic analysis, with the contact normals kept. The LU's (the
+        // resonance check's shift-invert, and the fallback of a failed LDLᵀ) is done where
+        // it is first needed: run beside this one, it slowed both on a 2-core machine.
+        system.schur_plan(&c.operator.b_free);
     }
     let probes = p
         .output

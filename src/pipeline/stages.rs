@@ -199,6 +199,7 @@ pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solutio
         ("linear_solve", t.linear_solve),
         ("reduce", t.reduce),
         ("newton", t.newton),
+        ("knob_check", t.knob_check),
         ("recover", t.recover),
     ] {
         stages.times.push(name, secs);
