@@ -198,7 +198,8 @@ fn complementarity_bound(name: &str) -> f64 {
 /// result whose values agree: meshio's frames with probes.csv, probes.csv with summary.json;
 /// contact scenes converge with their complementarity violation below a bound. Every scene
 /// draws a plot per probe group, contact scenes the force and pressure plots too (printing
-/// the `plots` stage time; tests/plots.rs checks what they show).
+/// the `plots` stage time; tests/plots.rs checks what they show); a contact run's knob check
+/// is its own stage, `knob_check`, with the seconds `contact.knob_check.seconds` reports.
 #[test]
 fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
     let mut names: Vec<String> = std::fs::read_dir(common::root().join("pipelines"))
@@ -210,6 +211,7 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
         .collect();
     names.sort();
     assert!(names.len() >= 5, "{names:?}");
+    let mut knob_checks = 0;
     for name in names {
         let out = common::temp_out(&name);
         let pipeline = format!("pipelines/{name}.yaml");
@@ -217,6 +219,15 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
         let summary = common::read_json(&out.join("summary.json"));
         let contact = !summary["contact"].is_null();
         assert!(summary["stage_seconds"]["total"].as_f64().unwrap() > 0.0);
+        // The knob check's re-solves are their own stage, apart from the Newton's.
+        if let Some(seconds) = summary["contact"]["knob_check"]["seconds"].as_f64() {
+            let stage = summary["stage_seconds"]["knob_check"].as_f64().unwrap();
+            assert!(
+                seconds > 0.0 && stage == seconds,
+                "{name}: {stage} against {seconds}"
+            );
+            knob_checks += 1;
+        }
         assert!(summary["effects"]["harmonics_computed"].is_array());
         check_probe_values(&name, &out, &summary);
         assert!(
@@ -284,6 +295,10 @@ fn every_shipped_pipeline_runs_and_meshio_reads_the_result() {
             );
         }
     }
+    assert!(
+        knob_checks >= 3,
+        "{knob_checks} contact runs reported a knob check"
+    );
 }
 
 /// Distance from `x` to the segment [a, b].
