@@ -1245,8 +1245,8 @@ mod kernel_tests {
         }
     }
 
-    /// TEST GOAL: the vector kernels of the elimination and the sweeps (the unconjugated
-    /// complex dot product and y −= x s) equal the plain loops to round-off at every length
+    /// TEST GOAL: the vector kernels of a solve's passes (the unconjugated complex dot
+    /// product and y −= x s) equal the plain loops to round-off at every length
     /// from 0 to 18 (whole registers, pairs of them and the scalar tail), on the scalar
     /// instruction set and on AVX2 where the machine has it.
     #[test]
