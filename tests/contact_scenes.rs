@@ -334,7 +334,7 @@ fn undamped_impacts_converge_by_continuation_and_a_starved_newton_is_diagnosed()
 /// nodes), every H from 5 to 80 converges in a bounded number of Newton iterations (measured
 /// 10–11; the plain semi-smooth Newton took 4–117), the answer does not move with N (the
 /// adaptive N settles within 1e-3), and its dependence on c falls with H (measured 0.7% at
-/// H = 5, 0.045% at H = 80), as the truncation error does.
+/// H = 5, 0.042% at H = 80), as the truncation error does.
 #[test]
 fn reference_strip_converges_at_every_h_and_knob_dependence_falls_with_h() {
     let mut c_changes = Vec::new();

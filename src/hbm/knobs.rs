@@ -29,6 +29,11 @@ pub const SAMPLES_TOLERANCE: f64 = 1e-3;
 const MAX_DOUBLINGS: usize = 2;
 /// Relative change of the answer between c and c/3 above which the run warns.
 pub const C_TOLERANCE: f64 = 1e-2;
+/// The c/3 re-solve's Newton tolerance (at least; the solve's own where that is looser):
+/// its answer only enters a relative change compared with `C_TOLERANCE`, so a residual three
+/// orders below that threshold is enough. On the reference strip at H = 40 it saves that
+/// re-solve's last iteration and moves the reported change from 0.1351% to 0.1321%.
+const C_RESOLVE_TOLERANCE: f64 = 1e-3 * C_TOLERANCE;
 /// The smallest vibration norm a change is measured against, relative to the linear gap's.
 const VIBRATION_FLOOR: f64 = 1e-3;
 
@@ -162,9 +167,13 @@ pub fn adapt_samples(
     // at that N, else it is redone at the N they reach.
     let solve =
         |n: usize, c: f64, start: &[f64]| resolve(problem, n, c, tolerance, start, reporter);
+    let check_c = |n: usize, start: &[f64]| {
+        let loose = tolerance.max(C_RESOLVE_TOLERANCE);
+        resolve(problem, n, c / 3.0, loose, start, reporter)
+    };
     let (first, mut alt) = rayon::join(
         || solve(2 * samples, c, &solved.multipliers),
-        || solve(2 * samples, c / 3.0, &solved.multipliers),
+        || check_c(2 * samples, &solved.multipliers),
     );
     check.iterations += alt.iterations;
     let (mut n, mut best) = (samples, solved);
@@ -185,7 +194,7 @@ pub fn adapt_samples(
         }
     }
     if n != 2 * samples {
-        alt = solve(n, c / 3.0, &best.multipliers);
+        alt = check_c(n, &best.multipliers);
         check.iterations += alt.iterations;
     }
     if alt.converged {
