@@ -56,7 +56,8 @@ fn main() {
     let per_point = sweep / s.points as f64;
     let t = &s.solver_seconds;
     let share = |v: f64| 100.0 * v / sweep;
-    let outputs = sweep - (t.factor + t.linear_solve + t.reduce + t.newton + t.recover);
+    let outputs =
+        sweep - (t.factor + t.linear_solve + t.reduce + t.newton + t.knob_check + t.recover);
     let sets: usize = s.rows.iter().map(|r| r.factorizations).sum();
     let checked = s.rows.iter().filter(|r| r.multiplier.is_some()).count();
     println!(
