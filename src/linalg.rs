@@ -543,31 +543,35 @@ where
     total
 }
 
-/// The partially pivoted LU (P A = L U) of a small dense n × n matrix, by faer on the calling
-/// thread: faer's `Mat::partial_piv_lu` spreads even an 81 × 81 matrix over its global thread
-/// pool, which made the contact Newton's many small node blocks slower with two threads than
-/// with one. Kept as factors, not inverted: the LU costs ⅔ n³, an inverse 2 n³, and a solve
-/// with the factors costs the 2 n² of a product with the inverse.
+/// The partially pivoted LU (P A = L U) of a small dense n × n matrix in single precision,
+/// as a preconditioner: factored by faer on the calling thread (faer's `Mat::partial_piv_lu`
+/// spreads even an 81 × 81 matrix over its global thread pool, which made the contact
+/// Newton's many small node blocks slower with two threads than with one) and solved in
+/// f32, twice the vector lanes and half the memory of f64. A solve is accurate to about
+/// 10⁻⁷ times the block's condition number, which is what a preconditioner of flexible
+/// GMRES needs (`gmres`: the products with the matrix itself stay in f64). Kept as factors,
+/// not inverted: the LU costs ⅔ n³, an inverse 2 n³, and a solve with the factors costs the
+/// 2 n² of a product with the inverse.
 pub struct DenseLu {
-    /// L (unit lower, below the diagonal) and U, row-major n × n: the triangular solves run
-    /// along rows (dot products), `SOLVE_ROWS` rows at a time.
-    rows: Vec<f64>,
+    /// L (unit lower, below the diagonal) and U, column-major n × n.
+    cols: Vec<f32>,
     /// (P b)_i = b[forward[i]].
     forward: Vec<usize>,
 }
 
-/// Rows of L or U the triangular solves take at once: their dot products with the solution
-/// so far share its loads and run as independent chains.
-const SOLVE_ROWS: usize = 4;
+/// Columns of L or U a triangular solve takes at once: after the small triangle, one pass
+/// over the rest of the solution subtracts all of them (one load and store of it per
+/// `SOLVE_COLUMNS` multiply-adds, where a column at a time took one per multiply-add).
+const SOLVE_COLUMNS: usize = 8;
 
 impl DenseLu {
     /// The LU of the row-major n × n `a`; `None` when a pivot vanishes or is not finite.
     pub fn new(a: &[f64], n: usize) -> Option<DenseLu> {
         use faer::dyn_stack::{MemBuffer, MemStack};
         use faer::linalg::lu::partial_pivoting::factor;
-        let mut lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+        let mut lu = Mat::<f32>::from_fn(n, n, |i, j| a[i * n + j] as f32);
         let (mut forward, mut backward) = (vec![0usize; n], vec![0usize; n]);
-        let scratch = factor::lu_in_place_scratch::<usize, f64>(n, n, Par::Seq, Default::default());
+        let scratch = factor::lu_in_place_scratch::<usize, f32>(n, n, Par::Seq, Default::default());
         factor::lu_in_place(
             lu.as_mut(),
             &mut forward,
@@ -576,16 +580,16 @@ impl DenseLu {
             MemStack::new(&mut MemBuffer::new(scratch)),
             Default::default(),
         );
-        let rows: Vec<f64> = (0..n).flat_map(|i| lu.row(i).iter().copied()).collect();
-        let regular = (0..n).all(|i| rows[i * n + i] != 0.0) && rows.iter().all(|v| v.is_finite());
-        regular.then_some(DenseLu { rows, forward })
+        let cols: Vec<f32> = lu.col_iter().flat_map(|c| c.iter().copied()).collect();
+        let regular = (0..n).all(|i| cols[i * n + i] != 0.0) && cols.iter().all(|v| v.is_finite());
+        regular.then_some(DenseLu { cols, forward })
     }
 
-    /// x ← A⁻¹ x: x ← P x, then L and U row block by row block (`SOLVE_ROWS` dot products at
-    /// once against the solved part, then the small triangle; 2n² flops in all, the cost of a
-    /// product with the inverse), compiled for the widest instruction set the machine has
-    /// (the contact Newton's preconditioner is these solves). `work` is n long.
-    pub fn solve_in_place(&self, x: &mut [f64], work: &mut [f64]) {
+    /// x ← A⁻¹ x (to single precision): x ← P x, then L and U `SOLVE_COLUMNS` columns at a
+    /// time (the small triangle, then one vectorized update of the rest; 2n² flops in all,
+    /// the cost of a product with the inverse), compiled for the widest instruction set the
+    /// machine has (the contact Newton's preconditioner is these solves). `work` is n long.
+    pub fn solve_in_place(&self, x: &mut [f64], work: &mut [f32]) {
         pulp::Arch::new().dispatch(LuSolve { lu: self, x, work });
     }
 }
@@ -594,7 +598,7 @@ impl DenseLu {
 struct LuSolve<'a> {
     lu: &'a DenseLu,
     x: &'a mut [f64],
-    work: &'a mut [f64],
+    work: &'a mut [f32],
 }
 
 impl pulp::WithSimd for LuSolve<'_> {
@@ -604,53 +608,70 @@ impl pulp::WithSimd for LuSolve<'_> {
     fn with_simd<S: pulp::Simd>(self, simd: S) {
         let LuSolve { lu, x, work } = self;
         let n = lu.forward.len();
-        let a = |i: usize, j: usize| lu.rows[i * n + j];
+        let col = |j: usize| &lu.cols[j * n..(j + 1) * n];
         let y = &mut work[..n];
         for (w, &f) in y.iter_mut().zip(&lu.forward) {
-            *w = x[f];
+            *w = x[f] as f32;
         }
-        // L y = P x: rows i..e against y[..i], then the unit triangle within the block.
-        for i in (0..n).step_by(SOLVE_ROWS) {
-            let e = (i + SOLVE_ROWS).min(n);
-            let row = |r: usize| &lu.rows[r.min(e - 1) * n..][..i];
-            let sums = dots(simd, std::array::from_fn(|k| row(i + k)), &y[..i]);
-            for r in i..e {
-                let within: f64 = (i..r).map(|c| a(r, c) * y[c]).sum();
-                y[r] -= sums[r - i] + within;
+        // L y = P x: columns s..e solve their unit triangle, then update the rows below.
+        for s in (0..n).step_by(SOLVE_COLUMNS) {
+            let e = (s + SOLVE_COLUMNS).min(n);
+            for c in s..e {
+                let (yc, l) = (y[c], col(c));
+                for r in c + 1..e {
+                    y[r] -= l[r] * yc;
+                }
             }
+            let columns = std::array::from_fn(|k| &col((s + k).min(e - 1))[e..]);
+            let coefficients = std::array::from_fn(|k| if s + k < e { y[s + k] } else { 0.0 });
+            subtract_columns(simd, columns, coefficients, &mut y[e..]);
         }
-        // U x = y: rows s..e (bottom block first) against x[e..], then the triangle.
+        // U x = y: columns s..e (the last first) solve their triangle, then update above.
         let mut e = n;
         while e > 0 {
-            let s = e.saturating_sub(SOLVE_ROWS);
-            let row = |r: usize| &lu.rows[r.min(e - 1) * n + e..][..n - e];
-            let sums = dots(simd, std::array::from_fn(|k| row(s + k)), &y[e..]);
-            for r in (s..e).rev() {
-                let within: f64 = (r + 1..e).map(|c| a(r, c) * y[c]).sum();
-                y[r] = (y[r] - sums[r - s] - within) / a(r, r);
+            let s = e.saturating_sub(SOLVE_COLUMNS);
+            for c in (s..e).rev() {
+                let u = col(c);
+                y[c] /= u[c];
+                let yc = y[c];
+                for r in s..c {
+                    y[r] -= u[r] * yc;
+                }
             }
+            let columns = std::array::from_fn(|k| &col(s + k.min(e - s - 1))[..s]);
+            let coefficients = std::array::from_fn(|k| if s + k < e { y[s + k] } else { 0.0 });
+            subtract_columns(simd, columns, coefficients, &mut y[..s]);
             e = s;
         }
-        x.copy_from_slice(y);
+        for (xi, yi) in x.iter_mut().zip(y.iter()) {
+            *xi = f64::from(*yi);
+        }
     }
 }
 
-/// The dot products of four equally long rows with `y`, sharing its loads.
+/// y −= Σ_k a_k c_k for `SOLVE_COLUMNS` columns c_k as long as y, in one pass over y.
 #[inline(always)]
-fn dots<S: pulp::Simd>(simd: S, rows: [&[f64]; SOLVE_ROWS], y: &[f64]) -> [f64; SOLVE_ROWS] {
-    let (y_head, y_tail) = S::as_simd_f64s(y);
-    let heads = rows.map(|r| S::as_simd_f64s(r));
-    let mut acc = [simd.splat_f64s(0.0); SOLVE_ROWS];
-    for (c, yv) in y_head.iter().enumerate() {
-        for (a, (h, _)) in acc.iter_mut().zip(&heads) {
-            *a = simd.mul_add_f64s(h[c], *yv, *a);
+fn subtract_columns<S: pulp::Simd>(
+    simd: S,
+    columns: [&[f32]; SOLVE_COLUMNS],
+    a: [f32; SOLVE_COLUMNS],
+    y: &mut [f32],
+) {
+    let heads = columns.map(|c| S::as_simd_f32s(c));
+    let minus = a.map(|a| simd.splat_f32s(-a));
+    let (y_head, y_tail) = S::as_mut_simd_f32s(y);
+    for (i, yv) in y_head.iter_mut().enumerate() {
+        let mut acc = *yv;
+        for ((h, _), m) in heads.iter().zip(&minus) {
+            acc = simd.mul_add_f32s(h[i], *m, acc);
+        }
+        *yv = acc;
+    }
+    for (i, yv) in y_tail.iter_mut().enumerate() {
+        for ((_, t), ak) in heads.iter().zip(&a) {
+            *yv -= t[i] * ak;
         }
     }
-    let mut out = acc.map(|a| simd.reduce_sum_f64s(a));
-    for (o, (_, t)) in out.iter_mut().zip(&heads) {
-        *o += t.iter().zip(y_tail).map(|(p, q)| p * q).sum::<f64>();
-    }
-    out
 }
 
 /// Restarted flexible GMRES (Saad, Iterative Methods for Sparse Linear Systems, Alg. 9.6:
@@ -663,6 +684,8 @@ fn dots<S: pulp::Simd>(simd: S, rows: [&[f64]; SOLVE_ROWS], y: &[f64]) -> [f64; 
 /// estimate (the true residual of J x in exact arithmetic), or 1e-2 or better after the last
 /// restart (callers that guard the step, like a line search, accept a loose solve), else why
 /// it stalled.
+pub static GM_SOLVES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static GM_APPLIES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 pub fn gmres(
     apply: &mut dyn FnMut(&[f64], &mut [f64]),
     precondition: &mut dyn FnMut(&[f64], &mut [f64]),
@@ -674,6 +697,12 @@ pub fn gmres(
     let n = b.len();
     let norm = |v: &[f64]| dot(v, v).sqrt();
     let b_norm = norm(b);
+    GM_SOLVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let mut apply = |a: &[f64], o: &mut [f64]| {
+        GM_APPLIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        apply(a, o)
+    };
+    let apply: &mut dyn FnMut(&[f64], &mut [f64]) = &mut apply;
     let mut x = vec![0.0; n];
     if b_norm == 0.0 {
         return Ok(x);
@@ -791,12 +820,13 @@ mod tests {
 
     /// TEST GOAL: the small dense LU solves A x = b to round-off for a matrix whose first
     /// pivot is zero (so rows must be exchanged) and refuses a singular one.
-    /// TEST GOAL: the LU solves A x = b to round-off where pivoting is needed, at every size
-    /// 1–13 (the row-block solves take `SOLVE_ROWS` = 4 rows at once: every remainder, and
-    /// sizes below one block), and refuses a singular matrix.
+    /// TEST GOAL: the LU solves A x = b with the backward error of single precision
+    /// (‖b − A y‖∞ ≤ n·u ‖A‖∞ ‖y‖∞, u the unit round-off of f32) where pivoting is needed, at every size 1–20 (the solves
+    /// take `SOLVE_COLUMNS` = 8 columns at once: every remainder, sizes below one block and
+    /// two blocks), and refuses a singular matrix.
     #[test]
     fn dense_lu_solves_with_row_exchanges_at_every_block_remainder_and_refuses_a_singular_matrix() {
-        for n in 1..=13usize {
+        for n in 1..=20usize {
             // A zero in the corner and a weak diagonal: pivoting is needed.
             let mut a: Vec<f64> = (0..n * n)
                 .map(|r| {
@@ -813,12 +843,17 @@ mod tests {
             let lu = DenseLu::new(&a, n).expect("regular");
             let (mut y, mut work) = (b.clone(), vec![0.0; n]);
             lu.solve_in_place(&mut y, &mut work);
-            let err = y
-                .iter()
-                .zip(&x)
-                .map(|(p, q)| (p - q).abs())
+            // Backward error ‖b − A y‖∞ / (‖A‖∞ ‖y‖∞), of the order n·u for LU in f32.
+            let norm_a = (0..n)
+                .map(|i| a[i * n..(i + 1) * n].iter().map(|v| v.abs()).sum::<f64>())
                 .fold(0.0, f64::max);
-            assert!(err < 1e-12, "n = {n}: {err}");
+            let norm_y = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let backward = (0..n)
+                .map(|i| (b[i] - dot(&a[i * n..(i + 1) * n], &y)).abs())
+                .fold(0.0, f64::max)
+                / (norm_a * norm_y);
+            let u = f64::from(f32::EPSILON) / 2.0;
+            assert!(backward < n as f64 * u, "n = {n}: {backward:.2e}");
         }
         let singular = vec![1.0, 2.0, 2.0, 4.0];
         assert!(DenseLu::new(&singular, 2).is_none());

@@ -303,7 +303,7 @@ fn krylov_step(
         out.copy_from_slice(v);
         block_products(blocks, m, &gv, out);
     };
-    let mut work = vec![0.0; m];
+    let mut work = vec![0.0f32; m];
     let mut precondition = |v: &[f64], out: &mut [f64]| {
         out.copy_from_slice(v);
         for (lu, x) in factors.iter().zip(out.chunks_exact_mut(m)) {
