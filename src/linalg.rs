@@ -684,8 +684,6 @@ fn subtract_columns<S: pulp::Simd>(
 /// estimate (the true residual of J x in exact arithmetic), or 1e-2 or better after the last
 /// restart (callers that guard the step, like a line search, accept a loose solve), else why
 /// it stalled.
-pub static GM_SOLVES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static GM_APPLIES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 pub fn gmres(
     apply: &mut dyn FnMut(&[f64], &mut [f64]),
     precondition: &mut dyn FnMut(&[f64], &mut [f64]),
@@ -697,12 +695,6 @@ pub fn gmres(
     let n = b.len();
     let norm = |v: &[f64]| dot(v, v).sqrt();
     let b_norm = norm(b);
-    GM_SOLVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let mut apply = |a: &[f64], o: &mut [f64]| {
-        GM_APPLIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        apply(a, o)
-    };
-    let apply: &mut dyn FnMut(&[f64], &mut [f64]) = &mut apply;
     let mut x = vec![0.0; n];
     if b_norm == 0.0 {
         return Ok(x);
@@ -818,12 +810,11 @@ mod tests {
         assert!(r0.norm() < 1e-14 && r1.norm() < 1e-14);
     }
 
-    /// TEST GOAL: the small dense LU solves A x = b to round-off for a matrix whose first
-    /// pivot is zero (so rows must be exchanged) and refuses a singular one.
     /// TEST GOAL: the LU solves A x = b with the backward error of single precision
-    /// (‖b − A y‖∞ ≤ n·u ‖A‖∞ ‖y‖∞, u the unit round-off of f32) where pivoting is needed, at every size 1–20 (the solves
-    /// take `SOLVE_COLUMNS` = 8 columns at once: every remainder, sizes below one block and
-    /// two blocks), and refuses a singular matrix.
+    /// (‖b − A y‖∞ ≤ n·u ‖A‖∞ ‖y‖∞, u the unit round-off of f32) where pivoting is needed
+    /// (the first pivot is zero), at every size 1–20 (the solves take `SOLVE_COLUMNS` = 8
+    /// columns at once: every remainder, sizes below one block and two blocks), and refuses
+    /// a singular matrix.
     #[test]
     fn dense_lu_solves_with_row_exchanges_at_every_block_remainder_and_refuses_a_singular_matrix() {
         for n in 1..=20usize {
