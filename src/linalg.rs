@@ -543,6 +543,87 @@ where
     total
 }
 
+/// Dense matrices below this order are factored on the calling thread. faer's global pool
+/// spreads even an 81 × 81 LU over its threads, and waking them costs more than the work:
+/// the 9 × 9 Schur complement inverted in each of the strip's LDLᵀ factorizations took 15%
+/// of their time that way.
+const DENSE_PARALLEL_ORDER: usize = 256;
+
+/// faer's parallelism for dense work of order n: its global pool from `DENSE_PARALLEL_ORDER`
+/// on, else the calling thread.
+pub fn dense_parallelism(n: usize) -> Par {
+    if n >= DENSE_PARALLEL_ORDER {
+        faer::get_global_parallelism()
+    } else {
+        Par::Seq
+    }
+}
+
+/// The partially pivoted LU of a square `a` in place (L unit lower below the diagonal, U on
+/// and above it), with its row permutation (forward, backward).
+fn dense_lu_in_place<T: faer::traits::ComplexField>(
+    a: faer::MatMut<'_, T>,
+    par: Par,
+) -> (Vec<usize>, Vec<usize>) {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::lu::partial_pivoting::factor;
+    let n = a.nrows();
+    let (mut forward, mut backward) = (vec![0usize; n], vec![0usize; n]);
+    let scratch = factor::lu_in_place_scratch::<usize, T>(n, n, par, Default::default());
+    factor::lu_in_place(
+        a,
+        &mut forward,
+        &mut backward,
+        par,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+        Default::default(),
+    );
+    (forward, backward)
+}
+
+/// A⁻¹ of a square dense matrix by partially pivoted LU (`dense_parallelism`); a singular A
+/// gives non-finite entries, for the caller to check.
+pub fn dense_inverse<T: faer::traits::ComplexField>(mut a: Mat<T>) -> Mat<T> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::lu::partial_pivoting::inverse;
+    let n = a.nrows();
+    let par = dense_parallelism(n);
+    let (forward, backward) = dense_lu_in_place(a.as_mut(), par);
+    let perm = faer::perm::PermRef::new_checked(&forward, &backward, n);
+    let mut out = Mat::zeros(n, n);
+    let scratch = inverse::inverse_scratch::<usize, T>(n, par);
+    inverse::inverse(
+        out.as_mut(),
+        a.as_ref(),
+        a.as_ref(),
+        perm,
+        par,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+    );
+    out
+}
+
+/// A⁻¹ B for a square dense A by partially pivoted LU (`dense_parallelism`); a singular A
+/// gives non-finite entries, for the caller to check.
+pub fn dense_solve(mut a: Mat<f64>, mut b: Mat<f64>) -> Mat<f64> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::lu::partial_pivoting::solve;
+    let n = a.nrows();
+    let par = dense_parallelism(n);
+    let (forward, backward) = dense_lu_in_place(a.as_mut(), par);
+    let perm = faer::perm::PermRef::new_checked(&forward, &backward, n);
+    let scratch = solve::solve_in_place_scratch::<usize, f64>(n, b.ncols(), par);
+    solve::solve_in_place(
+        a.as_ref(),
+        a.as_ref(),
+        perm,
+        b.as_mut(),
+        par,
+        MemStack::new(&mut MemBuffer::new(scratch)),
+    );
+    b
+}
+
 /// The partially pivoted LU (P A = L U) of a small dense n × n matrix in single precision,
 /// as a preconditioner: factored by faer on the calling thread (faer's `Mat::partial_piv_lu`
 /// spreads even an 81 × 81 matrix over its global thread pool, which made the contact
@@ -567,19 +648,8 @@ const SOLVE_COLUMNS: usize = 8;
 impl DenseLu {
     /// The LU of the row-major n × n `a`; `None` when a pivot vanishes or is not finite.
     pub fn new(a: &[f64], n: usize) -> Option<DenseLu> {
-        use faer::dyn_stack::{MemBuffer, MemStack};
-        use faer::linalg::lu::partial_pivoting::factor;
         let mut lu = Mat::<f32>::from_fn(n, n, |i, j| a[i * n + j] as f32);
-        let (mut forward, mut backward) = (vec![0usize; n], vec![0usize; n]);
-        let scratch = factor::lu_in_place_scratch::<usize, f32>(n, n, Par::Seq, Default::default());
-        factor::lu_in_place(
-            lu.as_mut(),
-            &mut forward,
-            &mut backward,
-            Par::Seq,
-            MemStack::new(&mut MemBuffer::new(scratch)),
-            Default::default(),
-        );
+        let (forward, _) = dense_lu_in_place(lu.as_mut(), Par::Seq);
         let cols: Vec<f32> = lu.col_iter().flat_map(|c| c.iter().copied()).collect();
         let regular = (0..n).all(|i| cols[i * n + i] != 0.0) && cols.iter().all(|v| v.is_finite());
         regular.then_some(DenseLu { cols, forward })
@@ -848,6 +918,46 @@ mod tests {
         }
         let singular = vec![1.0, 2.0, 2.0, 4.0];
         assert!(DenseLu::new(&singular, 2).is_none());
+    }
+
+    /// TEST GOAL: the dense inverse and solve (faer's in-place LU, on the calling thread
+    /// below `DENSE_PARALLEL_ORDER` and on its pool above) give A A⁻¹ = I and A x = b to
+    /// round-off, with pivoting needed (a zero first pivot), for complex and real matrices
+    /// on both sides of the threshold.
+    #[test]
+    fn dense_inverse_and_solve_are_exact_to_round_off_on_both_sides_of_the_parallel_order() {
+        for n in [1usize, 9, 40, DENSE_PARALLEL_ORDER + 3] {
+            let entry = |i: usize, j: usize| {
+                let v = ((7 * i + 3 * j + i * j) % 11) as f64 / 5.0 - 1.0;
+                if i == 0 && j == 0 && n > 1 {
+                    0.0
+                } else {
+                    v + 4.0 * f64::from(u8::from(i == j))
+                }
+            };
+            let a = Mat::<c64>::from_fn(n, n, |i, j| c64::new(entry(i, j), entry(j, i) / 3.0));
+            let inv = dense_inverse(a.clone());
+            let product = &a * &inv;
+            let off = (0..n)
+                .flat_map(|i| (0..n).map(move |j| (i, j)))
+                .map(|(i, j)| (product[(i, j)] - c64::new(f64::from(u8::from(i == j)), 0.0)).norm())
+                .fold(0.0, f64::max);
+            assert!(off < 1e-12, "n = {n}: |A A⁻¹ − I| = {off:.2e}");
+            let real = Mat::<f64>::from_fn(n, n, entry);
+            let x = Mat::<f64>::from_fn(n, 2, |i, c| (i + c) as f64 / 7.0 - 0.5);
+            let b = &real * &x;
+            let y = dense_solve(real, b);
+            let error = (0..n)
+                .flat_map(|i| (0..2).map(move |c| (i, c)))
+                .map(|(i, c)| (y[(i, c)] - x[(i, c)]).abs())
+                .fold(0.0, f64::max);
+            assert!(error < 1e-12, "n = {n}: |x − A⁻¹ b| = {error:.2e}");
+        }
+        let singular = Mat::<c64>::from_fn(2, 2, |i, j| c64::new(((i + 1) * (j + 1)) as f64, 0.0));
+        let inv = dense_inverse(singular);
+        let finite = (0..2)
+            .all(|i| (0..2).all(|j| inv[(i, j)].re.is_finite() && inv[(i, j)].im.is_finite()));
+        assert!(!finite, "a singular matrix's inverse is not finite");
     }
 
     /// TEST GOAL: flexible GMRES solves a nonsymmetric system to its tolerance in the true

@@ -107,6 +107,26 @@ pub fn solve(
     Ok(linear.into_solution(system, contact_solution, timings))
 }
 
+/// Touch, on a pool thread, the memory that `solve`'s factorizations will fill, so that a
+/// caller with a single-threaded stage before the solve (the run's resonance check) has
+/// the page faults taken on its idle core. Only contact scenes on the kept LDLᵀ keep a
+/// factor per harmonic (a linear scene drops each at once). A solve that starts before the
+/// touching is done takes fresh memory as before (docs/method.md §4 has the measurements).
+pub fn touch_factor_memory(
+    system: &System,
+    contact: Option<&ContactOperator>,
+    settings: &HbSettings,
+) {
+    let Some(op) = contact else { return };
+    let Some(plan) = system.schur_plan(&op.b_free).filter(|p| p.preferred()) else {
+        return;
+    };
+    let count = contact_settings(system, true, settings)
+        .and_then(|s| harmonics_to_compute(system, contact, &s))
+        .map_or(0, |h| h.len());
+    rayon::spawn(move || plan.touch_panels(count));
+}
+
 /// `globalize::solve_contact` with its wall time in `timings`: the knob check's share as
 /// `knob_check`, the rest as `newton`.
 fn solve_contact_timed(

@@ -16,7 +16,6 @@
 //! - J is dense only across the contact nodes of one harmonic: the dense LU costs ⅔ dim³,
 //!   a matrix-free GMRES iteration O(nc·N log N + nc²·H). The step picks by estimated flops.
 
-use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use num_complex::Complex64;
 
@@ -242,7 +241,7 @@ pub fn dense_step(
     let jac = dense_jacobian(problem, c, blocks);
     let dim = jac.nrows();
     let rhs = Mat::<f64>::from_fn(dim, 1, |r, _| -residual[r]);
-    let x = jac.partial_piv_lu().solve(&rhs);
+    let x = crate::linalg::dense_solve(jac, rhs);
     let out: Vec<f64> = (0..dim).map(|r| x[(r, 0)]).collect();
     out.iter().all(|v| v.is_finite()).then_some(out)
 }

@@ -34,7 +34,6 @@
 
 use std::time::Instant;
 
-use faer::linalg::solvers::Solve;
 use faer::Mat;
 
 use super::fourier::{node_phasors, set_phasor};
@@ -942,7 +941,7 @@ impl<'a> Continuation<'a> {
             (false, _) => t[j],
         });
         let b = Mat::<f64>::from_fn(n + 1, 1, |i, _| rhs[i]);
-        let d = a.partial_piv_lu().solve(&b);
+        let d = crate::linalg::dense_solve(a, b);
         let out: Vec<f64> = (0..=n).map(|i| d[(i, 0)]).collect();
         out.iter().all(|v| v.is_finite()).then_some(out)
     }

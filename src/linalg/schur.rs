@@ -33,7 +33,6 @@ use std::sync::Arc;
 use faer::c64;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::triangular::{matmul, BlockStructure};
-use faer::linalg::solvers::DenseSolveCore;
 use faer::sparse::linalg::amd;
 use faer::sparse::SymbolicSparseColMatRef;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
@@ -95,7 +94,9 @@ pub struct SchurPlan {
     /// Where each supernode's panel starts in the factor's one array (and its length).
     panel_start: Vec<usize>,
     /// The eliminations' scratch buffers, handed back after each one for the next.
-    scratch: ScratchPool,
+    scratch: Pool<Scratch>,
+    /// Panels of dropped factors, for the next eliminations.
+    spare_panels: Pool<Panels>,
     /// Estimated mul-adds of this LDLᵀ (with S⁻¹), of a sparse LU of A, and of G by n_c
     /// blocked solves with it.
     pub schur_cost: f64,
@@ -347,7 +348,8 @@ impl SchurPlan {
             factor_entries: panel_start[nodes.len()],
             panel_start,
             supernodes: nodes,
-            scratch: ScratchPool::default(),
+            scratch: Pool::default(),
+            spare_panels: Pool::default(),
             schur_cost: ldlt_cost + nk.powi(3),
             lu_cost,
             blocked_cost: nc * 2.0 * 2.0 * nnz_l,
@@ -369,6 +371,20 @@ impl SchurPlan {
     /// Whether this LDLᵀ is estimated cheaper than a sparse LU with n_c blocked solves.
     pub fn preferred(&self) -> bool {
         SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost()
+    }
+
+    /// Touch the memory of `count` factors' panels and keep it for the next eliminations.
+    /// Fresh memory costs a page fault per 4 KiB: on the strip that is about a third of
+    /// each elimination's time in a fresh process, so a caller with an idle core touches
+    /// the memory ahead of the factorizations (`hbm::touch_factor_memory`).
+    pub fn touch_panels(&self, count: usize) {
+        let len = self.panel_start[self.supernodes.len()];
+        for _ in 0..count {
+            let mut panels = Vec::with_capacity(len);
+            // Written, not `vec![0; len]`: a zeroed allocation is mapped untouched.
+            panels.resize(len, c64::new(0.0, 0.0));
+            self.spare_panels.give_back(panels);
+        }
     }
 
     /// The dimension of A.
@@ -460,7 +476,7 @@ impl SchurPlan {
         });
         scratch.schur = schur;
         let inv = if nk > 0 {
-            s.partial_piv_lu().inverse()
+            super::dense_inverse(s)
         } else {
             Mat::zeros(0, 0)
         };
@@ -492,6 +508,7 @@ impl SchurPlan {
         tolerance: f64,
         scratch: &mut Scratch,
     ) -> Result<Panels, String> {
+        let zero = c64::new(0.0, 0.0);
         let n = self.col_ptr.len() - 1;
         let Scratch {
             values,
@@ -506,13 +523,15 @@ impl SchurPlan {
         local.resize(n, usize::MAX);
         blocks.clear();
         blocks.resize_with(self.supernodes.len(), || None);
-        let mut panels = Vec::with_capacity(self.panel_start[self.supernodes.len()]);
+        let mut panels = self.spare_panels.take();
+        panels.clear();
+        panels.reserve(self.panel_start[self.supernodes.len()]);
         for (s, node) in self.supernodes.iter().enumerate() {
             let m = node.rows.len();
             for (i, &r) in node.rows.iter().enumerate() {
                 local[r] = i;
             }
-            let front = refill(buffer, m * m);
+            let front = lower_zeros(buffer, m);
             for &j in &node.rows[..node.pivots] {
                 let lj = local[j];
                 for p in self.col_ptr[j]..self.col_ptr[j + 1] {
@@ -531,7 +550,10 @@ impl SchurPlan {
                 .map_err(|k| format!("pivot {} of the LDLᵀ elimination vanished", node.rows[k]))?;
             let mc = m - p;
             let mut cb = spare.pop().unwrap_or_default();
-            refill(&mut cb, mc * mc);
+            // Every entry extend-add reads (the lower triangle) is copied just below.
+            if cb.len() < mc * mc {
+                cb.resize(mc * mc, zero);
+            }
             for b in 0..mc {
                 let from = (p + b) * m + p;
                 cb[b * mc + b..(b + 1) * mc].copy_from_slice(&front[from + b..from + mc]);
@@ -599,35 +621,54 @@ struct Scratch {
     schur: Vec<c64>,
 }
 
-/// Scratch buffers between eliminations, one per elimination running at a time (a clone is
-/// an empty pool).
-#[derive(Default)]
-struct ScratchPool(std::sync::Mutex<Vec<Scratch>>);
+/// Buffers handed back for reuse: the eliminations' scratch (one per elimination running at
+/// a time) and the panels of dropped factors (a sweep refactors every harmonic at each ω;
+/// fresh memory costs a page fault per 4 KiB, about as much as the elimination that fills
+/// it). A clone is an empty pool.
+struct Pool<T>(std::sync::Mutex<Vec<T>>);
 
-impl ScratchPool {
-    fn take(&self) -> Scratch {
+impl<T: Default> Pool<T> {
+    fn take(&self) -> T {
         let mut pool = self.0.lock().unwrap_or_else(|e| e.into_inner());
         pool.pop().unwrap_or_default()
     }
 
-    fn give_back(&self, scratch: Scratch) {
-        self.0
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(scratch);
+    fn give_back(&self, item: T) {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).push(item);
     }
 }
 
-impl Clone for ScratchPool {
+impl<T> Default for Pool<T> {
+    fn default() -> Self {
+        Pool(std::sync::Mutex::new(Vec::new()))
+    }
+}
+
+impl<T> Clone for Pool<T> {
     fn clone(&self) -> Self {
-        ScratchPool::default()
+        Pool::default()
     }
 }
 
-impl std::fmt::Debug for ScratchPool {
+impl<T> std::fmt::Debug for Pool<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ScratchPool")
+        f.write_str("Pool")
     }
+}
+
+/// `v` as an m × m column-major matrix whose lower triangle is zero (its upper triangle is
+/// never read), reusing its memory.
+#[inline(always)]
+fn lower_zeros(v: &mut Vec<c64>, m: usize) -> &mut [c64] {
+    let zero = c64::new(0.0, 0.0);
+    if v.len() < m * m {
+        v.resize(m * m, zero);
+    }
+    let front = &mut v[..m * m];
+    for j in 0..m {
+        front[j * m + j..(j + 1) * m].fill(zero);
+    }
+    front
 }
 
 /// `v` as `len` zeros, reusing its memory.
@@ -646,6 +687,14 @@ pub struct LdltFactor {
     compliance: Vec<c64>,
     /// A right-hand side and its solution, kept by the caller's check (`System::factor`).
     pub checked: Option<(Vec<c64>, Vec<c64>)>,
+}
+
+impl Drop for LdltFactor {
+    fn drop(&mut self) {
+        self.plan
+            .spare_panels
+            .give_back(std::mem::take(&mut self.panels));
+    }
 }
 
 impl LdltFactor {
@@ -1211,6 +1260,51 @@ mod tests {
         );
         assert!(g[5 * nx + 5].norm() == 0.0 && reference[5 * nx + 5].norm() == 0.0);
         assert!(plan.schur_cost > 0.0 && plan.solve_cost() > 0.0);
+    }
+
+    /// TEST GOAL: memory reused between factorizations changes nothing. A plan whose fronts,
+    /// contribution blocks and panel pool hold another matrix's leftovers (fronts are zeroed
+    /// in their lower triangle only; a dropped factor's panels go back to the pool), and
+    /// panels touched ahead (`touch_panels`), gives bit for bit the G and the solve of a
+    /// fresh plan.
+    #[test]
+    fn reused_scratch_and_panels_give_the_fresh_plans_factor_bit_for_bit() {
+        let (nx, ny) = (10, 7);
+        let (a, im) = grid(nx, ny, 2.9);
+        let (other, other_im) = grid(nx, ny, -1.3);
+        let rows: Vec<(usize, usize, f64)> = (0..nx).map(|x| (x, 2 * x + 1, 1.0)).collect();
+        let b = Csc::from_entries(nx, a.ncols, &rows);
+        let rhs: Vec<c64> = (0..a.ncols)
+            .map(|i| c64::new((i as f64).sin(), 0.5 - (i % 3) as f64))
+            .collect();
+        let plan = Arc::new(SchurPlan::new(&a, &b).expect("one row per node"));
+        let fresh = plan
+            .factor(&a.values, Some(&im), PIVOT_TOLERANCE)
+            .expect("regular");
+        let (g, x) = (fresh.compliance().to_vec(), fresh.solve(&rhs));
+        let reused = Arc::new(SchurPlan::new(&a, &b).expect("one row per node"));
+        for _ in 0..2 {
+            drop(reused.factor(&other.values, Some(&other_im), PIVOT_TOLERANCE));
+        }
+        reused.touch_panels(3);
+        let again = reused
+            .factor(&a.values, Some(&im), PIVOT_TOLERANCE)
+            .expect("regular");
+        assert_eq!(again.compliance(), &g[..]);
+        assert_eq!(again.solve(&rhs), x);
+        assert_ne!(
+            g,
+            other_g(&other, &other_im, &b),
+            "the leftovers differ from A's"
+        );
+    }
+
+    fn other_g(a: &Csc, im: &[f64], b: &Csc) -> Vec<c64> {
+        let plan = Arc::new(SchurPlan::new(a, b).expect("one row per node"));
+        let f = plan
+            .factor(&a.values, Some(im), PIVOT_TOLERANCE)
+            .expect("regular");
+        f.compliance().to_vec()
     }
 }
 

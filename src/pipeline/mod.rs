@@ -67,6 +67,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         build(p, mesh.clone(), Purpose::HarmonicBalance)
     })?;
     warnings.extend(sanity::check_initial_penetration(&model));
+    stages::touch_solve_memory(p, &model);
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
     stages.run("check", || finite_solution(&solution))?;

@@ -207,6 +207,13 @@ pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solutio
     Ok(solution)
 }
 
+/// Before the resonance check, which runs on one core: the memory of the solve's
+/// factorizations touched on another (`hbm::touch_factor_memory`).
+pub fn touch_solve_memory(p: &Pipeline, model: &Model) {
+    let contact = model.contact.as_ref().map(|c| &c.operator);
+    hbm::touch_factor_memory(&model.system, contact, &hb_settings(p));
+}
+
 /// The resonance check (`resonance`): the natural frequencies nearest each load-excited
 /// harmonic, and warnings for those within a half-power band. A check that fails does not
 /// stop the run: it becomes a warning.
