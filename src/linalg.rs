@@ -545,8 +545,8 @@ where
 
 /// Dense matrices below this order are factored on the calling thread. faer's global pool
 /// spreads even an 81 × 81 LU over its threads, and waking them costs more than the work:
-/// the 9 × 9 Schur complement inverted in each of the strip's LDLᵀ factorizations took 15%
-/// of their time that way.
+/// the 9 × 9 Schur complement inverted in each of the strip's LDLᵀ factorizations took
+/// about a sixth of their time that way.
 const DENSE_PARALLEL_ORDER: usize = 256;
 
 /// faer's parallelism for dense work of order n: its global pool from `DENSE_PARALLEL_ORDER`

@@ -104,14 +104,24 @@ pub fn solve(
         }
         _ => None,
     };
-    Ok(linear.into_solution(system, contact_solution, timings))
+    let solution = linear.into_solution(system, contact_solution, timings);
+    // Its factors are dropped: what the plans kept of them is not needed after one solve.
+    system.release_factor_memory();
+    Ok(solution)
 }
+
+/// The most factor memory `touch_factor_memory` touches ahead [bytes]: the reference strip
+/// at H = 60 needs 55 MB, the 601-node half-disc 100 MB per harmonic.
+const TOUCH_LIMIT: usize = 64 << 20;
 
 /// Touch, on a pool thread, the memory that `solve`'s factorizations will fill, so that a
 /// caller with a single-threaded stage before the solve (the run's resonance check) has
 /// the page faults taken on its idle core. Only contact scenes on the kept LDLᵀ keep a
 /// factor per harmonic (a linear scene drops each at once). A solve that starts before the
 /// touching is done takes fresh memory as before (docs/method.md §4 has the measurements).
+/// Only up to `TOUCH_LIMIT` bytes in all: larger factors have larger fronts, whose flops
+/// outweigh their page faults, and their touching would outlast the check and compete with
+/// the factorizations for the cores.
 pub fn touch_factor_memory(
     system: &System,
     contact: Option<&ContactOperator>,
@@ -124,7 +134,9 @@ pub fn touch_factor_memory(
     let count = contact_settings(system, true, settings)
         .and_then(|s| harmonics_to_compute(system, contact, &s))
         .map_or(0, |h| h.len());
-    rayon::spawn(move || plan.touch_panels(count));
+    if count * plan.panel_bytes() <= TOUCH_LIMIT {
+        rayon::spawn(move || plan.touch_panels(count));
+    }
 }
 
 /// `globalize::solve_contact` with its wall time in `timings`: the knob check's share as

@@ -344,6 +344,15 @@ impl System {
         checked.filter(|_| agrees)
     }
 
+    /// Free the factor memory the LDLᵀ plans keep for reuse (`SchurPlan::release_spare_panels`):
+    /// after a single solve, so that the stages after it do not hold it.
+    pub fn release_factor_memory(&self) {
+        let built = self.schur.get().and_then(|(_, p)| p.as_ref());
+        for plan in built.into_iter().chain(self.plain.get()) {
+            plan.release_spare_panels();
+        }
+    }
+
     /// The Schur plan for this B (built once; a different B gets its own, not kept).
     pub fn schur_plan(&self, b: &Csc) -> Option<Arc<SchurPlan>> {
         let (built_for, plan) = self

@@ -373,18 +373,35 @@ impl SchurPlan {
         SCHUR_SLOWDOWN * self.schur_cost < self.solve_cost()
     }
 
+    /// Bytes of one factor's panels.
+    pub fn panel_bytes(&self) -> usize {
+        self.panel_start[self.supernodes.len()] * std::mem::size_of::<c64>()
+    }
+
     /// Touch the memory of `count` factors' panels and keep it for the next eliminations.
     /// Fresh memory costs a page fault per 4 KiB: on the strip that is about a third of
     /// each elimination's time in a fresh process, so a caller with an idle core touches
     /// the memory ahead of the factorizations (`hbm::touch_factor_memory`).
+    /// Stops early when an elimination has found the pool empty (it took fresh memory; more
+    /// touched panels would only add to the memory held).
     pub fn touch_panels(&self, count: usize) {
         let len = self.panel_start[self.supernodes.len()];
+        self.spare_panels.refill_from_now();
         for _ in 0..count {
+            if self.spare_panels.ran_dry() {
+                break;
+            }
             let mut panels = Vec::with_capacity(len);
             // Written, not `vec![0; len]`: a zeroed allocation is mapped untouched.
             panels.resize(len, c64::new(0.0, 0.0));
             self.spare_panels.give_back(panels);
         }
+    }
+
+    /// Free the panels kept for the next eliminations (a single solve is done with them; a
+    /// sweep, which refactors at every frequency, keeps them).
+    pub fn release_spare_panels(&self) {
+        self.spare_panels.clear();
     }
 
     /// The dimension of A.
@@ -623,24 +640,51 @@ struct Scratch {
 
 /// Buffers handed back for reuse: the eliminations' scratch (one per elimination running at
 /// a time) and the panels of dropped factors (a sweep refactors every harmonic at each ω;
-/// fresh memory costs a page fault per 4 KiB, about as much as the elimination that fills
-/// it). A clone is an empty pool.
-struct Pool<T>(std::sync::Mutex<Vec<T>>);
+/// fresh memory costs a page fault per 4 KiB, two thirds of the time of the strip's
+/// elimination that fills it). It remembers whether a `take` found it empty, so that memory
+/// touched ahead stops once the eliminations outrun it. A clone is an empty pool.
+struct Pool<T> {
+    items: std::sync::Mutex<Vec<T>>,
+    ran_dry: std::sync::atomic::AtomicBool,
+}
 
 impl<T: Default> Pool<T> {
     fn take(&self) -> T {
-        let mut pool = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        pool.pop().unwrap_or_default()
+        let mut items = self.items.lock().unwrap_or_else(|e| e.into_inner());
+        items.pop().unwrap_or_else(|| {
+            self.ran_dry
+                .store(true, std::sync::atomic::Ordering::Relaxed);
+            T::default()
+        })
     }
 
     fn give_back(&self, item: T) {
-        self.0.lock().unwrap_or_else(|e| e.into_inner()).push(item);
+        self.items
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(item);
+    }
+
+    fn clear(&self) {
+        self.items.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    }
+
+    fn ran_dry(&self) -> bool {
+        self.ran_dry.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn refill_from_now(&self) {
+        self.ran_dry
+            .store(false, std::sync::atomic::Ordering::Relaxed);
     }
 }
 
 impl<T> Default for Pool<T> {
     fn default() -> Self {
-        Pool(std::sync::Mutex::new(Vec::new()))
+        Pool {
+            items: std::sync::Mutex::new(Vec::new()),
+            ran_dry: std::sync::atomic::AtomicBool::new(false),
+        }
     }
 }
 
