@@ -551,7 +551,7 @@ const DENSE_PARALLEL_ORDER: usize = 256;
 
 /// faer's parallelism for dense work of order n: its global pool from `DENSE_PARALLEL_ORDER`
 /// on, else the calling thread.
-pub fn dense_parallelism(n: usize) -> Par {
+fn dense_parallelism(n: usize) -> Par {
     if n >= DENSE_PARALLEL_ORDER {
         faer::get_global_parallelism()
     } else {
@@ -625,10 +625,10 @@ pub fn dense_solve(mut a: Mat<f64>, mut b: Mat<f64>) -> Mat<f64> {
 }
 
 /// The partially pivoted LU (P A = L U) of a small dense n × n matrix in single precision,
-/// as a preconditioner: factored by faer on the calling thread (faer's `Mat::partial_piv_lu`
-/// spreads even an 81 × 81 matrix over its global thread pool, which made the contact
-/// Newton's many small node blocks slower with two threads than with one) and solved in
-/// f32, twice the vector lanes and half the memory of f64. A solve is accurate to about
+/// as a preconditioner: factored by faer on the calling thread at every order (on faer's pool
+/// the contact Newton's many node blocks were slower with two threads than with one; see
+/// `DENSE_PARALLEL_ORDER`) and solved in f32, twice the vector lanes and half the memory of
+/// f64. A solve is accurate to about
 /// 10⁻⁷ times the block's condition number, which is what a preconditioner of flexible
 /// GMRES needs (`gmres`: the products with the matrix itself stay in f64). Kept as factors,
 /// not inverted: the LU costs ⅔ n³, an inverse 2 n³, and a solve with the factors costs the
