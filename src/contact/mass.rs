@@ -7,8 +7,6 @@
 //! around it, in proportion to their own mass; then a minimum-norm, mass-weighted correction of
 //! all nodal masses (Σδm = 0, Σδm·x = Δ) restores the centre of mass exactly.
 
-use std::collections::{BTreeMap, BTreeSet};
-
 use nalgebra::{Matrix3, Vector3};
 
 use crate::mesh::Mesh2d;
@@ -23,6 +21,48 @@ pub struct Redistribution {
     pub moved_fraction: f64,
     /// Relative change of the polar moment of inertia about the centre of mass.
     pub inertia_change: f64,
+}
+
+/// The cells around each node (compressed rows): a node's neighbours are the other nodes of
+/// its cells.
+struct CellsOfNode {
+    start: Vec<usize>,
+    cells: Vec<usize>,
+}
+
+impl CellsOfNode {
+    fn new(mesh: &Mesh2d) -> Self {
+        let mut start = vec![0usize; mesh.nodes.len() + 1];
+        for c in &mesh.cells {
+            for &a in &c.nodes {
+                start[a + 1] += 1;
+            }
+        }
+        for n in 0..mesh.nodes.len() {
+            start[n + 1] += start[n];
+        }
+        let mut next = start.clone();
+        let mut cells = vec![0usize; start[mesh.nodes.len()]];
+        for (i, c) in mesh.cells.iter().enumerate() {
+            for &a in &c.nodes {
+                cells[next[a]] = i;
+                next[a] += 1;
+            }
+        }
+        CellsOfNode { start, cells }
+    }
+
+    /// The nodes sharing a cell with `node`, ascending, without `node`.
+    fn neighbours(&self, mesh: &Mesh2d, node: usize) -> Vec<usize> {
+        let mut out: Vec<usize> = self.cells[self.start[node]..self.start[node + 1]]
+            .iter()
+            .flat_map(|&c| mesh.cells[c].nodes.iter().copied())
+            .filter(|&n| n != node)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
 }
 
 fn moments(mesh: &Mesh2d, m: &[f64]) -> (f64, [f64; 2]) {
@@ -49,17 +89,14 @@ pub fn redistribute_mass(
     lumped: &[f64],
     massless_nodes: &[usize],
 ) -> Result<Redistribution> {
-    let massless: BTreeSet<usize> = massless_nodes.iter().copied().collect();
-    let mut neighbours: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
-    for c in &mesh.cells {
-        for &a in &c.nodes {
-            for &b in &c.nodes {
-                if a != b {
-                    neighbours.entry(a).or_default().insert(b);
-                }
-            }
-        }
+    let mut massless: Vec<usize> = massless_nodes.to_vec();
+    massless.sort_unstable();
+    massless.dedup();
+    let mut is_massless = vec![false; mesh.nodes.len()];
+    for &c in &massless {
+        is_massless[c] = true;
     }
+    let adjacency = CellsOfNode::new(mesh);
     let (total, first) = moments(mesh, lumped);
     if !(total > 0.0) {
         return Err(Error::Model(
@@ -78,17 +115,17 @@ pub fn redistribute_mass(
             continue;
         }
         // First ring of non-contact nodes; widen once if the cells around are all contact nodes.
-        let mut ring: BTreeSet<usize> = neighbours.get(&c).cloned().unwrap_or_default();
-        ring.retain(|n| !massless.contains(n));
+        let mut ring = adjacency.neighbours(mesh, c);
+        ring.retain(|&n| !is_massless[n]);
         if ring.is_empty() {
-            let wider: BTreeSet<usize> = neighbours
-                .get(&c)
+            ring = adjacency
+                .neighbours(mesh, c)
                 .into_iter()
-                .flatten()
-                .flat_map(|n| neighbours.get(n).into_iter().flatten().copied())
-                .filter(|n| !massless.contains(n))
+                .flat_map(|n| adjacency.neighbours(mesh, n))
+                .filter(|&n| !is_massless[n])
                 .collect();
-            ring = wider;
+            ring.sort_unstable();
+            ring.dedup();
         }
         let weight: f64 = ring.iter().map(|&n| lumped[2 * n]).sum();
         if ring.is_empty() || !(weight > 0.0) {
@@ -110,7 +147,7 @@ pub fn redistribute_mass(
     let weights: Vec<f64> = m
         .iter()
         .enumerate()
-        .map(|(n, &v)| if massless.contains(&n) { 0.0 } else { v })
+        .map(|(n, &v)| if is_massless[n] { 0.0 } else { v })
         .collect();
     let (_, first_now) = {
         let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
@@ -137,7 +174,7 @@ pub fn redistribute_mass(
     if let Some((n, v)) = m
         .iter()
         .enumerate()
-        .find(|(n, v)| !massless.contains(n) && lumped[2 * n] > 0.0 && **v <= 0.0)
+        .find(|&(n, v)| !is_massless[n] && lumped[2 * n] > 0.0 && *v <= 0.0)
     {
         return Err(Error::Model(format!(
             "mass redistribution made node {n}'s mass non-positive ({v:e}): refine the mesh near the contact boundary"
