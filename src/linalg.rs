@@ -61,6 +61,9 @@ impl Triplets {
         nrows: usize,
         ncols: usize,
     ) -> Csc {
+        if nrows == 0 || ncols == 0 {
+            return Csc::from_entries(nrows, ncols, &[]);
+        }
         let mut entries = Vec::with_capacity(self.entries.len());
         for &(i, j, v) in &self.entries {
             if let (Some(r), Some(c)) = (row_map[i], col_map[j]) {
@@ -186,6 +189,11 @@ impl Csc {
     /// combination of them is a plain combination of value arrays).
     pub fn on_common_pattern(mats: &[&Csc]) -> Vec<Csc> {
         let (nrows, ncols) = (mats[0].nrows, mats[0].ncols);
+        // Usually the first pattern holds the others (a lumped mass on the stiffness'
+        // diagonal): then it is the common one, and only the others are scattered into it.
+        if mats[1..].iter().all(|m| m.pattern_within(mats[0])) {
+            return mats.iter().map(|m| m.scattered_into(mats[0])).collect();
+        }
         let mut entries = Vec::new();
         for m in mats {
             for j in 0..ncols {
@@ -195,20 +203,38 @@ impl Csc {
             }
         }
         let pattern = Csc::from_entries(nrows, ncols, &entries);
-        mats.iter()
-            .map(|m| {
-                let mut out = pattern.clone();
-                for j in 0..ncols {
-                    let rows = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
-                    for p in m.col_ptr[j]..m.col_ptr[j + 1] {
-                        if let Ok(q) = rows.binary_search(&m.row_idx[p]) {
-                            out.values[pattern.col_ptr[j] + q] += m.values[p];
-                        }
-                    }
-                }
-                out
+        mats.iter().map(|m| m.scattered_into(&pattern)).collect()
+    }
+
+    /// Whether every entry of this pattern is in `other`'s (same shape, sorted columns).
+    fn pattern_within(&self, other: &Csc) -> bool {
+        (self.nrows, self.ncols) == (other.nrows, other.ncols)
+            && (0..self.ncols).all(|j| {
+                let rows = &other.row_idx[other.col_ptr[j]..other.col_ptr[j + 1]];
+                self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]]
+                    .iter()
+                    .all(|r| rows.binary_search(r).is_ok())
             })
-            .collect()
+    }
+
+    /// This matrix on `pattern` (which holds its entries; explicit zeros elsewhere).
+    fn scattered_into(&self, pattern: &Csc) -> Csc {
+        if std::ptr::eq(self, pattern) {
+            return self.clone();
+        }
+        let mut out = Csc {
+            values: vec![0.0; pattern.values.len()],
+            ..pattern.clone()
+        };
+        for j in 0..self.ncols {
+            let rows = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                if let Ok(q) = rows.binary_search(&self.row_idx[p]) {
+                    out.values[pattern.col_ptr[j] + q] += self.values[p];
+                }
+            }
+        }
+        out
     }
 
     fn faer_real(&self) -> Result<SparseColMat<usize, f64>> {
@@ -1009,6 +1035,35 @@ mod tests {
         assert_eq!(common[0].nnz(), 3);
         assert_eq!(common[0].mul_vec(&[1.0, 1.0]), vec![3.0, 5.0]);
         assert_eq!(common[1].mul_vec(&[1.0, 0.0]), vec![0.0, 7.0]);
+    }
+
+    /// TEST GOAL: where the first pattern holds the others (a lumped mass on the stiffness'
+    /// diagonal), the common pattern is the first's, and each matrix keeps its values on it,
+    /// as the general merge gives them.
+    #[test]
+    fn a_pattern_within_the_first_is_scattered_into_it() {
+        let k = Csc::from_entries(
+            3,
+            3,
+            &[
+                (0, 0, 2.0),
+                (1, 0, -1.0),
+                (0, 1, -1.0),
+                (1, 1, 2.0),
+                (2, 2, 1.0),
+            ],
+        );
+        let m = Csc::from_entries(3, 3, &[(0, 0, 0.5), (2, 2, 0.25)]);
+        let common = Csc::on_common_pattern(&[&k, &m]);
+        assert_eq!(common[0], k);
+        assert_eq!(
+            (&common[1].col_ptr, &common[1].row_idx),
+            (&k.col_ptr, &k.row_idx)
+        );
+        assert_eq!(common[1].values, vec![0.5, 0.0, 0.0, 0.0, 0.25]);
+        // The other way round m does not hold k: the merged pattern is k's all the same.
+        let swapped = Csc::on_common_pattern(&[&m, &k]);
+        assert_eq!((&swapped[1], &swapped[0]), (&common[0], &common[1]));
     }
 
     /// TEST GOAL: `from_entries` leaves each column's rows sorted and distinct, whatever the

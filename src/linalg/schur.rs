@@ -171,36 +171,94 @@ fn expansions(b: &Csc) -> Option<Basis> {
     Some(basis)
 }
 
-/// The sorted, deduplicated full pattern of Ã on the coordinates (CSC column lists).
-fn transformed_pattern(a: &Csc, exp: &[Expansion]) -> Vec<Vec<usize>> {
-    let mut cols: Vec<Vec<usize>> = vec![Vec::new(); a.ncols];
-    for c in 0..a.ncols {
-        for p in a.col_ptr[c]..a.col_ptr[c + 1] {
-            let r = a.row_idx[p];
-            for &(q, _) in &exp[c] {
-                cols[q].extend(exp[r].iter().map(|&(x, _)| x));
+/// A column-compressed pattern: column c's rows, ascending and distinct, at ptr[c]..ptr[c + 1].
+struct Pattern {
+    ptr: Vec<usize>,
+    idx: Vec<usize>,
+}
+
+impl Pattern {
+    fn col(&self, c: usize) -> &[usize] {
+        &self.idx[self.ptr[c]..self.ptr[c + 1]]
+    }
+
+    fn cols(&self) -> usize {
+        self.ptr.len() - 1
+    }
+
+    /// From per-column counts (an upper bound) and a fill that pushes each entry by `put`:
+    /// counted, filled, then each column sorted and deduplicated in place and compacted.
+    fn gather(counts: Vec<usize>, fill: impl FnOnce(&mut dyn FnMut(usize, usize))) -> Pattern {
+        let n = counts.len();
+        let mut ptr = vec![0usize; n + 1];
+        for c in 0..n {
+            ptr[c + 1] = ptr[c] + counts[c];
+        }
+        let mut next = ptr[..n].to_vec();
+        let mut idx = vec![0usize; ptr[n]];
+        fill(&mut |col: usize, row: usize| {
+            idx[next[col]] = row;
+            next[col] += 1;
+        });
+        let mut out = 0;
+        let mut compact = vec![0usize; n + 1];
+        for c in 0..n {
+            let (start, end) = (ptr[c], ptr[c + 1]);
+            idx[start..end].sort_unstable();
+            let mut last = None;
+            for k in start..end {
+                if last != Some(idx[k]) {
+                    last = Some(idx[k]);
+                    idx[out] = idx[k];
+                    out += 1;
+                }
             }
+            compact[c + 1] = out;
+        }
+        idx.truncate(out);
+        Pattern { ptr: compact, idx }
+    }
+}
+
+/// The sorted, deduplicated full pattern of Ã on the coordinates: column q gathers, for every
+/// entry (r, c) of A and every coordinate q of c's expansion, the coordinates of r's.
+fn transformed_pattern(a: &Csc, exp: &[Expansion]) -> Pattern {
+    let entries = |c: usize| a.row_idx[a.col_ptr[c]..a.col_ptr[c + 1]].iter();
+    let mut counts = vec![0usize; a.ncols];
+    for c in 0..a.ncols {
+        let width: usize = entries(c).map(|&r| exp[r].len()).sum();
+        for &(q, _) in &exp[c] {
+            counts[q] += width;
         }
     }
-    for col in &mut cols {
-        col.sort_unstable();
-        col.dedup();
-    }
-    cols
+    Pattern::gather(counts, |put| {
+        for c in 0..a.ncols {
+            for &r in entries(c) {
+                for &(q, _) in &exp[c] {
+                    exp[r].iter().for_each(|&(x, _)| put(q, x));
+                }
+            }
+        }
+    })
 }
 
 /// AMD order of the eliminated coordinates, then the kept ones in the order of B's rows:
 /// `order[new] = coordinate`.
-fn elimination_order(cols: &[Vec<usize>], kept: &[bool], kept_dof: &[Option<usize>]) -> Vec<usize> {
-    let elim: Vec<usize> = (0..cols.len()).filter(|&c| !kept[c]).collect();
-    let mut compact = vec![usize::MAX; cols.len()];
+fn elimination_order(cols: &Pattern, kept: &[bool], kept_dof: &[Option<usize>]) -> Vec<usize> {
+    let elim: Vec<usize> = (0..cols.cols()).filter(|&c| !kept[c]).collect();
+    let mut compact = vec![usize::MAX; cols.cols()];
     for (i, &c) in elim.iter().enumerate() {
         compact[c] = i;
     }
     let mut col_ptr = vec![0usize];
     let mut row_idx = Vec::new();
     for &c in &elim {
-        row_idx.extend(cols[c].iter().filter(|&&r| !kept[r]).map(|&r| compact[r]));
+        row_idx.extend(
+            cols.col(c)
+                .iter()
+                .filter(|&&r| !kept[r])
+                .map(|&r| compact[r]),
+        );
         col_ptr.push(row_idx.len());
     }
     let ne = elim.len();
@@ -233,26 +291,41 @@ struct Transformed {
     scatter: Vec<(usize, f64)>,
 }
 
-fn transform(a: &Csc, exp: &[Expansion], cols: &[Vec<usize>], position: &[usize]) -> Transformed {
-    let n = cols.len();
-    let mut lower: Vec<Vec<usize>> = vec![Vec::new(); n];
-    for (c, rows) in cols.iter().enumerate() {
+fn transform(a: &Csc, exp: &[Expansion], cols: &Pattern, position: &[usize]) -> Transformed {
+    let n = cols.cols();
+    let mut counts = vec![0usize; n];
+    for c in 0..n {
         let q = position[c];
-        lower[q].extend(rows.iter().map(|&r| position[r]).filter(|&p| p >= q));
+        counts[q] = cols.col(c).iter().filter(|&&r| position[r] >= q).count();
     }
-    let mut col_ptr = vec![0usize];
-    let mut row_idx = Vec::new();
-    for col in &mut lower {
-        col.sort_unstable();
-        row_idx.extend_from_slice(col);
-        col_ptr.push(row_idx.len());
-    }
-    let slot = |p: usize, q: usize| -> usize {
-        let rows = &row_idx[col_ptr[q]..col_ptr[q + 1]];
-        col_ptr[q] + rows.binary_search(&p).unwrap_or(0)
+    let Pattern {
+        ptr: col_ptr,
+        idx: row_idx,
+    } = Pattern::gather(counts, |put| {
+        for c in 0..n {
+            let q = position[c];
+            for &r in cols.col(c) {
+                if position[r] >= q {
+                    put(q, position[r]);
+                }
+            }
+        }
+    });
+    // slot(p, q): where row p sits in column q, through a row-to-slot map of the last column
+    // asked for (an entry of A adds into its own column's, but for the contact coordinates).
+    let (mut slots, mut marked) = (vec![0usize; n], usize::MAX);
+    let mut slot = |p: usize, q: usize| -> usize {
+        if q != marked {
+            for s in col_ptr[q]..col_ptr[q + 1] {
+                slots[row_idx[s]] = s;
+            }
+            marked = q;
+        }
+        slots[p]
     };
-    let mut scatter_ptr = vec![0usize];
-    let mut scatter = Vec::new();
+    let mut scatter_ptr = Vec::with_capacity(a.nnz() + 1);
+    scatter_ptr.push(0);
+    let mut scatter = Vec::with_capacity(a.nnz());
     for c in 0..a.ncols {
         for p in a.col_ptr[c]..a.col_ptr[c + 1] {
             let r = a.row_idx[p];
@@ -1106,19 +1179,23 @@ fn supernodes(
     let mut waiting: Vec<Vec<usize>> = vec![Vec::new(); eliminated];
     let mut counts = Vec::with_capacity(eliminated);
     let mut merged: Vec<usize> = Vec::new();
+    // seen[r] == j + 1: row r is in column j's structure already (the children's rows
+    // overlap, so they are deduplicated before the sort).
+    let mut seen = vec![0usize; col_ptr.len() - 1];
     for j in 0..eliminated {
         merged.clear();
-        merged.extend(
-            row_idx[col_ptr[j]..col_ptr[j + 1]]
-                .iter()
-                .filter(|&&r| r > j),
-        );
-        for &c in &waiting[j] {
+        let own = row_idx[col_ptr[j]..col_ptr[j + 1]].iter();
+        let from_children = waiting[j].iter().flat_map(|&c| {
             let child = &nodes[c];
-            merged.extend(child.rows[child.pivots..].iter().filter(|&&r| r > j));
+            child.rows[child.pivots..].iter()
+        });
+        for &r in own.chain(from_children) {
+            if r > j && seen[r] != j + 1 {
+                seen[r] = j + 1;
+                merged.push(r);
+            }
         }
         merged.sort_unstable();
-        merged.dedup();
         counts.push(merged.len());
         let children = std::mem::take(&mut waiting[j]);
         // Extend the previous supernode when column j − 1's structure is {j} ∪ merged.
