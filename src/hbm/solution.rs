@@ -24,7 +24,7 @@ pub struct Timings {
     pub linear_solve: f64,
     pub reduce: f64,
     pub newton: f64,
-    /// The knob check's re-solves at 2N and at c/3 (`KnobCheck`): the cost of knowing the
+    /// The knob check's re-solves at 2N and at a second c (`KnobCheck`): the cost of knowing the
     /// answer does not hang on N or c, kept apart from the solve's own Newton.
     pub knob_check: f64,
     pub recover: f64,
