@@ -309,6 +309,23 @@ const SOLVE_STAGES: [&str; 7] = [
     "recover",
 ];
 
+/// The knob check's second c and the change there ("c/3 0.68%", "3c 0.45%", or "none" where
+/// neither re-solve converged).
+fn c_check(s: &Summary) -> String {
+    let Some(solve) = s.contact.as_ref().and_then(|c| c.solver.as_ref()) else {
+        return "-".into();
+    };
+    let k = &solve.knob_check;
+    let at = if k.c_alternative < solve.c {
+        "c/3"
+    } else {
+        "3c"
+    };
+    k.c_change.map_or("none".into(), |change| {
+        format!("{at} {:.2}%", 100.0 * change)
+    })
+}
+
 fn iterations(s: &Summary) -> usize {
     s.contact
         .as_ref()
@@ -387,8 +404,8 @@ fn strip() {
 fn damping() {
     println!("\n## Light damping: Newton iterations, reference strip, alpha = 86 (0.5%) against 857 (5%)");
     println!(
-        "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8}",
-        "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal"
+        "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8} {:>14}",
+        "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal", "0.5% c check"
     );
     for h in [5usize, 10, 20, 30, 40, 60, 80] {
         let mut row = Vec::new();
@@ -405,6 +422,7 @@ fn damping() {
                 &format!("damp-{alpha}-h{h}"),
             ));
         }
+        let checked = row[1].as_ref().map_or("-".into(), |(s, _)| c_check(s));
         let cell = |r: &Option<(Summary, f64)>| match r {
             Some((s, t)) => (
                 format!("{}", iterations(s)),
@@ -415,16 +433,17 @@ fn damping() {
         };
         let (a, b) = (cell(&row[0]), cell(&row[1]));
         println!(
-            "{h:>3} {:>8} {:>10} {:>8} {:>10} {:>7.2} {:>8}",
+            "{h:>3} {:>8} {:>10} {:>8} {:>10} {:>7.2} {:>8} {:>14}",
             a.0,
             a.1,
             b.0,
             b.1,
             b.2 / a.2,
-            "≤ 3"
+            "≤ 3",
+            checked
         );
     }
-    println!("(s = the whole run's wall time)");
+    println!("(s = the whole run's wall time; c check = the knob check's second c and the answer's change there)");
 }
 
 /// Mul-adds of a sparse LU of `a`'s pattern in an AMD order (faer's estimate).
