@@ -343,6 +343,40 @@ pub(super) fn solve_contact(
     })
 }
 
+/// The warning a solve that converged only through the harmonic ladder or the softer c
+/// calls for (`None` for a direct one): the direct continuation folded or stalled, which
+/// happens near a resonance where the contact problem has several periodic states, and the
+/// detour reached one of them.
+pub(super) fn detour_warning(
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    solution: &ContactSolution,
+) -> Option<String> {
+    let direct_c = automatic_c(problem, settings).ok()?;
+    let laddered = solution.ladder.len() > 1;
+    let softer = solution.c < direct_c;
+    if !(laddered || softer) {
+        return None;
+    }
+    let how = match (laddered, softer) {
+        (true, true) => format!(
+            "the harmonic ladder {:?} at the softer c = {:.3e} N/m",
+            solution.ladder, solution.c
+        ),
+        (true, false) => format!("the harmonic ladder {:?}", solution.ladder),
+        _ => format!("the softer c = {:.3e} N/m", solution.c),
+    };
+    Some(format!(
+        "the direct solve at H = {} did not converge and the answer was reached through {how} \
+         ({} Newton iterations): near a resonance the contact problem can have several periodic \
+         states, and this is one of them; `hbcontact sweep` shows the branches through this \
+         frequency and the stability check whether this one is stable; a lower \
+         harmonic_balance.harmonics, or stiffness damping (damping.beta) where the scene has \
+         none, can make the solve direct",
+        problem.harmonics, solution.newton.iterations
+    ))
+}
+
 fn stall_diagnosis(
     system: &System,
     settings: &HbSettings,

@@ -100,6 +100,9 @@ pub fn solve(
                 solution.samples,
                 &system.basis,
             ));
+            linear
+                .warnings
+                .extend(globalize::detour_warning(&problem, settings, &solution));
             Some(solution)
         }
         _ => None,
