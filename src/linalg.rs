@@ -186,7 +186,8 @@ impl Csc {
     }
 
     /// The union pattern of several same-shape matrices, each scattered into it (so a linear
-    /// combination of them is a plain combination of value arrays).
+    /// combination of them is a plain combination of value arrays). Their columns are sorted
+    /// and distinct, as `from_entries` leaves them.
     pub fn on_common_pattern(mats: &[&Csc]) -> Vec<Csc> {
         let (nrows, ncols) = (mats[0].nrows, mats[0].ncols);
         // Usually the first pattern holds the others (a lumped mass on the stiffness'
