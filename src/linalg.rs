@@ -192,8 +192,8 @@ impl Csc {
         let (nrows, ncols) = (mats[0].nrows, mats[0].ncols);
         // Usually the first pattern holds the others (a lumped mass on the stiffness'
         // diagonal): then it is the common one, and only the others are scattered into it.
-        if mats[1..].iter().all(|m| m.pattern_within(mats[0])) {
-            return mats.iter().map(|m| m.scattered_into(mats[0])).collect();
+        if let Some(on_first) = mats.iter().map(|m| m.scattered_into(mats[0])).collect() {
+            return on_first;
         }
         let mut entries = Vec::new();
         for m in mats {
@@ -204,24 +204,20 @@ impl Csc {
             }
         }
         let pattern = Csc::from_entries(nrows, ncols, &entries);
-        mats.iter().map(|m| m.scattered_into(&pattern)).collect()
+        // The union holds every entry, so each scatter succeeds.
+        mats.iter()
+            .filter_map(|m| m.scattered_into(&pattern))
+            .collect()
     }
 
-    /// Whether every entry of this pattern is in `other`'s (same shape, sorted columns).
-    fn pattern_within(&self, other: &Csc) -> bool {
-        (self.nrows, self.ncols) == (other.nrows, other.ncols)
-            && (0..self.ncols).all(|j| {
-                let rows = &other.row_idx[other.col_ptr[j]..other.col_ptr[j + 1]];
-                self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]]
-                    .iter()
-                    .all(|r| rows.binary_search(r).is_ok())
-            })
-    }
-
-    /// This matrix on `pattern` (which holds its entries; explicit zeros elsewhere).
-    fn scattered_into(&self, pattern: &Csc) -> Csc {
+    /// This matrix on `pattern` (explicit zeros where it has no entry); `None` when an entry
+    /// of it is not in `pattern` (or the shapes differ).
+    fn scattered_into(&self, pattern: &Csc) -> Option<Csc> {
         if std::ptr::eq(self, pattern) {
-            return self.clone();
+            return Some(self.clone());
+        }
+        if (self.nrows, self.ncols) != (pattern.nrows, pattern.ncols) {
+            return None;
         }
         let mut out = Csc {
             values: vec![0.0; pattern.values.len()],
@@ -230,12 +226,11 @@ impl Csc {
         for j in 0..self.ncols {
             let rows = &pattern.row_idx[pattern.col_ptr[j]..pattern.col_ptr[j + 1]];
             for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                if let Ok(q) = rows.binary_search(&self.row_idx[p]) {
-                    out.values[pattern.col_ptr[j] + q] += self.values[p];
-                }
+                let q = rows.binary_search(&self.row_idx[p]).ok()?;
+                out.values[pattern.col_ptr[j] + q] += self.values[p];
             }
         }
-        out
+        Some(out)
     }
 
     fn faer_real(&self) -> Result<SparseColMat<usize, f64>> {
