@@ -388,7 +388,9 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
         let model = common::model(&p, Purpose::HarmonicBalance);
         common::solve(&model, &p)
     };
-    for h in [5usize, 20, 40, 60] {
+    // The 0.5%-damped answer's change at the second c, measured (README's light-damping
+    // table), held within a factor 2: H = 40 at 3c, H = 60 above the 1% the run warns at.
+    for (h, measured) in [(5usize, 0.0068), (20, 0.0091), (40, 0.0045), (60, 0.0339)] {
         let contact = |alpha: f64| {
             let s = solve(h, alpha).unwrap_or_else(|e| panic!("H = {h}, alpha = {alpha}: {e}"));
             // A direct solve: no detour to warn about.
@@ -414,7 +416,11 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
             light.newton.iterations,
             heavy.newton.iterations
         );
-        assert!(k.c_change.is_some(), "H = {h}: {k:?}");
+        assert!(
+            k.c_change
+                .is_some_and(|change| (0.5 * measured..2.0 * measured).contains(&change)),
+            "H = {h}: {k:?}"
+        );
     }
     match solve(80, 86.0) {
         Err(e) => {
