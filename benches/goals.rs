@@ -326,6 +326,21 @@ fn c_check(s: &Summary) -> String {
     })
 }
 
+/// How the contact solve converged: directly, through the damping continuation (its steps)
+/// or through the harmonic ladder.
+fn route(s: &Summary) -> String {
+    let Some(solve) = s.contact.as_ref().and_then(|c| c.solver.as_ref()) else {
+        return "-".into();
+    };
+    if solve.damping_path.len() > 1 {
+        format!("ζ path, {} steps", solve.damping_path.len() - 1)
+    } else if solve.ladder.len() > 1 {
+        format!("ladder {:?}", solve.ladder)
+    } else {
+        "direct".into()
+    }
+}
+
 fn iterations(s: &Summary) -> usize {
     s.contact
         .as_ref()
@@ -404,8 +419,8 @@ fn strip() {
 fn damping() {
     println!("\n## Light damping: Newton iterations, reference strip, alpha = 86 (0.5%) against 857 (5%)");
     println!(
-        "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8} {:>14}",
-        "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal", "0.5% c check"
+        "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8} {:>14} {:>18}",
+        "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal", "0.5% c check", "0.5% route"
     );
     for h in [5usize, 10, 20, 30, 40, 60, 80] {
         let mut row = Vec::new();
@@ -423,6 +438,7 @@ fn damping() {
             ));
         }
         let checked = row[1].as_ref().map_or("-".into(), |(s, _)| c_check(s));
+        let how = row[1].as_ref().map_or("-".into(), |(s, _)| route(s));
         let cell = |r: &Option<(Summary, f64)>| match r {
             Some((s, t)) => (
                 format!("{}", iterations(s)),
@@ -433,14 +449,15 @@ fn damping() {
         };
         let (a, b) = (cell(&row[0]), cell(&row[1]));
         println!(
-            "{h:>3} {:>8} {:>10} {:>8} {:>10} {:>7.2} {:>8} {:>14}",
+            "{h:>3} {:>8} {:>10} {:>8} {:>10} {:>7.2} {:>8} {:>14} {:>18}",
             a.0,
             a.1,
             b.0,
             b.1,
             b.2 / a.2,
             "≤ 3",
-            checked
+            checked,
+            how
         );
     }
     println!("(s = the whole run's wall time; c check = the knob check's second c and the answer's change there)");

@@ -1,10 +1,14 @@
 //! The contact solve around the semi-smooth Newton of `reduced`: the linear gap r of (20),
 //! the automatic complementarity parameter c, and the globalization that makes the Newton
 //! converge on hard cases (docs/method.md, "Globalization"), cheapest first:
-//! 1. the plain Newton from λ = 0;
-//! 2. the harmonic ladder H/8, H/4, H/2, H, each rung warm-starting the next (the low
+//! 1. the plain Newton from λ = 0 (by a continuation in a smoothing μ of the law);
+//! 2. on a lightly damped scene, continuation in the damping: the same scene with its
+//!    damping scaled up to ζ₀ = 5% at the fundamental (ζ the Rayleigh damping ratio), solved
+//!    directly, then the damping scaled back down step by step to the scene's own, each step
+//!    a Newton from the last state (each heavier-damped problem is a new factorization);
+//! 3. the harmonic ladder H/8, H/4, H/2, H, each rung warm-starting the next (the low
 //!    harmonics of an impact response are found first);
-//! 3. both again with c ten times smaller (a softer penalty on the gap: the c that converges
+//! 4. all again with c ten times smaller (a softer penalty on the gap: the c that converges
 //!    is a band).
 //!
 //! If all fail, the error says what to change. Two budgets bound the whole: each Newton run
@@ -24,6 +28,7 @@ use super::step::StepMethod;
 use super::{fourier, knobs};
 use super::{measure_complementarity, ContactSolution, HbSettings, System};
 use crate::contact::ContactOperator;
+use crate::fem::modes::rayleigh_damping_ratio;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 
@@ -75,6 +80,35 @@ const LEVEL_ITERATIONS: usize = 30;
 /// at H = 60) fails early, one creeping by short steps through many active-set changes (the
 /// undamped strip at H = 40, 15 iterations) goes on.
 const LEVEL_STAGNATION: usize = 8;
+
+/// The damping ratio at the fundamental the damping continuation starts from: where the
+/// reference strip's direct solve converges at every H from 5 to 80.
+const DAMPED_START: f64 = 0.05;
+/// The damping continuation's first ratio between steps (10^¼: four steps from 5% to 0.5%;
+/// three steps there fail, measured at H = 80).
+const DAMPING_STEP: f64 = 1.778_279_41;
+/// Below this step ratio the damped state's branch is taken to turn back.
+const DAMPING_STEP_MIN: f64 = 1.05;
+
+/// The reduced problem of the same scene with its damping D scaled by a factor s > 1 (the
+/// damping continuation's heavier-damped problems).
+pub(super) type Heavier<'h> = &'h (dyn Fn(f64) -> Result<ReducedProblem> + Sync);
+
+/// What the smoothing continuation does where its path turns back (a fold in μ).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum OnFold {
+    /// Try the exact law from the last point reached.
+    ExactLaw,
+    /// Give up: the caller has a better fallback.
+    Stop,
+}
+
+/// How a converged contact solve got there: the harmonic ladder it climbed ([H] when direct)
+/// and the damping ratios at the fundamental it continued through (empty when it did not).
+struct Route {
+    ladder: Vec<usize>,
+    damping: Vec<f64>,
+}
 
 /// Every Newton run of one contact solve: iterations, log and why each attempt failed.
 struct Attempts<'a> {
@@ -185,20 +219,36 @@ impl<'a> Attempts<'a> {
     /// exact law (μ = 0), which then starts within the tolerance. If the path turns back (a
     /// fold in μ, where no nearby smoothed solution exists), the exact law is tried from the
     /// last point reached.
-    fn smoothed(&mut self, h: usize, c: f64, start: &[f64]) -> NewtonOutcome {
+    fn smoothed(&mut self, h: usize, c: f64, start: &[f64], on_fold: OnFold) -> NewtonOutcome {
         let problem = self.problem_at(h);
-        let mut settings = self.newton_settings(h, c, 0.0);
-        let force = reduced::linear_force(&problem, settings.samples, c);
+        self.smoothed_on(&problem, c, start, on_fold)
+    }
+
+    /// `smoothed` on a given problem (a ladder rung, a heavier-damped scene).
+    fn smoothed_on(
+        &mut self,
+        problem: &ReducedProblem,
+        c: f64,
+        start: &[f64],
+        on_fold: OnFold,
+    ) -> NewtonOutcome {
+        let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
+        let force = reduced::linear_force(problem, settings.samples, c);
         let floor = 0.1 * self.settings.tolerance * force;
         let (mut x, mut ratio, mut last) = (start.to_vec(), 0.3f64, force);
         let mut fold = None;
+        // Levels failed so far: with a fallback at hand (`OnFold::Stop`), the second failure
+        // is taken as the fold (one narrowing lets the 0.5%-damped strip pass a level that
+        // cycles at H = 60 and 70; at H = 80 and 100 the path folds and every narrowed level
+        // fails again).
+        let mut failures = 0;
         while force > 0.0 && last * ratio > floor {
             let mu = last * ratio;
             settings.smoothing = mu;
             settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
             settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
             settings.stagnation = LEVEL_STAGNATION;
-            let o = self.run(&problem, &settings, &x);
+            let o = self.run(problem, &settings, &x);
             if self.exhausted == Some(Budget::Time) {
                 return o; // its reason names the iteration the time ran out at
             }
@@ -206,12 +256,26 @@ impl<'a> Attempts<'a> {
                 (x, last) = (o.multipliers, mu);
             } else if self.exhausted.is_some() {
                 break; // out of budget: no fold to report
-            } else if ratio.sqrt() > 0.95 {
+            } else if ratio.sqrt() > 0.95 || (on_fold == OnFold::Stop && failures >= 1) {
                 fold = Some(last / force);
                 break;
             } else {
+                failures += 1;
                 ratio = ratio.sqrt();
             }
+        }
+        if let (Some(at), OnFold::Stop) = (fold, on_fold) {
+            return NewtonOutcome {
+                multipliers: x,
+                converged: false,
+                iterations: 0,
+                relative_residual: f64::NAN,
+                log: Vec::new(),
+                reason: format!(
+                    "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance \
+                     the contact problem can have several periodic states)"
+                ),
+            };
         }
         settings.smoothing = 0.0;
         settings.tolerance = self.settings.tolerance;
@@ -220,7 +284,7 @@ impl<'a> Attempts<'a> {
         // Polish a continuation's end point onto the exact law's active set (nothing to
         // polish when nothing penetrates: λ = 0 is then exact).
         settings.min_iterations = usize::from(force > 0.0);
-        let mut o = self.run(&problem, &settings, &x);
+        let mut o = self.run(problem, &settings, &x);
         if let (false, Some(at)) = (o.converged, fold) {
             o.reason = format!(
                 "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance the \
@@ -231,16 +295,119 @@ impl<'a> Attempts<'a> {
         o
     }
 
-    /// The plain Newton, then the harmonic ladder, at one c.
-    fn at(&mut self, c: f64) -> Option<(NewtonOutcome, Vec<usize>)> {
+    /// The plain Newton, then the damping continuation, then the harmonic ladder, at one c.
+    fn at(&mut self, c: f64, heavier: Option<(Heavier, f64)>) -> Option<(NewtonOutcome, Route)> {
         let (h, nc) = (self.problem.harmonics, self.problem.nodes);
         let zero = vec![0.0; nc * (2 * h + 1)];
-        let o = self.smoothed(h, c, &zero);
+        // Past a fold, the damping continuation is a better bet than the exact law from there.
+        let on_fold = match heavier {
+            Some(_) => OnFold::Stop,
+            None => OnFold::ExactLaw,
+        };
+        let o = self.smoothed(h, c, &zero, on_fold);
+        let direct = |o| {
+            let route = Route {
+                ladder: vec![h],
+                damping: Vec::new(),
+            };
+            Some((o, route))
+        };
         if o.converged {
-            return Some((o, vec![h]));
+            return direct(o);
         }
         self.reasons
             .push(format!("direct at c = {c:.3e}: {}", o.reason));
+        if let Some((heavier, zeta)) = heavier {
+            if let Some((o, damping)) = self.damped(c, heavier, zeta) {
+                return Some((
+                    o,
+                    Route {
+                        ladder: vec![h],
+                        damping,
+                    },
+                ));
+            }
+        }
+        let (o, ladder) = self.ladder(c)?;
+        Some((
+            o,
+            Route {
+                ladder,
+                damping: Vec::new(),
+            },
+        ))
+    }
+
+    /// Continuation in the damping (docs/method.md, "Globalization"): the scene with its
+    /// damping scaled to ζ = `DAMPED_START` at the fundamental (its own ζ is `zeta`) solved
+    /// directly, then the damping scaled back down by `DAMPING_STEP` per step to the scene's
+    /// own, each step a Newton on the exact law from the last state; a step that fails is
+    /// shortened (its ratio's square root), down to `DAMPING_STEP_MIN`, where the damped
+    /// state's branch is taken to turn back. Returns the ratios ζ continued through.
+    fn damped(&mut self, c: f64, heavier: Heavier, zeta: f64) -> Option<(NewtonOutcome, Vec<f64>)> {
+        let top = DAMPED_START / zeta;
+        let problem = self.heavier_problem(heavier, top)?;
+        let zero = vec![0.0; self.problem.linear_gap.len()];
+        let o = self.smoothed_on(&problem, c, &zero, OnFold::ExactLaw);
+        if !o.converged {
+            self.reasons.push(format!(
+                "damping continuation: no direct solve at ζ = {DAMPED_START}: {}",
+                o.reason
+            ));
+            return None;
+        }
+        let mut settings = self.newton_settings(self.problem.harmonics, c, 0.0);
+        settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
+        settings.stagnation = LEVEL_STAGNATION;
+        settings.min_iterations = 1;
+        let (mut x, mut scale, mut ratio) = (o.multipliers, top, DAMPING_STEP);
+        let mut path = vec![zeta * top];
+        loop {
+            let next = if scale / ratio < DAMPING_STEP_MIN {
+                1.0
+            } else {
+                scale / ratio
+            };
+            let problem = if next == 1.0 {
+                Cow::Borrowed(self.problem)
+            } else {
+                Cow::Owned(self.heavier_problem(heavier, next)?)
+            };
+            let o = self.run(&problem, &settings, &x);
+            if o.converged {
+                path.push(zeta * next);
+                if next == 1.0 {
+                    return Some((o, path));
+                }
+                (x, scale) = (o.multipliers, next);
+            } else if self.exhausted.is_some() || ratio.sqrt() < DAMPING_STEP_MIN {
+                self.reasons.push(format!(
+                    "damping continuation from ζ = {:.2e} to {:.2e}: {}",
+                    zeta * scale,
+                    zeta * next,
+                    o.reason
+                ));
+                return None;
+            } else {
+                ratio = ratio.sqrt();
+            }
+        }
+    }
+
+    /// `heavier(scale)`, or `None` with the reason recorded (or the time budget spent).
+    fn heavier_problem(&mut self, heavier: Heavier, scale: f64) -> Option<ReducedProblem> {
+        if Instant::now() >= self.deadline {
+            self.exhausted = Some(Budget::Time);
+            return None;
+        }
+        heavier(scale)
+            .map_err(|e| self.reasons.push(format!("damping continuation: {e}")))
+            .ok()
+    }
+
+    /// The harmonic ladder H/8, H/4, H/2, H from λ = 0, each rung warm-starting the next.
+    fn ladder(&mut self, c: f64) -> Option<(NewtonOutcome, Vec<usize>)> {
+        let (h, nc) = (self.problem.harmonics, self.problem.nodes);
         if h < 2 || self.exhausted == Some(Budget::Time) {
             return None;
         }
@@ -252,7 +419,8 @@ impl<'a> Attempts<'a> {
         rungs.push(h);
         let (mut x, mut prev) = (vec![0.0; nc * 3], 1);
         for &rung in &rungs {
-            let o = self.smoothed(rung, c, &reduced::pad(&x, nc, prev, rung));
+            let start = reduced::pad(&x, nc, prev, rung);
+            let o = self.smoothed(rung, c, &start, OnFold::ExactLaw);
             if !o.converged {
                 self.reasons.push(format!(
                     "ladder at c = {c:.3e} failed at H = {rung}: {}",
@@ -280,29 +448,34 @@ pub(super) fn smoothed_from(
     reporter: &dyn Reporter,
 ) -> NewtonOutcome {
     let mut attempts = Attempts::new(problem, settings, reporter);
-    let mut o = attempts.smoothed(problem.harmonics, c, start);
+    let mut o = attempts.smoothed(problem.harmonics, c, start, OnFold::ExactLaw);
     o.iterations = attempts.iterations;
     o
 }
 
-/// Solve the reduced contact problem (23) with the globalization above.
+/// Solve the reduced contact problem (23) with the globalization above; `heavier` gives the
+/// damping continuation its problems (`None`: no continuation in the damping).
 pub(super) fn solve_contact(
     system: &System,
     problem: &ReducedProblem,
     settings: &HbSettings,
+    heavier: Option<Heavier>,
     reporter: &dyn Reporter,
 ) -> Result<ContactSolution> {
     let c = automatic_c(problem, settings)?;
+    let zeta = rayleigh_damping_ratio(system.rayleigh, system.omega);
+    let heavier = heavier.filter(|_| zeta > 0.0 && zeta < DAMPED_START);
     let mut attempts = Attempts::new(problem, settings, reporter);
     let found = [c, 0.1 * c].into_iter().find_map(|c_try| {
         // Out of time: no further attempt can start.
         if attempts.exhausted == Some(Budget::Time) {
             return None;
         }
-        attempts.at(c_try).map(|(o, ladder)| (o, ladder, c_try))
+        let at = attempts.at(c_try, heavier.map(|h| (h, zeta)));
+        at.map(|(o, route)| (o, route, c_try))
     });
     reporter.task_done("contact Newton");
-    let Some((outcome, ladder, c)) = found else {
+    let Some((outcome, route, c)) = found else {
         let failed = NewtonOutcome {
             multipliers: Vec::new(),
             converged: false,
@@ -337,16 +510,17 @@ pub(super) fn solve_contact(
         multipliers: outcome.multipliers.clone(),
         gaps,
         newton: outcome,
-        ladder,
+        ladder: route.ladder,
+        damping_path: route.damping,
         complementarity,
         knob_check,
     })
 }
 
-/// The warning a solve that converged only through the harmonic ladder or the softer c
-/// calls for (`None` for a direct one): the direct continuation folded or stalled, which
-/// happens near a resonance where the contact problem has several periodic states, and the
-/// detour reached one of them.
+/// The warning a solve that converged only through the damping continuation, the harmonic
+/// ladder or the softer c calls for (`None` for a direct one): the direct continuation
+/// folded or stalled, which happens near a resonance where the contact problem has several
+/// periodic states, and the detour reached one of them.
 pub(super) fn detour_warning(
     problem: &ReducedProblem,
     settings: &HbSettings,
@@ -355,25 +529,31 @@ pub(super) fn detour_warning(
     let direct_c = automatic_c(problem, settings).ok()?;
     let laddered = solution.ladder.len() > 1;
     let softer = solution.c < direct_c;
-    if !(laddered || softer) {
+    let damped = match solution.damping_path.as_slice() {
+        [first, .., last] => Some(format!(
+            "continuation in the damping from ζ = {:.1}% down to the scene's {:.2}% (at the \
+             fundamental)",
+            100.0 * first,
+            100.0 * last
+        )),
+        _ => None,
+    };
+    let softer = softer.then(|| format!("the softer c = {:.3e} N/m", solution.c));
+    let laddered = laddered.then(|| format!("the harmonic ladder {:?}", solution.ladder));
+    let how: Vec<String> = [damped, laddered, softer].into_iter().flatten().collect();
+    if how.is_empty() {
         return None;
     }
-    let how = match (laddered, softer) {
-        (true, true) => format!(
-            "the harmonic ladder {:?} at the softer c = {:.3e} N/m",
-            solution.ladder, solution.c
-        ),
-        (true, false) => format!("the harmonic ladder {:?}", solution.ladder),
-        _ => format!("the softer c = {:.3e} N/m", solution.c),
-    };
     Some(format!(
-        "the direct solve at H = {} did not converge and the answer was reached through {how} \
+        "the direct solve at H = {} did not converge and the answer was reached through {} \
          ({} Newton iterations): near a resonance the contact problem can have several periodic \
          states, and this is one of them; `hbcontact sweep` shows the branches through this \
          frequency and the stability check whether this one is stable; a lower \
          harmonic_balance.harmonics, or stiffness damping (damping.beta) where the scene has \
          none, can make the solve direct",
-        problem.harmonics, solution.newton.iterations
+        problem.harmonics,
+        how.join(" at "),
+        solution.newton.iterations
     ))
 }
 

@@ -91,7 +91,8 @@ pub fn solve(
     let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
         (Some(op), Some(problem)) => {
-            let solution = solve_contact_timed(system, &problem, settings, reporter, &mut timings)?;
+            let solution =
+                solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?;
             timed(&mut timings.recover, || {
                 linear.recover(op, &solution.multipliers, solution.coefficients())
             });
@@ -143,20 +144,36 @@ pub fn touch_factor_memory(
 }
 
 /// `globalize::solve_contact` with its wall time in `timings`: the knob check's share as
-/// `knob_check`, the rest as `newton`.
+/// `knob_check`, the rest (with the damping continuation's factorizations) as `newton`.
 fn solve_contact_timed(
     system: &System,
+    op: &ContactOperator,
     problem: &ReducedProblem,
     settings: &HbSettings,
     reporter: &dyn Reporter,
     timings: &mut Timings,
 ) -> Result<ContactSolution> {
+    let heavier = |scale: f64| heavier_damped(system, op, settings, scale);
     let solution = timed(&mut timings.newton, || {
-        globalize::solve_contact(system, problem, settings, reporter)
+        globalize::solve_contact(system, problem, settings, Some(&heavier), reporter)
     })?;
     timings.knob_check += solution.knob_check.seconds;
     timings.newton -= solution.knob_check.seconds;
     Ok(solution)
+}
+
+/// The reduced problem of the scene with its damping scaled by `scale` (the damping
+/// continuation's): factored anew, the factors dropped once G_k is formed.
+fn heavier_damped(
+    system: &System,
+    op: &ContactOperator,
+    settings: &HbSettings,
+    scale: f64,
+) -> Result<ReducedProblem> {
+    let scaled = system.with_damping_scaled(scale);
+    let mut timings = Timings::default();
+    let (_, problem) = prepare(&scaled, Some(op), settings, &crate::Silent, &mut timings)?;
+    problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))
 }
 
 /// The settings of a solve: with contact and a spline basis, the contact unknowns are all

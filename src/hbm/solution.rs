@@ -63,6 +63,9 @@ pub struct ContactSolution {
     pub newton: NewtonOutcome,
     /// The harmonic ladder actually climbed (just [H] when the direct solve converged).
     pub ladder: Vec<usize>,
+    /// The damping ratios ζ at the fundamental the damping continuation went through, from
+    /// 5% down to the scene's own (empty when it was not needed).
+    pub damping_path: Vec<f64>,
     pub complementarity: Complementarity,
     /// The N and c checks (`knobs`).
     pub knob_check: super::knobs::KnobCheck,
@@ -89,6 +92,7 @@ impl ContactSolution {
             complementarity: super::measure_complementarity(problem, x, &gaps, samples),
             gaps,
             ladder: vec![problem.harmonics],
+            damping_path: Vec::new(),
             knob_check: super::knobs::KnobCheck {
                 samples_initial: samples,
                 samples_changes: Vec::new(),

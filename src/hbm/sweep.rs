@@ -305,8 +305,14 @@ impl<'a> Continuation<'a> {
         };
         let (first, force) = match &s.resume {
             None => {
-                let first =
-                    super::solve_contact_timed(system, &frame.problem, hb, reporter, &mut timings)?;
+                let first = super::solve_contact_timed(
+                    system,
+                    op,
+                    &frame.problem,
+                    hb,
+                    reporter,
+                    &mut timings,
+                )?;
                 let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
                 (newton.samples, newton.c) = (first.samples, first.c);
                 let force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);

@@ -130,6 +130,15 @@ impl System {
         self
     }
 
+    /// The same system with its damping D scaled by `scale` (the damping continuation's
+    /// heavier-damped scenes). The symbolic analyses, which do not depend on D, are shared.
+    pub fn with_damping_scaled(&self, scale: f64) -> System {
+        System {
+            rayleigh: self.rayleigh.map(|(a, b)| (a * scale, b * scale)),
+            ..self.clone()
+        }
+    }
+
     /// s_k = i·damping and q_k = mass of harmonic (or discrete frequency) k at this ω.
     pub fn symbols(&self, k: usize) -> Symbols {
         self.basis.symbols(k, self.omega)

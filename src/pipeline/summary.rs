@@ -259,6 +259,10 @@ pub struct ContactSolve {
     pub relative_residual: f64,
     /// The harmonic ladder climbed ([H] when the direct solve converged).
     pub ladder: Vec<usize>,
+    /// The damping ratios ζ at the fundamental the solve continued through, from 5% down to
+    /// the scene's own (empty when the direct solve converged; docs/method.md,
+    /// "Globalization").
+    pub damping_path: Vec<f64>,
     pub complementarity: Complementarity,
     /// Largest penetration on the output history [m].
     pub max_penetration_on_history: f64,
@@ -492,6 +496,7 @@ pub fn harmonic_balance(
                 newton_iterations: c.newton.iterations,
                 relative_residual: c.newton.relative_residual,
                 ladder: c.ladder.clone(),
+                damping_path: c.damping_path.clone(),
                 complementarity: c.complementarity.clone(),
                 max_penetration_on_history: history.max_penetration(),
                 newton_log: c.newton.log.clone(),
