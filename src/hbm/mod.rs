@@ -163,7 +163,7 @@ fn solve_contact_timed(
 }
 
 /// The reduced problem of the scene with its damping scaled by `scale` (the damping
-/// continuation's): factored anew, the factors dropped once G_k is formed.
+/// continuation's): factored anew, each factor dropped once its G_k is formed.
 fn heavier_damped(
     system: &System,
     op: &ContactOperator,
@@ -172,7 +172,9 @@ fn heavier_damped(
 ) -> Result<ReducedProblem> {
     let scaled = system.with_damping_scaled(scale);
     let mut timings = Timings::default();
-    let (_, problem) = prepare(&scaled, Some(op), settings, &crate::Silent, &mut timings)?;
+    let silent = &crate::Silent;
+    let dropped = Source::FactorsDropped;
+    let (_, problem) = prepare_with(&scaled, Some(op), settings, silent, &mut timings, dropped)?;
     problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))
 }
 
@@ -265,18 +267,37 @@ fn prepare(
     reporter: &dyn Reporter,
     timings: &mut Timings,
 ) -> Result<(LinearResponse, Option<ReducedProblem>)> {
-    prepare_with(system, contact, settings, reporter, timings, None)
+    prepare_with(
+        system,
+        contact,
+        settings,
+        reporter,
+        timings,
+        Source::Factors,
+    )
 }
 
-/// `prepare`, with the harmonics' solves from a reduced model when one is given (no
-/// factorization; the caller checks the point it keeps, `frames::point_backward_error`).
+/// Where `prepare_with` takes each harmonic's solves from.
+#[derive(Clone, Copy)]
+enum Source<'m> {
+    /// Factorizations of Z_k, kept (with contact) for the recovery.
+    Factors,
+    /// Factorizations dropped as soon as G_k is formed: a problem that is never recovered
+    /// (the damping continuation's) holds no factor memory beside the solve's own.
+    FactorsDropped,
+    /// A reduced model: no factorization; the caller checks the point it keeps
+    /// (`frames::point_backward_error`).
+    Reduced(&'m frames::ReducedModel),
+}
+
+/// `prepare`, with the harmonics' solves from `source`.
 fn prepare_with(
     system: &System,
     contact: Option<&ContactOperator>,
     settings: &HbSettings,
     reporter: &dyn Reporter,
     timings: &mut Timings,
-    model: Option<&frames::ReducedModel>,
+    source: Source,
 ) -> Result<(LinearResponse, Option<ReducedProblem>)> {
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicU64, Ordering};
@@ -288,8 +309,11 @@ fn prepare_with(
     let results: Vec<Result<Harmonic>> = harmonics
         .par_iter()
         .map(|&k| {
-            let h = match (model, b) {
-                (Some(model), Some(b)) => Harmonic::reduced(system, b, k, model),
+            let h = match (source, b) {
+                (Source::Reduced(model), Some(b)) => Harmonic::reduced(system, b, k, model),
+                (Source::FactorsDropped, _) => {
+                    Harmonic::compute(system, b, k).map(|h| Harmonic { factor: None, ..h })
+                }
                 _ => Harmonic::compute(system, b, k),
             };
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -308,8 +332,10 @@ fn prepare_with(
         linear.residuals.insert(h.k, h.residual);
         linear.free.insert(h.k, h.free);
         linear.motion.insert(h.k, system.motion(h.k));
-        if let (Some(gk), Some(factor)) = (h.compliance, h.factor) {
+        if let Some(gk) = h.compliance {
             linear.compliance.push(gk);
+        }
+        if let Some(factor) = h.factor {
             linear.factors.insert(h.k, factor);
         }
     }

@@ -40,7 +40,7 @@ use super::fourier::{node_phasors, set_phasor};
 use super::frames::{self, ReducedModel};
 use super::reduced::{NewtonSettings, Residual};
 use super::step::{self, StepMethod};
-use super::{globalize, prepare, prepare_with};
+use super::{globalize, prepare, prepare_with, Source};
 use super::{ContactSolution, HbSettings, LinearResponse, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
@@ -368,7 +368,10 @@ impl<'a> Continuation<'a> {
             self.hb,
             self.reporter,
             &mut self.timings,
-            self.model.as_ref().filter(|_| reduced),
+            match self.model.as_ref().filter(|_| reduced) {
+                Some(model) => Source::Reduced(model),
+                None => Source::Factors,
+            },
         )?;
         let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
         Ok(Frame {
