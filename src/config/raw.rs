@@ -267,7 +267,8 @@ struct RawSolver {
     /// Default: 1e-8.
     #[serde(default)]
     tolerance: Option<f64>,
-    /// Iteration limit of each Newton run (direct, each ladder rung, each c). Default: 200.
+    /// Iteration limit of each Newton run (direct, each ladder rung, each c; a smoothing level
+    /// and a step of the damping continuation stop at 30). Default: 200.
     #[serde(default)]
     max_iterations: Option<usize>,
     /// The complementarity parameter c as a multiple of 1/mean|G_0,ii| (the inverse of the
