@@ -487,7 +487,9 @@ fn lightly_damped_strip_wall_converges_through_the_damping_continuation() {
     let change = c.knob_check.c_change.expect("the second c converges");
     assert!(change < 2.0 * 0.0051, "{change}");
     assert!(
-        s.warnings.iter().any(|w| w.contains("continuation in the damping")),
+        s.warnings
+            .iter()
+            .any(|w| w.contains("continuation in the damping")),
         "{:?}",
         s.warnings
     );
