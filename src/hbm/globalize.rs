@@ -110,6 +110,14 @@ struct Route {
     damping: Vec<f64>,
 }
 
+impl Route {
+    /// Up the ladder `ladder` (just [H]: direct), without the damping continuation.
+    fn laddered(ladder: Vec<usize>) -> Route {
+        let damping = Vec::new();
+        Route { ladder, damping }
+    }
+}
+
 /// Every Newton run of one contact solve: iterations, log and why each attempt failed.
 struct Attempts<'a> {
     problem: &'a ReducedProblem,
@@ -218,7 +226,7 @@ impl<'a> Attempts<'a> {
     /// from the last solution, a failed level narrows the factor. The last step solves the
     /// exact law (μ = 0), which then starts within the tolerance. If the path turns back (a
     /// fold in μ, where no nearby smoothed solution exists), the exact law is tried from the
-    /// last point reached.
+    /// last point reached, or with `OnFold::Stop` the run fails there.
     fn smoothed(&mut self, h: usize, c: f64, start: &[f64], on_fold: OnFold) -> NewtonOutcome {
         let problem = self.problem_at(h);
         self.smoothed_on(&problem, c, start, on_fold)
@@ -305,37 +313,19 @@ impl<'a> Attempts<'a> {
             None => OnFold::ExactLaw,
         };
         let o = self.smoothed(h, c, &zero, on_fold);
-        let direct = |o| {
-            let route = Route {
-                ladder: vec![h],
-                damping: Vec::new(),
-            };
-            Some((o, route))
-        };
         if o.converged {
-            return direct(o);
+            return Some((o, Route::laddered(vec![h])));
         }
         self.reasons
             .push(format!("direct at c = {c:.3e}: {}", o.reason));
         if let Some((heavier, zeta)) = heavier {
             if let Some((o, damping)) = self.damped(c, heavier, zeta) {
-                return Some((
-                    o,
-                    Route {
-                        ladder: vec![h],
-                        damping,
-                    },
-                ));
+                let ladder = vec![h];
+                return Some((o, Route { ladder, damping }));
             }
         }
         let (o, ladder) = self.ladder(c)?;
-        Some((
-            o,
-            Route {
-                ladder,
-                damping: Vec::new(),
-            },
-        ))
+        Some((o, Route::laddered(ladder)))
     }
 
     /// Continuation in the damping (docs/method.md, "Globalization"): the scene with its
@@ -380,7 +370,7 @@ impl<'a> Attempts<'a> {
                     return Some((o, path));
                 }
                 (x, scale) = (o.multipliers, next);
-            } else if self.exhausted.is_some() || ratio.sqrt() < DAMPING_STEP_MIN {
+            } else if self.exhausted == Some(Budget::Time) || ratio.sqrt() < DAMPING_STEP_MIN {
                 self.reasons.push(format!(
                     "damping continuation from ζ = {:.2e} to {:.2e}: {}",
                     zeta * scale,
