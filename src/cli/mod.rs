@@ -137,7 +137,10 @@ fn show_headline(s: &Summary) {
         }
     }
     if let Some(n) = h.newton_iterations {
-        outln!("  Newton iterations: {n}");
+        match &h.contact_detour {
+            Some(detour) => outln!("  Newton iterations: {n}, through {detour}"),
+            None => outln!("  Newton iterations: {n}"),
+        }
     }
     outln!("  wall time: {:.3} s", h.wall_seconds);
     outln!("  warnings: {}", h.warnings);

@@ -98,6 +98,8 @@ pub struct Headline {
     pub max_von_mises: Option<f64>,
     /// Contact Newton iterations over every attempt.
     pub newton_iterations: Option<usize>,
+    /// How the contact solve got there when not directly (`ContactSolve::detour`).
+    pub contact_detour: Option<String>,
     /// Wall time of every stage [s].
     pub wall_seconds: f64,
     pub warnings: usize,
@@ -120,6 +122,9 @@ impl Summary {
             newton_iterations: contact
                 .and_then(|c| c.solver.as_ref())
                 .map(|s| s.newton_iterations),
+            contact_detour: contact
+                .and_then(|c| c.solver.as_ref())
+                .and_then(ContactSolve::detour),
             wall_seconds: self.stage_seconds.total(),
             warnings: self.warnings.len(),
         }
@@ -271,6 +276,22 @@ pub struct ContactSolve {
     /// Whether the answer moved with the samples N (doubled until it settles; `samples` is
     /// the N used) and with c (re-solved at c/3, or at 3c where that does not converge).
     pub knob_check: KnobCheck,
+}
+
+impl ContactSolve {
+    /// The detour a solve took where the direct one failed, in words (`None`: direct).
+    pub fn detour(&self) -> Option<String> {
+        match (self.damping_path.as_slice(), self.ladder.len()) {
+            ([first, .., last], _) => Some(format!(
+                "the damping continuation, ζ at the fundamental {:.1}% → {:.2}% in {} steps",
+                100.0 * first,
+                100.0 * last,
+                self.damping_path.len() - 1
+            )),
+            (_, 2..) => Some(format!("the harmonic ladder {:?}", self.ladder)),
+            _ => None,
+        }
+    }
 }
 
 /// Amplitudes of a probe group's mean displacement over one period [m].
