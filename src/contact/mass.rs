@@ -115,11 +115,10 @@ pub fn redistribute_mass(
             continue;
         }
         // First ring of non-contact nodes; widen once if the cells around are all contact nodes.
-        let mut ring = adjacency.neighbours(mesh, c);
-        ring.retain(|&n| !is_massless[n]);
+        let near = adjacency.neighbours(mesh, c);
+        let mut ring: Vec<usize> = near.iter().copied().filter(|&n| !is_massless[n]).collect();
         if ring.is_empty() {
-            ring = adjacency
-                .neighbours(mesh, c)
+            ring = near
                 .into_iter()
                 .flat_map(|n| adjacency.neighbours(mesh, n))
                 .filter(|&n| !is_massless[n])
