@@ -326,16 +326,13 @@ fn c_check(s: &Summary) -> String {
     })
 }
 
-/// How the contact solve converged: directly, or its detour (the damping continuation, the
-/// harmonic ladder).
+/// How the contact solve converged: directly, or its detour (`ContactSolve::detour`).
 fn route(s: &Summary) -> String {
     let solve = s.contact.as_ref().and_then(|c| c.solver.as_ref());
     match solve.map(|solve| solve.detour()) {
         None => "-".into(),
         Some(None) => "direct".into(),
-        Some(Some(detour)) => detour
-            .replace("the damping continuation", "damping")
-            .replace("the harmonic ladder", "ladder"),
+        Some(Some(detour)) => detour,
     }
 }
 

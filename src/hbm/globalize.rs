@@ -517,20 +517,9 @@ pub(super) fn detour_warning(
     solution: &ContactSolution,
 ) -> Option<String> {
     let direct_c = automatic_c(problem, settings).ok()?;
-    let laddered = solution.ladder.len() > 1;
-    let softer = solution.c < direct_c;
-    let damped = match solution.damping_path.as_slice() {
-        [first, .., last] => Some(format!(
-            "continuation in the damping from ζ = {:.1}% down to the scene's {:.2}% (at the \
-             fundamental)",
-            100.0 * first,
-            100.0 * last
-        )),
-        _ => None,
-    };
-    let softer = softer.then(|| format!("the softer c = {:.3e} N/m", solution.c));
-    let laddered = laddered.then(|| format!("the harmonic ladder {:?}", solution.ladder));
-    let how: Vec<String> = [damped, laddered, softer].into_iter().flatten().collect();
+    let route = super::solution::detour(&solution.ladder, &solution.damping_path);
+    let softer = (solution.c < direct_c).then(|| format!("the softer c = {:.3e} N/m", solution.c));
+    let how: Vec<String> = [route, softer].into_iter().flatten().collect();
     if how.is_empty() {
         return None;
     }

@@ -71,6 +71,23 @@ pub struct ContactSolution {
     pub knob_check: super::knobs::KnobCheck,
 }
 
+/// The detour a contact solve took where the direct one failed, in words (`None`: direct):
+/// the damping continuation through the ratios `damping_path`, or the harmonic `ladder`.
+/// The one wording of the warning, the run's headline and the benches.
+pub fn detour(ladder: &[usize], damping_path: &[f64]) -> Option<String> {
+    match (damping_path, ladder.len()) {
+        ([first, .., last], _) => Some(format!(
+            "continuation in the damping, ζ at the fundamental from {:.1}% down to the scene's \
+             {:.2}% in {} steps",
+            100.0 * first,
+            100.0 * last,
+            damping_path.len() - 1
+        )),
+        (_, 2..) => Some(format!("the harmonic ladder {ladder:?}")),
+        _ => None,
+    }
+}
+
 impl ContactSolution {
     /// The solution a converged Newton found at N = `samples` and `c`, without the knob
     /// checks (a continuation point or a re-solve from a checked solution); the spline

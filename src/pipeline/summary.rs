@@ -279,18 +279,9 @@ pub struct ContactSolve {
 }
 
 impl ContactSolve {
-    /// The detour a solve took where the direct one failed, in words (`None`: direct).
+    /// The detour the solve took where the direct one failed (`hbm::solution::detour`).
     pub fn detour(&self) -> Option<String> {
-        match (self.damping_path.as_slice(), self.ladder.len()) {
-            ([first, .., last], _) => Some(format!(
-                "the damping continuation, ζ at the fundamental {:.1}% → {:.2}% in {} steps",
-                100.0 * first,
-                100.0 * last,
-                self.damping_path.len() - 1
-            )),
-            (_, 2..) => Some(format!("the harmonic ladder {:?}", self.ladder)),
-            _ => None,
-        }
+        crate::hbm::solution::detour(&self.ladder, &self.damping_path)
     }
 }
 
