@@ -591,8 +591,9 @@ impl SchurPlan {
     /// `scratch.values`): returns the panels; the roots' contribution blocks are added into
     /// `schur` (lower triangle, column-major nk × nk).
     #[inline(always)]
-    fn eliminate_all(
+    fn eliminate_all<S: pulp::Simd>(
         &self,
+        simd: S,
         schur: &mut [c64],
         nk: usize,
         tolerance: f64,
@@ -607,6 +608,7 @@ impl SchurPlan {
             work,
             blocks,
             spare,
+            at,
             ..
         } = scratch;
         local.clear();
@@ -632,11 +634,11 @@ impl SchurPlan {
             for &c in &node.children {
                 let child = &self.supernodes[c];
                 let cb = blocks[c].take().unwrap_or_default();
-                extend_add(front, m, &cb, &child.rows[child.pivots..], local);
+                extend_add(front, m, &cb, &child.rows[child.pivots..], local, at);
                 spare.push(cb);
             }
             let p = node.pivots;
-            eliminate(front, m, p, tolerance, work)
+            eliminate(simd, front, m, p, tolerance, work)
                 .map_err(|k| format!("pivot {} of the LDLᵀ elimination vanished", node.rows[k]))?;
             let mc = m - p;
             let mut cb = spare.pop().unwrap_or_default();
@@ -659,7 +661,7 @@ impl SchurPlan {
                     for &r in &node.rows[p..] {
                         local[r] = r - self.eliminated;
                     }
-                    extend_add(schur, nk, &cb, &node.rows[p..], local);
+                    extend_add(schur, nk, &cb, &node.rows[p..], local, at);
                     spare.push(cb);
                 }
             }
@@ -683,7 +685,7 @@ impl pulp::WithSimd for Elimination<'_> {
     type Output = Result<Panels, String>;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Self::Output {
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
         let Elimination {
             plan,
             schur,
@@ -691,7 +693,7 @@ impl pulp::WithSimd for Elimination<'_> {
             tolerance,
             scratch,
         } = self;
-        plan.eliminate_all(schur, nk, tolerance, scratch)
+        plan.eliminate_all(simd, schur, nk, tolerance, scratch)
     }
 }
 
@@ -709,6 +711,7 @@ struct Scratch {
     blocks: Vec<Option<Vec<c64>>>,
     spare: Vec<Vec<c64>>,
     schur: Vec<c64>,
+    at: Vec<usize>,
 }
 
 /// Buffers handed back for reuse: the eliminations' scratch (one per elimination running at
@@ -1027,15 +1030,26 @@ fn scatter(local: &[c64], x: &mut [c64], rows: &[usize], r: usize) {
 }
 
 /// Add the lower triangle of a contribution block (column-major, rows `rows`) into `front`
-/// (column-major m × m, lower triangle) at the positions `local[row]`.
+/// (column-major m × m, lower triangle) at the positions `local[row]`. Fronts list their
+/// rows in elimination order, so those positions rise with the CB's rows and entry (a, b),
+/// a ≥ b, lands in the lower triangle at column `local[rows[b]]`; `at` is scratch for them.
 #[inline(always)]
-fn extend_add(front: &mut [c64], m: usize, cb: &[c64], rows: &[usize], local: &[usize]) {
+fn extend_add(
+    front: &mut [c64],
+    m: usize,
+    cb: &[c64],
+    rows: &[usize],
+    local: &[usize],
+    at: &mut Vec<usize>,
+) {
     let mc = rows.len();
+    at.clear();
+    at.extend(rows.iter().map(|&r| local[r]));
+    debug_assert!(at.windows(2).all(|w| w[0] < w[1]));
     for b in 0..mc {
-        let lb = local[rows[b]];
-        for a in b..mc {
-            let la = local[rows[a]];
-            front[lb.min(la) * m + lb.max(la)] += cb[b * mc + a];
+        let column = &mut front[at[b] * m..(at[b] + 1) * m];
+        for (&la, &v) in at[b..].iter().zip(&cb[b * mc + b..(b + 1) * mc]) {
+            column[la] += v;
         }
     }
 }
@@ -1046,7 +1060,8 @@ fn extend_add(front: &mut [c64], m: usize, cb: &[c64], rows: &[usize], local: &[
 /// first p columns hold L (unit diagonal implied, D on it) and the trailing (m − p)² lower
 /// triangle is the Schur complement. `Err(k)` when pivot k vanishes.
 #[inline(always)]
-fn eliminate(
+fn eliminate<S: pulp::Simd>(
+    simd: S,
     front: &mut [c64],
     m: usize,
     p: usize,
@@ -1074,9 +1089,7 @@ fn eliminate(
             for j in k + 1..end {
                 let s = colk[j] * inv;
                 let colj = &mut tail[(j - k - 1) * m..(j - k) * m];
-                for i in j..m {
-                    colj[i] -= colk[i] * s;
-                }
+                subtract_multiple(simd, &mut colj[j..], &colk[j..], s);
             }
             for v in &mut front[k * m + k + 1..(k + 1) * m] {
                 *v *= inv;
