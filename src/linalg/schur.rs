@@ -1076,9 +1076,7 @@ fn eliminate<S: pulp::Simd>(
             // Sizes as max(|re|, |im|), within √2 of the modulus and without its hypot (a
             // quarter of the elimination's time with it).
             let size = |z: &c64| z.re.abs().max(z.im.abs());
-            let scale = front[k * m + k..(k + 1) * m]
-                .iter()
-                .fold(0.0f64, |a, z| a.max(size(z)));
+            let scale = largest(simd, &front[k * m + k..(k + 1) * m]);
             let finite = d.re.is_finite() && d.im.is_finite();
             if !(size(&d) > 1e-300_f64.max(tolerance * scale)) || !finite {
                 return Err(k);
@@ -1091,9 +1089,7 @@ fn eliminate<S: pulp::Simd>(
                 let colj = &mut tail[(j - k - 1) * m..(j - k) * m];
                 subtract_multiple(simd, &mut colj[j..], &colk[j..], s);
             }
-            for v in &mut front[k * m + k + 1..(k + 1) * m] {
-                *v *= inv;
-            }
+            scale_by(simd, &mut front[k * m + k + 1..(k + 1) * m], inv);
         }
         trailing_update(front, m, start, end, work);
         start = end;
@@ -1114,6 +1110,32 @@ fn subtract_multiple<S: pulp::Simd>(simd: S, y: &mut [c64], x: &[c64], s: c64) {
     for (yv, xv) in y_tail.iter_mut().zip(x_tail) {
         *yv -= xv * s;
     }
+}
+
+/// x *= s (complex), in the machine's widest registers.
+#[inline(always)]
+fn scale_by<S: pulp::Simd>(simd: S, x: &mut [c64], s: c64) {
+    let factor = simd.splat_c64s(s);
+    let (head, tail) = S::as_mut_simd_c64s(x);
+    for v in head {
+        *v = simd.mul_c64s(*v, factor);
+    }
+    for v in tail {
+        *v *= s;
+    }
+}
+
+/// The largest max(|re|, |im|) of x (0 for none), in the machine's widest registers.
+#[inline(always)]
+fn largest<S: pulp::Simd>(simd: S, x: &[c64]) -> f64 {
+    let parts: &[f64] = pulp::bytemuck::cast_slice(x);
+    let (head, tail) = S::as_simd_f64s(parts);
+    let mut big = simd.splat_f64s(0.0);
+    for v in head {
+        big = simd.max_f64s(big, simd.abs_f64s(*v));
+    }
+    tail.iter()
+        .fold(simd.reduce_max_f64s(big), |a, v| a.max(v.abs()))
 }
 
 /// Σ x_i y_i (complex, unconjugated), in the machine's widest registers with two
