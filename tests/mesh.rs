@@ -584,3 +584,60 @@ fn a_truncated_cached_mesh_is_remeshed() {
     assert!(err.contains("meshing again"), "{err}");
     assert_eq!(again, reference);
 }
+
+/// TEST GOAL: `gmsh --version` (part of the mesh cache's key) is asked once per gmsh
+/// installation, not once per run: starting the pip wheel's Python to ask costs 0.1–0.15 s,
+/// most of a small scene's run. A second run with the same gmsh reads the version from the
+/// cache's `gmsh-versions.txt`; a gmsh whose files changed (an upgrade) is asked again.
+#[test]
+fn the_gmsh_version_is_asked_once_per_installation_not_once_per_run() {
+    let dir = common::root().join("output/test-runs/gmsh-version-memo");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("asked.log");
+    let real = common::root().join(".venv/bin/gmsh");
+    let python = common::venv_python();
+    let fake = dir.join("fake-gmsh.sh");
+    let script = |extra: &str| {
+        format!(
+            "#!/bin/sh\n# {extra}\nif [ \"$1\" = --version ]; then echo asked >> {}; fi\nexec {} {} \"$@\"\n",
+            log.display(),
+            python.display(),
+            real.display()
+        )
+    };
+    common::write_executable(&fake, &script("first"));
+    let out = dir.join("run/quickstart").display().to_string();
+    let set = format!("geometry.gmsh={}", fake.display());
+    let run = || {
+        let o = hbcontact(&[
+            "run",
+            "pipelines/quickstart.yaml",
+            "--set",
+            &set,
+            "--out",
+            &out,
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let asked = || {
+        std::fs::read_to_string(&log)
+            .unwrap_or_default()
+            .lines()
+            .count()
+    };
+    run();
+    assert_eq!(asked(), 1, "the first run asks gmsh its version");
+    run();
+    assert_eq!(asked(), 1, "the second run remembers it");
+    let memo = std::fs::read_to_string(dir.join("run/.mesh-cache/gmsh-versions.txt")).unwrap();
+    assert!(
+        memo.contains("fake-gmsh.sh") && memo.contains("\t4."),
+        "{memo}"
+    );
+    // An upgrade rewrites gmsh's files: the changed file is asked again.
+    common::write_executable(&fake, &script("upgraded"));
+    run();
+    assert_eq!(asked(), 2, "a changed gmsh is asked again");
+}

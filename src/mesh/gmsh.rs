@@ -172,9 +172,13 @@ static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicU
 
 static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
-/// `gmsh --version`, remembered per command (asked once even when threads mesh at once: the
-/// lock is held while gmsh answers).
-pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
+/// The file in a mesh cache that remembers `gmsh --version` across processes.
+const VERSIONS_FILE: &str = "gmsh-versions.txt";
+
+/// `gmsh --version`, remembered per command: in this process (asked once even when threads
+/// mesh at once: the lock is held while gmsh answers) and, with a `cache_dir`, on disk for the
+/// next processes (`remembered_version`).
+pub fn gmsh_version(cmd: &GmshCommand, cache_dir: Option<&Path>) -> Result<String> {
     let key = cmd.describe();
     let mut cache = VERSIONS
         .lock()
@@ -182,6 +186,96 @@ pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
     if let Some((_, v)) = cache.iter().find(|(k, _)| *k == key) {
         return Ok(v.clone());
     }
+    let version = match cache_dir {
+        Some(dir) => remembered_version(cmd, dir, || ask_version(cmd))?,
+        None => ask_version(cmd)?,
+    };
+    cache.push((key, version.clone()));
+    Ok(version)
+}
+
+/// The version `ask` gives, remembered in `dir`'s `VERSIONS_FILE` under the command and the
+/// size and modification time of its files (the program and the script it runs). Starting the
+/// pip wheel's Python only to ask costs 0.1–0.15 s, most of a small scene's run; an upgrade
+/// of gmsh rewrites those files, and a changed file asks again. A file that cannot be read or
+/// written only means asking.
+fn remembered_version(
+    cmd: &GmshCommand,
+    dir: &Path,
+    ask: impl FnOnce() -> Result<String>,
+) -> Result<String> {
+    let Some(stamp) = command_stamp(cmd) else {
+        return ask();
+    };
+    let path = dir.join(VERSIONS_FILE);
+    let known = std::fs::read_to_string(&path).unwrap_or_default();
+    let mut lines: Vec<&str> = known.lines().collect();
+    if let Some(v) = lines
+        .iter()
+        .find_map(|l| l.strip_prefix(&format!("{stamp}\t")))
+    {
+        return Ok(v.to_string());
+    }
+    let version = ask()?;
+    let entry = format!("{stamp}\t{version}");
+    lines.retain(|l| l.split('\t').next() != Some(stamp.as_str()));
+    lines.push(&entry);
+    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(
+        "{VERSIONS_FILE}.tmp-{}-{unique}",
+        std::process::id()
+    ));
+    let written = std::fs::create_dir_all(dir)
+        .and_then(|()| std::fs::write(&tmp, lines.join("\n") + "\n"))
+        .and_then(|()| std::fs::rename(&tmp, &path));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(version)
+}
+
+/// The command's files, each as path, size and modification time (ns): the program, the
+/// script it runs and, for a script in a venv's `bin`, the venv's `gmsh.py` module (the
+/// wheel's API, which holds the version); `None` when one cannot be read (then the version is
+/// not remembered).
+fn command_stamp(cmd: &GmshCommand) -> Option<String> {
+    let modules = cmd.prefix_args.iter().flat_map(|script| {
+        let lib = script
+            .parent()
+            .and_then(Path::parent)
+            .map(|venv| venv.join("lib"));
+        let pythons = lib
+            .and_then(|l| std::fs::read_dir(l).ok())
+            .into_iter()
+            .flatten();
+        pythons
+            .filter_map(|e| e.ok())
+            .map(|e| e.path().join("site-packages").join("gmsh.py"))
+            .filter(|m| m.is_file())
+    });
+    let files: Vec<PathBuf> = std::iter::once(cmd.program.clone())
+        .chain(cmd.prefix_args.iter().cloned())
+        .chain(modules)
+        .collect();
+    let mut stamp = String::new();
+    for file in &files {
+        let path = std::fs::canonicalize(file).ok()?;
+        let meta = std::fs::metadata(&path).ok()?;
+        let since = meta
+            .modified()
+            .ok()?
+            .duration_since(std::time::UNIX_EPOCH)
+            .ok()?;
+        let (size, nanos) = (meta.len(), since.as_nanos());
+        stamp.push_str(&format!("{}|{size}|{nanos}|", path.display()));
+    }
+    // A tab or newline in a path would break the file's lines: do not remember that one.
+    (!stamp.contains(['\t', '\n'])).then_some(stamp)
+}
+
+/// Run `gmsh --version`.
+fn ask_version(cmd: &GmshCommand) -> Result<String> {
+    let key = cmd.describe();
     let mut c = cmd.command();
     c.arg("--version");
     let out = run_gmsh(c, &key, Duration::from_secs(60), &Silent)?;
@@ -198,7 +292,6 @@ pub fn gmsh_version(cmd: &GmshCommand) -> Result<String> {
             text.trim()
         )));
     }
-    cache.push((key, version.clone()));
     Ok(version)
 }
 
@@ -990,7 +1083,7 @@ pub fn mesh_geometry_with(
     let contents = std::fs::read(geo)
         .map_err(|e| Error::Gmsh(format!("cannot read geometry {}: {e}", geo.display())))?;
     let cmd = find_gmsh(request.gmsh.as_deref(), geo.parent())?;
-    let version = gmsh_version(&cmd)?;
+    let version = gmsh_version(&cmd, Some(cache_dir))?;
     let stem = geo
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())
