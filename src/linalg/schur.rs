@@ -1087,9 +1087,9 @@ fn eliminate<S: pulp::Simd>(
             for j in k + 1..end {
                 let s = colk[j] * inv;
                 let colj = &mut tail[(j - k - 1) * m..(j - k) * m];
-                subtract_multiple(simd, &mut colj[j..], &colk[j..], s);
+                subtract_product(&mut colj[j..], &colk[j..], s);
             }
-            scale_by(simd, &mut front[k * m + k + 1..(k + 1) * m], inv);
+            scale_exactly(&mut front[k * m + k + 1..(k + 1) * m], inv);
         }
         trailing_update(front, m, start, end, work);
         start = end;
@@ -1112,16 +1112,53 @@ fn subtract_multiple<S: pulp::Simd>(simd: S, y: &mut [c64], x: &[c64], s: c64) {
     }
 }
 
-/// x *= s (complex), in the machine's widest registers.
+/// y −= x s (complex), rounded exactly as the plain loop `y[i] -= x[i] * s` (each product
+/// and sum rounded once, no fused multiply-add), written two complex numbers at a time so
+/// that the compiler puts them in one vector register. The elimination keeps the plain
+/// loop's rounding: a sweep through a tangle of the sampled law turns on its last digits
+/// (docs/method.md §4).
 #[inline(always)]
-fn scale_by<S: pulp::Simd>(simd: S, x: &mut [c64], s: c64) {
-    let factor = simd.splat_c64s(s);
-    let (head, tail) = S::as_mut_simd_c64s(x);
-    for v in head {
-        *v = simd.mul_c64s(*v, factor);
+fn subtract_product(y: &mut [c64], x: &[c64], s: c64) {
+    let x = &x[..y.len()];
+    let (yf, xf): (&mut [f64], &[f64]) = (
+        pulp::bytemuck::cast_slice_mut(y),
+        pulp::bytemuck::cast_slice(x),
+    );
+    let mut ys = yf.chunks_exact_mut(4);
+    let mut xs = xf.chunks_exact(4);
+    for (y, x) in (&mut ys).zip(&mut xs) {
+        let (a0, b0, a1, b1) = (x[0], x[1], x[2], x[3]);
+        y[0] -= a0 * s.re - b0 * s.im;
+        y[1] -= a0 * s.im + b0 * s.re;
+        y[2] -= a1 * s.re - b1 * s.im;
+        y[3] -= a1 * s.im + b1 * s.re;
     }
-    for v in tail {
-        *v *= s;
+    for (y, x) in ys
+        .into_remainder()
+        .chunks_exact_mut(2)
+        .zip(xs.remainder().chunks_exact(2))
+    {
+        y[0] -= x[0] * s.re - x[1] * s.im;
+        y[1] -= x[0] * s.im + x[1] * s.re;
+    }
+}
+
+/// x *= s (complex), rounded exactly as the plain loop, two at a time (as `subtract_product`).
+#[inline(always)]
+fn scale_exactly(x: &mut [c64], s: c64) {
+    let xf: &mut [f64] = pulp::bytemuck::cast_slice_mut(x);
+    let mut pairs = xf.chunks_exact_mut(4);
+    for x in &mut pairs {
+        let (a0, b0, a1, b1) = (x[0], x[1], x[2], x[3]);
+        x[0] = a0 * s.re - b0 * s.im;
+        x[1] = a0 * s.im + b0 * s.re;
+        x[2] = a1 * s.re - b1 * s.im;
+        x[3] = a1 * s.im + b1 * s.re;
+    }
+    for x in pairs.into_remainder().chunks_exact_mut(2) {
+        let (a, b) = (x[0], x[1]);
+        x[0] = a * s.re - b * s.im;
+        x[1] = a * s.im + b * s.re;
     }
 }
 
