@@ -640,4 +640,7 @@ fn the_gmsh_version_is_asked_once_per_installation_not_once_per_run() {
     common::write_executable(&fake, &script("upgraded"));
     run();
     assert_eq!(asked(), 2, "a changed gmsh is asked again");
+    let memo = std::fs::read_to_string(dir.join("run/.mesh-cache/gmsh-versions.txt")).unwrap();
+    let lines = memo.lines().filter(|l| l.contains("fake-gmsh.sh")).count();
+    assert_eq!(lines, 1, "the state before the upgrade is dropped: {memo}");
 }

@@ -194,8 +194,8 @@ pub fn gmsh_version(cmd: &GmshCommand, cache_dir: Option<&Path>) -> Result<Strin
     Ok(version)
 }
 
-/// The version `ask` gives, remembered in `dir`'s `VERSIONS_FILE` under the command and the
-/// size and modification time of its files (the program and the script it runs). Starting the
+/// The version `ask` gives, remembered in `dir`'s `VERSIONS_FILE` under the paths, sizes and
+/// modification times of the command's files (`command_stamp`). Starting the
 /// pip wheel's Python only to ask costs 0.1–0.15 s, most of a small scene's run; an upgrade
 /// of gmsh rewrites those files, and a changed file asks again. A file that cannot be read or
 /// written only means asking.
@@ -204,21 +204,20 @@ fn remembered_version(
     dir: &Path,
     ask: impl FnOnce() -> Result<String>,
 ) -> Result<String> {
-    let Some(stamp) = command_stamp(cmd) else {
+    let Some((paths, states)) = command_stamp(cmd) else {
         return ask();
     };
     let path = dir.join(VERSIONS_FILE);
     let known = std::fs::read_to_string(&path).unwrap_or_default();
     let mut lines: Vec<&str> = known.lines().collect();
-    if let Some(v) = lines
-        .iter()
-        .find_map(|l| l.strip_prefix(&format!("{stamp}\t")))
-    {
+    let stamp = format!("{paths}\t{states}\t");
+    if let Some(v) = lines.iter().find_map(|l| l.strip_prefix(&stamp)) {
         return Ok(v.to_string());
     }
     let version = ask()?;
-    let entry = format!("{stamp}\t{version}");
-    lines.retain(|l| l.split('\t').next() != Some(stamp.as_str()));
+    let entry = format!("{stamp}{version}");
+    // This installation's earlier state (before an upgrade) is not kept.
+    lines.retain(|l| l.split('\t').next() != Some(paths.as_str()));
     lines.push(&entry);
     let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let tmp = dir.join(format!(
@@ -234,11 +233,11 @@ fn remembered_version(
     Ok(version)
 }
 
-/// The command's files, each as path, size and modification time (ns): the program, the
-/// script it runs and, for a script in a venv's `bin`, the venv's `gmsh.py` module (the
-/// wheel's API, which holds the version); `None` when one cannot be read (then the version is
-/// not remembered).
-fn command_stamp(cmd: &GmshCommand) -> Option<String> {
+/// The command's files (the program, the script it runs and, for a script in a venv's `bin`,
+/// the venv's `gmsh.py` module, the wheel's API, which holds the version): their paths, and
+/// their sizes and modification times (ns); `None` when one cannot be read (then the version
+/// is not remembered).
+fn command_stamp(cmd: &GmshCommand) -> Option<(String, String)> {
     let modules = cmd.prefix_args.iter().flat_map(|script| {
         let lib = script
             .parent()
@@ -257,7 +256,7 @@ fn command_stamp(cmd: &GmshCommand) -> Option<String> {
         .chain(cmd.prefix_args.iter().cloned())
         .chain(modules)
         .collect();
-    let mut stamp = String::new();
+    let (mut paths, mut states) = (String::new(), String::new());
     for file in &files {
         let path = std::fs::canonicalize(file).ok()?;
         let meta = std::fs::metadata(&path).ok()?;
@@ -266,11 +265,11 @@ fn command_stamp(cmd: &GmshCommand) -> Option<String> {
             .ok()?
             .duration_since(std::time::UNIX_EPOCH)
             .ok()?;
-        let (size, nanos) = (meta.len(), since.as_nanos());
-        stamp.push_str(&format!("{}|{size}|{nanos}|", path.display()));
+        paths.push_str(&format!("{}|", path.display()));
+        states.push_str(&format!("{}|{}|", meta.len(), since.as_nanos()));
     }
     // A tab or newline in a path would break the file's lines: do not remember that one.
-    (!stamp.contains(['\t', '\n'])).then_some(stamp)
+    (!paths.contains(['\t', '\n'])).then_some((paths, states))
 }
 
 /// Run `gmsh --version`.
