@@ -1532,6 +1532,37 @@ mod kernel_tests {
         }
     }
 
+    /// TEST GOAL: the elimination's column kernels round exactly as the plain loops they
+    /// replace (`y[i] -= x[i] * s`, `x[i] *= s`: equal bit for bit, no fused multiply-add,
+    /// at every length from 0 to 18), and `largest` is the plain maximum of max(|re|, |im|),
+    /// on the scalar instruction set and on AVX2. A sweep through a tangle of the sampled law
+    /// turns on the factorization's last digits (docs/method.md §4), so they must not move.
+    #[test]
+    fn elimination_kernels_round_exactly_as_the_plain_loops() {
+        let plain_max = |x: &[c64]| {
+            x.iter()
+                .fold(0.0f64, |a, z| a.max(z.re.abs().max(z.im.abs())))
+        };
+        for (n, t) in (0..19).flat_map(|n| (0..40).map(move |t| (n, t as f64))) {
+            let s = c64::new(0.3 + 0.37 * t, -1.2 + 0.11 * t * t);
+            let (x, y) = (sample(n, 0.1 + t), sample(n, 2.3 - t));
+            let (mut z, mut w) = (y.clone(), x.clone());
+            subtract_product(&mut z, &x, s);
+            scale_exactly(&mut w, s);
+            for i in 0..n {
+                let (zi, wi) = (y[i] - x[i] * s, x[i] * s);
+                let bits = |a: c64| (a.re.to_bits(), a.im.to_bits());
+                assert_eq!(bits(z[i]), bits(zi), "y -= x s at n = {n}, i = {i}");
+                assert_eq!(bits(w[i]), bits(wi), "x *= s at n = {n}, i = {i}");
+            }
+            assert_eq!(largest(pulp::Scalar::new(), &x), plain_max(&x), "n = {n}");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                assert_eq!(largest(v3, &x), plain_max(&x), "AVX2, n = {n}");
+            }
+        }
+    }
+
     /// TEST GOAL: the vector kernels of a solve's passes (the unconjugated complex dot
     /// product and y −= x s) equal the plain loops to round-off at every length
     /// from 0 to 18 (whole registers, pairs of them and the scalar tail), on the scalar
