@@ -94,6 +94,14 @@ const DAMPING_STEP_MIN: f64 = 1.05;
 /// damping continuation's heavier-damped problems).
 pub(super) type Heavier<'h> = &'h (dyn Fn(f64) -> Result<ReducedProblem> + Sync);
 
+/// Why a smoothing continuation stopped where its path turned back at μ = `at`·F.
+fn fold_reason(at: f64) -> String {
+    format!(
+        "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance the contact \
+         problem can have several periodic states)"
+    )
+}
+
 /// What the smoothing continuation does where its path turns back (a fold in μ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum OnFold {
@@ -279,10 +287,7 @@ impl<'a> Attempts<'a> {
                 iterations: 0,
                 relative_residual: f64::NAN,
                 log: Vec::new(),
-                reason: format!(
-                    "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance \
-                     the contact problem can have several periodic states)"
-                ),
+                reason: fold_reason(at),
             };
         }
         settings.smoothing = 0.0;
@@ -295,8 +300,8 @@ impl<'a> Attempts<'a> {
         let mut o = self.run(problem, &settings, &x);
         if let (false, Some(at)) = (o.converged, fold) {
             o.reason = format!(
-                "the smoothing path turned back at μ = {at:.1e}·F (a fold: near a resonance the \
-                 contact problem can have several periodic states), and the exact law from there: {}",
+                "{}, and the exact law from there: {}",
+                fold_reason(at),
                 o.reason
             );
         }
