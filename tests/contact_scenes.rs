@@ -368,16 +368,17 @@ fn reference_strip_converges_at_every_h_and_knob_dependence_falls_with_h() {
 
 /// TEST GOAL: with 0.5% damping (alpha = 86) instead of 5%, the reference strip's contact
 /// Newton needs at most 3 times the iterations at every H up to 60 (issue 8's goal; measured
-/// at most 2.7×, at H = 60, where it took 4.7× while a smoothing level could spend 30
+/// at most 2.6×, at H = 60, where it took 4.7× while a smoothing level could spend 30
 /// iterations cycling), and its answer's independence of c is verified at every one of them
 /// (at H = 40 the re-solve at c/3 cycles between active sets and the one at 3c converges:
 /// the run had warned "unverified"; at H = 60 the change, 3.4%, is above the 1% the run
 /// warns at). At H = 80 the direct continuation folds; the solve then continues in the damping
-/// from 5% at the fundamental down to the scene's 0.56% in four steps and converges (111
-/// iterations measured, where the harmonic ladder at c/10 took 1215 or the run stopped, by
-/// round-off), warns that it reached one of several periodic states that way, and its answer
-/// continues the direct solves' family in H: the mean contact force within 0.5% of H = 60's
-/// (measured 0.36%; H = 70, 90, 100 lie within 0.4% of it too).
+/// together with the smoothing, from 5% at the fundamental down to the scene's 0.56% over six
+/// smoothing levels, and converges (51 iterations measured, all attempts counted; the
+/// stepwise damping continuation it replaced took 111, the harmonic ladder at c/10 1215 or
+/// the run stopped, by round-off), warns that it reached one of several periodic states that
+/// way, and its answer continues the direct solves' family in H: the mean contact force
+/// within 0.5% of H = 60's (measured 0.36%; H = 70, 90, 100 lie within 0.4% of it too).
 #[test]
 fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
     let solve = |h: usize, alpha: f64| {
@@ -432,12 +433,16 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
         c.newton.iterations
     );
     assert_eq!(c.ladder, [80]);
-    assert_eq!(path.len(), 5, "{path:?}");
+    // The first level at 5%, one ratio per heavier level, the scene's own at the end.
+    assert_eq!(path.len(), 7, "{path:?}");
     assert!((path[0] - 0.05).abs() < 1e-12, "{path:?}");
     // The scene's own ζ = α/(2ω) at the fundamental.
     let zeta = 86.0 / (2.0 * 2.0 * std::f64::consts::PI * 1225.4930618);
-    assert!((path[4] / zeta - 1.0).abs() < 1e-9, "{path:?}");
-    assert!(c.newton.iterations <= 2 * 111, "{}", c.newton.iterations);
+    assert!((path[6] / zeta - 1.0).abs() < 1e-9, "{path:?}");
+    assert!(path.windows(2).all(|w| w[1] < w[0]), "{path:?}");
+    // Measured 51; 98 where a failing direct level may hover for 30 iterations (no
+    // `hover` bound), which this bound catches.
+    assert!(c.newton.iterations <= 65, "{}", c.newton.iterations);
     let detour = at_80
         .warnings
         .iter()
@@ -461,8 +466,9 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
 
 /// TEST GOAL: the damping continuation is not the reference strip's alone: `strip_wall` with
 /// light mass and stiffness damping (alpha = 150, beta = 1e-8: ζ = 0.25% at its 5 kHz drive)
-/// at H = 40, whose smoothing path folds, is followed down from 5% in six steps (76 Newton
-/// iterations measured, where the harmonic ladder had taken 624), its answer is checked
+/// at H = 40, whose smoothing path folds, is followed down from 5% with the smoothing over six
+/// levels (37 Newton iterations measured, all attempts counted, where the stepwise damping
+/// continuation it replaced took 76 and the harmonic ladder 624), its answer is checked
 /// against the second c like a direct one (0.51% measured), and the run's warning and
 /// headline say which way it went.
 #[test]
@@ -481,7 +487,7 @@ fn lightly_damped_strip_wall_converges_through_the_damping_continuation() {
     );
     assert_eq!(c.ladder, [40]);
     assert_eq!(c.damping_path.len(), 7, "{:?}", c.damping_path);
-    assert!(c.newton_iterations <= 2 * 76, "{}", c.newton_iterations);
+    assert!(c.newton_iterations <= 2 * 37, "{}", c.newton_iterations);
     let change = c.knob_check.c_change.expect("the second c converges");
     assert!(change < 2.0 * 0.0051, "{change}");
     let warned = |w: &String| w.contains("continuation in the damping");

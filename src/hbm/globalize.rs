@@ -3,9 +3,10 @@
 //! converge on hard cases (docs/method.md, "Globalization"), cheapest first:
 //! 1. the plain Newton from λ = 0 (by a continuation in a smoothing μ of the law);
 //! 2. on a lightly damped scene, continuation in the damping: the same scene with its
-//!    damping scaled up to ζ₀ = 5% at the fundamental (ζ the Rayleigh damping ratio), solved
-//!    directly, then the damping scaled back down step by step to the scene's own, each step
-//!    a Newton from the last state (each heavier-damped problem is a new factorization);
+//!    damping scaled up to ζ₀ = 5% at the fundamental (ζ the Rayleigh damping ratio) at the
+//!    first smoothing level, brought down to the scene's own together with μ over the next
+//!    levels, each level a Newton from the last state (each heavier-damped level is a new
+//!    factorization);
 //! 3. the harmonic ladder H/8, H/4, H/2, H, each rung warm-starting the next (the low
 //!    harmonics of an impact response are found first);
 //! 4. all again with c ten times smaller (a softer penalty on the gap: the c that converges
@@ -81,18 +82,38 @@ const LEVEL_ITERATIONS: usize = 30;
 /// undamped strip at H = 40, 15 iterations) goes on.
 const LEVEL_STAGNATION: usize = 8;
 
+/// Newton iterations a smoothing level may take without halving its residual, whatever its
+/// steps, where a fallback follows (`OnFold::Stop`): the 0.5%-damped strip's direct path at
+/// H = 80 and 100 hovers at one residual by short steps, 30 iterations per failed level
+/// before this bound, 8 with it (4 stops `strip_wall` with α = 1500, β = 0 at H = 40
+/// mid-creep: its direct solve has one level of 7 short steps).
+const LEVEL_HOVER: usize = 8;
+
+/// The joint continuation brings the damping down to the scene's own over this many
+/// smoothing levels (μ from 0.3 F to 0.3⁷ F ≈ 2·10⁻⁴ F): on the 0.5%-damped strip at H = 80,
+/// 21 Newton iterations; over 4 levels its exact law's path still folds there, over 8 H = 40
+/// and 60 need more narrowed levels.
+const JOINT_LEVELS: i32 = 6;
+
 /// The damping ratio at the fundamental the damping continuation starts from: where the
 /// reference strip's direct solve converges at every H from 5 to 80.
 const DAMPED_START: f64 = 0.05;
-/// The damping continuation's first ratio between steps (10^¼: four steps from 5% to 0.5%;
-/// three steps there fail, measured at H = 80).
-const DAMPING_STEP: f64 = 1.778_279_41;
-/// Below this step ratio the damped state's branch is taken to turn back.
-const DAMPING_STEP_MIN: f64 = 1.05;
-
 /// The reduced problem of the same scene with its damping D scaled by a factor s > 1 (the
 /// damping continuation's heavier-damped problems).
 pub(super) type Heavier<'h> = &'h (dyn Fn(f64) -> Result<ReducedProblem> + Sync);
+
+/// The joint continuation's damping scale at μ = `relative`·F: `top` at the first level
+/// (μ = 0.3 F), falling linearly in ln μ to 1 at μ = 0.3^(`JOINT_LEVELS` + 1) F, and 1
+/// below (exactly: round-off in μ must not make a heavier problem of the scene's own).
+fn joint_scale(top: f64, relative: f64) -> f64 {
+    let span = 0.3f64.powi(JOINT_LEVELS).ln();
+    let w = (1.0 - (relative / 0.3).ln() / span).clamp(0.0, 1.0);
+    if w < 1e-9 {
+        1.0
+    } else {
+        top.powf(w)
+    }
+}
 
 /// Why a smoothing continuation stopped where its path turned back at μ = `at`·F.
 fn fold_reason(at: f64) -> String {
@@ -185,6 +206,7 @@ impl<'a> Attempts<'a> {
             smoothing,
             min_iterations: 0,
             stagnation: 0,
+            hover: 0,
         }
     }
 
@@ -264,6 +286,9 @@ impl<'a> Attempts<'a> {
             settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
             settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
             settings.stagnation = LEVEL_STAGNATION;
+            if on_fold == OnFold::Stop {
+                settings.hover = LEVEL_HOVER;
+            }
             let o = self.run(problem, &settings, &x);
             if self.exhausted == Some(Budget::Time) {
                 return o; // its reason names the iteration the time ran out at
@@ -290,14 +315,7 @@ impl<'a> Attempts<'a> {
                 reason: fold_reason(at),
             };
         }
-        settings.smoothing = 0.0;
-        settings.tolerance = self.settings.tolerance;
-        settings.max_iterations = self.settings.max_iterations;
-        settings.stagnation = 0;
-        // Polish a continuation's end point onto the exact law's active set (nothing to
-        // polish when nothing penetrates: λ = 0 is then exact).
-        settings.min_iterations = usize::from(force > 0.0);
-        let mut o = self.run(problem, &settings, &x);
+        let mut o = self.exact_law(problem, c, &x, force);
         if let (false, Some(at)) = (o.converged, fold) {
             o.reason = format!(
                 "{}, and the exact law from there: {}",
@@ -306,6 +324,104 @@ impl<'a> Attempts<'a> {
             );
         }
         o
+    }
+
+    /// The Newton on the exact law (μ = 0) from a smoothing continuation's end point `x`,
+    /// with at least one step to polish it onto the exact law's active set (none when nothing
+    /// penetrates, `force` = 0: λ = 0 is then exact).
+    fn exact_law(
+        &mut self,
+        problem: &ReducedProblem,
+        c: f64,
+        x: &[f64],
+        force: f64,
+    ) -> NewtonOutcome {
+        let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
+        settings.min_iterations = usize::from(force > 0.0);
+        self.run(problem, &settings, x)
+    }
+
+    /// The joint continuation (docs/method.md, "Globalization"): the smoothing levels of
+    /// `smoothed_on` from λ = 0, with the damping scaled by `joint_scale`, so each level is a
+    /// heavier-damped problem until the damping is the scene's own. A failed level narrows
+    /// the step in μ (and so in the damping); a level converged in two iterations or fewer
+    /// widens it back towards 0.3. Returns the ratios ζ passed through.
+    fn joint(&mut self, c: f64, heavier: Heavier, zeta: f64) -> Option<(NewtonOutcome, Vec<f64>)> {
+        let (own, top) = (self.problem, DAMPED_START / zeta);
+        let mut settings = self.newton_settings(own.harmonics, c, 0.0);
+        let force = reduced::linear_force(own, settings.samples, c);
+        let floor = 0.1 * self.settings.tolerance * force;
+        let (mut x, mut ratio, mut last) = (vec![0.0; own.linear_gap.len()], 0.3f64, force);
+        let (mut path, mut heavy) = (Vec::new(), None);
+        while force > 0.0 && last * ratio > floor {
+            let mu = last * ratio;
+            let scale = joint_scale(top, mu / force);
+            settings.smoothing = mu;
+            settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
+            settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
+            settings.stagnation = LEVEL_STAGNATION;
+            let o = self.run_scaled(&mut heavy, heavier, scale, &settings, &x)?;
+            if o.converged {
+                if path.last() != Some(&(zeta * scale)) {
+                    path.push(zeta * scale);
+                }
+                if o.iterations <= 2 {
+                    ratio = (ratio * ratio).max(0.3);
+                }
+                (x, last) = (o.multipliers, mu);
+            } else if ratio.sqrt() > 0.95 {
+                self.reasons.push(format!(
+                    "continuation in the damping with the smoothing: no level below μ = {:.1e}·F \
+                     at ζ = {:.2e}: {}",
+                    last / force,
+                    zeta * scale,
+                    o.reason
+                ));
+                return None;
+            } else {
+                ratio = ratio.sqrt();
+            }
+        }
+        let o = self.exact_law(own, c, &x, force);
+        if !o.converged {
+            self.reasons.push(format!(
+                "continuation in the damping with the smoothing, the exact law from its end: {}",
+                o.reason
+            ));
+            return None;
+        }
+        if path.is_empty() {
+            path.push(zeta * top); // nothing penetrated: λ = 0 at every level
+        }
+        if path.last() != Some(&zeta) {
+            path.push(zeta);
+        }
+        Some((o, path))
+    }
+
+    /// One Newton run on the scene with its damping scaled by `scale` (the scene's own at 1),
+    /// the heavier problem kept in `heavy` for the next level at the same scale; `None` when
+    /// it cannot be formed or the time budget is spent (the reason recorded).
+    fn run_scaled(
+        &mut self,
+        heavy: &mut Option<(f64, ReducedProblem)>,
+        heavier: Heavier,
+        scale: f64,
+        settings: &NewtonSettings,
+        x: &[f64],
+    ) -> Option<NewtonOutcome> {
+        let o = if scale == 1.0 {
+            self.run(self.problem, settings, x)
+        } else {
+            let problem = match heavy.take() {
+                Some((s, p)) if s == scale => p,
+                _ => self.heavier_problem(heavier, scale)?,
+            };
+            let o = self.run(&problem, settings, x);
+            *heavy = Some((scale, problem));
+            o
+        };
+        (self.exhausted != Some(Budget::Time)).then_some(o)
     }
 
     /// The plain Newton, then the damping continuation, then the harmonic ladder, at one c.
@@ -324,69 +440,13 @@ impl<'a> Attempts<'a> {
         self.reasons
             .push(format!("direct at c = {c:.3e}: {}", o.reason));
         if let Some((heavier, zeta)) = heavier {
-            if let Some((o, damping)) = self.damped(c, heavier, zeta) {
+            if let Some((o, damping)) = self.joint(c, heavier, zeta) {
                 let ladder = vec![h];
                 return Some((o, Route { ladder, damping }));
             }
         }
         let (o, ladder) = self.ladder(c)?;
         Some((o, Route::laddered(ladder)))
-    }
-
-    /// Continuation in the damping (docs/method.md, "Globalization"): the scene with its
-    /// damping scaled to ζ = `DAMPED_START` at the fundamental (its own ζ is `zeta`) solved
-    /// directly, then the damping scaled back down by `DAMPING_STEP` per step to the scene's
-    /// own, each step a Newton on the exact law from the last state; a step that fails is
-    /// shortened (its ratio's square root), down to `DAMPING_STEP_MIN`, where the damped
-    /// state's branch is taken to turn back. Returns the ratios ζ continued through.
-    fn damped(&mut self, c: f64, heavier: Heavier, zeta: f64) -> Option<(NewtonOutcome, Vec<f64>)> {
-        let top = DAMPED_START / zeta;
-        let problem = self.heavier_problem(heavier, top)?;
-        let zero = vec![0.0; self.problem.linear_gap.len()];
-        let o = self.smoothed_on(&problem, c, &zero, OnFold::ExactLaw);
-        if !o.converged {
-            self.reasons.push(format!(
-                "damping continuation: no direct solve at ζ = {DAMPED_START}: {}",
-                o.reason
-            ));
-            return None;
-        }
-        let mut settings = self.newton_settings(self.problem.harmonics, c, 0.0);
-        settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
-        settings.stagnation = LEVEL_STAGNATION;
-        settings.min_iterations = 1;
-        let (mut x, mut scale, mut ratio) = (o.multipliers, top, DAMPING_STEP);
-        let mut path = vec![zeta * top];
-        loop {
-            let next = if scale / ratio < DAMPING_STEP_MIN {
-                1.0
-            } else {
-                scale / ratio
-            };
-            let problem = if next == 1.0 {
-                Cow::Borrowed(self.problem)
-            } else {
-                Cow::Owned(self.heavier_problem(heavier, next)?)
-            };
-            let o = self.run(&problem, &settings, &x);
-            if o.converged {
-                path.push(zeta * next);
-                if next == 1.0 {
-                    return Some((o, path));
-                }
-                (x, scale) = (o.multipliers, next);
-            } else if self.exhausted == Some(Budget::Time) || ratio.sqrt() < DAMPING_STEP_MIN {
-                self.reasons.push(format!(
-                    "damping continuation from ζ = {:.2e} to {:.2e}: {}",
-                    zeta * scale,
-                    zeta * next,
-                    o.reason
-                ));
-                return None;
-            } else {
-                ratio = ratio.sqrt();
-            }
-        }
     }
 
     /// `heavier(scale)`, or `None` with the reason recorded (or the time budget spent).
@@ -611,4 +671,31 @@ fn stall_diagnosis(
         last.map_or(0, |l| l.active_samples),
         advice.join("; ")
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: the joint continuation's damping starts at the 5% scene on its first level
+    /// (μ = 0.3 F), falls monotonically, reaches the scene's own exactly `JOINT_LEVELS`
+    /// levels of 0.3 later and stays there (the scale is exactly 1, so no heavier problem is
+    /// factored for the scene's own levels).
+    #[test]
+    fn joint_damping_falls_from_the_top_to_the_scenes_own_over_its_levels() {
+        let top = 8.95;
+        assert!((joint_scale(top, 0.3) / top - 1.0).abs() < 1e-12);
+        let levels: Vec<f64> = (0..=JOINT_LEVELS + 3)
+            .map(|j| joint_scale(top, 0.3 * 0.3f64.powi(j)))
+            .collect();
+        assert!(levels
+            .windows(2)
+            .take(JOINT_LEVELS as usize)
+            .all(|w| w[1] < w[0]));
+        let own = &levels[JOINT_LEVELS as usize..];
+        assert!(own.iter().all(|&s| s == 1.0), "{levels:?}");
+        // Halfway in ln μ, halfway in ln s.
+        let half = joint_scale(top, 0.3 * 0.3f64.powf(JOINT_LEVELS as f64 / 2.0));
+        assert!((half / top.sqrt() - 1.0).abs() < 1e-12, "{half}");
+    }
 }

@@ -150,6 +150,7 @@ fn resolve(
         smoothing: 0.0,
         min_iterations: 1,
         stagnation: 0,
+        hover: 0,
     };
     reduced::newton(problem, &settings, start, reporter)
 }

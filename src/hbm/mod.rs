@@ -235,6 +235,7 @@ pub fn solve_from(
         smoothing: 0.0,
         min_iterations: 1,
         stagnation: 0,
+        hover: 0,
     };
     let outcome = timed(&mut timings.newton, || {
         reduced::newton(&problem, &newton, &start.multipliers, reporter)

@@ -165,6 +165,9 @@ pub struct NewtonSettings {
     /// a run cycling between active sets, which a smoothing level narrows its step for. A
     /// run creeping by short steps through many active-set changes is not stopped by it.
     pub stagnation: usize,
+    /// Give up after this many steps of any length without halving the residual (0: never):
+    /// a run hovering at one residual by short steps, where a fallback is at hand.
+    pub hover: usize,
 }
 
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
@@ -383,8 +386,8 @@ pub fn newton_until(
     }];
     let (mut iterations, mut stalls) = (0, 0);
     let mut history: Vec<f64> = Vec::new();
-    // The residual the last halving reached, and the near-full steps taken since.
-    let (mut mark, mut full_steps) = (residual.relative(&current), 0);
+    // The residual the last halving reached, and the near-full steps and all steps taken since.
+    let (mut mark, mut full_steps, mut since) = (residual.relative(&current), 0, 0);
     let reason = loop {
         let rel = residual.relative(&current);
         let within = rel <= settings.tolerance;
@@ -392,7 +395,12 @@ pub fn newton_until(
             break None;
         }
         if rel <= 0.5 * mark {
-            (mark, full_steps) = (rel, 0);
+            (mark, full_steps, since) = (rel, 0, 0);
+        }
+        if settings.hover > 0 && since >= settings.hover {
+            break Some(format!(
+                "{since} Newton steps did not halve the residual (cycling between active sets)"
+            ));
         }
         if settings.stagnation > 0 && full_steps >= settings.stagnation {
             break Some(format!(
@@ -439,6 +447,7 @@ pub fn newton_until(
         };
         let stalled = accepted.is_none();
         full_steps += usize::from(alpha >= 0.5);
+        since += 1;
         if let Some(e) = accepted {
             current = e;
         }
@@ -502,6 +511,7 @@ mod tests {
             smoothing: 0.0,
             min_iterations: 0,
             stagnation: 0,
+            hover: 0,
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -557,6 +567,7 @@ mod tests {
                 smoothing: 0.0,
                 min_iterations: 0,
                 stagnation: 0,
+                hover: 0,
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -602,6 +613,7 @@ mod tests {
             smoothing: 0.0,
             min_iterations: 0,
             stagnation: 0,
+            hover: 0,
         };
         settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);

@@ -77,8 +77,8 @@ pub struct ContactSolution {
 pub fn detour(ladder: &[usize], damping_path: &[f64]) -> Option<String> {
     match (damping_path, ladder.len()) {
         ([first, .., last], _) => Some(format!(
-            "continuation in the damping, ζ at the fundamental from {:.1}% down to the scene's \
-             {:.2}% in {} steps",
+            "continuation in the damping with the smoothing, ζ at the fundamental from {:.1}% \
+             down to the scene's {:.2}% in {} steps",
             100.0 * first,
             100.0 * last,
             damping_path.len() - 1

@@ -302,6 +302,7 @@ impl<'a> Continuation<'a> {
             smoothing: 0.0,
             min_iterations: 0,
             stagnation: 0,
+            hover: 0,
         };
         let (first, force) = match &s.resume {
             None => {
