@@ -13,6 +13,7 @@ pub mod config;
 pub mod contact;
 pub mod error;
 pub mod fem;
+pub mod files;
 pub mod hbm;
 pub mod linalg;
 pub mod mesh;

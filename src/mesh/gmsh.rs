@@ -168,8 +168,6 @@ pub fn find_gmsh(explicit: Option<&Path>, near: Option<&Path>) -> Result<GmshCom
     )))
 }
 
-static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-
 static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
 /// The file in a mesh cache that remembers `gmsh --version` across processes.
@@ -219,17 +217,10 @@ fn remembered_version(
     // This installation's earlier state (before an upgrade) is not kept.
     lines.retain(|l| l.split('\t').next() != Some(paths.as_str()));
     lines.push(&entry);
-    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(
-        "{VERSIONS_FILE}.tmp-{}-{unique}",
-        std::process::id()
-    ));
-    let written = std::fs::create_dir_all(dir)
-        .and_then(|()| std::fs::write(&tmp, lines.join("\n") + "\n"))
-        .and_then(|()| std::fs::rename(&tmp, &path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
+    // A memo that cannot be written just means asking again next time.
+    let text = lines.join("\n") + "\n";
+    let _ = std::fs::create_dir_all(dir)
+        .and_then(|()| crate::files::write_atomic(&path, text.as_bytes()));
     Ok(version)
 }
 
@@ -912,8 +903,11 @@ pub fn estimate_elements(
     limits: &MeshLimits,
     reporter: &dyn Reporter,
 ) -> Result<f64> {
-    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let out = scratch.join(format!("estimate-{}-{unique}.msh", std::process::id()));
+    let out = scratch.join(format!(
+        "estimate-{}-{}.msh",
+        std::process::id(),
+        crate::files::unique()
+    ));
     with_gmsh(cmd, request, limits, reporter, &out, |steps| {
         estimate_with(steps, request, scratch)
     })
@@ -925,8 +919,7 @@ fn estimate_with(
     request: &MeshRequest,
     scratch: &Path,
 ) -> std::result::Result<f64, Stop> {
-    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let base = format!("estimate-{}-{unique}", std::process::id());
+    let base = format!("estimate-{}-{}", std::process::id(), crate::files::unique());
     let unrolled = scratch.join(format!("{base}.geo_unrolled"));
     steps.unroll(&unrolled)?;
     let text = std::fs::read_to_string(&unrolled).unwrap_or_default();
@@ -1114,8 +1107,7 @@ pub fn mesh_geometry_with(
         }
     }
     // Unique per call: threads of one process (parallel tests, studies) may mesh at once.
-    let unique = TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = cache_dir.join(format!("{stem}.tmp-{}-{unique}.msh", std::process::id()));
+    let tmp = crate::files::temp_beside(&msh);
     // The estimate, and its refusal, come before the mesh, in the same gmsh session.
     let meshed = with_gmsh(&cmd, request, limits, reporter, &tmp, |steps| {
         let estimate = estimate_with(steps, request, cache_dir)?;

@@ -5,11 +5,7 @@ use std::path::Path;
 use crate::{Error, Result};
 
 fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(format!(".tmp-{}", std::process::id()));
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, text).map_err(|e| Error::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+    crate::files::write_atomic(path, text.as_bytes()).map_err(|e| Error::io(path, e))
 }
 
 /// Numbers are written in the shortest form that reads back to the same f64.
