@@ -397,15 +397,15 @@ pub fn newton_until(
         if rel <= 0.5 * mark {
             (mark, full_steps, since) = (rel, 0, 0);
         }
-        if settings.hover > 0 && since >= settings.hover {
-            break Some(format!(
-                "{since} Newton steps did not halve the residual (cycling between active sets)"
-            ));
-        }
         if settings.stagnation > 0 && full_steps >= settings.stagnation {
             break Some(format!(
                 "{full_steps} near-full Newton steps did not halve the residual (cycling between \
                  active sets)"
+            ));
+        }
+        if settings.hover > 0 && since >= settings.hover {
+            break Some(format!(
+                "{since} Newton steps did not halve the residual (hovering between active sets)"
             ));
         }
         if !rel.is_finite() {
