@@ -98,6 +98,7 @@ const JOINT_LEVELS: i32 = 6;
 /// The damping ratio at the fundamental the damping continuation starts from: where the
 /// reference strip's direct solve converges at every H from 5 to 80.
 const DAMPED_START: f64 = 0.05;
+
 /// The reduced problem of the same scene with its damping D scaled by a factor s > 1 (the
 /// damping continuation's heavier-damped problems).
 pub(super) type Heavier<'h> = &'h (dyn Fn(f64) -> Result<ReducedProblem> + Sync);

@@ -132,12 +132,17 @@ const RESOLVE_ITERATIONS: usize = 50;
 /// for both re-solves of the 0.5%-damped strip at H = 60); one that cycles does not converge
 /// in 50 (the 0.5%-damped strip at c/3, H = 40).
 const C_RESOLVE_ITERATIONS: usize = 20;
+/// Steps a re-solve at a second c may take without halving its residual before the other c
+/// is tried: a warm-started re-solve that converges halves it at nearly every step, one that
+/// cycles between active sets (the 0.5%-damped strip at c/3, H = 40) never does.
+const C_RESOLVE_HOVER: usize = 8;
 
-/// The exact-law Newton at (N, c) from `start`, at most `max_iterations` steps.
+/// The exact-law Newton at (N, c) from `start`, at most `max_iterations` steps and at most
+/// `hover` without halving its residual (0: no such bound).
 fn resolve(
     problem: &ReducedProblem,
     (samples, c, tolerance): (usize, f64, f64),
-    max_iterations: usize,
+    (max_iterations, hover): (usize, usize),
     start: &[f64],
     reporter: &dyn Reporter,
 ) -> NewtonOutcome {
@@ -150,7 +155,7 @@ fn resolve(
         smoothing: 0.0,
         min_iterations: 1,
         stagnation: 0,
-        hover: 0,
+        hover,
     };
     reduced::newton(problem, &settings, start, reporter)
 }
@@ -181,7 +186,7 @@ pub fn adapt_samples(
         resolve(
             problem,
             (n, c, tolerance),
-            RESOLVE_ITERATIONS,
+            (RESOLVE_ITERATIONS, 0),
             start,
             reporter,
         )
@@ -193,7 +198,7 @@ pub fn adapt_samples(
             resolve(
                 problem,
                 (n, c_alt, loose),
-                C_RESOLVE_ITERATIONS,
+                (C_RESOLVE_ITERATIONS, C_RESOLVE_HOVER),
                 start,
                 reporter,
             )
