@@ -307,8 +307,8 @@ impl<'a> Attempts<'a> {
             }
             if o.converged {
                 (x, last) = (o.multipliers, mu);
-            } else if self.exhausted.is_some() {
-                break; // out of budget: no fold to report
+            } else if o.iterations >= self.settings.max_iterations {
+                break; // this run is out of the budget: no fold to report
             } else if ratio.sqrt() > 0.95
                 || (on_fold == OnFold::Stop && (failures >= 1 || short_steps(&o.log)))
             {
