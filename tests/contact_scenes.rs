@@ -371,7 +371,8 @@ fn reference_strip_converges_at_every_h_and_knob_dependence_falls_with_h() {
 /// at most 2.6×, at H = 60, where it took 4.7× while a smoothing level could spend 30
 /// iterations cycling), and its answer's independence of c is verified at every one of them
 /// (at H = 40 the re-solve at c/3 cycles between active sets and the one at 3c converges:
-/// the run had warned "unverified"; at H = 60 the change, 3.4%, is above the 1% the run
+/// the run had warned "unverified"; the c/3 re-solve gives up after 8 steps without halving
+/// its residual, so the checks take 14 iterations, where its cap made them 26; at H = 60 the change, 3.4%, is above the 1% the run
 /// warns at). At H = 80 the direct continuation folds; the solve then continues in the damping
 /// together with the smoothing, from 5% at the fundamental down to the scene's 0.56% over six
 /// smoothing levels, and converges (40 iterations measured, all attempts counted; the
@@ -424,6 +425,11 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
                 .is_some_and(|change| (0.5 * measured..2.0 * measured).contains(&change)),
             "H = {h}: {k:?}"
         );
+        if h == 40 {
+            // The cycling re-solve at c/3 gives up after 8 steps without halving its
+            // residual: 14 iterations measured for the checks, 26 where it ran to its cap.
+            assert!(k.iterations <= 18, "H = 40: {k:?}");
+        }
     }
     let at_80 = solve(80, 86.0).unwrap_or_else(|e| panic!("H = 80: {e}"));
     let c = at_80.contact.as_ref().unwrap();
