@@ -358,8 +358,9 @@ impl<'a> Attempts<'a> {
     /// The joint continuation (docs/method.md, "Globalization"): the smoothing levels of
     /// `smoothed_on` from λ = 0, with the damping scaled by `joint_scale`, so each level is a
     /// heavier-damped problem until the damping is the scene's own. A failed level narrows
-    /// the step in μ (and so in the damping); a level converged in two iterations or fewer
-    /// widens it back towards 0.3. Returns the ratios ζ passed through.
+    /// the step in μ (and so in the damping), unless it ran out of `max_iterations`; a level
+    /// converged in two iterations or fewer widens it back towards 0.3. Returns the ratios ζ
+    /// passed through.
     fn joint(&mut self, c: f64, heavier: Heavier, zeta: f64) -> Option<(NewtonOutcome, Vec<f64>)> {
         let (own, top) = (self.problem, DAMPED_START / zeta);
         let mut settings = self.newton_settings(own.harmonics, c, 0.0);
@@ -383,7 +384,7 @@ impl<'a> Attempts<'a> {
                     ratio = (ratio * ratio).max(0.3);
                 }
                 (x, last) = (o.multipliers, mu);
-            } else if ratio.sqrt() > 0.95 {
+            } else if ratio.sqrt() > 0.95 || o.iterations >= self.settings.max_iterations {
                 self.reasons.push(format!(
                     "continuation in the damping with the smoothing: no level below μ = {:.1e}·F \
                      at ζ = {:.2e}: {}",
