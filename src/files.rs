@@ -8,17 +8,18 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 static TEMP_COUNTER: AtomicUsize = AtomicUsize::new(0);
 
-/// A number unique to this call within the process (threads of one process — parallel
-/// tests, a study's points — may write beside one another at once).
-pub fn unique() -> usize {
-    TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+/// `<pid>-<n>`, unique to this call across processes and the threads of one process
+/// (parallel tests, a study's points) that may write beside one another at once.
+pub fn unique_tag() -> String {
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    format!("{}-{n}", std::process::id())
 }
 
 /// A temporary name beside `path`, unique to this process and call, with `path`'s extension
 /// kept last (gmsh picks its output format by it): `mesh.msh` → `mesh.tmp-<pid>-<n>.msh`.
 pub fn temp_beside(path: &Path) -> PathBuf {
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-    let tag = format!("tmp-{}-{}", std::process::id(), unique());
+    let tag = format!("tmp-{}", unique_tag());
     let name = match path.extension() {
         Some(ext) => format!("{stem}.{tag}.{}", ext.to_string_lossy()),
         None => format!("{stem}.{tag}"),
@@ -46,7 +47,7 @@ mod tests {
     /// target differ per call and keep the extension last.
     #[test]
     fn atomic_writes_replace_whole_files_and_leave_no_temporaries() {
-        let dir = std::env::temp_dir().join(format!("hbcontact-files-{}", unique()));
+        let dir = std::env::temp_dir().join(format!("hbcontact-files-{}", unique_tag()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("summary.json");
         write_atomic(&path, b"old").unwrap();

@@ -443,8 +443,7 @@ fn gmsh_dies_when_hbcontact_is_terminated_or_killed() {
 /// the error says so: the signal, the likely cause and the remedy, not an empty message.
 #[test]
 fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
-    let dir = common::root().join("output/test-runs/killed-gmsh");
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::temp_out("killed-gmsh");
     std::fs::create_dir_all(&dir).unwrap();
     let fake = dir.join("fake-gmsh.sh");
     common::write_executable(
@@ -591,8 +590,7 @@ fn a_truncated_cached_mesh_is_remeshed() {
 /// cache's `gmsh-versions.txt`; a gmsh whose files changed (an upgrade) is asked again.
 #[test]
 fn the_gmsh_version_is_asked_once_per_installation_not_once_per_run() {
-    let dir = common::root().join("output/test-runs/gmsh-version-memo");
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::temp_out("gmsh-version-memo");
     std::fs::create_dir_all(&dir).unwrap();
     let log = dir.join("asked.log");
     let real = common::root().join(".venv/bin/gmsh");

@@ -294,10 +294,7 @@ impl<'a> Attempts<'a> {
         let mut failures = 0;
         while force > 0.0 && last * ratio > floor {
             let mu = last * ratio;
-            settings.smoothing = mu;
-            settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
-            settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
-            settings.stagnation = LEVEL_STAGNATION;
+            self.level(&mut settings, mu, force);
             if on_fold == OnFold::Stop {
                 settings.hover = LEVEL_HOVER;
             }
@@ -340,6 +337,16 @@ impl<'a> Attempts<'a> {
         o
     }
 
+    /// `settings` for one smoothing level at μ (F the linear solution's force): solved to
+    /// max(tol, 0.1 μ/F) in at most `LEVEL_ITERATIONS`, failing early when cycling by full
+    /// steps (`LEVEL_STAGNATION`). The one definition for `smoothed_on` and `joint`.
+    fn level(&self, settings: &mut NewtonSettings, mu: f64, force: f64) {
+        settings.smoothing = mu;
+        settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
+        settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
+        settings.stagnation = LEVEL_STAGNATION;
+    }
+
     /// The Newton on the exact law (μ = 0) from a smoothing continuation's end point `x`,
     /// with at least one step to polish it onto the exact law's active set (none when nothing
     /// penetrates, `force` = 0: λ = 0 is then exact).
@@ -371,10 +378,7 @@ impl<'a> Attempts<'a> {
         while force > 0.0 && last * ratio > floor {
             let mu = last * ratio;
             let scale = joint_scale(top, mu / force);
-            settings.smoothing = mu;
-            settings.tolerance = self.settings.tolerance.max(0.1 * mu / force);
-            settings.max_iterations = LEVEL_ITERATIONS.min(self.settings.max_iterations);
-            settings.stagnation = LEVEL_STAGNATION;
+            self.level(&mut settings, mu, force);
             let o = self.run_scaled(&mut heavy, heavier, scale, &settings, &x)?;
             if o.converged {
                 if path.last() != Some(&(zeta * scale)) {

@@ -903,11 +903,7 @@ pub fn estimate_elements(
     limits: &MeshLimits,
     reporter: &dyn Reporter,
 ) -> Result<f64> {
-    let out = scratch.join(format!(
-        "estimate-{}-{}.msh",
-        std::process::id(),
-        crate::files::unique()
-    ));
+    let out = scratch.join(format!("estimate-{}.msh", crate::files::unique_tag()));
     with_gmsh(cmd, request, limits, reporter, &out, |steps| {
         estimate_with(steps, request, scratch)
     })
@@ -919,7 +915,7 @@ fn estimate_with(
     request: &MeshRequest,
     scratch: &Path,
 ) -> std::result::Result<f64, Stop> {
-    let base = format!("estimate-{}-{}", std::process::id(), crate::files::unique());
+    let base = format!("estimate-{}", crate::files::unique_tag());
     let unrolled = scratch.join(format!("{base}.geo_unrolled"));
     steps.unroll(&unrolled)?;
     let text = std::fs::read_to_string(&unrolled).unwrap_or_default();
