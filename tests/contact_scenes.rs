@@ -375,7 +375,8 @@ fn reference_strip_converges_at_every_h_and_knob_dependence_falls_with_h() {
 /// its residual, so the checks take 14 iterations, where its cap made them 26; at H = 60 the change, 3.4%, is above the 1% the run
 /// warns at). At H = 80 the direct continuation folds; the solve then continues in the damping
 /// together with the smoothing, from 5% at the fundamental down to the scene's 0.56% over six
-/// smoothing levels, and converges (40 iterations measured, all attempts counted; the
+/// smoothing levels, and converges (34 iterations measured, all attempts counted, 3.1 times
+/// the 5%-damped strip's 11: the direct path's fold costs 13 of them; the
 /// stepwise damping continuation it replaced took 111, the harmonic ladder at c/10 1215 or
 /// the run stopped, by round-off), warns that it reached one of several periodic states that
 /// way, and its answer continues the direct solves' family in H: the mean contact force
@@ -446,10 +447,11 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
     let zeta = 86.0 / (2.0 * 2.0 * std::f64::consts::PI * 1225.4930618);
     assert!((path[6] / zeta - 1.0).abs() < 1e-9, "{path:?}");
     assert!(path.windows(2).all(|w| w[1] < w[0]), "{path:?}");
-    // Measured 40; 51 where a first failed direct level is narrowed even when its steps
-    // were short, 98 where a failing direct level may hover for 30 iterations (no `hover`
-    // bound): this bound catches both.
-    assert!(c.newton.iterations <= 48, "{}", c.newton.iterations);
+    // Measured 34; 40 where a direct level whose steps each raise the residual may go on
+    // to the `hover` bound (no `rise` bound), 51 where a first failed direct level is also
+    // narrowed when its steps were short, 98 where it may hover for 30 iterations (no
+    // `hover` bound): this bound catches all three.
+    assert!(c.newton.iterations <= 38, "{}", c.newton.iterations);
     let detour = at_80
         .warnings
         .iter()

@@ -156,6 +156,7 @@ fn resolve(
         min_iterations: 1,
         stagnation: 0,
         hover,
+        rise: 0,
     };
     reduced::newton(problem, &settings, start, reporter)
 }

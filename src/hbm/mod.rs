@@ -236,6 +236,7 @@ pub fn solve_from(
         min_iterations: 1,
         stagnation: 0,
         hover: 0,
+        rise: 0,
     };
     let outcome = timed(&mut timings.newton, || {
         reduced::newton(&problem, &newton, &start.multipliers, reporter)

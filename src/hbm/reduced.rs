@@ -168,6 +168,9 @@ pub struct NewtonSettings {
     /// Give up after this many steps of any length without halving the residual (0: never):
     /// a run hovering at one residual by short steps, where a fallback is at hand.
     pub hover: usize,
+    /// Give up once this many steps have each ended above the starting residual (0: never):
+    /// a run with no solution near its start, where a fallback is at hand.
+    pub rise: usize,
 }
 
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
@@ -403,6 +406,12 @@ pub fn newton_until(
                  active sets)"
             ));
         }
+        if settings.rise > 0 && iterations >= settings.rise && rose(&log) {
+            break Some(format!(
+                "{iterations} Newton steps each ended above the starting residual (no solution \
+                 near the start)"
+            ));
+        }
         if settings.hover > 0 && since >= settings.hover {
             break Some(format!(
                 "{since} Newton steps did not halve the residual (hovering between active sets)"
@@ -473,6 +482,11 @@ pub fn newton_until(
     }
 }
 
+/// Whether a Newton run took steps and each ended above its starting residual.
+pub fn rose(log: &[IterationLog]) -> bool {
+    log.len() > 1 && log[1..].iter().all(|l| l.residual > log[0].residual)
+}
+
 /// Pad node-major coefficients from `from_h` harmonics to `to_h` (zeros for the new ones).
 pub fn pad(x: &[f64], nodes: usize, from_h: usize, to_h: usize) -> Vec<f64> {
     let (mf, mt) = (2 * from_h + 1, 2 * to_h + 1);
@@ -512,6 +526,7 @@ mod tests {
             min_iterations: 0,
             stagnation: 0,
             hover: 0,
+            rise: 0,
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -568,6 +583,7 @@ mod tests {
                 min_iterations: 0,
                 stagnation: 0,
                 hover: 0,
+                rise: 0,
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -614,6 +630,7 @@ mod tests {
             min_iterations: 0,
             stagnation: 0,
             hover: 0,
+            rise: 0,
         };
         settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);

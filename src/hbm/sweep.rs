@@ -303,6 +303,7 @@ impl<'a> Continuation<'a> {
             min_iterations: 0,
             stagnation: 0,
             hover: 0,
+            rise: 0,
         };
         let (first, force) = match &s.resume {
             None => {
