@@ -25,8 +25,8 @@ pub struct Sampled {
     pub frame_contact: Vec<ContactState>,
     pub history: History,
     /// A node counts as closed when its law force is positive and its opening at most this
-    /// [m]: the larger of 1e-3 × the largest opening and the largest penetration over the
-    /// history (0 without contact).
+    /// [m]: the largest of 1e-3 × the largest opening, the largest penetration over the
+    /// history and the gaps' round-off (`GAP_ROUND_OFF`; 0 without contact).
     pub closed_tolerance: f64,
     /// The total pressing force at every time step of the last period (time marching only;
     /// written as `contact_steps.csv`).
@@ -86,7 +86,15 @@ pub struct History {
     pub probe_means: Vec<[Vec<f64>; 2]>,
     /// The contact state at each time (empty without contact).
     pub contact: Vec<ContactState>,
+    /// The largest |n·u| + |g0| of a contact node over the history [m]: the scale of the
+    /// gaps' round-off.
+    pub gap_scale: f64,
 }
+
+/// An opening below this fraction of `History::gap_scale` is round-off of the gap's terms,
+/// not an opening (a contact preloaded 1 µm and closed all period shows openings and
+/// penetrations of 10⁻²¹ m, both signs).
+const GAP_ROUND_OFF: f64 = 1e-9;
 
 impl History {
     /// The total pressing force of the contact law at each time.
@@ -118,7 +126,9 @@ impl History {
 
     /// See `Sampled::closed_tolerance`.
     fn closed_tolerance(&self) -> f64 {
-        (1e-3 * self.max_opening()).max(self.max_penetration())
+        (1e-3 * self.max_opening())
+            .max(self.max_penetration())
+            .max(GAP_ROUND_OFF * self.gap_scale)
     }
 
     /// The history at `times` of the displacement `u(j, dof)` at instant j (read at the probe
@@ -133,7 +143,7 @@ impl History {
     ) -> History {
         let mut probe_means: Vec<[Vec<f64>; 2]> =
             vec![[Vec::new(), Vec::new()]; model.probes.len()];
-        let mut contact = Vec::new();
+        let (mut contact, mut gap_scale) = (Vec::new(), 0.0f64);
         for j in 0..times.len() {
             for ((_, nodes), means) in model.probes.iter().zip(&mut probe_means) {
                 let n = nodes.len().max(1) as f64;
@@ -142,6 +152,7 @@ impl History {
                 }
             }
             if let Some(l) = lambda(j) {
+                gap_scale = gap_scale.max(contact_gap_scale_with(model, |d| u(j, d)));
                 contact.push(ContactState::new(
                     contact_gaps_with(model, |d| u(j, d)),
                     &l,
@@ -153,6 +164,7 @@ impl History {
             times,
             probe_means,
             contact,
+            gap_scale,
         }
     }
 }
@@ -358,6 +370,20 @@ fn contact_gaps_with(model: &Model, u: impl Fn(usize) -> f64) -> Vec<f64> {
         .zip(&c.set.gaps)
         .map(|((&n, nrm), &g0)| nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1) - g0)
         .collect()
+}
+
+/// The largest |n·u| + |g0| over the contact nodes, the displacement of dof d given by `u(d)`.
+fn contact_gap_scale_with(model: &Model, u: impl Fn(usize) -> f64) -> f64 {
+    let Some(c) = &model.contact else {
+        return 0.0;
+    };
+    c.set
+        .nodes
+        .iter()
+        .zip(&c.set.normals)
+        .zip(&c.set.gaps)
+        .map(|((&n, nrm), &g0)| (nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1)).abs() + g0.abs())
+        .fold(0.0, f64::max)
 }
 
 /// The pressure [Pa] of contact node i (in `ContactSet::nodes` order) carrying `force` [N]:
@@ -614,4 +640,35 @@ pub fn truncated_law_force(
         })
         .collect();
     Some(totals)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: a contact closed all period, whose gaps are round-off of 1 µm terms
+    /// (±10⁻²¹ m, both signs, a pressing force everywhere), counts closed at every node and
+    /// instant: the closed tolerance has the gaps' round-off as its floor, not the largest
+    /// penetration alone (which here is smaller than the largest round-off opening).
+    #[test]
+    fn round_off_openings_of_a_preloaded_contact_count_as_closed() {
+        let state = |gap: Vec<f64>| ContactState::new(gap, &[-3e3, -3e3], Some(1e9));
+        let history = History {
+            times: vec![0.0, 0.5],
+            probe_means: Vec::new(),
+            contact: vec![state(vec![1.06e-21, -1.27e-21]), state(vec![-4e-22, 2e-22])],
+            gap_scale: 1e-6,
+        };
+        let tolerance = history.closed_tolerance();
+        assert!(tolerance >= 1e-15, "{tolerance:e}");
+        for c in &history.contact {
+            assert!((0..2).all(|i| c.closed(i, tolerance)), "{:?}", c.gap);
+        }
+        // Without the round-off scale the second node's 1.27e-21 m counts as open.
+        let bare = History {
+            gap_scale: 0.0,
+            ..history
+        };
+        assert!(!bare.contact[0].closed(1, bare.closed_tolerance()));
+    }
 }

@@ -227,8 +227,9 @@ pub struct ContactSummary {
     /// pressing force, over the output history.
     pub force_series_node_tension_ratio: f64,
     /// A contact node is written as closed (`contact_status` 1) when its law force is positive
-    /// and its opening is at most this [m]: the larger of 1e-3 × the largest opening and the
-    /// largest penetration over the output history.
+    /// and its opening is at most this [m]: the largest of 1e-3 × the largest opening, the
+    /// largest penetration over the output history and the gaps' round-off (1e-9 × the
+    /// largest |n·u| + |g0| of a contact node).
     pub closed_opening_tolerance: f64,
     /// Largest sampled penetration B u − g0 > 0 over the output history [m].
     pub max_sampled_penetration: f64,
