@@ -114,7 +114,7 @@ const SETTLED_SMOOTHING: f64 = 3e-3;
 
 /// The joint continuation brings the damping down to the scene's own over this many
 /// smoothing levels (μ from 0.3 F to 0.3⁷ F ≈ 2·10⁻⁴ F): on the 0.5%-damped strip at H = 80,
-/// 21 Newton iterations; over 4 levels its exact law's path still folds there, over 8 H = 40
+/// 20 Newton iterations; over 4 levels its exact law's path still folds there, over 8 H = 40
 /// and 60 need more narrowed levels.
 const JOINT_LEVELS: i32 = 6;
 
@@ -378,9 +378,9 @@ impl<'a> Attempts<'a> {
     /// The exact law from the solution of a smoothing level `level` at μ = `relative_mu`·F on
     /// `problem` whose active set has settled (converged in at most one step, its active
     /// samples unchanged, μ ≤ `SETTLED_SMOOTHING` F), in at most `SETTLED_EXACT_ITERATIONS`;
-    /// `None` when the level had not settled, the
-    /// pipeline's `max_iterations` leaves no room for the try, or the exact law did not
-    /// converge within it (the levels then go on from `level`).
+    /// `None` when the level had not settled, the pipeline's `max_iterations` leaves no room
+    /// for the try, or the exact law did not converge within it (the levels then go on from
+    /// `level`).
     fn settled_exact(
         &mut self,
         problem: &ReducedProblem,

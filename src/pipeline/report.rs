@@ -360,30 +360,30 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
 
 /// `contact_gaps` with the displacement of dof d given by `u(d)`.
 fn contact_gaps_with(model: &Model, u: impl Fn(usize) -> f64) -> Vec<f64> {
-    let Some(c) = &model.contact else {
-        return Vec::new();
-    };
-    c.set
-        .nodes
-        .iter()
-        .zip(&c.set.normals)
-        .zip(&c.set.gaps)
-        .map(|((&n, nrm), &g0)| nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1) - g0)
-        .collect()
+    normal_terms(model, u).map(|(nu, g0)| nu - g0).collect()
 }
 
 /// The largest |n·u| + |g0| over the contact nodes, the displacement of dof d given by `u(d)`.
 fn contact_gap_scale_with(model: &Model, u: impl Fn(usize) -> f64) -> f64 {
-    let Some(c) = &model.contact else {
-        return 0.0;
-    };
-    c.set
-        .nodes
-        .iter()
-        .zip(&c.set.normals)
-        .zip(&c.set.gaps)
-        .map(|((&n, nrm), &g0)| (nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1)).abs() + g0.abs())
+    normal_terms(model, u)
+        .map(|(nu, g0)| nu.abs() + g0.abs())
         .fold(0.0, f64::max)
+}
+
+/// The two terms of every contact node's gap B u − g0: (n·u, g0) (none without contact).
+fn normal_terms<'m>(
+    model: &'m Model,
+    u: impl Fn(usize) -> f64 + 'm,
+) -> impl Iterator<Item = (f64, f64)> + 'm {
+    let set = model.contact.as_ref().map(|c| &c.set);
+    let nodes = set.map_or(&[][..], |s| &s.nodes[..]);
+    let normals = set.map_or(&[][..], |s| &s.normals[..]);
+    let gaps = set.map_or(&[][..], |s| &s.gaps[..]);
+    nodes
+        .iter()
+        .zip(normals)
+        .zip(gaps)
+        .map(move |((&n, nrm), &g0)| (nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1), g0))
 }
 
 /// The pressure [Pa] of contact node i (in `ContactSet::nodes` order) carrying `force` [N]:
