@@ -417,7 +417,7 @@ fn damping() {
         "{:>3} {:>8} {:>10} {:>8} {:>10} {:>7} {:>8} {:>14}  0.5% route",
         "H", "5% its", "5% s", "0.5% its", "0.5% s", "ratio", "goal", "0.5% c check"
     );
-    for h in [5usize, 10, 20, 30, 40, 60, 80] {
+    for h in [5usize, 10, 20, 30, 40, 60, 70, 80] {
         let mut row = Vec::new();
         for alpha in [857.0, 86.0] {
             // Iterations only: the stability march (hundreds of periods at 0.5%) is skipped.
