@@ -377,6 +377,17 @@ impl<'a> Attempts<'a> {
         settings.stagnation = LEVEL_STAGNATION;
     }
 
+    /// Why a smoothing level run with `settings` failed, naming a level's own iteration limit
+    /// (`LEVEL_ITERATIONS`) as such, not as the pipeline's `max_iterations`.
+    fn level_reason(&self, o: &NewtonOutcome, settings: &NewtonSettings) -> String {
+        let own = settings.max_iterations;
+        if o.iterations >= own && own < self.settings.max_iterations {
+            format!("its {own} iterations, a smoothing level's limit, ran out")
+        } else {
+            o.reason.clone()
+        }
+    }
+
     /// The exact law from the solution of a smoothing level `level` at μ = `relative_mu`·F on
     /// `problem` whose active set has settled (converged in at most one step, its active
     /// samples unchanged, μ ≤ `SETTLED_SMOOTHING` F), in at most `SETTLED_EXACT_ITERATIONS`;
@@ -456,7 +467,7 @@ impl<'a> Attempts<'a> {
                      at ζ = {:.2e}: {}",
                     last / force,
                     zeta * scale,
-                    o.reason
+                    self.level_reason(&o, &settings)
                 ));
                 return None;
             } else {
