@@ -769,6 +769,39 @@ fn stall_diagnosis(
 mod tests {
     use super::*;
 
+    /// TEST GOAL: a smoothing level that ran out of its own `LEVEL_ITERATIONS` is reported as
+    /// such, not as the pipeline's `max_iterations` (which it is not); a run that reached the
+    /// pipeline's limit keeps the Newton's own reason naming it.
+    #[test]
+    fn a_levels_own_iteration_limit_is_not_named_as_the_pipelines() {
+        let problem = ReducedProblem::from_compliance(1, 1, |_, _, _| c64::new(1.0, 0.0));
+        let settings = HbSettings {
+            harmonics: 1,
+            samples: 16,
+            c_scale: 1.0,
+            tolerance: 1e-8,
+            max_iterations: 200,
+            max_seconds: 10.0,
+        };
+        let attempts = Attempts::new(&problem, &settings, &crate::Silent);
+        let mut level = attempts.newton_settings(1, 1.0, 0.0);
+        attempts.level(&mut level, 0.1, 1.0);
+        let failed = |iterations: usize| NewtonOutcome {
+            multipliers: Vec::new(),
+            converged: false,
+            iterations,
+            relative_residual: 1.0,
+            log: Vec::new(),
+            reason: format!("reached max_iterations = {iterations}"),
+        };
+        let own = attempts.level_reason(&failed(LEVEL_ITERATIONS), &level);
+        assert!(own.contains("a smoothing level's limit"), "{own}");
+        assert!(!own.contains("max_iterations"), "{own}");
+        level.max_iterations = 200;
+        let pipelines = attempts.level_reason(&failed(200), &level);
+        assert_eq!(pipelines, "reached max_iterations = 200");
+    }
+
     /// TEST GOAL: the joint continuation's damping starts at the 5% scene on its first level
     /// (μ = 0.3 F), falls monotonically, reaches the scene's own exactly `JOINT_LEVELS`
     /// levels of 0.3 later and stays there (the scale is exactly 1, so no heavier problem is
