@@ -356,7 +356,7 @@ impl<'a> Attempts<'a> {
                 reason: fold_reason(at),
             };
         }
-        let mut o = self.exact_law(problem, c, &x, force);
+        let mut o = self.exact_law_at_end(problem, c, &x, force);
         if let (false, Some(at)) = (o.converged, fold) {
             o.reason = format!(
                 "{}, and the exact law from there: {}",
@@ -408,26 +408,41 @@ impl<'a> Attempts<'a> {
         if !settled || self.settings.max_iterations <= SETTLED_EXACT_ITERATIONS {
             return None;
         }
-        let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
-        settings.min_iterations = 1;
-        settings.max_iterations = SETTLED_EXACT_ITERATIONS;
-        let o = self.run(problem, &settings, &level.multipliers);
+        let o = self.exact_law(
+            problem,
+            c,
+            &level.multipliers,
+            (1, SETTLED_EXACT_ITERATIONS),
+        );
         o.converged.then_some(o)
     }
 
-    /// The Newton on the exact law (μ = 0) from a smoothing continuation's end point `x`,
-    /// with at least one step to polish it onto the exact law's active set (none when nothing
-    /// penetrates, `force` = 0: λ = 0 is then exact).
+    /// The Newton on the exact law (μ = 0) from a smoothing level's solution `x`, taking at
+    /// least `min_iterations` and at most `max_iterations` steps.
     fn exact_law(
+        &mut self,
+        problem: &ReducedProblem,
+        c: f64,
+        x: &[f64],
+        (min_iterations, max_iterations): (usize, usize),
+    ) -> NewtonOutcome {
+        let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
+        (settings.min_iterations, settings.max_iterations) = (min_iterations, max_iterations);
+        self.run(problem, &settings, x)
+    }
+
+    /// `exact_law` from a continuation's end point `x`, with the pipeline's `max_iterations`
+    /// and at least one step to polish it onto the exact law's active set (none when nothing
+    /// penetrates, `force` = 0: λ = 0 is then exact).
+    fn exact_law_at_end(
         &mut self,
         problem: &ReducedProblem,
         c: f64,
         x: &[f64],
         force: f64,
     ) -> NewtonOutcome {
-        let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
-        settings.min_iterations = usize::from(force > 0.0);
-        self.run(problem, &settings, x)
+        let bounds = (usize::from(force > 0.0), self.settings.max_iterations);
+        self.exact_law(problem, c, x, bounds)
     }
 
     /// The joint continuation (docs/method.md, "Globalization"): the smoothing levels of
@@ -474,7 +489,7 @@ impl<'a> Attempts<'a> {
                 ratio = ratio.sqrt();
             }
         }
-        let o = self.exact_law(own, c, &x, force);
+        let o = self.exact_law_at_end(own, c, &x, force);
         if !o.converged {
             self.reasons.push(format!(
                 "continuation in the damping with the smoothing, the exact law from its end: {}",

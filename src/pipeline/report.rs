@@ -152,12 +152,11 @@ impl History {
                 }
             }
             if let Some(l) = lambda(j) {
-                gap_scale = gap_scale.max(contact_gap_scale_with(model, |d| u(j, d)));
-                contact.push(ContactState::new(
-                    contact_gaps_with(model, |d| u(j, d)),
-                    &l,
-                    c,
-                ));
+                let terms: Vec<(f64, f64)> = normal_terms(model, |d| u(j, d)).collect();
+                let scale = terms.iter().map(|(nu, g0)| nu.abs() + g0.abs());
+                gap_scale = scale.fold(gap_scale, f64::max);
+                let gaps = terms.into_iter().map(gap).collect();
+                contact.push(ContactState::new(gaps, &l, c));
             }
         }
         History {
@@ -360,14 +359,12 @@ pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
 
 /// `contact_gaps` with the displacement of dof d given by `u(d)`.
 fn contact_gaps_with(model: &Model, u: impl Fn(usize) -> f64) -> Vec<f64> {
-    normal_terms(model, u).map(|(nu, g0)| nu - g0).collect()
+    normal_terms(model, u).map(gap).collect()
 }
 
-/// The largest |n·u| + |g0| over the contact nodes, the displacement of dof d given by `u(d)`.
-fn contact_gap_scale_with(model: &Model, u: impl Fn(usize) -> f64) -> f64 {
-    normal_terms(model, u)
-        .map(|(nu, g0)| nu.abs() + g0.abs())
-        .fold(0.0, f64::max)
+/// The gap g = n·u − g0 from its two terms (n·u, g0).
+fn gap((nu, g0): (f64, f64)) -> f64 {
+    nu - g0
 }
 
 /// The two terms of every contact node's gap B u − g0: (n·u, g0) (none without contact).
