@@ -25,7 +25,7 @@ use faer::c64;
 
 use super::basis::TimeBasis;
 use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
-use super::step::StepMethod;
+use super::step::{KrylovHint, StepMethod};
 use super::{fourier, knobs};
 use super::{measure_complementarity, ContactSolution, HbSettings, System};
 use crate::contact::ContactOperator;
@@ -195,6 +195,9 @@ struct Attempts<'a> {
     deadline: Instant,
     /// The budget a failed run ran out of, if any.
     exhausted: Option<Budget>,
+    /// The preconditioner every run's matrix-free steps start with: the one that served the
+    /// last step (`step::KrylovHint`).
+    krylov_hint: KrylovHint,
 }
 
 /// The budgets of one contact solve.
@@ -220,6 +223,7 @@ impl<'a> Attempts<'a> {
             reasons: Vec::new(),
             deadline: Instant::now() + Duration::from_secs_f64(settings.max_seconds.min(1e9)),
             exhausted: None,
+            krylov_hint: KrylovHint::default(),
         }
     }
 
@@ -244,6 +248,7 @@ impl<'a> Attempts<'a> {
             stagnation: 0,
             hover: 0,
             rise: 0,
+            krylov_hint: self.krylov_hint.clone(),
         }
     }
 

@@ -157,6 +157,7 @@ fn resolve(
         stagnation: 0,
         hover,
         rise: 0,
+        krylov_hint: Default::default(),
     };
     reduced::newton(problem, &settings, start, reporter)
 }

@@ -237,6 +237,7 @@ pub fn solve_from(
         stagnation: 0,
         hover: 0,
         rise: 0,
+        krylov_hint: Default::default(),
     };
     let outcome = timed(&mut timings.newton, || {
         reduced::newton(&problem, &newton, &start.multipliers, reporter)

@@ -171,6 +171,8 @@ pub struct NewtonSettings {
     /// Give up once this many steps have each ended above the starting residual (0: never):
     /// a run with no solution near its start, where a fallback is at hand.
     pub rise: usize,
+    /// The preconditioner the matrix-free steps start with, shared by the settings' clones.
+    pub krylov_hint: step::KrylovHint,
 }
 
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
@@ -319,6 +321,7 @@ impl<'a> Residual<'a> {
             settings.method,
             step::forcing(self.relative(e), settings.tolerance),
             &mut self.node_blocks.borrow_mut(),
+            &settings.krylov_hint,
         )
     }
 }
@@ -527,6 +530,7 @@ mod tests {
             stagnation: 0,
             hover: 0,
             rise: 0,
+            krylov_hint: Default::default(),
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -584,6 +588,7 @@ mod tests {
                 stagnation: 0,
                 hover: 0,
                 rise: 0,
+                krylov_hint: Default::default(),
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -631,6 +636,7 @@ mod tests {
             stagnation: 0,
             hover: 0,
             rise: 0,
+            krylov_hint: Default::default(),
         };
         settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
@@ -774,6 +780,7 @@ mod jacobian_tests {
                 StepMethod::Dense,
                 1e-6,
                 &mut Default::default(),
+                &Default::default(),
             )
             .expect("regular");
             for (a, b) in back.iter().zip(&e) {

@@ -304,6 +304,7 @@ impl<'a> Continuation<'a> {
             stagnation: 0,
             hover: 0,
             rise: 0,
+            krylov_hint: Default::default(),
         };
         let (first, force) = match &s.resume {
             None => {
