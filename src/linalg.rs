@@ -902,6 +902,10 @@ pub fn gmres_cycles(
     Err(last)
 }
 
+/// How a Newton step's Krylov solve that stalled begins its reason (the diagnosis of a
+/// failed contact solve looks for it).
+pub const KRYLOV_STALL: &str = "the Krylov solve of the Newton step stalled";
+
 /// A solve that ran out of cycles at the estimated relative residual `last`:
 /// x when its true relative residual is 1e-2 or better (still a descent direction for a
 /// guarded step, like a line search's), else why it stalled.
@@ -918,7 +922,9 @@ pub fn loose_or_stalled(
     if rel <= 1e-2 {
         Ok(x)
     } else {
-        Err(format!("the Krylov solve of the Newton step stalled at relative residual {rel:.2e} (GMRES estimate {last:.2e})"))
+        Err(format!(
+            "{KRYLOV_STALL} at relative residual {rel:.2e} (GMRES estimate {last:.2e})"
+        ))
     }
 }
 

@@ -719,51 +719,7 @@ fn stall_diagnosis(
     outcome: &NewtonOutcome,
     exhausted: Option<Budget>,
 ) -> Error {
-    let mut advice = Vec::new();
-    let h = settings.harmonics;
-    match exhausted {
-        Some(Budget::Iterations) => advice.push(format!(
-            "raise harmonic_balance.solver.max_iterations (now {}, the default 200): it ran out before the Newton converged",
-            settings.max_iterations
-        )),
-        Some(Budget::Time) => advice.push(format!(
-            "raise harmonic_balance.solver.max_seconds (now {} s): the solve ran out of time after {} Newton iterations",
-            settings.max_seconds, outcome.iterations
-        )),
-        None => {}
-    }
-    if settings.samples < 16 * h {
-        advice.push(format!(
-            "raise harmonic_balance.samples (now {}; 16·H = {} converges reliably)",
-            settings.samples,
-            16 * h
-        ));
-    }
-    advice.push(
-        "make sure contact.mass is `redistributed` (contact nodes with inertia make impacts that \
-         no truncated Fourier series resolves)"
-            .to_string(),
-    );
-    if settings.c_scale >= 1.0 {
-        advice.push(format!(
-            "lower harmonic_balance.solver.c_scale (now {}; try 0.3 or 0.1)",
-            settings.c_scale
-        ));
-    }
-    match system.rayleigh {
-        None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
-        Some((_, 0.0)) => advice.push(
-            "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
-        ),
-        _ => {}
-    }
-    advice.push(match &system.basis {
-        TimeBasis::Spline(s) => format!(
-            "or lower harmonic_balance.basis.spline.segments (now {})",
-            s.segments
-        ),
-        TimeBasis::Fourier => format!("or lower harmonic_balance.harmonics (now {h})"),
-    });
+    let advice = stall_advice(settings, system.rayleigh, &system.basis, outcome, exhausted);
     let last = outcome.log.last();
     let what = match exhausted {
         Some(Budget::Iterations) => "ran out of iterations",
@@ -785,9 +741,121 @@ fn stall_diagnosis(
     ))
 }
 
+/// What to change after a failed contact solve, most specific first: the budget it ran out
+/// of, a Newton step whose linear solve stalled, then the scene's knobs.
+fn stall_advice(
+    settings: &HbSettings,
+    rayleigh: Option<(f64, f64)>,
+    basis: &TimeBasis,
+    outcome: &NewtonOutcome,
+    exhausted: Option<Budget>,
+) -> Vec<String> {
+    let mut advice = Vec::new();
+    let h = settings.harmonics;
+    match exhausted {
+        Some(Budget::Iterations) => advice.push(format!(
+            "raise harmonic_balance.solver.max_iterations (now {}, the default 200): it ran out before the Newton converged",
+            settings.max_iterations
+        )),
+        Some(Budget::Time) => advice.push(format!(
+            "raise harmonic_balance.solver.max_seconds (now {} s): the solve ran out of time after {} Newton iterations",
+            settings.max_seconds, outcome.iterations
+        )),
+        None => {}
+    }
+    if outcome.reason.contains(crate::linalg::KRYLOV_STALL) {
+        advice.push(
+            "the Newton steps' linear solve stalled (GMRES with both of its preconditioners, \
+             and the dense step too large to fall back on), so a fold reported with it may be \
+             the solver's: use fewer harmonics or fewer contact nodes (a coarser mesh at the \
+             contact), where the dense step is affordable"
+                .to_string(),
+        );
+    }
+    if settings.samples < 16 * h {
+        advice.push(format!(
+            "raise harmonic_balance.samples (now {}; 16·H = {} converges reliably)",
+            settings.samples,
+            16 * h
+        ));
+    }
+    advice.push(
+        "make sure contact.mass is `redistributed` (contact nodes with inertia make impacts that \
+         no truncated Fourier series resolves)"
+            .to_string(),
+    );
+    if settings.c_scale >= 1.0 {
+        advice.push(format!(
+            "lower harmonic_balance.solver.c_scale (now {}; try 0.3 or 0.1)",
+            settings.c_scale
+        ));
+    }
+    match rayleigh {
+        None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
+        Some((_, 0.0)) => advice.push(
+            "add stiffness-proportional damping damping.beta (e.g. 1e-7 s for steel at mm-size elements): with mass-proportional damping alone the mesh's high modes, which every impact excites, stay undamped".into(),
+        ),
+        _ => {}
+    }
+    advice.push(match basis {
+        TimeBasis::Spline(s) => format!(
+            "or lower harmonic_balance.basis.spline.segments (now {})",
+            s.segments
+        ),
+        TimeBasis::Fourier => format!("or lower harmonic_balance.harmonics (now {h})"),
+    });
+    advice
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// TEST GOAL: a failed solve whose Newton steps' Krylov solves stalled is told so first
+    /// (the fold it may report is then the solver's) with what makes the dense step
+    /// affordable; a failure without such a stall gets the scene's knobs only, and a scene
+    /// damped by mass alone is told to add damping.beta.
+    #[test]
+    fn a_stalled_linear_solve_is_diagnosed_before_the_scenes_knobs() {
+        let settings = HbSettings {
+            harmonics: 40,
+            samples: 640,
+            c_scale: 1.0,
+            tolerance: 1e-8,
+            max_iterations: 200,
+            max_seconds: 10.0,
+        };
+        let failed = |reason: String| NewtonOutcome {
+            multipliers: Vec::new(),
+            converged: false,
+            iterations: 199,
+            relative_residual: 1e-5,
+            log: Vec::new(),
+            reason,
+        };
+        let stalled = failed(format!(
+            "direct at c = 1e10: {} at relative residual 2.9e-2",
+            crate::linalg::KRYLOV_STALL
+        ));
+        let fourier = TimeBasis::Fourier;
+        let advice = stall_advice(&settings, Some((10.0, 0.0)), &fourier, &stalled, None);
+        assert!(advice[0].contains("linear solve stalled"), "{advice:?}");
+        assert!(advice[0].contains("fewer contact nodes"), "{advice:?}");
+        assert!(
+            advice.iter().any(|a| a.contains("damping.beta")),
+            "{advice:?}"
+        );
+        let folded = failed("the smoothing path turned back".into());
+        let advice = stall_advice(&settings, Some((10.0, 1e-7)), &fourier, &folded, None);
+        assert!(
+            !advice.iter().any(|a| a.contains("linear solve")),
+            "{advice:?}"
+        );
+        assert!(
+            !advice.iter().any(|a| a.contains("damping.beta")),
+            "{advice:?}"
+        );
+    }
 
     /// TEST GOAL: a smoothing level that ran out of its own `LEVEL_ITERATIONS` is reported as
     /// such, not as the pipeline's `max_iterations` (which it is not); a run that reached the
