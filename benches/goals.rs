@@ -6,9 +6,11 @@
 //! - the half-disc refined at the contact: the reduction G_k = B Z_k⁻¹ Bᵀ against the
 //!   factorizations (goal ≤), by the Schur complement and by the blocked solve;
 //! - time per factorization against its flop count (the floor);
-//! - the product G v of a GMRES iteration, as the Newton does it against a dot product per row.
+//! - the product G v of a GMRES iteration, as the Newton does it against a dot product per row;
+//! - a pressed contact patch (the half-disc) at H = 10…80, where the harmonic-block
+//!   preconditioner serves the steps the node blocks stall on.
 //!
-//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products]`
+//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products | patch]`
 //! (default: all). Times
 //! come from one run on a shared machine: the ratios within a table are what to compare.
 
@@ -276,6 +278,38 @@ fn whole() {
         iterations(&s),
     );
     println!("(second of two runs, mesh cached, without the stability check; factor includes G_k where the LDLᵀ was chosen)");
+}
+
+/// The half-disc pressed onto its wall (63 contact nodes of a Hertz patch, rocked at 50 Hz) at
+/// H = 10…80: iterations and stage times. Before the harmonic-block preconditioner H = 40 and
+/// 60 stopped with exit 4 after 35 and 91 s.
+fn patch() {
+    println!("\n## A pressed contact patch (half_disc.yaml, 63 contact nodes) against H");
+    println!(
+        "{:>4} {:>6} {:>8} {:>8} {:>8} {:>8} {:>14} {:>14}",
+        "H", "iters", "factor", "newton", "knobs", "run s", "peak N", "mean N"
+    );
+    for h in [10, 20, 40, 60, 80] {
+        let sets = vec![
+            format!("harmonic_balance.harmonics={h}"),
+            "stability.check=false".to_string(),
+        ];
+        let Some((s, wall)) = run("pipelines/half_disc.yaml", &sets, &format!("patch-h{h}")) else {
+            println!("{h:>4} failed");
+            continue;
+        };
+        let st = &s.stage_seconds;
+        let c = s.contact.as_ref();
+        println!(
+            "{h:>4} {:>6} {:>8.3} {:>8.3} {:>8.3} {wall:>8.2} {:>14.6e} {:>14.6e}",
+            iterations(&s),
+            st.get("factor"),
+            st.get("newton"),
+            st.get("knob_check"),
+            c.map_or(f64::NAN, |c| c.peak_contact_force),
+            c.map_or(f64::NAN, |c| c.mean_contact_force),
+        );
+    }
 }
 
 /// Run a pipeline by harmonic balance (plots off) into `work/<tag>`; its summary and wall time.
@@ -691,5 +725,8 @@ fn main() {
     }
     if want("products") {
         products();
+    }
+    if want("patch") {
+        patch();
     }
 }
