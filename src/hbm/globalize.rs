@@ -664,6 +664,7 @@ pub(super) fn solve_contact(
         settings.samples,
         c,
         settings.tolerance,
+        &attempts.krylov_hint,
         reporter,
     );
     outcome.iterations = attempts.iterations;

@@ -23,7 +23,7 @@
 use super::basis::{SplineBasis, TimeBasis};
 use super::fourier::harmonic_of;
 use super::reduced::{self, NewtonOutcome, NewtonSettings, ReducedProblem};
-use super::step::StepMethod;
+use super::step::{KrylovHint, StepMethod};
 use crate::progress::Reporter;
 
 /// Relative change of the answer below which a doubled N counts as converged.
@@ -138,12 +138,14 @@ const C_RESOLVE_ITERATIONS: usize = 20;
 const C_RESOLVE_HOVER: usize = 8;
 
 /// The exact-law Newton at (N, c) from `start`, at most `max_iterations` steps and at most
-/// `hover` without halving its residual (0: no such bound).
+/// `hover` without halving its residual (0: no such bound), its Krylov steps starting with
+/// the preconditioner `hint` names (a copy: runs side by side do not steer each other).
 fn resolve(
     problem: &ReducedProblem,
     (samples, c, tolerance): (usize, f64, f64),
     (max_iterations, hover): (usize, usize),
     start: &[f64],
+    hint: &KrylovHint,
     reporter: &dyn Reporter,
 ) -> NewtonOutcome {
     let settings = NewtonSettings {
@@ -157,18 +159,21 @@ fn resolve(
         stagnation: 0,
         hover,
         rise: 0,
-        krylov_hint: Default::default(),
+        krylov_hint: hint.detached(),
     };
     reduced::newton(problem, &settings, start, reporter)
 }
 
 /// Raise N from `samples` until λ settles; returns the final (N, outcome) and the check.
+/// `hint`: the preconditioner the solve's last Krylov step used, which the re-solves start
+/// with.
 pub fn adapt_samples(
     problem: &ReducedProblem,
     solved: NewtonOutcome,
     samples: usize,
     c: f64,
     tolerance: f64,
+    hint: &KrylovHint,
     reporter: &dyn Reporter,
 ) -> (usize, NewtonOutcome, KnobCheck) {
     let clock = std::time::Instant::now();
@@ -190,6 +195,7 @@ pub fn adapt_samples(
             (n, c, tolerance),
             (RESOLVE_ITERATIONS, 0),
             start,
+            hint,
             reporter,
         )
     };
@@ -202,6 +208,7 @@ pub fn adapt_samples(
                 (n, c_alt, loose),
                 (C_RESOLVE_ITERATIONS, C_RESOLVE_HOVER),
                 start,
+                hint,
                 reporter,
             )
         };

@@ -368,6 +368,13 @@ impl KrylovHint {
     fn set_harmonic_first(&self, yes: bool) {
         self.0.store(yes, std::sync::atomic::Ordering::Relaxed);
     }
+
+    /// A hint of its own that starts where this one is: for runs side by side (the knob
+    /// checks), which must not steer each other (their paths would depend on timing).
+    pub fn detached(&self) -> KrylovHint {
+        let start = std::sync::atomic::AtomicBool::new(self.harmonic_first());
+        KrylovHint(std::sync::Arc::new(start))
+    }
 }
 
 /// One GMRES restart cycle from `x` preconditioned by the node blocks (their LUs current).
@@ -657,6 +664,20 @@ mod tests {
         mixed[2 * n + n / 2..3 * n].fill(0.0);
         let approximate = error(&mixed);
         assert!(approximate > 1e-3, "{approximate:e}");
+    }
+
+    /// TEST GOAL: a detached hint starts where its source is and then goes its own way (the
+    /// knob checks' side-by-side re-solves do not steer each other), while clones share one.
+    #[test]
+    fn a_detached_hint_starts_from_its_source_and_clones_share() {
+        let hint = KrylovHint::default();
+        hint.set_harmonic_first(true);
+        let (copy, shared) = (hint.detached(), hint.clone());
+        assert!(copy.harmonic_first());
+        copy.set_harmonic_first(false);
+        assert!(hint.harmonic_first());
+        shared.set_harmonic_first(false);
+        assert!(!hint.harmonic_first());
     }
 
     /// TEST GOAL: the Krylov step meets the forcing term on a coupled patch with nodes that
