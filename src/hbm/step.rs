@@ -396,15 +396,14 @@ fn node_cycle(
             }
         }
     };
-    let mut apply_j = jacobian_product(problem, c, &cache.blocks);
-    gmres_cycles(
-        &mut apply_j,
+    one_cycle(
+        problem,
+        c,
+        &cache.blocks,
         &mut precondition,
         rhs,
         x,
         forcing,
-        KRYLOV_RESTART,
-        1,
     )
 }
 
@@ -424,10 +423,24 @@ fn harmonic_cycle(
         out.copy_from_slice(v);
         harmonic.solve_in_place(m, out, &mut phasors);
     };
+    one_cycle(problem, c, blocks, &mut precondition, rhs, x, forcing)
+}
+
+/// One GMRES restart cycle on J d = `rhs` from `x`, with `precondition`, to the relative
+/// residual `forcing`.
+fn one_cycle(
+    problem: &ReducedProblem,
+    c: f64,
+    blocks: &[f64],
+    precondition: &mut dyn FnMut(&[f64], &mut [f64]),
+    rhs: &[f64],
+    x: &mut [f64],
+    forcing: f64,
+) -> Result<(), f64> {
     let mut apply_j = jacobian_product(problem, c, blocks);
     gmres_cycles(
         &mut apply_j,
-        &mut precondition,
+        precondition,
         rhs,
         x,
         forcing,
