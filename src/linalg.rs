@@ -652,7 +652,7 @@ pub fn dense_solve(mut a: Mat<f64>, mut b: Mat<f64>) -> Mat<f64> {
 /// `DENSE_PARALLEL_ORDER`) and solved in f32, twice the vector lanes and half the memory of
 /// f64. A solve is accurate to about
 /// 10⁻⁷ times the block's condition number, which is what a preconditioner of flexible
-/// GMRES needs (`gmres`: the products with the matrix itself stay in f64). Kept as factors,
+/// GMRES needs (`gmres_cycles`: the products with the matrix itself stay in f64). Kept as factors,
 /// not inverted: the LU costs ⅔ n³, an inverse 2 n³, and a solve with the factors costs the
 /// 2 n² of a product with the inverse.
 pub struct DenseLu {
@@ -772,38 +772,11 @@ fn subtract_columns<S: pulp::Simd>(
 /// `apply(v, out)` (out = A v) and `precondition(v, out)` (out ≈ M⁻¹ v, which need not be
 /// exactly linear: a preconditioner in lower precision is fine). Both write into `out`; the
 /// bases and the Hessenberg matrix are allocated once per call, so an iteration allocates
-/// nothing. Returns x when the relative residual reaches `tolerance` by the rotations'
-/// estimate (the true residual of J x in exact arithmetic), or 1e-2 or better after the last
-/// restart (callers that guard the step, like a line search, accept a loose solve), else why
-/// it stalled.
-pub fn gmres(
-    apply: &mut dyn FnMut(&[f64], &mut [f64]),
-    precondition: &mut dyn FnMut(&[f64], &mut [f64]),
-    b: &[f64],
-    tolerance: f64,
-    restart: usize,
-    max_restarts: usize,
-) -> std::result::Result<Vec<f64>, String> {
-    let mut x = vec![0.0; b.len()];
-    match gmres_cycles(
-        apply,
-        precondition,
-        b,
-        &mut x,
-        tolerance,
-        restart,
-        max_restarts,
-    ) {
-        Ok(()) => Ok(x),
-        Err(last) => loose_or_stalled(apply, b, x, last),
-    }
-}
-
-/// Up to `cycles` restarts of the flexible GMRES of `gmres` from `x` (updated in place):
-/// `Ok` when the relative residual reached `tolerance`, else the relative residual the last
-/// cycle ended at (the rotations' estimate). Successive calls with different
-/// preconditioners continue one solve (each restart is a flexible GMRES of its own from the
-/// current x).
+/// nothing. Up to `cycles` restarts from `x` (updated in place): `Ok` when the relative
+/// residual reaches `tolerance` by the rotations' estimate (the true residual of A x in
+/// exact arithmetic), else the relative residual the last cycle ended at, for
+/// `loose_or_stalled`. Successive calls with different preconditioners continue one solve
+/// (each restart is a flexible GMRES of its own from the current x).
 pub fn gmres_cycles(
     apply: &mut dyn FnMut(&[f64], &mut [f64]),
     precondition: &mut dyn FnMut(&[f64], &mut [f64]),
@@ -1053,7 +1026,8 @@ mod tests {
             }
         };
         let b: Vec<f64> = (0..n).map(|i| ((i * 13) % 5) as f64 - 2.0).collect();
-        let x = gmres(&mut apply, &mut precondition, &b, 1e-10, 8, 20).expect("converges");
+        let mut x = vec![0.0; n];
+        gmres_cycles(&mut apply, &mut precondition, &b, &mut x, 1e-10, 8, 20).expect("converges");
         let mut ax = vec![0.0; n];
         apply(&x, &mut ax);
         let r = ax
@@ -1064,7 +1038,10 @@ mod tests {
             .sqrt();
         let b_norm = dot(&b, &b).sqrt();
         assert!(r <= 2e-10 * b_norm, "{}", r / b_norm);
-        let stalled = gmres(&mut apply, &mut precondition, &b, 1e-14, 1, 1);
+        let mut short = vec![0.0; n];
+        let last = gmres_cycles(&mut apply, &mut precondition, &b, &mut short, 1e-14, 1, 1)
+            .expect_err("one iteration cannot reach 1e-14");
+        let stalled = loose_or_stalled(&mut apply, &b, short, last);
         assert!(stalled.is_err_and(|why| why.contains("stalled at relative residual")));
         // One solve in two calls: a short first call, then more cycles from where it ended
         // (as the Newton step continues with the other preconditioner).
