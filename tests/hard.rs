@@ -453,7 +453,7 @@ fn a_pressed_contact_patch_converges_at_forty_harmonics_and_agrees_with_five() {
         relative(h40.number(peak), h5.number(peak)),
     );
     eprintln!("H = 40 against H = 5: mean {dm:.2e}, peak {dp:.2e}, {its} iterations");
-    assert!(dm < 1e-6 && dp < 1e-3, "mean {dm:e}, peak {dp:e}");
+    assert!(dm < 2e-7 && dp < 3e-4, "mean {dm:e}, peak {dp:e}");
 }
 
 /// TEST GOAL: the half-disc with about 300 contact nodes (contact size 1 mm) converges, and
