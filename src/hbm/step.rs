@@ -27,7 +27,7 @@ use num_complex::Complex64;
 use super::fourier::{cos_index, harmonic_of, phasor, set_phasor, sin_index, Sampler};
 use super::reduced::ReducedProblem;
 use super::sampler::ContactSampler;
-use crate::linalg::{gmres_cycles, loose_or_stalled, DenseLu};
+use crate::linalg::{loose_or_stalled, DenseLu, GmresWork};
 
 /// GMRES iterations the cost model assumes per Newton step (measured: 10–40 on the strip and
 /// the half-disc with the node-block preconditioner).
@@ -182,6 +182,38 @@ pub struct NodeBlocks {
     /// which preconditions as the identity (GMRES converges, slower).
     factors: Vec<Option<DenseLu>>,
     factor_ready: Vec<bool>,
+    /// The Krylov steps' work arrays, sized at the first step and kept for the run.
+    scratch: KrylovScratch,
+}
+
+/// What the matrix-free steps of a Newton run write into: the GMRES bases, the products'
+/// buffers and the preconditioners' work vectors. One per run (in `NodeBlocks`), so the
+/// steps and their restart cycles allocate nothing after the first.
+struct KrylovScratch {
+    gmres: GmresWork,
+    products: ProductBuffers,
+    /// The node blocks' single-precision solve vector (M).
+    single: Vec<f32>,
+    /// The harmonic blocks' phasors (n_c).
+    phasors: Vec<c64>,
+}
+
+impl Default for KrylovScratch {
+    fn default() -> Self {
+        KrylovScratch {
+            gmres: GmresWork::new(KRYLOV_RESTART),
+            products: ProductBuffers::default(),
+            single: Vec::new(),
+            phasors: Vec::new(),
+        }
+    }
+}
+
+/// The buffers of one product with J: G v (node-major) and the phasors of one harmonic.
+#[derive(Default)]
+struct ProductBuffers {
+    gv: Vec<f64>,
+    phasors: Vec<c64>,
 }
 
 impl NodeBlocks {
@@ -194,6 +226,7 @@ impl NodeBlocks {
                 blocks: vec![0.0; nodes * m * m],
                 factors: (0..nodes).map(|_| None).collect(),
                 factor_ready: vec![false; nodes],
+                scratch: std::mem::take(&mut self.scratch),
             };
         }
         for i in 0..nodes {
@@ -311,15 +344,21 @@ fn krylov_step(
     let mut x = vec![0.0; rhs.len()];
     let mut by_harmonics = hint.harmonic_first();
     let mut harmonic = None;
+    let system = KrylovSystem {
+        problem,
+        c,
+        rhs,
+        forcing,
+    };
     // Each preconditioner's last cycle's gain (residual after / before), once it ran one.
     let (mut gains, mut last) = ([None::<f64>; 2], 1.0);
     for _ in 0..KRYLOV_CYCLES {
         let cycle = if by_harmonics {
             let harmonic = harmonic.get_or_insert_with(|| HarmonicBlocks::new(problem, c, slopes));
-            harmonic_cycle(problem, c, &cache.blocks, harmonic, rhs, &mut x, forcing)
+            harmonic_cycle(&system, cache, harmonic, &mut x)
         } else {
             cache.refresh_factors(problem);
-            node_cycle(problem, c, cache, rhs, &mut x, forcing)
+            node_cycle(&system, cache, &mut x)
         };
         let after = match cycle {
             Ok(()) => {
@@ -335,8 +374,17 @@ fn krylov_step(
             by_harmonics = !by_harmonics;
         }
     }
-    let mut apply_j = jacobian_product(problem, c, &cache.blocks);
+    let (blocks, products) = (&cache.blocks, &mut cache.scratch.products);
+    let mut apply_j = jacobian_product(problem, c, blocks, products);
     loose_or_stalled(&mut apply_j, rhs, x, last)
+}
+
+/// The linear system of one Newton step, J d = `rhs` to the relative residual `forcing`.
+struct KrylovSystem<'a> {
+    problem: &'a ReducedProblem,
+    c: f64,
+    rhs: &'a [f64],
+    forcing: f64,
 }
 
 /// GMRES iterations per restart cycle.
@@ -365,7 +413,7 @@ impl KrylovHint {
         self.0.load(std::sync::atomic::Ordering::Relaxed)
     }
 
-    fn set_harmonic_first(&self, yes: bool) {
+    pub fn set_harmonic_first(&self, yes: bool) {
         self.0.store(yes, std::sync::atomic::Ordering::Relaxed);
     }
 
@@ -378,92 +426,87 @@ impl KrylovHint {
 }
 
 /// One GMRES restart cycle from `x` preconditioned by the node blocks (their LUs current).
-fn node_cycle(
-    problem: &ReducedProblem,
-    c: f64,
-    cache: &NodeBlocks,
-    rhs: &[f64],
-    x: &mut [f64],
-    forcing: f64,
-) -> Result<(), f64> {
-    let m = problem.coefficients();
-    let mut work = vec![0.0f32; m];
+fn node_cycle(system: &KrylovSystem, cache: &mut NodeBlocks, x: &mut [f64]) -> Result<(), f64> {
+    let m = system.problem.coefficients();
+    let NodeBlocks {
+        blocks,
+        factors,
+        scratch,
+        ..
+    } = cache;
+    let KrylovScratch {
+        gmres,
+        products,
+        single,
+        ..
+    } = scratch;
+    single.resize(m, 0.0);
     let mut precondition = |v: &[f64], out: &mut [f64]| {
         out.copy_from_slice(v);
-        for (lu, x) in cache.factors.iter().zip(out.chunks_exact_mut(m)) {
+        for (lu, x) in factors.iter().zip(out.chunks_exact_mut(m)) {
             if let Some(lu) = lu {
-                lu.solve_in_place(x, &mut work);
+                lu.solve_in_place(x, single);
             }
         }
     };
-    one_cycle(
-        problem,
-        c,
-        &cache.blocks,
-        &mut precondition,
-        rhs,
-        x,
-        forcing,
-    )
+    one_cycle(system, blocks, &mut precondition, x, gmres, products)
 }
 
 /// One GMRES restart cycle from `x` preconditioned by the harmonic blocks `harmonic`.
 fn harmonic_cycle(
-    problem: &ReducedProblem,
-    c: f64,
-    blocks: &[f64],
-    harmonic: &HarmonicBlocks,
-    rhs: &[f64],
+    system: &KrylovSystem,
+    cache: &mut NodeBlocks,
+    harmonic: &mut HarmonicBlocks,
     x: &mut [f64],
-    forcing: f64,
 ) -> Result<(), f64> {
-    let m = problem.coefficients();
-    let mut phasors = Vec::new();
+    let m = system.problem.coefficients();
+    let NodeBlocks {
+        blocks, scratch, ..
+    } = cache;
+    let KrylovScratch {
+        gmres,
+        products,
+        phasors,
+        ..
+    } = scratch;
     let mut precondition = |v: &[f64], out: &mut [f64]| {
         out.copy_from_slice(v);
-        harmonic.solve_in_place(m, out, &mut phasors);
+        harmonic.solve_in_place(m, out, phasors);
     };
-    one_cycle(problem, c, blocks, &mut precondition, rhs, x, forcing)
+    one_cycle(system, blocks, &mut precondition, x, gmres, products)
 }
 
-/// One GMRES restart cycle on J d = `rhs` from `x`, with `precondition`, to the relative
-/// residual `forcing`.
+/// One GMRES restart cycle on `system` from `x`, with `precondition`.
 fn one_cycle(
-    problem: &ReducedProblem,
-    c: f64,
+    system: &KrylovSystem,
     blocks: &[f64],
     precondition: &mut dyn FnMut(&[f64], &mut [f64]),
-    rhs: &[f64],
     x: &mut [f64],
-    forcing: f64,
+    gmres: &mut GmresWork,
+    products: &mut ProductBuffers,
 ) -> Result<(), f64> {
-    let mut apply_j = jacobian_product(problem, c, blocks);
-    gmres_cycles(
-        &mut apply_j,
-        precondition,
-        rhs,
-        x,
-        forcing,
-        KRYLOV_RESTART,
-        1,
-    )
+    let mut apply_j = jacobian_product(system.problem, system.c, blocks, products);
+    gmres.cycles(&mut apply_j, precondition, system.rhs, x, system.forcing, 1)
 }
 
-/// v ↦ J v = v − A v + c A G v: G harmonic by harmonic, A through the activity blocks.
+/// v ↦ J v = v − A v + c A G v: G harmonic by harmonic, A through the activity blocks,
+/// written through `buffers`.
 fn jacobian_product<'a>(
     problem: &'a ReducedProblem,
     c: f64,
     blocks: &'a [f64],
+    buffers: &'a mut ProductBuffers,
 ) -> impl FnMut(&[f64], &mut [f64]) + 'a {
     let m = problem.coefficients();
-    let (mut gv, mut lam) = (vec![0.0; problem.nodes * m], Vec::new());
+    let ProductBuffers { gv, phasors } = buffers;
+    gv.resize(problem.nodes * m, 0.0);
     move |v: &[f64], out: &mut [f64]| {
-        problem.compliance_product(v, &mut gv, &mut lam);
+        problem.compliance_product(v, gv, phasors);
         for (g, x) in gv.iter_mut().zip(v) {
             *g = c * *g - x;
         }
         out.copy_from_slice(v);
-        block_products(blocks, m, &gv, out);
+        block_products(blocks, m, gv, out);
     }
 }
 
@@ -475,6 +518,9 @@ fn jacobian_product<'a>(
 /// ignore; only the nodes at the patch's edge, which open and close, make P approximate.
 pub struct HarmonicBlocks {
     lus: Vec<faer::linalg::solvers::PartialPivLu<c64>>,
+    /// The row permutations' work space, so that a solve allocates nothing (faer's
+    /// `Solve::solve_in_place` allocates it on every call: H + 1 times per GMRES iteration).
+    stack: faer::dyn_stack::MemBuffer,
 }
 
 impl HarmonicBlocks {
@@ -497,20 +543,28 @@ impl HarmonicBlocks {
                 p.partial_piv_lu()
             })
             .collect();
-        HarmonicBlocks { lus }
+        let need = faer::linalg::lu::partial_pivoting::solve::solve_in_place_scratch::<usize, c64>(
+            nc,
+            1,
+            faer::Par::Seq,
+        );
+        let stack = faer::dyn_stack::MemBuffer::new(need);
+        HarmonicBlocks { lus, stack }
     }
 
     /// x ← P⁻¹ x harmonic by harmonic (`x` node-major, `m` coefficients per node); a harmonic
     /// whose solve is not finite (a singular P_k) is left as it is, the identity there.
-    pub fn solve_in_place(&self, m: usize, x: &mut [f64], phasors: &mut Vec<c64>) {
-        use faer::linalg::solvers::Solve;
+    pub fn solve_in_place(&mut self, m: usize, x: &mut [f64], phasors: &mut Vec<c64>) {
+        use faer::linalg::lu::partial_pivoting::solve::solve_in_place;
         let nc = x.len() / m;
         phasors.resize(nc, c64::new(0.0, 0.0));
+        let stack = faer::dyn_stack::MemStack::new(&mut self.stack);
         for (k, lu) in self.lus.iter().enumerate() {
             for (z, xi) in phasors.iter_mut().zip(x.chunks_exact(m)) {
                 *z = phasor(xi, k);
             }
-            lu.solve_in_place(faer::MatMut::from_column_major_slice_mut(phasors, nc, 1));
+            let rhs = faer::MatMut::from_column_major_slice_mut(phasors, nc, 1);
+            solve_in_place(lu.L(), lu.U(), lu.P(), rhs, faer::Par::Seq, stack);
             if phasors.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
                 for (z, xi) in phasors.iter().zip(x.chunks_exact_mut(m)) {
                     set_phasor(xi, k, *z);
@@ -661,7 +715,7 @@ mod tests {
         let error = |slopes: &[f64]| {
             let blocks = activity_blocks(&sampler, nc, slopes);
             let mut jv = vec![0.0; nc * m];
-            jacobian_product(&problem, c, &blocks)(&v, &mut jv);
+            jacobian_product(&problem, c, &blocks, &mut ProductBuffers::default())(&v, &mut jv);
             HarmonicBlocks::new(&problem, c, slopes).solve_in_place(m, &mut jv, &mut Vec::new());
             let d: f64 = jv.iter().zip(&v).map(|(a, b)| (a - b).powi(2)).sum();
             (d / v.iter().map(|a| a * a).sum::<f64>()).sqrt()
@@ -717,7 +771,9 @@ mod tests {
             let d = krylov_step(&problem, c, &slopes, &rhs, forcing, &mut cache, &hint)
                 .expect("converges");
             let mut jd = vec![0.0; nc * m];
-            jacobian_product(&problem, c, &cache.blocks)(&d, &mut jd);
+            jacobian_product(&problem, c, &cache.blocks, &mut ProductBuffers::default())(
+                &d, &mut jd,
+            );
             let r: f64 = jd
                 .iter()
                 .zip(&rhs)
