@@ -294,8 +294,8 @@ fn strip_converges_in_h_and_complementarity_violation_shrinks() {
 /// TEST GOAL: the hard case that stalled the plain semi-smooth Newton (no stiffness-
 /// proportional damping, so impacts excite undamped mesh modes; H = 40: 774 iterations and
 /// exit 4 before) converges by the smoothing continuation in a few dozen iterations (measured
-/// 24); and a Newton starved of iterations stops with a diagnosis naming what to change
-/// instead of answering.
+/// 16 since the settled exit, 24 before; held within 2×); and a Newton starved of iterations
+/// stops with a diagnosis naming what to change instead of answering.
 #[test]
 fn undamped_impacts_converge_by_continuation_and_a_starved_newton_is_diagnosed() {
     let overrides = [
@@ -312,7 +312,7 @@ fn undamped_impacts_converge_by_continuation_and_a_starved_newton_is_diagnosed()
         c.newton.iterations, c.complementarity.violation
     );
     assert!(
-        c.newton.converged && c.newton.iterations <= 48,
+        c.newton.converged && c.newton.iterations <= 32,
         "{}",
         c.newton.iterations
     );

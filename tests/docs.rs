@@ -217,8 +217,8 @@ fn link_targets(markdown: &str) -> Vec<String> {
     targets
 }
 
-#[test]
-fn relative_links_resolve() {
+/// README.md and docs/*.md.
+fn markdown_files() -> Vec<PathBuf> {
     let root = root();
     let mut files = vec![root.join("README.md")];
     let docs = root.join("docs");
@@ -229,6 +229,13 @@ fn relative_links_resolve() {
         .collect();
     entries.sort();
     files.extend(entries);
+    files
+}
+
+#[test]
+fn relative_links_resolve() {
+    let root = root();
+    let files = markdown_files();
     let mut broken = Vec::new();
     for file in &files {
         let base = file.parent().unwrap_or(&root);
@@ -252,6 +259,97 @@ fn relative_links_resolve() {
         }
     }
     assert!(broken.is_empty(), "broken relative links: {broken:#?}");
+}
+
+/// Every `file.rs::name` in `markdown`, as (file.rs, name).
+fn cited_functions(markdown: &str) -> Vec<(String, String)> {
+    let word = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let mut cited = Vec::new();
+    for (at, _) in markdown.match_indices(".rs::") {
+        let before = &markdown[..at];
+        let stem_start = before
+            .char_indices()
+            .rev()
+            .find(|&(_, c)| !(word(c) || c == '/'))
+            .map_or(0, |(i, c)| i + c.len_utf8());
+        let stem = before[stem_start..].rsplit('/').next().unwrap_or("");
+        let after = &markdown[at + ".rs::".len()..];
+        let name: String = after.chars().take_while(|&c| word(c)).collect();
+        if !stem.is_empty() && !name.is_empty() {
+            cited.push((format!("{stem}.rs"), name));
+        }
+    }
+    cited
+}
+
+/// Every .rs file under `dir`, recursively.
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for path in entries.filter_map(|e| e.ok().map(|e| e.path())) {
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|x| x == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// TEST GOAL: every test (or function) the README and docs cite as `file.rs::name`, the
+/// tests that hold their claimed numbers, exists as `fn name` in a file of that name under
+/// tests/, src/ or benches/ (a renamed test left the README citing one that did not exist).
+#[test]
+fn every_function_the_docs_cite_exists() {
+    let root = root();
+    let mut sources = Vec::new();
+    for dir in ["tests", "src", "benches"] {
+        rust_files(&root.join(dir), &mut sources);
+    }
+    let texts: Vec<(String, String)> = sources
+        .iter()
+        .map(|p| {
+            let name = p
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into());
+            (name, read(p))
+        })
+        .collect();
+    let defines = |file: &str, name: &str| {
+        let needle = format!("fn {name}");
+        texts.iter().filter(|(f, _)| f == file).any(|(_, text)| {
+            text.match_indices(&needle).any(|(i, _)| {
+                let next = text[i + needle.len()..].chars().next();
+                next.is_some_and(|c| c == '(' || c == '<')
+            })
+        })
+    };
+    let (mut missing, mut checked) = (Vec::new(), 0);
+    for file in markdown_files() {
+        for (source, name) in cited_functions(&read(&file)) {
+            checked += 1;
+            if !defines(&source, &name) {
+                missing.push(format!("{}: {source}::{name}", file.display()));
+            }
+        }
+    }
+    assert!(
+        checked > 100,
+        "only {checked} citations found: is the parser broken?"
+    );
+    assert!(missing.is_empty(), "cited but not defined: {missing:#?}");
+}
+
+#[test]
+fn cited_functions_are_found_with_and_without_paths() {
+    let md = "held by `hard.rs::a_case` and (tests/sweep.rs::b_case_2), not `c.rs` or x.rs::";
+    let cited = cited_functions(md);
+    let expected = [("hard.rs", "a_case"), ("sweep.rs", "b_case_2")];
+    let expected: Vec<(String, String)> = expected
+        .iter()
+        .map(|(f, n)| (f.to_string(), n.to_string()))
+        .collect();
+    assert_eq!(cited, expected);
 }
 
 #[test]
