@@ -350,10 +350,11 @@ fn c_check(s: &Summary) -> String {
         return "-".into();
     };
     let k = &solve.knob_check;
-    let at = if k.c_alternative < solve.c {
-        "c/3"
+    let ratio = k.c_alternative / solve.c;
+    let at = if ratio < 1.0 {
+        format!("c/{:.0}", 1.0 / ratio)
     } else {
-        "3c"
+        format!("{ratio:.0}c")
     };
     k.c_change.map_or("none".into(), |change| {
         format!("{at} {:.2}%", 100.0 * change)

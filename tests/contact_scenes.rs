@@ -482,6 +482,34 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
     );
 }
 
+/// TEST GOAL: where the re-solves at c/3 and 3c both fail from the solution (the 0.5%-damped
+/// reference strip at H = 45, reached through the damping continuation), the knob check goes
+/// on to the nearer c/2 and reports the answer's change there (measured 2.2%, held within
+/// 2×), with the warning that the answer depends on c, instead of calling the independence
+/// of c unverified (docs/method.md §7, "Answers that do not depend on solver knobs").
+#[test]
+fn a_lightly_damped_answer_is_checked_at_c_over_2_where_c_over_3_and_3c_fail() {
+    let sets = ["harmonic_balance.harmonics=45", "damping.alpha=86"];
+    let p = common::scene("reference_strip", &sets);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let s = common::solve(&model, &p).unwrap_or_else(|e| panic!("H = 45: {e}"));
+    let contact = s.contact.as_ref().expect("contact");
+    let check = &contact.knob_check;
+    println!("H = 45, 0.5%: {check:?}");
+    let ratio = check.c_alternative / contact.c;
+    assert!((ratio - 0.5).abs() < 1e-12, "second c at {ratio} c");
+    let change = check.c_change.expect("the re-solve at c/2 converges");
+    assert!((0.011..0.044).contains(&change), "{change}");
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("depends on the complementarity")),
+        "{:?}",
+        s.warnings
+    );
+    assert!(!s.warnings.iter().any(|w| w.contains("unverified")));
+}
+
 /// TEST GOAL: the damping continuation is not the reference strip's alone: `strip_wall` with
 /// light mass and stiffness damping (alpha = 150, beta = 1e-8: ζ = 0.25% at its 5 kHz drive)
 /// at H = 40, whose smoothing path folds, is followed down from 5% with the smoothing over six

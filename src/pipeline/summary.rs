@@ -275,7 +275,8 @@ pub struct ContactSolve {
     /// One entry per Newton iteration.
     pub newton_log: Vec<IterationLog>,
     /// Whether the answer moved with the samples N (doubled until it settles; `samples` is
-    /// the N used) and with c (re-solved at c/3, or at 3c where that does not converge).
+    /// the N used) and with c (re-solved at c/3, or at 3c, c/2, 2c in turn where that does not
+    /// converge).
     pub knob_check: KnobCheck,
 }
 
