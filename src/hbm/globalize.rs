@@ -810,7 +810,7 @@ fn stall_advice(
     }
     // The scene's own changes, in the order they were measured to help: on the 0.28%-damped
     // reference strip at H = 70 and 90 (mass-proportional damping only), damping.beta = 1e-8
-    // or a lower H converge, c_scale 0.3 or 0.1 does not.
+    // or a lower H converge, c_scale 0.3 does not (nor 0.1 at H = 70).
     match rayleigh {
         None => advice.push("add damping (the scene has none): damping.beta damps the mesh's high modes that impacts excite".into()),
         Some((_, 0.0)) => advice.push(
@@ -854,7 +854,7 @@ mod tests {
     /// hovering does not, and then the diagnosis does not open with "raise max_iterations"
     /// but says it is unlikely to help, after the scene's changes, which lead with
     /// stiffness damping where the scene has none (measured on the 0.28%-damped strip at
-    /// H = 70 and 90: β = 1e-8 converges there, 1000 iterations or c_scale 0.3 and 0.1 do not;
+    /// H = 70 and 90: β = 1e-8 converges there, 1000 iterations or c_scale 0.3 do not;
     /// tests/hard.rs `a_lightly_damped_strip_that_stops_is_told_the_change_that_converges_it`).
     #[test]
     fn a_hovering_newton_is_not_told_to_take_more_iterations() {

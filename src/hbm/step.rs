@@ -413,6 +413,7 @@ impl KrylovHint {
         self.0.load(std::sync::atomic::Ordering::Relaxed)
     }
 
+    /// Start the next Krylov steps with the harmonic blocks (`true`) or the node blocks.
     pub fn set_harmonic_first(&self, yes: bool) {
         self.0.store(yes, std::sync::atomic::Ordering::Relaxed);
     }
