@@ -350,12 +350,7 @@ fn c_check(s: &Summary) -> String {
         return "-".into();
     };
     let k = &solve.knob_check;
-    let ratio = k.c_alternative / solve.c;
-    let at = if ratio < 1.0 {
-        format!("c/{:.0}", 1.0 / ratio)
-    } else {
-        format!("{ratio:.0}c")
-    };
+    let at = hbcontact::hbm::knobs::c_label(k.c_alternative / solve.c);
     k.c_change.map_or("none".into(), |change| {
         format!("{at} {:.2}%", 100.0 * change)
     })

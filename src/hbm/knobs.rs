@@ -145,6 +145,15 @@ const C_RESOLVE_HOVER: usize = 8;
 /// change of 2.2%, where the run used to warn that the check was unverified).
 const C_ALTERNATIVES: [f64; 4] = [1.0 / 3.0, 3.0, 0.5, 2.0];
 
+/// A second c by its ratio to c, as the warnings and the benches print it: "c/3", "3c".
+pub fn c_label(ratio: f64) -> String {
+    if ratio < 1.0 {
+        format!("c/{:.0}", 1.0 / ratio)
+    } else {
+        format!("{ratio:.0}c")
+    }
+}
+
 /// The exact-law Newton at (N, c) from `start`, at most `max_iterations` steps and at most
 /// `hover` without halving its residual (0: no such bound), its Krylov steps starting with
 /// the preconditioner `hint` names (a copy: runs side by side do not steer each other).
@@ -301,10 +310,15 @@ pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<Str
             100.0 * change,
             check.c_alternative
         )),
-        None => out.push(format!(
-            "the checks at c/3, 3c, c/2 and 2c (the last {:.3e} N/m) did not converge from this solution: its independence of c is unverified",
-            check.c_alternative
-        )),
+        None => {
+            let tried: Vec<String> = C_ALTERNATIVES.iter().map(|&f| c_label(f)).collect();
+            let (last, first) = tried.split_last().expect("C_ALTERNATIVES is not empty");
+            out.push(format!(
+                "the checks at {} and {last} (the last {:.3e} N/m) did not converge from this solution: its independence of c is unverified",
+                first.join(", "),
+                check.c_alternative
+            ));
+        }
         _ => {}
     }
     out
@@ -339,5 +353,26 @@ mod tests {
         }
         let w = warnings(&check, 128, &TimeBasis::Spline(SplineBasis::new(3, 40)));
         assert!(w.iter().all(|m| !m.contains("harmonic_balance.harmonics")));
+    }
+
+    /// TEST GOAL: the warning of an unverified c names every second c tried, in the order
+    /// tried, from the one list the check runs (`C_ALTERNATIVES`), by the labels the benches
+    /// print.
+    #[test]
+    fn an_unverified_c_names_every_second_c_tried() {
+        assert_eq!(c_label(1.0 / 3.0), "c/3");
+        assert_eq!(c_label(3.0), "3c");
+        let check = KnobCheck {
+            samples_initial: 64,
+            samples_changes: vec![0.0],
+            c_alternative: 2e9,
+            c_change: None,
+            iterations: 0,
+            seconds: 0.0,
+            underdamped_share: None,
+        };
+        let w = warnings(&check, 64, &TimeBasis::Fourier);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("the checks at c/3, 3c, c/2 and 2c (the last 2.000e9 N/m)"));
     }
 }
