@@ -587,20 +587,108 @@ fn dense_lu_in_place<T: faer::traits::ComplexField>(
     a: faer::MatMut<'_, T>,
     par: Par,
 ) -> (Vec<usize>, Vec<usize>) {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::lu::partial_pivoting::factor;
     let n = a.nrows();
-    let (mut forward, mut backward) = (vec![0usize; n], vec![0usize; n]);
-    let scratch = factor::lu_in_place_scratch::<usize, T>(n, n, par, Default::default());
+    let mut work = LuWork::default();
+    work.size::<T>(n, par);
+    dense_lu_with(a, par, &mut work);
+    (work.forward, work.backward)
+}
+
+/// The row permutation and faer's scratch of in-place dense LUs of one order (and of
+/// one-column solves with them), kept so that refactoring allocates nothing.
+pub struct LuWork {
+    order: usize,
+    /// (P b)_i = b[forward[i]].
+    pub forward: Vec<usize>,
+    pub backward: Vec<usize>,
+    stack: faer::dyn_stack::MemBuffer,
+}
+
+impl Default for LuWork {
+    fn default() -> Self {
+        LuWork {
+            order: 0,
+            forward: Vec::new(),
+            backward: Vec::new(),
+            stack: faer::dyn_stack::MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
+        }
+    }
+}
+
+impl LuWork {
+    /// Make room for LUs of order n (and one-column solves) at parallelism `par`; nothing
+    /// is allocated when the order is the last one's.
+    pub fn size<T: faer::traits::ComplexField>(&mut self, n: usize, par: Par) {
+        use faer::linalg::lu::partial_pivoting::{factor, solve};
+        if self.order == n && !self.forward.is_empty() {
+            return;
+        }
+        let need = factor::lu_in_place_scratch::<usize, T>(n, n, par, Default::default())
+            .or(solve::solve_in_place_scratch::<usize, T>(n, 1, par));
+        *self = LuWork {
+            order: n,
+            forward: vec![0; n],
+            backward: vec![0; n],
+            stack: faer::dyn_stack::MemBuffer::new(need),
+        };
+    }
+
+    /// faer's scratch, as sized by `size`.
+    pub fn stack(&mut self) -> &mut faer::dyn_stack::MemStack {
+        faer::dyn_stack::MemStack::new(&mut self.stack)
+    }
+}
+
+/// `dense_lu_in_place` into the permutation and scratch of `work` (sized for a's order by
+/// `LuWork::size`).
+pub fn dense_lu_with<T: faer::traits::ComplexField>(
+    a: faer::MatMut<'_, T>,
+    par: Par,
+    work: &mut LuWork,
+) {
+    use faer::dyn_stack::MemStack;
+    use faer::linalg::lu::partial_pivoting::factor;
+    let LuWork {
+        forward,
+        backward,
+        stack,
+        ..
+    } = work;
     factor::lu_in_place(
         a,
-        &mut forward,
-        &mut backward,
+        forward,
+        backward,
         par,
-        MemStack::new(&mut MemBuffer::new(scratch)),
+        MemStack::new(stack),
         Default::default(),
     );
-    (forward, backward)
+}
+
+/// b ← a⁻¹ b by the partially pivoted LU of the square `a`, factored in place, with the
+/// permutation and scratch of `work`: nothing is allocated once `work` held this order
+/// (`dense_solve` for a kept matrix). A singular `a` gives non-finite entries.
+pub fn dense_solve_with(mut a: faer::MatMut<'_, f64>, b: &mut [f64], work: &mut LuWork) {
+    use faer::dyn_stack::MemStack;
+    use faer::linalg::lu::partial_pivoting::solve;
+    let n = a.nrows();
+    let par = dense_parallelism(n);
+    work.size::<f64>(n, par);
+    dense_lu_with(a.as_mut(), par, work);
+    let LuWork {
+        forward,
+        backward,
+        stack,
+        ..
+    } = work;
+    let perm = faer::perm::PermRef::new_checked(forward, backward, n);
+    solve::solve_in_place(
+        a.as_ref(),
+        a.as_ref(),
+        perm,
+        faer::MatMut::from_column_major_slice_mut(b, n, 1),
+        par,
+        MemStack::new(stack),
+    );
 }
 
 /// A⁻¹ of a square dense matrix by partially pivoted LU (`dense_parallelism`); a singular A
@@ -655,6 +743,7 @@ pub fn dense_solve(mut a: Mat<f64>, mut b: Mat<f64>) -> Mat<f64> {
 /// GMRES needs (`GmresWork::cycles`: the products with the matrix itself stay in f64). Kept as factors,
 /// not inverted: the LU costs ⅔ n³, an inverse 2 n³, and a solve with the factors costs the
 /// 2 n² of a product with the inverse.
+#[derive(Default)]
 pub struct DenseLu {
     /// L (unit lower, below the diagonal) and U, column-major n × n.
     cols: Vec<f32>,
@@ -667,14 +756,50 @@ pub struct DenseLu {
 /// `SOLVE_COLUMNS` multiply-adds, where a column at a time took one per multiply-add).
 const SOLVE_COLUMNS: usize = 8;
 
+/// What refactoring `DenseLu`s of one order reuses: the single-precision matrix factored in
+/// place and the permutation and scratch of the LU.
+pub struct DenseLuWork {
+    matrix: Mat<f32>,
+    lu: LuWork,
+}
+
+impl Default for DenseLuWork {
+    fn default() -> Self {
+        DenseLuWork {
+            matrix: Mat::zeros(0, 0),
+            lu: LuWork::default(),
+        }
+    }
+}
+
 impl DenseLu {
     /// The LU of the row-major n × n `a`; `None` when a pivot vanishes or is not finite.
     pub fn new(a: &[f64], n: usize) -> Option<DenseLu> {
-        let mut lu = Mat::<f32>::from_fn(n, n, |i, j| a[i * n + j] as f32);
-        let (forward, _) = dense_lu_in_place(lu.as_mut(), Par::Seq);
-        let cols: Vec<f32> = lu.col_iter().flat_map(|c| c.iter().copied()).collect();
-        let regular = (0..n).all(|i| cols[i * n + i] != 0.0) && cols.iter().all(|v| v.is_finite());
-        regular.then_some(DenseLu { cols, forward })
+        let mut lu = DenseLu::default();
+        lu.refactor(a, n, &mut DenseLuWork::default()).then_some(lu)
+    }
+
+    /// Replace this LU by that of the row-major n × n `a` (to single precision), allocating
+    /// nothing once this LU and `work` have held one of order n; `false` when a pivot
+    /// vanishes or is not finite (the LU is then not to be used).
+    pub fn refactor(&mut self, a: &[f64], n: usize, work: &mut DenseLuWork) -> bool {
+        if work.matrix.nrows() != n || work.matrix.ncols() != n {
+            work.matrix = Mat::zeros(n, n);
+        }
+        for j in 0..n {
+            for (i, v) in work.matrix.col_mut(j).iter_mut().enumerate() {
+                *v = a[i * n + j] as f32;
+            }
+        }
+        work.lu.size::<f32>(n, Par::Seq);
+        dense_lu_with(work.matrix.as_mut(), Par::Seq, &mut work.lu);
+        self.cols.clear();
+        self.cols
+            .extend(work.matrix.col_iter().flat_map(|c| c.iter().copied()));
+        self.forward.clear();
+        self.forward.extend_from_slice(&work.lu.forward);
+        let cols = &self.cols;
+        (0..n).all(|i| cols[i * n + i] != 0.0) && cols.iter().all(|v| v.is_finite())
     }
 
     /// x ← A⁻¹ x (to single precision): x ← P x, then L and U `SOLVE_COLUMNS` columns at a
@@ -918,21 +1043,22 @@ impl GmresWork {
 /// failed contact solve looks for it).
 pub const KRYLOV_STALL: &str = "the Krylov solve of the Newton step stalled";
 
-/// A solve that ran out of cycles at the estimated relative residual `last`:
-/// x when its true relative residual is 1e-2 or better (still a descent direction for a
-/// guarded step, like a line search's), else why it stalled.
+/// A solve that ran out of cycles at the estimated relative residual `last`: `Ok` (x serves)
+/// when its true relative residual is 1e-2 or better (still a descent direction for a
+/// guarded step, like a line search's), else why it stalled. `w` is work space.
 pub fn loose_or_stalled(
     apply: &mut dyn FnMut(&[f64], &mut [f64]),
     b: &[f64],
-    x: Vec<f64>,
+    x: &[f64],
     last: f64,
-) -> std::result::Result<Vec<f64>, String> {
-    let mut w = vec![0.0; b.len()];
-    apply(&x, &mut w);
+    w: &mut Vec<f64>,
+) -> std::result::Result<(), String> {
+    w.resize(b.len(), 0.0);
+    apply(x, w);
     w.iter_mut().zip(b).for_each(|(wi, bi)| *wi = bi - *wi);
-    let rel = dot(&w, &w).sqrt() / dot(b, b).sqrt();
+    let rel = dot(w, w).sqrt() / dot(b, b).sqrt();
     if rel <= 1e-2 {
-        Ok(x)
+        Ok(())
     } else {
         Err(format!(
             "{KRYLOV_STALL} at relative residual {rel:.2e} (GMRES estimate {last:.2e})"
@@ -1085,7 +1211,7 @@ mod tests {
         let last = GmresWork::new(1)
             .cycles(&mut apply, &mut precondition, &b, &mut short, 1e-14, 1)
             .expect_err("one iteration cannot reach 1e-14");
-        let stalled = loose_or_stalled(&mut apply, &b, short, last);
+        let stalled = loose_or_stalled(&mut apply, &b, &short, last, &mut Vec::new());
         assert!(stalled.is_err_and(|why| why.contains("stalled at relative residual")));
         // One solve in two calls: a short first call, then more cycles from where it ended
         // (as the Newton step continues with the other preconditioner).

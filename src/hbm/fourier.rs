@@ -78,6 +78,15 @@ pub fn rotor(k: usize, omega: f64, t: f64, derivative: u32) -> c64 {
     c64::from_polar(1.0, kw * t) * c64::new(0.0, kw).powu(derivative)
 }
 
+/// The work space of `Sampler`'s maps: one spectrum of N and the FFT's scratch, kept by a
+/// caller in a loop so that P and Q allocate nothing (`rustfft`'s `process` allocates its
+/// scratch on every call).
+#[derive(Default)]
+pub struct FftWork {
+    pub(crate) spectrum: Vec<Complex64>,
+    pub(crate) scratch: Vec<Complex64>,
+}
+
 /// FFT plans and dense P, Q for one (H, N).
 pub struct Sampler {
     pub harmonics: usize,
@@ -105,6 +114,15 @@ impl Sampler {
         self.forward.process(buffer);
     }
 
+    /// `forward_in_place` with the FFT's scratch in `scratch`.
+    pub fn forward_with(&self, buffer: &mut [Complex64], scratch: &mut Vec<Complex64>) {
+        scratch.resize(
+            self.forward.get_inplace_scratch_len(),
+            Complex64::new(0.0, 0.0),
+        );
+        self.forward.process_with_scratch(buffer, scratch);
+    }
+
     /// Number of coefficients, M = 2H + 1.
     pub fn coefficients(&self) -> usize {
         2 * self.harmonics + 1
@@ -112,26 +130,43 @@ impl Sampler {
 
     /// P: the samples of the series with coefficients `coeffs` (length M) into `out` (length N).
     pub fn to_samples(&self, coeffs: &[f64], out: &mut [f64]) {
+        self.to_samples_with(coeffs, out, &mut FftWork::default());
+    }
+
+    /// `to_samples` in the work space `work`.
+    pub fn to_samples_with(&self, coeffs: &[f64], out: &mut [f64], work: &mut FftWork) {
         let n = self.samples;
-        let mut spectrum = vec![Complex64::new(0.0, 0.0); n];
+        let FftWork { spectrum, scratch } = work;
+        spectrum.clear();
+        spectrum.resize(n, Complex64::new(0.0, 0.0));
         spectrum[0] = Complex64::new(coeffs[0], 0.0);
         for k in 1..=self.harmonics {
             let half = phasor(coeffs, k) * 0.5;
             spectrum[k] += half;
             spectrum[n - k] += half.conj();
         }
-        self.inverse.process(&mut spectrum);
-        for (o, s) in out.iter_mut().zip(&spectrum) {
+        scratch.resize(
+            self.inverse.get_inplace_scratch_len(),
+            Complex64::new(0.0, 0.0),
+        );
+        self.inverse.process_with_scratch(spectrum, scratch);
+        for (o, s) in out.iter_mut().zip(spectrum.iter()) {
             *o = s.re;
         }
     }
 
     /// Q: the discrete Fourier projection of `samples` (length N) onto M coefficients.
     pub fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
+        self.to_coefficients_with(samples, out, &mut FftWork::default());
+    }
+
+    /// `to_coefficients` in the work space `work`.
+    pub fn to_coefficients_with(&self, samples: &[f64], out: &mut [f64], work: &mut FftWork) {
         let n = self.samples;
-        let mut spectrum: Vec<Complex64> =
-            samples.iter().map(|&x| Complex64::new(x, 0.0)).collect();
-        self.forward.process(&mut spectrum);
+        let FftWork { spectrum, scratch } = work;
+        spectrum.clear();
+        spectrum.extend(samples.iter().map(|&x| Complex64::new(x, 0.0)));
+        self.forward_with(spectrum, scratch);
         let scale = 1.0 / n as f64;
         out[0] = spectrum[0].re * scale;
         for (k, &z) in spectrum.iter().enumerate().take(self.harmonics + 1).skip(1) {

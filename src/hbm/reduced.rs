@@ -9,13 +9,15 @@
 //!
 //! Unknowns are node-major: x[i·M + m] is coefficient m (`fourier` layout) of node i's λ.
 
+use std::fmt::Write as _;
+
 use faer::c64;
 
 use crate::progress::Reporter;
 
 use super::basis::TimeBasis;
 use super::fourier::{harmonic_of, phasor, set_phasor};
-use super::sampler::ContactSampler;
+use super::sampler::{ContactSampler, SamplerWork};
 use super::step::{self, StepMethod};
 
 /// G (per harmonic, complex, nc × nc row-major) and r (node-major coefficients).
@@ -193,6 +195,9 @@ pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
 const NONMONOTONE_WINDOW: usize = 8;
 /// Steps taken without sufficient decrease before the Newton gives up.
 const MAX_FORCED_STEPS: usize = 10;
+/// Iteration records a Newton run reserves room for at its start (its `max_iterations` if
+/// fewer), so that the log grows without allocating in the loop for the runs that matter.
+const LOG_RESERVE: usize = 1000;
 
 /// One Newton iteration's record (the log the user sees with `--verbose`).
 #[derive(Clone, Debug, serde::Serialize, schemars::JsonSchema)]
@@ -215,7 +220,7 @@ pub struct NewtonOutcome {
 }
 
 /// The complementarity residual (23) at one λ, with what the Jacobian and the scale need.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub(super) struct Evaluation {
     pub(super) x: Vec<f64>,
     pub(super) residual: Vec<f64>,
@@ -243,6 +248,22 @@ pub(super) struct Residual<'a> {
     linear_force: f64,
     /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
     node_blocks: std::cell::RefCell<step::NodeBlocks>,
+    /// What an evaluation writes besides its result, kept between evaluations.
+    scratch: std::cell::RefCell<EvaluationScratch>,
+}
+
+/// The work vectors of one residual evaluation: the gap G λ + r (node-major), one node's
+/// law argument, its samples and λ's, its projected coefficients, and the phasors of the
+/// product with G.
+#[derive(Default)]
+struct EvaluationScratch {
+    gap: Vec<f64>,
+    argument: Vec<f64>,
+    samples: Vec<f64>,
+    multipliers: Vec<f64>,
+    coefficients: Vec<f64>,
+    phasors: Vec<c64>,
+    sampling: SamplerWork,
 }
 
 impl<'a> Residual<'a> {
@@ -254,6 +275,7 @@ impl<'a> Residual<'a> {
             smoothing: settings.smoothing,
             linear_force: linear_force(problem, settings.samples, settings.c),
             node_blocks: Default::default(),
+            scratch: Default::default(),
         }
     }
 
@@ -268,39 +290,65 @@ impl<'a> Residual<'a> {
     }
 
     pub(super) fn evaluate(&self, x: Vec<f64>) -> Evaluation {
+        let mut e = Evaluation {
+            x,
+            ..Evaluation::default()
+        };
+        self.evaluate_in_place(&mut e);
+        e
+    }
+
+    /// R and the slopes at `e.x`, into `e`: nothing is allocated once `e` and this residual
+    /// have held an evaluation of the same problem.
+    pub(super) fn evaluate_in_place(&self, e: &mut Evaluation) {
         let (nc, m, ns) = (
             self.problem.nodes,
             self.problem.coefficients(),
             self.sampler.samples(),
         );
-        let g = self.problem.gap(&x);
-        let mut residual = x.clone();
-        let (mut w, mut lam, mut coeffs) = (vec![0.0; ns], vec![0.0; ns], vec![0.0; m]);
+        let mut scratch = self.scratch.borrow_mut();
+        let EvaluationScratch {
+            gap,
+            argument,
+            samples: w,
+            multipliers: lam,
+            coefficients: coeffs,
+            phasors,
+            sampling,
+        } = &mut *scratch;
+        let x = &e.x;
+        gap.resize(x.len(), 0.0);
+        self.problem.compliance_product(x, gap, phasors);
+        for (gi, ri) in gap.iter_mut().zip(&self.problem.linear_gap) {
+            *gi += ri;
+        }
+        argument.resize(m, 0.0);
+        w.resize(ns, 0.0);
+        lam.resize(ns, 0.0);
+        coeffs.resize(m, 0.0);
+        e.residual.clear();
+        e.residual.extend_from_slice(x);
+        e.slopes.clear();
         let mut peak: f64 = 0.0;
-        let mut slopes = Vec::with_capacity(nc * ns);
         for i in 0..nc {
-            let arg: Vec<f64> = (0..m)
-                .map(|a| self.c * g[i * m + a] - x[i * m + a])
-                .collect();
-            self.sampler.to_samples(&arg, &mut w);
-            self.sampler.to_samples(&x[i * m..(i + 1) * m], &mut lam);
+            for (a, arg) in argument.iter_mut().enumerate() {
+                *arg = self.c * gap[i * m + a] - x[i * m + a];
+            }
+            self.sampler.to_samples_with(argument, w, sampling);
+            self.sampler
+                .to_samples_with(&x[i * m..(i + 1) * m], lam, sampling);
             peak = lam.iter().fold(peak, |a, &v| a.max(v.abs()));
             for v in w.iter_mut() {
                 let (value, slope) = self.law(*v);
-                slopes.push(slope);
+                e.slopes.push(slope);
                 *v = value;
             }
-            self.sampler.to_coefficients(&w, &mut coeffs);
-            for a in 0..m {
-                residual[i * m + a] += coeffs[a];
+            self.sampler.to_coefficients_with(w, coeffs, sampling);
+            for (r, q) in e.residual[i * m..(i + 1) * m].iter_mut().zip(coeffs.iter()) {
+                *r += q;
             }
         }
-        Evaluation {
-            x,
-            residual,
-            peak,
-            slopes,
-        }
+        e.peak = peak;
     }
 
     /// ‖R‖∞ over the force scale.
@@ -309,19 +357,27 @@ impl<'a> Residual<'a> {
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
-    /// The Newton direction: dense LU or matrix-free GMRES (`step`), the latter to the
-    /// forcing term of `step::forcing` at the current relative residual.
-    fn direction(&self, e: &Evaluation, settings: &NewtonSettings) -> Result<Vec<f64>, String> {
-        step::direction(
+    /// The Newton direction into `d`: dense LU or matrix-free GMRES (`step`), the latter to
+    /// the forcing term of `step::forcing` at the current relative residual.
+    fn direction(
+        &self,
+        e: &Evaluation,
+        settings: &NewtonSettings,
+        d: &mut Vec<f64>,
+    ) -> Result<(), String> {
+        step::direction_into(
             self.problem,
             &self.sampler,
             self.c,
             &e.slopes,
             &e.residual,
-            settings.method,
-            step::forcing(self.relative(e), settings.tolerance),
+            (
+                settings.method,
+                step::forcing(self.relative(e), settings.tolerance),
+            ),
             &mut self.node_blocks.borrow_mut(),
             &settings.krylov_hint,
+            d,
         )
     }
 }
@@ -332,35 +388,36 @@ fn norm2(v: &[f64]) -> f64 {
 
 /// Non-monotone Armijo backtracking (Grippo, Lampariello, Lucidi 1986) against `reference`,
 /// the worst of the last few ‖R‖₂: semi-smooth Newton steps cross kinks of max(0, ·) and a
-/// strictly monotone search stalls on them. Returns the accepted step length and evaluation,
-/// or the best trial when none decreased enough.
+/// strictly monotone search stalls on them. On success `trial` holds the accepted point and
+/// the step length is returned; otherwise `best` holds the best trial and its length is the
+/// error. `trial` and `best` are work space the caller keeps (nothing is allocated once they
+/// held an evaluation).
 fn line_search(
     residual: &Residual,
     current: &Evaluation,
     step: &[f64],
     reference: f64,
-) -> Result<(f64, Evaluation), (f64, Evaluation)> {
+    (trial, best): (&mut Evaluation, &mut Evaluation),
+) -> Result<f64, f64> {
     let mut alpha = 1.0;
-    let mut best: Option<(f64, f64, Evaluation)> = None;
+    let mut best_trial: Option<(f64, f64)> = None;
     while alpha >= 1.0 / 1024.0 {
-        let trial: Vec<f64> = current
+        trial.x.clear();
+        trial
             .x
-            .iter()
-            .zip(step)
-            .map(|(x, d)| x + alpha * d)
-            .collect();
-        let e = residual.evaluate(trial);
-        let norm = norm2(&e.residual);
+            .extend(current.x.iter().zip(step).map(|(x, d)| x + alpha * d));
+        residual.evaluate_in_place(trial);
+        let norm = norm2(&trial.residual);
         if norm <= (1.0 - 1e-4 * alpha) * reference {
-            return Ok((alpha, e));
+            return Ok(alpha);
         }
-        if best.as_ref().is_none_or(|b| norm < b.0) {
-            best = Some((norm, alpha, e));
+        if best_trial.is_none_or(|b| norm < b.0) {
+            best_trial = Some((norm, alpha));
+            std::mem::swap(trial, best);
         }
         alpha *= 0.5;
     }
-    let (_, a, e) = best.expect("at least one trial step");
-    Err((a, e))
+    Err(best_trial.map_or(0.0, |b| b.1))
 }
 
 /// Semi-smooth Newton on R(λ) = 0 from `start`, globalized by the non-monotone line search
@@ -385,13 +442,19 @@ pub fn newton_until(
 ) -> NewtonOutcome {
     let residual = Residual::new(problem, settings);
     let mut current = residual.evaluate(start.to_vec());
-    let mut log = vec![IterationLog {
+    // Everything the iterations write, sized here: the loop allocates nothing of its own.
+    let (mut trial, mut best) = (current.clone(), current.clone());
+    let mut step = Vec::with_capacity(current.x.len());
+    let mut status = String::with_capacity(64);
+    let mut log = Vec::with_capacity(settings.max_iterations.min(LOG_RESERVE) + 1);
+    log.push(IterationLog {
         residual: residual.relative(&current),
         active_samples: current.active_samples(),
         step: 0.0,
-    }];
+    });
     let (mut iterations, mut stalls) = (0, 0);
-    let mut history: Vec<f64> = Vec::new();
+    // The last `NONMONOTONE_WINDOW` residual norms, newest at `iterations % window`.
+    let mut history = [0.0f64; NONMONOTONE_WINDOW];
     // The residual the last halving reached, and the near-full steps and all steps taken since.
     let (mut mark, mut full_steps, mut since) = (residual.relative(&current), 0, 0);
     let reason = loop {
@@ -436,33 +499,33 @@ pub fn newton_until(
             ));
         }
         iterations += 1;
-        let status = format!("H = {}, residual {rel:.2e}", problem.harmonics);
+        status.clear();
+        let _ = write!(status, "H = {}, residual {rel:.2e}", problem.harmonics);
         reporter.progress("contact Newton", iterations as u64, None, &status);
-        let step = match residual.direction(&current, settings) {
-            Ok(step) => step,
-            Err(why) => break Some(why),
-        };
-        history.push(norm2(&current.residual));
-        let reference = history
-            .iter()
-            .rev()
-            .take(NONMONOTONE_WINDOW)
-            .fold(0.0f64, |a, &b| a.max(b));
-        let (alpha, accepted) = match line_search(&residual, &current, &step, reference) {
-            Ok((alpha, e)) => (alpha, Some(e)),
-            // Take the best trial anyway, a bounded number of times, to leave a kink.
-            Err((alpha, e)) if stalls < MAX_FORCED_STEPS => {
-                stalls += 1;
-                (alpha, Some(e))
+        if let Err(why) = residual.direction(&current, settings, &mut step) {
+            break Some(why);
+        }
+        history[iterations % NONMONOTONE_WINDOW] = norm2(&current.residual);
+        // The worst of the last min(iterations, window) norms (the unused slots are 0).
+        let reference = history.iter().fold(0.0f64, |a, &b| a.max(b));
+        let buffers = (&mut trial, &mut best);
+        let alpha = match line_search(&residual, &current, &step, reference, buffers) {
+            Ok(alpha) => {
+                std::mem::swap(&mut current, &mut trial);
+                Some(alpha)
             }
-            Err(_) => (0.0, None),
+            // Take the best trial anyway, a bounded number of times, to leave a kink.
+            Err(alpha) if stalls < MAX_FORCED_STEPS => {
+                stalls += 1;
+                std::mem::swap(&mut current, &mut best);
+                Some(alpha)
+            }
+            Err(_) => None,
         };
-        let stalled = accepted.is_none();
+        let stalled = alpha.is_none();
+        let alpha = alpha.unwrap_or(0.0);
         full_steps += usize::from(alpha >= 0.5);
         since += 1;
-        if let Some(e) = accepted {
-            current = e;
-        }
         log.push(IterationLog {
             residual: residual.relative(&current),
             active_samples: current.active_samples(),

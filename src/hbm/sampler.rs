@@ -25,6 +25,18 @@ use super::step;
 /// otherwise.
 pub const SPLINE_SAMPLES_PER_SEGMENT: usize = 8;
 
+/// The work space of `ContactSampler`'s maps (the FFT's for Fourier, the spline
+/// coefficients' vectors for splines), kept by a caller in a loop (the contact Newton's
+/// residual and activity blocks) so that they allocate nothing.
+#[derive(Default)]
+pub struct SamplerWork {
+    pub(super) fft: fourier::FftWork,
+    pub(super) a: Vec<f64>,
+    pub(super) b: Vec<f64>,
+    pub(super) c: Vec<f64>,
+    pub(super) d: Vec<f64>,
+}
+
 /// P and Q of the contact terms for one basis, H and N.
 pub enum ContactSampler {
     Fourier(Sampler),
@@ -84,25 +96,40 @@ impl ContactSampler {
 
     /// P: the samples of the function with coefficients `coeffs` (length M) into `out` (N).
     pub fn to_samples(&self, coeffs: &[f64], out: &mut [f64]) {
+        self.to_samples_with(coeffs, out, &mut SamplerWork::default());
+    }
+
+    /// `to_samples` in the work space `work`.
+    pub fn to_samples_with(&self, coeffs: &[f64], out: &mut [f64], work: &mut SamplerWork) {
         match self {
-            ContactSampler::Fourier(s) => s.to_samples(coeffs, out),
-            ContactSampler::Spline(s) => s.to_samples(coeffs, out),
+            ContactSampler::Fourier(s) => s.to_samples_with(coeffs, out, &mut work.fft),
+            ContactSampler::Spline(s) => s.to_samples(coeffs, out, &mut work.a),
         }
     }
 
     /// Q: the coefficients (length M) of the projection of `samples` (length N).
     pub fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
+        self.to_coefficients_with(samples, out, &mut SamplerWork::default());
+    }
+
+    /// `to_coefficients` in the work space `work`.
+    pub fn to_coefficients_with(&self, samples: &[f64], out: &mut [f64], work: &mut SamplerWork) {
         match self {
-            ContactSampler::Fourier(s) => s.to_coefficients(samples, out),
-            ContactSampler::Spline(s) => s.to_coefficients(samples, out),
+            ContactSampler::Fourier(s) => s.to_coefficients_with(samples, out, &mut work.fft),
+            ContactSampler::Spline(s) => s.to_coefficients(samples, out, &mut work.a),
         }
     }
 
     /// A = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples.
     pub fn activity_block(&self, slopes: &[f64], out: &mut [f64]) {
+        self.activity_block_with(slopes, out, &mut SamplerWork::default());
+    }
+
+    /// `activity_block` in the work space `work`.
+    pub fn activity_block_with(&self, slopes: &[f64], out: &mut [f64], work: &mut SamplerWork) {
         match self {
-            ContactSampler::Fourier(s) => step::activity_block(s, slopes, out),
-            ContactSampler::Spline(s) => s.activity_block(slopes, out),
+            ContactSampler::Fourier(s) => step::activity_block_with(s, slopes, out, work),
+            ContactSampler::Spline(s) => s.activity_block(slopes, out, work),
         }
     }
 
@@ -170,10 +197,12 @@ impl SplineMaps {
         self.weights.len()
     }
 
-    /// The spline coefficients ũ_n = Σ_j a_j cos θ_j n + b_j sin θ_j n of phasors `coeffs`.
-    fn synthesize(&self, coeffs: &[f64]) -> Vec<f64> {
+    /// The spline coefficients ũ_n = Σ_j a_j cos θ_j n + b_j sin θ_j n of phasors `coeffs`,
+    /// into `u`.
+    fn synthesize(&self, coeffs: &[f64], u: &mut Vec<f64>) {
         let s = self.segments;
-        let mut u = vec![coeffs[0]; s];
+        u.clear();
+        u.resize(s, coeffs[0]);
         for j in 1..=self.harmonics {
             let (a, b) = (coeffs[cos_index(j)], coeffs[sin_index(j)]);
             let (c, sn) = (&self.cos[j * s..(j + 1) * s], &self.sin[j * s..(j + 1) * s]);
@@ -181,13 +210,12 @@ impl SplineMaps {
                 *un += a * c[n] + b * sn[n];
             }
         }
-        u
     }
 
-    /// P: y_{i,g} = Σ_r B(u_g + r) ũ_{i−r}.
-    fn to_samples(&self, coeffs: &[f64], out: &mut [f64]) {
+    /// P: y_{i,g} = Σ_r B(u_g + r) ũ_{i−r} (`u` work space).
+    fn to_samples(&self, coeffs: &[f64], out: &mut [f64], u: &mut Vec<f64>) {
         let (s, p, per) = (self.segments, self.degree, self.per_segment());
-        let u = self.synthesize(coeffs);
+        self.synthesize(coeffs, u);
         for i in 0..s {
             for g in 0..per {
                 let row = &self.values[g * (p + 1)..(g + 1) * (p + 1)];
@@ -198,9 +226,10 @@ impl SplineMaps {
 
     /// Q: v = Pᵀ W y on the spline coefficients, then a_j = κ_j Σ_n v_n cos θ_j n and
     /// b_j = κ_j Σ_n v_n sin θ_j n (L_K⁻¹ per frequency).
-    fn to_coefficients(&self, samples: &[f64], out: &mut [f64]) {
+    fn to_coefficients(&self, samples: &[f64], out: &mut [f64], v: &mut Vec<f64>) {
         let (s, p, per) = (self.segments, self.degree, self.per_segment());
-        let mut v = vec![0.0; s];
+        v.clear();
+        v.resize(s, 0.0);
         for i in 0..s {
             for g in 0..per {
                 let wy = self.weights[g] * samples[i * per + g];
@@ -210,7 +239,7 @@ impl SplineMaps {
                 }
             }
         }
-        self.project(&v, out);
+        self.project(v, out);
     }
 
     /// The phasors of L_K⁻¹-weighted coefficient-space values `v` (the DFT half of Q).
@@ -230,7 +259,7 @@ impl SplineMaps {
     /// A = Q diag(s) P: the banded S × S matrix Pᵀ W diag(s) P on the spline coefficients
     /// (bandwidth p; only samples with a nonzero slope contribute), then the DFT on both
     /// sides: S·(2p+1)·M + S·M² per node instead of N·M².
-    fn activity_block(&self, slopes: &[f64], out: &mut [f64]) {
+    fn activity_block(&self, slopes: &[f64], out: &mut [f64], work: &mut SamplerWork) {
         let (s, p, per, m) = (
             self.segments,
             self.degree,
@@ -239,7 +268,15 @@ impl SplineMaps {
         );
         let width = 2 * p + 1;
         // band[n * width + (d + p)] = entry (n, n + d).
-        let mut band = vec![0.0; s * width];
+        let SamplerWork {
+            a: band,
+            b: column,
+            c: banded,
+            d: projected,
+            ..
+        } = work;
+        band.clear();
+        band.resize(s * width, 0.0);
         for (k, &slope) in slopes.iter().enumerate().filter(|(_, &v)| v != 0.0) {
             let (i, g) = (k / per, k % per);
             let row = &self.values[g * (p + 1)..(g + 1) * (p + 1)];
@@ -252,8 +289,9 @@ impl SplineMaps {
             }
         }
         // Column b of P on the coefficients is cos θ_j n or sin θ_j n; T = band · that.
-        let mut column = vec![0.0; s];
-        let mut banded = vec![0.0; s];
+        column.resize(s, 0.0);
+        banded.resize(s, 0.0);
+        projected.resize(m, 0.0);
         for b in 0..m {
             let j = fourier::harmonic_of(b);
             let table = if b > 0 && b % 2 == 0 {
@@ -267,9 +305,8 @@ impl SplineMaps {
                     .map(|q| band[n * width + q] * column[(n + s * (p + 1) + q - p) % s])
                     .sum();
             }
-            let mut projected = vec![0.0; m];
-            self.project(&banded, &mut projected);
-            for (a, v) in projected.into_iter().enumerate() {
+            self.project(banded, projected);
+            for (a, &v) in projected.iter().enumerate() {
                 out[a * m + b] = v;
             }
         }
@@ -278,13 +315,13 @@ impl SplineMaps {
     /// Dense P (N × M): P applied to the unit coefficient vectors.
     fn p_matrix(&self) -> Vec<f64> {
         let (m, n) = (self.coefficients(), self.samples);
-        dense(n, m, |e, col| self.to_samples(e, col))
+        dense(n, m, |e, col| self.to_samples(e, col, &mut Vec::new()))
     }
 
     /// Dense Q (M × N): Q applied to the unit sample vectors.
     fn q_matrix(&self) -> Vec<f64> {
         let (m, n) = (self.coefficients(), self.samples);
-        dense(m, n, |e, col| self.to_coefficients(e, col))
+        dense(m, n, |e, col| self.to_coefficients(e, col, &mut Vec::new()))
     }
 }
 

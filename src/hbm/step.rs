@@ -26,8 +26,8 @@ use num_complex::Complex64;
 
 use super::fourier::{cos_index, harmonic_of, phasor, set_phasor, sin_index, Sampler};
 use super::reduced::ReducedProblem;
-use super::sampler::ContactSampler;
-use crate::linalg::{loose_or_stalled, DenseLu, GmresWork};
+use super::sampler::{ContactSampler, SamplerWork};
+use crate::linalg::{loose_or_stalled, DenseLu, DenseLuWork, GmresWork, LuWork};
 
 /// GMRES iterations the cost model assumes per Newton step (measured: 10–40 on the strip and
 /// the half-disc with the node-block preconditioner).
@@ -82,15 +82,35 @@ pub fn resolve(method: StepMethod, nodes: usize, harmonics: usize, samples: usiz
 /// A_i = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples, Fourier basis
 /// (a spline basis forms it in `sampler`).
 pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
+    activity_block_with(sampler, slopes, out, &mut SamplerWork::default());
+}
+
+/// `activity_block` in the work space `work`.
+pub fn activity_block_with(
+    sampler: &Sampler,
+    slopes: &[f64],
+    out: &mut [f64],
+    work: &mut SamplerWork,
+) {
     let (h, n) = (sampler.harmonics, sampler.samples);
     let m = 2 * h + 1;
-    let mut spectrum: Vec<Complex64> = slopes.iter().map(|&v| Complex64::new(v, 0.0)).collect();
-    sampler.forward_in_place(&mut spectrum);
+    let SamplerWork {
+        fft,
+        a: c_table,
+        b: s_table,
+        ..
+    } = work;
+    let spectrum = &mut fft.spectrum;
+    spectrum.clear();
+    spectrum.extend(slopes.iter().map(|&v| Complex64::new(v, 0.0)));
+    sampler.forward_with(spectrum, &mut fft.scratch);
     // Ĉ_j = mean(s cos jθ) and Ŝ_j = mean(s sin jθ) for j = 0..2H (2H < N); Ĉ is even in j,
     // Ŝ odd.
     let scale = 1.0 / n as f64;
-    let c_table: Vec<f64> = spectrum[..=2 * h].iter().map(|z| z.re * scale).collect();
-    let s_table: Vec<f64> = spectrum[..=2 * h].iter().map(|z| -z.im * scale).collect();
+    c_table.clear();
+    c_table.extend(spectrum[..=2 * h].iter().map(|z| z.re * scale));
+    s_table.clear();
+    s_table.extend(spectrum[..=2 * h].iter().map(|z| -z.im * scale));
     let c_hat = |j: i64| c_table[j.unsigned_abs() as usize];
     let s_hat = |j: i64| s_table[j.unsigned_abs() as usize] * j.signum() as f64;
     // Basis p_a: index 0 the constant (cos 0θ), 2k−1 cos kθ, 2k sin kθ; harmonics p (rows)
@@ -148,24 +168,53 @@ pub fn direction(
     cache: &mut NodeBlocks,
     hint: &KrylovHint,
 ) -> Result<Vec<f64>, String> {
+    let mut d = Vec::new();
+    let how = (method, forcing);
+    direction_into(
+        problem, sampler, c, slopes, residual, how, cache, hint, &mut d,
+    )?;
+    Ok(d)
+}
+
+/// `direction` into `d`, which with `cache` is all it writes: a Newton run that keeps both
+/// allocates nothing in its steps after the first (issue #8, "no allocation in the loop").
+#[allow(clippy::too_many_arguments)]
+pub fn direction_into(
+    problem: &ReducedProblem,
+    sampler: &ContactSampler,
+    c: f64,
+    slopes: &[f64],
+    residual: &[f64],
+    (method, forcing): (StepMethod, f64),
+    cache: &mut NodeBlocks,
+    hint: &KrylovHint,
+    d: &mut Vec<f64>,
+) -> Result<(), String> {
     let (nc, h, n) = (problem.nodes, problem.harmonics, sampler.samples());
     cache.update(sampler, nc, c, slopes);
-    let dense = |blocks: &[f64]| {
-        dense_step(problem, c, blocks, residual)
-            .ok_or_else(|| "the Newton matrix is singular".to_string())
+    let dense = |cache: &mut NodeBlocks, d: &mut Vec<f64>| {
+        if dense_step_into(problem, c, cache, residual, d) {
+            Ok(())
+        } else {
+            Err("the Newton matrix is singular".to_string())
+        }
     };
     match resolve(method, nc, h, n) {
         StepMethod::Krylov => {
-            let rhs: Vec<f64> = residual.iter().map(|v| -v).collect();
-            krylov_step(problem, c, slopes, &rhs, forcing, cache, hint).or_else(|why| {
+            let mut rhs = std::mem::take(&mut cache.scratch.rhs);
+            rhs.clear();
+            rhs.extend(residual.iter().map(|v| -v));
+            let step = krylov_step(problem, c, slopes, &rhs, forcing, cache, hint, d);
+            cache.scratch.rhs = rhs;
+            step.or_else(|why| {
                 if method == StepMethod::Auto && estimated_flops(nc, h, n).0 <= DENSE_FALLBACK {
-                    dense(&cache.blocks)
+                    dense(cache, d)
                 } else {
                     Err(why)
                 }
             })
         }
-        _ => dense(&cache.blocks),
+        _ => dense(cache, d),
     }
 }
 
@@ -178,10 +227,18 @@ pub struct NodeBlocks {
     c: f64,
     slopes: Vec<f64>,
     blocks: Vec<f64>,
-    /// The LU of J_ii per node, valid where `factor_ready`; `None` for a singular J_ii,
-    /// which preconditions as the identity (GMRES converges, slower).
-    factors: Vec<Option<DenseLu>>,
+    /// The LU of J_ii per node, valid where `factor_ready` and `regular` (a singular J_ii
+    /// preconditions as the identity: GMRES converges, slower).
+    factors: Vec<DenseLu>,
+    regular: Vec<bool>,
     factor_ready: Vec<bool>,
+    /// J_ii being factored, and what refactoring the node LUs reuses.
+    node_block: Vec<f64>,
+    node_work: DenseLuWork,
+    /// The dense step's J and its LU's work (`dense_step_into`).
+    dense: Option<(Mat<f64>, LuWork)>,
+    /// The activity blocks' work space.
+    sampling: SamplerWork,
     /// The Krylov steps' work arrays, sized at the first step and kept for the run.
     scratch: KrylovScratch,
 }
@@ -196,6 +253,11 @@ struct KrylovScratch {
     single: Vec<f32>,
     /// The harmonic blocks' phasors (n_c).
     phasors: Vec<c64>,
+    /// The step's right-hand side −R, and the stalled solve's residual check.
+    rhs: Vec<f64>,
+    check: Vec<f64>,
+    /// The harmonic blocks, refactored in place at the steps that use them.
+    harmonic: HarmonicBlocks,
 }
 
 impl Default for KrylovScratch {
@@ -205,6 +267,9 @@ impl Default for KrylovScratch {
             products: ProductBuffers::default(),
             single: Vec::new(),
             phasors: Vec::new(),
+            rhs: Vec::new(),
+            check: Vec::new(),
+            harmonic: HarmonicBlocks::default(),
         }
     }
 }
@@ -224,8 +289,13 @@ impl NodeBlocks {
                 c,
                 slopes: vec![f64::NAN; slopes.len()], // NaN equals nothing: all recomputed
                 blocks: vec![0.0; nodes * m * m],
-                factors: (0..nodes).map(|_| None).collect(),
+                factors: (0..nodes).map(|_| DenseLu::default()).collect(),
+                regular: vec![false; nodes],
                 factor_ready: vec![false; nodes],
+                node_block: vec![0.0; m * m],
+                node_work: std::mem::take(&mut self.node_work),
+                dense: self.dense.take(),
+                sampling: std::mem::take(&mut self.sampling),
                 scratch: std::mem::take(&mut self.scratch),
             };
         }
@@ -235,7 +305,8 @@ impl NodeBlocks {
                 &mut self.slopes[i * n..(i + 1) * n],
             );
             if new != old {
-                sampler.activity_block(new, &mut self.blocks[i * m * m..(i + 1) * m * m]);
+                let block = &mut self.blocks[i * m * m..(i + 1) * m * m];
+                sampler.activity_block_with(new, block, &mut self.sampling);
                 old.copy_from_slice(new);
                 self.factor_ready[i] = false;
             }
@@ -246,9 +317,10 @@ impl NodeBlocks {
         let m = problem.coefficients();
         for (i, ready) in self.factor_ready.iter_mut().enumerate() {
             if !*ready {
-                let block =
-                    node_block(problem, self.c, i, &self.blocks[i * m * m..(i + 1) * m * m]);
-                self.factors[i] = DenseLu::new(&block, m);
+                let a_i = &self.blocks[i * m * m..(i + 1) * m * m];
+                node_block(problem, self.c, i, a_i, &mut self.node_block);
+                self.regular[i] =
+                    self.factors[i].refactor(&self.node_block, m, &mut self.node_work);
                 *ready = true;
             }
         }
@@ -284,11 +356,42 @@ pub fn dense_step(
     out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
+/// `dense_step` into `d` with the node blocks and the kept J of `cache`: `false` when J is
+/// singular.
+fn dense_step_into(
+    problem: &ReducedProblem,
+    c: f64,
+    cache: &mut NodeBlocks,
+    residual: &[f64],
+    d: &mut Vec<f64>,
+) -> bool {
+    let dim = residual.len();
+    let (jac, work) = cache
+        .dense
+        .get_or_insert_with(|| (Mat::zeros(dim, dim), LuWork::default()));
+    if jac.nrows() != dim {
+        *jac = Mat::zeros(dim, dim);
+    }
+    dense_jacobian_into(problem, c, &cache.blocks, jac);
+    d.clear();
+    d.extend(residual.iter().map(|v| -v));
+    crate::linalg::dense_solve_with(jac.as_mut(), d, work);
+    d.iter().all(|v| v.is_finite())
+}
+
 /// J = I − A + c A G formed densely, column block by column block (dim × dim).
 pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f64> {
+    let dim = problem.nodes * problem.coefficients();
+    let mut jac = Mat::<f64>::zeros(dim, dim);
+    dense_jacobian_into(problem, c, blocks, &mut jac);
+    jac
+}
+
+/// `dense_jacobian` into the dim × dim `jac`.
+fn dense_jacobian_into(problem: &ReducedProblem, c: f64, blocks: &[f64], jac: &mut Mat<f64>) {
     let (nc, m) = (problem.nodes, problem.coefficients());
-    let dim = nc * m;
-    let mut jac = Mat::<f64>::identity(dim, dim);
+    jac.fill(0.0);
+    jac.diagonal_mut().fill(1.0);
     for i in 0..nc {
         let a_i = &blocks[i * m * m..(i + 1) * m * m];
         for a in 0..m {
@@ -311,7 +414,6 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
             }
         }
     }
-    jac
 }
 
 /// The step without forming J: restarted flexible GMRES on J v = v − A v + c A G v, to the
@@ -332,6 +434,7 @@ pub fn dense_jacobian(problem: &ReducedProblem, c: f64, blocks: &[f64]) -> Mat<f
 /// two FFTs of length N that Q D_i P takes, since M ≈ N/8), products with G go harmonic by
 /// harmonic. Inexact Newton: the linear tolerance is the forcing term, loose because the
 /// line search guards the step.
+#[allow(clippy::too_many_arguments)]
 fn krylov_step(
     problem: &ReducedProblem,
     c: f64,
@@ -340,10 +443,12 @@ fn krylov_step(
     forcing: f64,
     cache: &mut NodeBlocks,
     hint: &KrylovHint,
-) -> Result<Vec<f64>, String> {
-    let mut x = vec![0.0; rhs.len()];
+    x: &mut Vec<f64>,
+) -> Result<(), String> {
+    x.clear();
+    x.resize(rhs.len(), 0.0);
     let mut by_harmonics = hint.harmonic_first();
-    let mut harmonic = None;
+    let mut harmonic_ready = false;
     let system = KrylovSystem {
         problem,
         c,
@@ -354,16 +459,19 @@ fn krylov_step(
     let (mut gains, mut last) = ([None::<f64>; 2], 1.0);
     for _ in 0..KRYLOV_CYCLES {
         let cycle = if by_harmonics {
-            let harmonic = harmonic.get_or_insert_with(|| HarmonicBlocks::new(problem, c, slopes));
-            harmonic_cycle(&system, cache, harmonic, &mut x)
+            if !harmonic_ready {
+                cache.scratch.harmonic.refactor(problem, c, slopes);
+                harmonic_ready = true;
+            }
+            harmonic_cycle(&system, cache, x)
         } else {
             cache.refresh_factors(problem);
-            node_cycle(&system, cache, &mut x)
+            node_cycle(&system, cache, x)
         };
         let after = match cycle {
             Ok(()) => {
                 hint.set_harmonic_first(by_harmonics);
-                return Ok(x);
+                return Ok(());
             }
             Err(after) => after,
         };
@@ -374,9 +482,9 @@ fn krylov_step(
             by_harmonics = !by_harmonics;
         }
     }
-    let (blocks, products) = (&cache.blocks, &mut cache.scratch.products);
-    let mut apply_j = jacobian_product(problem, c, blocks, products);
-    loose_or_stalled(&mut apply_j, rhs, x, last)
+    let (blocks, scratch) = (&cache.blocks, &mut cache.scratch);
+    let mut apply_j = jacobian_product(problem, c, blocks, &mut scratch.products);
+    loose_or_stalled(&mut apply_j, rhs, x, last, &mut scratch.check)
 }
 
 /// The linear system of one Newton step, J d = `rhs` to the relative residual `forcing`.
@@ -432,6 +540,7 @@ fn node_cycle(system: &KrylovSystem, cache: &mut NodeBlocks, x: &mut [f64]) -> R
     let NodeBlocks {
         blocks,
         factors,
+        regular,
         scratch,
         ..
     } = cache;
@@ -444,8 +553,12 @@ fn node_cycle(system: &KrylovSystem, cache: &mut NodeBlocks, x: &mut [f64]) -> R
     single.resize(m, 0.0);
     let mut precondition = |v: &[f64], out: &mut [f64]| {
         out.copy_from_slice(v);
-        for (lu, x) in factors.iter().zip(out.chunks_exact_mut(m)) {
-            if let Some(lu) = lu {
+        for ((lu, &regular), x) in factors
+            .iter()
+            .zip(regular.iter())
+            .zip(out.chunks_exact_mut(m))
+        {
+            if regular {
                 lu.solve_in_place(x, single);
             }
         }
@@ -453,13 +566,9 @@ fn node_cycle(system: &KrylovSystem, cache: &mut NodeBlocks, x: &mut [f64]) -> R
     one_cycle(system, blocks, &mut precondition, x, gmres, products)
 }
 
-/// One GMRES restart cycle from `x` preconditioned by the harmonic blocks `harmonic`.
-fn harmonic_cycle(
-    system: &KrylovSystem,
-    cache: &mut NodeBlocks,
-    harmonic: &mut HarmonicBlocks,
-    x: &mut [f64],
-) -> Result<(), f64> {
+/// One GMRES restart cycle from `x` preconditioned by the harmonic blocks of `cache`
+/// (current).
+fn harmonic_cycle(system: &KrylovSystem, cache: &mut NodeBlocks, x: &mut [f64]) -> Result<(), f64> {
     let m = system.problem.coefficients();
     let NodeBlocks {
         blocks, scratch, ..
@@ -468,6 +577,7 @@ fn harmonic_cycle(
         gmres,
         products,
         phasors,
+        harmonic,
         ..
     } = scratch;
     let mut precondition = |v: &[f64], out: &mut [f64]| {
@@ -517,40 +627,61 @@ fn jacobian_product<'a>(
 /// P = J exactly where every node is closed all period or open all period (A_i = I or 0): a
 /// contact patch pressed onto a wall, whose nodes G couples strongly and the node blocks
 /// ignore; only the nodes at the patch's edge, which open and close, make P approximate.
+#[derive(Default)]
 pub struct HarmonicBlocks {
-    lus: Vec<faer::linalg::solvers::PartialPivLu<c64>>,
-    /// The row permutations' work space, so that a solve allocates nothing (faer's
-    /// `Solve::solve_in_place` allocates it on every call: H + 1 times per GMRES iteration).
-    stack: faer::dyn_stack::MemBuffer,
+    /// P_k's LU in place (L unit lower below the diagonal, U on and above), per harmonic,
+    /// and its row permutation (forward, backward).
+    lus: Vec<Mat<c64>>,
+    perms: Vec<(Vec<usize>, Vec<usize>)>,
+    /// The nodes' mean slopes, and the LU's and the solves' work space (faer's
+    /// `Solve::solve_in_place` allocates its own on every call: H + 1 times per GMRES
+    /// iteration).
+    mean: Vec<f64>,
+    work: LuWork,
 }
 
 impl HarmonicBlocks {
     /// The LUs of P_k at the nodes' slopes `slopes` (node-major, N per node).
     pub fn new(problem: &ReducedProblem, c: f64, slopes: &[f64]) -> Self {
+        let mut blocks = HarmonicBlocks::default();
+        blocks.refactor(problem, c, slopes);
+        blocks
+    }
+
+    /// `new` in place: nothing is allocated once these blocks held the same problem's.
+    pub fn refactor(&mut self, problem: &ReducedProblem, c: f64, slopes: &[f64]) {
         let nc = problem.nodes;
         let samples = slopes.len() / nc.max(1);
-        let mean: Vec<f64> = slopes
-            .chunks_exact(samples.max(1))
-            .map(|s| s.iter().sum::<f64>() / samples as f64)
-            .collect();
-        let lus = problem
+        self.mean.clear();
+        self.mean.extend(
+            slopes
+                .chunks_exact(samples.max(1))
+                .map(|s| s.iter().sum::<f64>() / samples as f64),
+        );
+        let harmonics = problem.compliance.len();
+        if self.lus.len() != harmonics || self.lus.first().is_some_and(|l| l.nrows() != nc) {
+            self.lus = (0..harmonics).map(|_| Mat::zeros(nc, nc)).collect();
+            self.perms = (0..harmonics).map(|_| (vec![0; nc], vec![0; nc])).collect();
+        }
+        // The parallelism faer's `PartialPivLu` factors with, which these replace.
+        let par = faer::get_global_parallelism();
+        self.work.size::<c64>(nc, par);
+        for ((gk, lu), (forward, backward)) in problem
             .compliance
             .iter()
-            .map(|gk| {
-                let p = Mat::<c64>::from_fn(nc, nc, |i, j| {
-                    let own = if i == j { 1.0 - mean[i] } else { 0.0 };
-                    c64::new(own, 0.0) + gk[i * nc + j] * (c * mean[i])
-                });
-                p.partial_piv_lu()
-            })
-            .collect();
-        let need = faer::linalg::lu::partial_pivoting::solve::solve_in_place_scratch::<usize, c64>(
-            nc,
-            1,
-            faer::Par::Seq,
-        );
-        let stack = faer::dyn_stack::MemBuffer::new(need);
-        HarmonicBlocks { lus, stack }
+            .zip(&mut self.lus)
+            .zip(&mut self.perms)
+        {
+            for j in 0..nc {
+                for (i, p) in lu.col_mut(j).iter_mut().enumerate() {
+                    let own = if i == j { 1.0 - self.mean[i] } else { 0.0 };
+                    *p = c64::new(own, 0.0) + gk[i * nc + j] * (c * self.mean[i]);
+                }
+            }
+            crate::linalg::dense_lu_with(lu.as_mut(), par, &mut self.work);
+            forward.copy_from_slice(&self.work.forward);
+            backward.copy_from_slice(&self.work.backward);
+        }
     }
 
     /// x ← P⁻¹ x harmonic by harmonic (`x` node-major, `m` coefficients per node); a harmonic
@@ -559,13 +690,21 @@ impl HarmonicBlocks {
         use faer::linalg::lu::partial_pivoting::solve::solve_in_place;
         let nc = x.len() / m;
         phasors.resize(nc, c64::new(0.0, 0.0));
-        let stack = faer::dyn_stack::MemStack::new(&mut self.stack);
-        for (k, lu) in self.lus.iter().enumerate() {
+        let stack = self.work.stack();
+        for (k, (lu, (forward, backward))) in self.lus.iter().zip(&self.perms).enumerate() {
             for (z, xi) in phasors.iter_mut().zip(x.chunks_exact(m)) {
                 *z = phasor(xi, k);
             }
             let rhs = faer::MatMut::from_column_major_slice_mut(phasors, nc, 1);
-            solve_in_place(lu.L(), lu.U(), lu.P(), rhs, faer::Par::Seq, stack);
+            let perm = faer::perm::PermRef::new_checked(forward, backward, nc);
+            solve_in_place(
+                lu.as_ref(),
+                lu.as_ref(),
+                perm,
+                rhs,
+                faer::Par::Seq,
+                &mut *stack,
+            );
             if phasors.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
                 for (z, xi) in phasors.iter().zip(x.chunks_exact_mut(m)) {
                     set_phasor(xi, k, *z);
@@ -599,25 +738,25 @@ fn block_products(blocks: &[f64], m: usize, x: &[f64], out: &mut [f64]) {
 /// J_ii = I − A_i + c A_i G_ii (row-major). G_ii couples only the cosine and sine of one
 /// harmonic, as the real 2 × 2 block [[Re g, Im g], [−Im g, Re g]] of g = G_k[i, i] (1 × 1
 /// for the constant), so A_i G_ii costs 4 M² instead of M³.
-fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64]) -> Vec<f64> {
+fn node_block(problem: &ReducedProblem, c: f64, i: usize, a_i: &[f64], out: &mut [f64]) {
     let m = problem.coefficients();
-    let mut out: Vec<f64> = a_i.iter().map(|a| -a).collect();
+    for (o, a) in out.iter_mut().zip(a_i) {
+        *o = -a;
+    }
     for d in 0..m {
         out[d * m + d] += 1.0;
     }
-    let g: Vec<c64> = (0..=(m - 1) / 2)
-        .map(|k| c * problem.compliance[k][i * problem.nodes + i])
-        .collect();
+    let g = |k: usize| c * problem.compliance[k][i * problem.nodes + i];
     for (row, out) in a_i.chunks_exact(m).zip(out.chunks_exact_mut(m)) {
-        out[0] += row[0] * g[0].re;
+        out[0] += row[0] * g(0).re;
         let pairs = row[1..].chunks_exact(2).zip(out[1..].chunks_exact_mut(2));
-        for ((a, o), gk) in pairs.zip(&g[1..]) {
+        for (k, (a, o)) in pairs.enumerate() {
+            let gk = g(k + 1);
             // a = (cos, sin) entries of harmonic k in this row of A_i.
             o[0] += a[0] * gk.re - a[1] * gk.im;
             o[1] += a[0] * gk.im + a[1] * gk.re;
         }
     }
-    out
 }
 
 #[cfg(test)]
@@ -769,8 +908,11 @@ mod tests {
             let mut cache = NodeBlocks::default();
             cache.update(&sampler, nc, c, &slopes);
             let forcing = 1e-8;
-            let d = krylov_step(&problem, c, &slopes, &rhs, forcing, &mut cache, &hint)
-                .expect("converges");
+            let mut d = Vec::new();
+            krylov_step(
+                &problem, c, &slopes, &rhs, forcing, &mut cache, &hint, &mut d,
+            )
+            .expect("converges");
             let mut jd = vec![0.0; nc * m];
             jacobian_product(&problem, c, &cache.blocks, &mut ProductBuffers::default())(
                 &d, &mut jd,
