@@ -159,6 +159,63 @@ fn fold_reason(at: f64) -> String {
     )
 }
 
+/// The smoothing levels of a continuation (docs/method.md, "Globalization", step 2): μ from
+/// 0.3 F (F the linear solution's force) down by a factor of 0.3 per level to below
+/// 0.1 × tolerance × F, each level from the last one's solution; a failed level narrows the
+/// factor to its square root, until that would exceed 0.95 (the path turned back). The one
+/// schedule of `smoothed_on` and `joint`.
+struct Levels {
+    force: f64,
+    floor: f64,
+    ratio: f64,
+    /// μ of the last level passed (F before any), and its solution (the start before any).
+    last: f64,
+    x: Vec<f64>,
+}
+
+impl Levels {
+    fn new(force: f64, tolerance: f64, start: Vec<f64>) -> Levels {
+        Levels {
+            force,
+            floor: 0.1 * tolerance * force,
+            ratio: 0.3,
+            last: force,
+            x: start,
+        }
+    }
+
+    /// μ of the next level; `None` once below the floor, or when nothing penetrates (F = 0).
+    fn next(&self) -> Option<f64> {
+        let mu = self.last * self.ratio;
+        (self.force > 0.0 && mu > self.floor).then_some(mu)
+    }
+
+    /// The level at μ converged to `x`.
+    fn passed(&mut self, mu: f64, x: Vec<f64>) {
+        (self.last, self.x) = (mu, x);
+    }
+
+    /// Whether a failed level can be retried with a narrower step.
+    fn can_narrow(&self) -> bool {
+        self.ratio.sqrt() <= 0.95
+    }
+
+    /// Narrow the step after a failed level (`can_narrow` first).
+    fn narrow(&mut self) {
+        self.ratio = self.ratio.sqrt();
+    }
+
+    /// Widen the step back towards 0.3 after an easy level.
+    fn widen(&mut self) {
+        self.ratio = (self.ratio * self.ratio).max(0.3);
+    }
+
+    /// The last level passed, μ/F.
+    fn reached(&self) -> f64 {
+        self.last / self.force
+    }
+}
+
 /// What the smoothing continuation does where its path turns back (a fold in μ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum OnFold {
@@ -342,8 +399,7 @@ impl<'a> Attempts<'a> {
     ) -> NewtonOutcome {
         let mut settings = self.newton_settings(problem.harmonics, c, 0.0);
         let force = reduced::linear_force(problem, settings.samples, c);
-        let floor = 0.1 * self.settings.tolerance * force;
-        let (mut x, mut ratio, mut last) = (start.to_vec(), 0.3f64, force);
+        let mut levels = Levels::new(force, self.settings.tolerance, start.to_vec());
         let mut fold = None;
         // Levels failed so far: with a fallback at hand (`OnFold::Stop`), the second failure,
         // or a first one by short steps (`short_steps`) or rising ones (`LEVEL_RISE`), is
@@ -351,13 +407,12 @@ impl<'a> Attempts<'a> {
         // cycles by full steps at H = 60 and 70; at H = 80 and 100 the path folds, and every
         // narrowed level fails again).
         let mut failures = 0;
-        while force > 0.0 && last * ratio > floor {
-            let mu = last * ratio;
+        while let Some(mu) = levels.next() {
             self.level(&mut settings, mu, force);
             if on_fold == OnFold::Stop {
                 (settings.hover, settings.rise) = (LEVEL_HOVER, LEVEL_RISE);
             }
-            let o = self.run(problem, &settings, &x);
+            let o = self.run(problem, &settings, &levels.x);
             if self.exhausted == Some(Budget::Time) {
                 return o; // its reason names the iteration the time ran out at
             }
@@ -365,20 +420,21 @@ impl<'a> Attempts<'a> {
                 if let Some(exact) = self.settled_exact(problem, c, &o, mu / force) {
                     return exact;
                 }
-                (x, last) = (o.multipliers, mu);
+                levels.passed(mu, o.multipliers);
             } else if o.iterations >= self.settings.max_iterations {
                 break; // this run is out of the budget: no fold to report
-            } else if ratio.sqrt() > 0.95
+            } else if !levels.can_narrow()
                 || (on_fold == OnFold::Stop
                     && (failures >= 1 || short_steps(&o.log) || reduced::rose(&o.log)))
             {
-                fold = Some(last / force);
+                fold = Some(levels.reached());
                 break;
             } else {
                 failures += 1;
-                ratio = ratio.sqrt();
+                levels.narrow();
             }
         }
+        let x = levels.x;
         if let (Some(at), OnFold::Stop) = (fold, on_fold) {
             return NewtonOutcome {
                 multipliers: x,
@@ -488,41 +544,40 @@ impl<'a> Attempts<'a> {
         let (own, top) = (self.problem, DAMPED_START / zeta);
         let mut settings = self.newton_settings(own.harmonics, c, 0.0);
         let force = reduced::linear_force(own, settings.samples, c);
-        let floor = 0.1 * self.settings.tolerance * force;
-        let (mut x, mut ratio, mut last) = (vec![0.0; own.linear_gap.len()], 0.3f64, force);
+        let start = vec![0.0; own.linear_gap.len()];
+        let mut levels = Levels::new(force, self.settings.tolerance, start);
         let (mut path, mut heavy) = (Vec::new(), None);
-        while force > 0.0 && last * ratio > floor {
-            let mu = last * ratio;
+        while let Some(mu) = levels.next() {
             let scale = joint_scale(top, mu / force);
             self.level(&mut settings, mu, force);
-            let o = self.run_scaled(&mut heavy, heavier, scale, &settings, &x)?;
+            let o = self.run_scaled(&mut heavy, heavier, scale, &settings, &levels.x)?;
             if o.converged {
                 if path.last() != Some(&(zeta * scale)) {
                     path.push(zeta * scale);
                 }
                 if o.iterations <= 2 {
-                    ratio = (ratio * ratio).max(0.3);
+                    levels.widen();
                 }
                 if scale == 1.0 {
                     if let Some(exact) = self.settled_exact(own, c, &o, mu / force) {
                         return Some((exact, path));
                     }
                 }
-                (x, last) = (o.multipliers, mu);
-            } else if ratio.sqrt() > 0.95 || o.iterations >= self.settings.max_iterations {
+                levels.passed(mu, o.multipliers);
+            } else if !levels.can_narrow() || o.iterations >= self.settings.max_iterations {
                 self.reasons.push(format!(
                     "continuation in the damping with the smoothing: no level below μ = {:.1e}·F \
                      at ζ = {:.2e}: {}",
-                    last / force,
+                    levels.reached(),
                     zeta * scale,
                     self.level_reason(&o, &settings)
                 ));
                 return None;
             } else {
-                ratio = ratio.sqrt();
+                levels.narrow();
             }
         }
-        let o = self.exact_law_at_end(own, c, &x, force);
+        let o = self.exact_law_at_end(own, c, &levels.x, force);
         if !o.converged {
             self.reasons.push(format!(
                 "continuation in the damping with the smoothing, the exact law from its end: {}",
@@ -984,6 +1039,47 @@ mod tests {
         level.max_iterations = 200;
         let pipelines = attempts.level_reason(&failed(200), &level);
         assert_eq!(pipelines, "reached max_iterations = 200");
+    }
+
+    /// TEST GOAL: the smoothing levels follow docs/method.md's step 2: μ = 0.3^k F until
+    /// below 0.1 × tolerance × F (13 levels at 1e-6), none when nothing penetrates; a failed
+    /// level narrows the factor to its square root four times (0.548, 0.740, 0.860, 0.927),
+    /// then no more (the fifth would exceed 0.95: the path turned back), and an easy level
+    /// widens it back to 0.3 in steps of squaring.
+    #[test]
+    fn smoothing_levels_fall_by_0_3_and_narrow_to_square_roots_until_0_95() {
+        let mut levels = Levels::new(2.0, 1e-6, vec![0.0]);
+        let mut mus = Vec::new();
+        while let Some(mu) = levels.next() {
+            mus.push(mu / 2.0);
+            levels.passed(mu, vec![mu]);
+        }
+        assert_eq!(mus.len(), 13, "{mus:?}");
+        assert!(mus
+            .iter()
+            .enumerate()
+            .all(|(k, &m)| (m / 0.3f64.powi(k as i32 + 1) - 1.0).abs() < 1e-12));
+        assert!(mus[12] * 0.3 <= 1e-7 && mus[12] > 1e-7);
+        assert_eq!(levels.x, vec![2.0 * mus[12]]);
+        assert!(Levels::new(0.0, 1e-6, vec![]).next().is_none());
+        let mut narrowed = Vec::new();
+        while levels.can_narrow() {
+            levels.narrow();
+            narrowed.push(levels.ratio);
+        }
+        let expected = [0.548, 0.740, 0.860, 0.927];
+        assert_eq!(narrowed.len(), 4, "{narrowed:?}");
+        assert!(
+            narrowed
+                .iter()
+                .zip(expected)
+                .all(|(a, b)| (a - b).abs() < 1e-3),
+            "{narrowed:?}"
+        );
+        levels.widen();
+        assert!((levels.ratio - 0.860).abs() < 1e-3);
+        (0..3).for_each(|_| levels.widen());
+        assert_eq!(levels.ratio, 0.3);
     }
 
     /// TEST GOAL: the joint continuation's damping starts at the 5% scene on its first level
