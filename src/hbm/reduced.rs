@@ -455,52 +455,20 @@ pub fn newton_until(
     let (mut iterations, mut stalls) = (0, 0);
     // The last `NONMONOTONE_WINDOW` residual norms, newest at `iterations % window`.
     let mut history = [0.0f64; NONMONOTONE_WINDOW];
-    // The residual the last halving reached, and the near-full steps and all steps taken since.
-    let (mut mark, mut full_steps, mut since) = (residual.relative(&current), 0, 0);
+    let mut watch = Watch::new(residual.relative(&current));
     let reason = loop {
         let rel = residual.relative(&current);
         let within = rel <= settings.tolerance;
         if within && iterations >= settings.min_iterations {
             break None;
         }
-        if rel <= 0.5 * mark {
-            (mark, full_steps, since) = (rel, 0, 0);
-        }
-        if settings.stagnation > 0 && full_steps >= settings.stagnation {
-            break Some(format!(
-                "{full_steps} near-full Newton steps did not halve the residual (cycling between \
-                 active sets)"
-            ));
-        }
-        if settings.rise > 0 && iterations >= settings.rise && rose(&log) {
-            break Some(format!(
-                "{iterations} Newton steps each ended above the starting residual (no solution \
-                 near the start)"
-            ));
-        }
-        if settings.hover > 0 && since >= settings.hover {
-            break Some(format!(
-                "{since} Newton steps did not halve the residual (hovering between active sets)"
-            ));
-        }
-        if !rel.is_finite() {
-            break Some("the residual became non-finite".to_string());
-        }
-        if iterations >= settings.max_iterations {
-            break Some(format!(
-                "reached max_iterations = {}",
-                settings.max_iterations
-            ));
-        }
-        if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
-            break Some(format!(
-                "the time budget ran out after iteration {iterations} of this Newton run (H = {}, residual {rel:.2e})",
-                problem.harmonics
-            ));
+        let h = problem.harmonics;
+        if let Some(why) = watch.reason(settings, (iterations, rel, h), &log, deadline) {
+            break Some(why);
         }
         iterations += 1;
         status.clear();
-        let _ = write!(status, "H = {}, residual {rel:.2e}", problem.harmonics);
+        let _ = write!(status, "H = {h}, residual {rel:.2e}");
         reporter.progress("contact Newton", iterations as u64, None, &status);
         if let Err(why) = residual.direction(&current, settings, &mut step) {
             break Some(why);
@@ -524,18 +492,16 @@ pub fn newton_until(
         };
         let stalled = alpha.is_none();
         let alpha = alpha.unwrap_or(0.0);
-        full_steps += usize::from(alpha >= 0.5);
-        since += 1;
+        watch.stepped(alpha);
         log.push(IterationLog {
             residual: residual.relative(&current),
             active_samples: current.active_samples(),
             step: alpha,
         });
-        if stalled && within {
-            break None; // a polishing step that could not improve: keep the converged point
-        }
         if stalled {
-            break Some("the line search found no decrease of ‖R‖ (stalled)".into());
+            // A polishing step that could not improve keeps the converged point.
+            let why = "the line search found no decrease of ‖R‖ (stalled)";
+            break (!within).then(|| why.to_string());
         }
     };
     NewtonOutcome {
@@ -545,6 +511,77 @@ pub fn newton_until(
         iterations,
         log,
         reason: reason.unwrap_or_default(),
+    }
+}
+
+/// What a Newton run watches to give up before its next iteration (the rules of
+/// `NewtonSettings`: stagnation, rise, hover, and its budgets): the residual the last
+/// halving reached, and the near-full steps and all steps taken since.
+struct Watch {
+    mark: f64,
+    full_steps: usize,
+    since: usize,
+}
+
+impl Watch {
+    fn new(start: f64) -> Watch {
+        Watch {
+            mark: start,
+            full_steps: 0,
+            since: 0,
+        }
+    }
+
+    /// A step of length `alpha` was taken.
+    fn stepped(&mut self, alpha: f64) {
+        self.full_steps += usize::from(alpha >= 0.5);
+        self.since += 1;
+    }
+
+    /// Why the run stops after `iterations` at relative residual `rel` (harmonic count `h`),
+    /// or `None` to go on.
+    fn reason(
+        &mut self,
+        settings: &NewtonSettings,
+        (iterations, rel, h): (usize, f64, usize),
+        log: &[IterationLog],
+        deadline: Option<std::time::Instant>,
+    ) -> Option<String> {
+        if rel <= 0.5 * self.mark {
+            *self = Watch::new(rel);
+        }
+        let (full_steps, since) = (self.full_steps, self.since);
+        if settings.stagnation > 0 && full_steps >= settings.stagnation {
+            return Some(format!(
+                "{full_steps} near-full Newton steps did not halve the residual (cycling between \
+                 active sets)"
+            ));
+        }
+        if settings.rise > 0 && iterations >= settings.rise && rose(log) {
+            return Some(format!(
+                "{iterations} Newton steps each ended above the starting residual (no solution \
+                 near the start)"
+            ));
+        }
+        if settings.hover > 0 && since >= settings.hover {
+            return Some(format!(
+                "{since} Newton steps did not halve the residual (hovering between active sets)"
+            ));
+        }
+        if !rel.is_finite() {
+            return Some("the residual became non-finite".to_string());
+        }
+        if iterations >= settings.max_iterations {
+            let max = settings.max_iterations;
+            return Some(format!("reached max_iterations = {max}"));
+        }
+        if deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+            return Some(format!(
+                "the time budget ran out after iteration {iterations} of this Newton run (H = \
+                 {h}, residual {rel:.2e})"
+            ));
+        }
+        None
     }
 }
 
