@@ -597,7 +597,8 @@ fn dense_lu_in_place<T: faer::traits::ComplexField>(
 /// The row permutation and faer's scratch of in-place dense LUs of one order (and of
 /// one-column solves with them), kept so that refactoring allocates nothing.
 pub struct LuWork {
-    order: usize,
+    /// What the scratch was sized for: the order, faer's thread count and the scalar's size.
+    sized: (usize, usize, usize),
     /// (P b)_i = b[forward[i]].
     pub forward: Vec<usize>,
     pub backward: Vec<usize>,
@@ -607,7 +608,7 @@ pub struct LuWork {
 impl Default for LuWork {
     fn default() -> Self {
         LuWork {
-            order: 0,
+            sized: (0, 0, 0),
             forward: Vec::new(),
             backward: Vec::new(),
             stack: faer::dyn_stack::MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
@@ -616,17 +617,18 @@ impl Default for LuWork {
 }
 
 impl LuWork {
-    /// Make room for LUs of order n (and one-column solves) at parallelism `par`; nothing
-    /// is allocated when the order is the last one's.
+    /// Make room for LUs of order n (and one-column solves) of scalar T at parallelism
+    /// `par`; nothing is allocated when those are the last call's.
     pub fn size<T: faer::traits::ComplexField>(&mut self, n: usize, par: Par) {
         use faer::linalg::lu::partial_pivoting::{factor, solve};
-        if self.order == n && !self.forward.is_empty() {
+        let sized = (n, par.degree(), std::mem::size_of::<T>());
+        if self.sized == sized {
             return;
         }
         let need = factor::lu_in_place_scratch::<usize, T>(n, n, par, Default::default())
             .or(solve::solve_in_place_scratch::<usize, T>(n, 1, par));
         *self = LuWork {
-            order: n,
+            sized,
             forward: vec![0; n],
             backward: vec![0; n],
             stack: faer::dyn_stack::MemBuffer::new(need),
