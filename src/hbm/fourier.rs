@@ -109,18 +109,10 @@ impl Sampler {
         }
     }
 
-    /// The forward DFT X_j = Σ_n x_n e^{−2πijn/N} in place (length N).
-    pub fn forward_in_place(&self, buffer: &mut [Complex64]) {
-        self.forward.process(buffer);
-    }
-
-    /// `forward_in_place` with the FFT's scratch in `scratch`.
+    /// The forward DFT X_j = Σ_n x_n e^{−2πijn/N} in place (length N), with the FFT's
+    /// scratch in `scratch`.
     pub fn forward_with(&self, buffer: &mut [Complex64], scratch: &mut Vec<Complex64>) {
-        scratch.resize(
-            self.forward.get_inplace_scratch_len(),
-            Complex64::new(0.0, 0.0),
-        );
-        self.forward.process_with_scratch(buffer, scratch);
+        in_place(&*self.forward, buffer, scratch);
     }
 
     /// Number of coefficients, M = 2H + 1.
@@ -145,11 +137,7 @@ impl Sampler {
             spectrum[k] += half;
             spectrum[n - k] += half.conj();
         }
-        scratch.resize(
-            self.inverse.get_inplace_scratch_len(),
-            Complex64::new(0.0, 0.0),
-        );
-        self.inverse.process_with_scratch(spectrum, scratch);
+        in_place(&*self.inverse, spectrum, scratch);
         for (o, s) in out.iter_mut().zip(spectrum.iter()) {
             *o = s.re;
         }
@@ -208,6 +196,13 @@ impl Sampler {
 /// The forward and inverse FFT plans of length N, planned once per process: a Newton run
 /// makes a sampler per N, and rustfft's planning (twiddles, the algorithm's choice) cost 3%
 /// of the reference strip's Newton at H = 40 when each planned its own.
+/// `fft` of `buffer` in place, its scratch in `scratch` (sized here: `Fft::process`
+/// allocates it on every call).
+fn in_place(fft: &dyn Fft<f64>, buffer: &mut [Complex64], scratch: &mut Vec<Complex64>) {
+    scratch.resize(fft.get_inplace_scratch_len(), Complex64::new(0.0, 0.0));
+    fft.process_with_scratch(buffer, scratch);
+}
+
 fn plans(samples: usize) -> (Arc<dyn Fft<f64>>, Arc<dyn Fft<f64>>) {
     type Plans = HashMap<usize, (Arc<dyn Fft<f64>>, Arc<dyn Fft<f64>>)>;
     static PLANS: OnceLock<Mutex<(FftPlanner<f64>, Plans)>> = OnceLock::new();

@@ -85,12 +85,18 @@ impl ReducedProblem {
 
     /// g = G x + r.
     pub fn gap(&self, x: &[f64]) -> Vec<f64> {
-        let mut g = vec![0.0; self.linear_gap.len()];
-        self.compliance_product(x, &mut g, &mut Vec::new());
+        let mut g = Vec::new();
+        self.gap_into(x, &mut g, &mut Vec::new());
+        g
+    }
+
+    /// `gap` into `g`, with `compliance_product`'s `scratch`.
+    pub fn gap_into(&self, x: &[f64], g: &mut Vec<f64>, scratch: &mut Vec<c64>) {
+        g.resize(self.linear_gap.len(), 0.0);
+        self.compliance_product(x, g, scratch);
         for (gi, ri) in g.iter_mut().zip(&self.linear_gap) {
             *gi += ri;
         }
-        g
     }
 
     /// out = G x (the gap without its linear part), harmonic by harmonic: y_k = G_k λ_k by
@@ -317,11 +323,7 @@ impl<'a> Residual<'a> {
             sampling,
         } = &mut *scratch;
         let x = &e.x;
-        gap.resize(x.len(), 0.0);
-        self.problem.compliance_product(x, gap, phasors);
-        for (gi, ri) in gap.iter_mut().zip(&self.problem.linear_gap) {
-            *gi += ri;
-        }
+        self.problem.gap_into(x, gap, phasors);
         argument.resize(m, 0.0);
         w.resize(ns, 0.0);
         lam.resize(ns, 0.0);
@@ -863,12 +865,10 @@ mod jacobian_tests {
             xp[k] += eps;
             let (rp, ap) = residual(&xp);
             assert_eq!(ap, active, "perturbation crossed a kink");
-            // Column k of J from the dense builder: J = solve(...) is not exposed, so rebuild
-            // by solving J y = e? Use dense_step with residual = −e_k·(something) instead:
             let mut e = vec![0.0; nc * m];
             e[k] = 1.0;
-            // dense_step returns J⁻¹(−r); with r = −J e_k we would need J. Compare J⁻¹ of the
-            // finite-difference column instead: J⁻¹ (R(x+εe_k) − R(x))/ε must be e_k.
+            // The dense step returns J⁻¹(−r): J⁻¹ of the finite-difference column,
+            // J⁻¹ (R(x+εe_k) − R(x))/ε, must be e_k.
             let fd: Vec<f64> = rp.iter().zip(&r0).map(|(a, b)| -(a - b) / eps).collect();
             let slopes: Vec<f64> = active.iter().map(|&a| a as u8 as f64).collect();
             let back = step::direction(

@@ -340,24 +340,9 @@ pub fn activity_blocks(sampler: &ContactSampler, nodes: usize, slopes: &[f64]) -
     blocks
 }
 
-/// The dense step: J assembled column-block by column-block and factored by faer's LU with
-/// partial pivoting. `None` when J is singular (a non-finite solution).
-pub fn dense_step(
-    problem: &ReducedProblem,
-    c: f64,
-    blocks: &[f64],
-    residual: &[f64],
-) -> Option<Vec<f64>> {
-    let jac = dense_jacobian(problem, c, blocks);
-    let dim = jac.nrows();
-    let rhs = Mat::<f64>::from_fn(dim, 1, |r, _| -residual[r]);
-    let x = crate::linalg::dense_solve(jac, rhs);
-    let out: Vec<f64> = (0..dim).map(|r| x[(r, 0)]).collect();
-    out.iter().all(|v| v.is_finite()).then_some(out)
-}
-
-/// `dense_step` into `d` with the node blocks and the kept J of `cache`: `false` when J is
-/// singular.
+/// The dense step into `d`: J assembled column-block by column-block (`dense_jacobian`)
+/// from the node blocks of `cache` into its kept matrix, and solved by faer's LU with
+/// partial pivoting; `false` when J is singular (a non-finite solution).
 fn dense_step_into(
     problem: &ReducedProblem,
     c: f64,
