@@ -3,6 +3,7 @@
 
 mod common;
 
+use hbcontact::config::Pipeline;
 use hbcontact::hbm::{self, fourier};
 use hbcontact::pipeline::{Model, Purpose};
 use hbcontact::transient::setup::Marching;
@@ -480,6 +481,68 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
         (m80 / m60 - 1.0).abs() < 5e-3,
         "mean force {m80} at H = 80, {m60} at H = 60"
     );
+}
+
+/// The mean total pressing force −Σ_i λ̃_i,0 of a contact solution [N].
+fn mean_contact_force(c: &hbm::ContactSolution) -> f64 {
+    let m = 2 * c.harmonics + 1;
+    -c.multipliers.iter().step_by(m).sum::<f64>()
+}
+
+/// TEST GOAL: near its resonance the 0.5%-damped reference strip has two periodic states at
+/// one H, N and c, so a solve that starts from the open state can reach either, or fold
+/// between them (why the light-damping iteration goal of issue 8 is met at 11 of 16 H only,
+/// docs/method.md §7). At H = 15 the direct continuation from λ = 0 reaches one (mean
+/// contact force 30 061 N measured); the 5%-damped state followed down in the damping by
+/// plain Newton runs on the exact law (α = 857, 482, 271, 152, 86, each from the last
+/// state: 4, 3, 3 and 3 iterations measured) reaches another (28 580 N, the value the
+/// continuation in the damping run first reaches there, and next to the direct solves'
+/// 28 284–28 661 N at the other H). Both solve the same discrete complementarity (the same
+/// N and c) to the tolerance; they differ by 5.2%. Held within 0.5% each, and apart by more
+/// than 3%.
+#[test]
+fn lightly_damped_strip_has_two_periodic_states_at_one_h() {
+    let at = |alpha: f64| {
+        let sets = [
+            "harmonic_balance.harmonics=15".to_string(),
+            format!("damping.alpha={alpha}"),
+        ];
+        let refs: Vec<&str> = sets.iter().map(String::as_str).collect();
+        let p = common::scene("reference_strip", &refs);
+        let model = common::model(&p, Purpose::HarmonicBalance);
+        (p, model)
+    };
+    let contact = |(p, model): &(Pipeline, Model)| {
+        let s = common::solve(model, p).unwrap_or_else(|e| panic!("{e}"));
+        s.contact.expect("contact")
+    };
+    let direct = contact(&at(86.0));
+    let mut state = contact(&at(857.0));
+    // The same discrete problem as the direct solve's: its N (c depends on G_0 alone, which
+    // mass-proportional damping does not touch).
+    assert_eq!(state.c, direct.c);
+    state.samples = direct.samples;
+    for alpha in [482.0, 271.0, 152.0, 86.0] {
+        let (p, model) = at(alpha);
+        let op = &model.contact.as_ref().expect("contact").operator;
+        let settings = common::settings(&p);
+        let s = hbm::solve_from(&model.system, op, &settings, &state, &hbcontact::Silent)
+            .unwrap_or_else(|e| panic!("alpha = {alpha}: {e}"));
+        state = s.contact.expect("contact");
+        println!(
+            "alpha = {alpha}: {} iterations, mean force {:.1} N",
+            state.newton.iterations,
+            mean_contact_force(&state)
+        );
+    }
+    let (a, b) = (mean_contact_force(&direct), mean_contact_force(&state));
+    println!(
+        "direct {a:.1} N, followed down in the damping {b:.1} N, N = {}",
+        state.samples
+    );
+    assert!((a / 30_061.0 - 1.0).abs() < 5e-3, "direct: {a}");
+    assert!((b / 28_580.0 - 1.0).abs() < 5e-3, "followed down: {b}");
+    assert!(a / b - 1.0 > 0.03, "{a} against {b}");
 }
 
 /// TEST GOAL: where the re-solves at c/3 and 3c both fail from the solution (the 0.5%-damped
