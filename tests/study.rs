@@ -802,3 +802,104 @@ impl CategoricalPlot {
         self.y_map.0 + self.y_map.1 * pixel_y
     }
 }
+
+/// TEST GOAL: a study does not hide what its points warned of. On the 0.5%-damped reference
+/// strip, whose answer at H = 15 depends on c (1.4% at c/3, measured; the strip has two
+/// periodic states there, contact_scenes.rs
+/// `lightly_damped_strip_has_two_periodic_states_at_one_h`), the accuracy study over H marks
+/// that rung in the status column, prints its warning under the table with a line on what
+/// it means for its error (measured 2.4% in the probe's amplitude against H = 40, where
+/// H = 20 has 0.73%; held: more than twice H = 20's), keeps it in accuracy.csv's last
+/// column and marks it on the plot; the H = 20 rung, which did not warn, keeps "ok" and an
+/// empty column. A parameter study over the damping writes each point's warnings into
+/// study.csv's last column (the 5%-damped point none) and counts them.
+#[test]
+fn study_and_accuracy_tables_carry_each_points_warnings() {
+    let dir = common::temp_out("study-warnings");
+    let strip = common::root().join("pipelines/reference_strip.yaml");
+    let o = run_ok(&[
+        "accuracy",
+        strip.to_str().unwrap(),
+        "--set",
+        "damping.alpha=86",
+        "--set",
+        "stability.check=false",
+        "--ladder",
+        "harmonic_balance.harmonics=15,20,40",
+        "--out",
+        dir.join("accuracy").to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let printed = |h: &str| {
+        stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("| harmonic_balance.harmonics | {h} |")))
+            .unwrap_or_else(|| panic!("H = {h}: {stdout}"))
+    };
+    assert!(printed("15").ends_with("| ok, 1 warning |"), "{stdout}");
+    assert!(printed("20").ends_with("| ok |"), "{stdout}");
+    assert!(stdout.contains("1 of 3 rungs warned"), "{stdout}");
+    assert!(
+        stdout.contains("harmonics = 15: the contact response changes by"),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(dir.join("accuracy/accuracy.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].ends_with(",error,warnings"), "{}", lines[0]);
+    let column = |name: &str| lines[0].split(',').position(|c| c == name).unwrap();
+    let error = |line: &str| -> f64 {
+        let field = line.split(',').nth(column("error_probe_first_harmonic"));
+        field.and_then(|v| v.parse().ok()).expect("an error")
+    };
+    assert!(error(lines[1]) > 2.0 * error(lines[2]), "{text}");
+    let svg = std::fs::read_to_string(dir.join("accuracy/accuracy.svg")).unwrap();
+    assert!(svg.contains("harmonics = 15: warned"), "the plot marks it");
+    assert!(!svg.contains("harmonics = 20: warned"));
+    assert!(
+        lines[1].starts_with("harmonic_balance.harmonics,1.5e1,ok,")
+            && lines[1].contains("depends on the complementarity parameter"),
+        "{text}"
+    );
+    assert!(
+        lines[2].starts_with("harmonic_balance.harmonics,2e1,ok,") && lines[2].ends_with(",,"),
+        "{text}"
+    );
+
+    let study = dir.join("damping.yaml");
+    std::fs::write(
+        &study,
+        format!(
+            "name: damping\npipeline: {}\nset: {{harmonic_balance.harmonics: 15, stability.check: false}}\nparameters:\n  - {{key: damping.alpha, values: [857.0, 86.0]}}\n",
+            strip.display()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("damping");
+    let o = run_ok(&[
+        "study",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        stderr(&o).contains("2 ok (1 of them warned"),
+        "{}",
+        stderr(&o)
+    );
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].ends_with(",key,warnings"), "{}", lines[0]);
+    let row = |alpha: &str| {
+        lines[1..]
+            .iter()
+            .find(|l| l.split(',').nth(1) == Some(alpha))
+            .unwrap_or_else(|| panic!("alpha = {alpha}: {text}"))
+    };
+    assert!(row("8.57e2").ends_with(','), "{text}");
+    assert!(
+        row("8.6e1").contains("depends on the complementarity parameter"),
+        "{text}"
+    );
+    let manifest = common::read_json(&out.join("manifest.json"));
+    assert_eq!(manifest["warned"], 1, "{manifest}");
+}

@@ -13,9 +13,10 @@ pub fn show_study(report: &StudyReport) {
     }
     match &report.table {
         Some(table) => eprintln!(
-            "{} points: {} ok, {} failed, {} missing; wrote {} (plots and manifest.json beside it)",
+            "{} points: {} ok{}, {} failed, {} missing; wrote {} (plots and manifest.json beside it)",
             report.points,
             report.ok,
+            warned(report.warned),
             report.failed,
             report.missing,
             table.display()
@@ -27,10 +28,21 @@ pub fn show_study(report: &StudyReport) {
     }
 }
 
+/// " (3 of them warned: see the table's warnings column)", or nothing.
+fn warned(n: usize) -> String {
+    match n {
+        0 => String::new(),
+        _ => format!(" ({n} of them warned: see the table's warnings column)"),
+    }
+}
+
 /// The accuracy table on stdout.
 pub fn show_accuracy(report: &AccuracyReport) {
     outln!("errors against {}", report.reference_name());
     outln!("{}", report.markdown());
+    for note in report.warning_notes() {
+        outln!("{note}");
+    }
 }
 
 /// The cheapest rung meeting the tolerance, per measure.

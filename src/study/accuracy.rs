@@ -9,9 +9,11 @@
 //! period (`displacement_l2`, below). Wall time excludes meshing (the cache makes it free
 //! after the first rung) and writing (rungs write their harmonic amplitudes); peak memory is
 //! the run's peak resident memory (execute.rs). A failed rung is tabulated with its error and
-//! the others go on. Outputs: `accuracy.csv`, `accuracy.svg|png` (the Pareto plot of the
-//! probe's first-harmonic error against wall time, reference named in the title) and
-//! `plots/pareto_<measure>.svg|png`, and `manifest.json`.
+//! the others go on; a rung that warned keeps its warnings (the last column of
+//! `accuracy.csv`, the status column, and notes under the printed table). Outputs:
+//! `accuracy.csv`, `accuracy.svg|png` (the Pareto plot of the probe's first-harmonic error
+//! against wall time, reference named in the title) and `plots/pareto_<measure>.svg|png`,
+//! and `manifest.json`.
 //!
 //! Displacement L2 error over space and period, from the harmonic amplitudes on the nodes
 //! (`amplitudes.vtu`: a_0 = `static`, a_k, b_k = `harmonic_k_cos`, `harmonic_k_sin`) by
@@ -34,7 +36,7 @@ use super::execute::Execution;
 use super::outputs::Output;
 use super::plan::{point_dir, Mode};
 use super::spec::{Accuracy, Reference, Study};
-use super::table::{csv_field, csv_number, slug, Row, Staged};
+use super::table::{csv_field, csv_number, slug, warnings_field, Row, Staged};
 use crate::output::plot::{tick, Axis, Figure};
 use crate::output::tables::write_json;
 use crate::{Error, Result};
@@ -81,6 +83,9 @@ pub struct Rung {
     pub errors: Vec<f64>,
     /// Nodes the displacement L2 error summed over (0: none).
     pub l2_nodes: usize,
+    /// What the rung's run warned of: an answer that depends on c, or that the solve reached
+    /// by a detour, can be another periodic state than the reference's.
+    pub warnings: Vec<String>,
     /// The rung's point directory (its `amplitudes.vtu`).
     #[serde(skip)]
     pub dir: PathBuf,
@@ -117,6 +122,7 @@ fn rung(out: &Path, row: &Row, key: String, value: f64) -> Rung {
         values: MEASURES.iter().map(|m| row.output(m)).collect(),
         errors: vec![f64::NAN; ERROR_NAMES.len()],
         l2_nodes: 0,
+        warnings: row.warnings().to_vec(),
         dir: point_dir(out, &row.point.key),
         is_reference: false,
     }
@@ -286,10 +292,44 @@ impl AccuracyReport {
                 } else {
                     "-".into()
                 },
-                r.status,
+                match r.warnings.len() {
+                    0 => r.status.clone(),
+                    n => format!("{}, {n} warning{}", r.status, if n == 1 { "" } else { "s" }),
+                },
             );
         }
         s
+    }
+
+    /// The warnings of the rungs that warned, one line each, after a line on what they mean
+    /// for the errors (empty when none warned).
+    pub fn warning_notes(&self) -> Vec<String> {
+        let warned: Vec<&Rung> = self
+            .rungs
+            .iter()
+            .filter(|r| !r.warnings.is_empty())
+            .collect();
+        if warned.is_empty() {
+            return Vec::new();
+        }
+        let mut notes = vec![format!(
+            "{} of {} rungs warned: a rung whose answer depends on c, or that its solve reached by \
+             a detour, can be another periodic state than the reference's, and its error then \
+             measures the distance between states rather than what the setting costs",
+            warned.len(),
+            self.rungs.len()
+        )];
+        for r in warned {
+            let value = if r.key == "reference" {
+                "transient".into()
+            } else {
+                tick(r.value)
+            };
+            for w in &r.warnings {
+                notes.push(format!("{} = {value}: {w}", short(&r.key)));
+            }
+        }
+        notes
     }
 
     /// `accuracy.csv`.
@@ -300,7 +340,7 @@ impl AccuracyReport {
         for m in &MEASURES {
             let _ = write!(s, ",{0},error_{0}", m.name());
         }
-        s.push_str(",error_displacement_l2,displacement_l2_nodes,error\n");
+        s.push_str(",error_displacement_l2,displacement_l2_nodes,error,warnings\n");
         for r in &self.rungs {
             let value = if r.key == "reference" {
                 "transient".into()
@@ -323,10 +363,11 @@ impl AccuracyReport {
             }
             let _ = writeln!(
                 s,
-                ",{},{},{}",
+                ",{},{},{},{}",
                 csv_number(r.errors[L2]),
                 r.l2_nodes,
-                csv_field(r.message.as_deref().unwrap_or(""))
+                csv_field(r.message.as_deref().unwrap_or("")),
+                warnings_field(&r.warnings)
             );
         }
         s
@@ -359,6 +400,16 @@ impl AccuracyReport {
                 .collect();
             fig = fig.line(short(key), pts);
         }
+        // A warned rung's error may be between states, not what its setting costs.
+        for r in self.rungs.iter().filter(|r| !r.warnings.is_empty()) {
+            let (x, y) = (r.seconds, r.errors[m]);
+            if !r.is_reference && x > 0.0 && y > 0.0 && y.is_finite() {
+                fig = fig.mark(
+                    format!("{} = {}: warned", short(&r.key), tick(r.value)),
+                    (x, y),
+                );
+            }
+        }
         fig
     }
 }
@@ -379,6 +430,8 @@ struct Manifest<'a> {
     reference: String,
     rungs: usize,
     failed: usize,
+    /// Rungs that ran and warned (`accuracy.csv`'s `warnings` column says of what).
+    warned: usize,
     files: Vec<String>,
     execution: Option<&'a Execution>,
 }
@@ -416,6 +469,11 @@ pub fn publish(
         reference: report.reference_name(),
         rungs: report.rungs.len(),
         failed: report.rungs.iter().filter(|r| r.status != "ok").count(),
+        warned: report
+            .rungs
+            .iter()
+            .filter(|r| !r.warnings.is_empty())
+            .count(),
         files,
         execution,
     };

@@ -72,6 +72,8 @@ pub struct StudyReport {
     pub table: Option<PathBuf>,
     pub points: usize,
     pub ok: usize,
+    /// Points that ran and warned (the tables' `warnings` columns say of what).
+    pub warned: usize,
     pub failed: usize,
     /// Points without a record (shards not run yet).
     pub missing: usize,
@@ -143,6 +145,7 @@ pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Re
             table: None,
             points: mine.len(),
             ok: 0,
+            warned: 0,
             failed: 0,
             missing: 0,
             execution: Some(execution),
@@ -185,6 +188,7 @@ fn finish(
         table: Some(table),
         points: rows.len(),
         ok,
+        warned: table::warned(&rows),
         failed,
         missing,
         execution,

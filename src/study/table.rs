@@ -1,5 +1,5 @@
 //! A parameter study's results: `study.csv` (one row per point: parameters, outputs, status,
-//! exit class, error, key), plots of each output against each parameter (lines for grids, one
+//! exit class, error, key, and the point's warnings joined by ` | `), plots of each output against each parameter (lines for grids, one
 //! per value of the other parameter; a heat map per output for two-parameter grids; points for
 //! lists and Latin hypercubes), and `manifest.json`. Built from the points' records only, so a
 //! one-process run and merged shards give the same table.
@@ -38,6 +38,16 @@ impl Row {
     pub fn output(&self, o: &Output) -> f64 {
         self.record.as_ref().map_or(f64::NAN, |r| r.output(o))
     }
+    /// What the point's run warned of (nothing without a record).
+    pub fn warnings(&self) -> &[String] {
+        self.record.as_ref().map_or(&[], |r| r.warnings.as_slice())
+    }
+}
+
+/// A point's warnings as one CSV field, joined by ` | ` (last in a row: text with commas
+/// quoted, and every column before it where a reader splitting at commas expects it).
+pub fn warnings_field(warnings: &[String]) -> String {
+    csv_field(&warnings.join(" | "))
 }
 
 /// The rows of every point, from their records.
@@ -78,7 +88,7 @@ pub fn csv(study: &Study, rows: &[Row]) -> String {
     for o in &study.outputs {
         let _ = write!(s, ",{}", o.name());
     }
-    s.push_str(",status,exit_class,error,key\n");
+    s.push_str(",status,exit_class,error,key,warnings\n");
     for row in rows {
         let _ = write!(s, "{}", row.point.index);
         for (_, v) in &row.point.values {
@@ -96,11 +106,12 @@ pub fn csv(study: &Study, rows: &[Row]) -> String {
         let error = r.and_then(|r| r.error.clone()).unwrap_or_default();
         let _ = writeln!(
             s,
-            ",{},{},{},{}",
+            ",{},{},{},{},{}",
             row.status(),
             class,
             csv_field(&error),
-            row.point.key
+            row.point.key,
+            warnings_field(row.warnings())
         );
     }
     s
@@ -221,6 +232,8 @@ struct Manifest<'a> {
     kind: &'static str,
     points: usize,
     ok: usize,
+    /// Points that ran and warned (study.csv's `warnings` column says of what).
+    warned: usize,
     failed: usize,
     missing: usize,
     parameters: Vec<ManifestParameter<'a>>,
@@ -243,6 +256,11 @@ pub fn counts(rows: &[Row]) -> (usize, usize, usize) {
     let ok = rows.iter().filter(|r| r.status() == "ok").count();
     let failed = rows.iter().filter(|r| r.status() == "failed").count();
     (ok, failed, rows.len() - ok - failed)
+}
+
+/// Points whose run warned.
+pub fn warned(rows: &[Row]) -> usize {
+    rows.iter().filter(|r| !r.warnings().is_empty()).count()
 }
 
 /// Remove a previous study's table, plots and manifest.
@@ -343,6 +361,7 @@ pub fn publish(
         kind: "parameters",
         points: rows.len(),
         ok,
+        warned: warned(rows),
         failed,
         missing,
         parameters: study
