@@ -810,8 +810,9 @@ impl CategoricalPlot {
 /// that rung in the status column, prints its warning under the table with a line on what
 /// it means for its error (measured 2.4% in the probe's amplitude against H = 40, where
 /// H = 20 has 0.73%; held: more than twice H = 20's), keeps it in accuracy.csv's last
-/// column and marks it on the plot; the H = 20 rung, which did not warn, keeps "ok" and an
-/// empty column. A parameter study over the damping writes each point's warnings into
+/// column, marks it on the plot and, where it is the cheapest rung within `--tolerance`,
+/// says so there; the H = 20 rung, which did not warn, keeps "ok" and an empty column. A
+/// parameter study over the damping writes each point's warnings into
 /// study.csv's last column (the 5%-damped point none) and counts them.
 #[test]
 fn study_and_accuracy_tables_carry_each_points_warnings() {
@@ -828,6 +829,8 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
         "harmonic_balance.harmonics=15,20,40",
         "--out",
         dir.join("accuracy").to_str().unwrap(),
+        "--tolerance",
+        "5e-2",
     ]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     let printed = |h: &str| {
@@ -839,6 +842,15 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
     assert!(printed("15").ends_with("| ok, 1 warning |"), "{stdout}");
     assert!(printed("20").ends_with("| ok |"), "{stdout}");
     assert!(stdout.contains("1 of 3 rungs warned"), "{stdout}");
+    // The cheapest rung within 5% is the warned one, and the line says so.
+    let cheapest = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("probe_first_harmonic "))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        cheapest.contains("harmonics = 15 (") && cheapest.ends_with("this rung warned (above)"),
+        "{cheapest}"
+    );
     assert!(
         stdout.contains("harmonics = 15: the contact response changes by"),
         "{stdout}"

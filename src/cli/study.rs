@@ -51,12 +51,17 @@ pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
     for c in report.cheapest(tolerance) {
         match c.rung {
             Some((key, value, error, secs, memory)) => outln!(
-                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {})",
+                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {}){}",
                 c.measure,
                 if memory.is_finite() {
                     format!("peak memory {memory:.0} MB")
                 } else {
                     "peak memory not measured".into()
+                },
+                if c.warned {
+                    "; this rung warned (above)"
+                } else {
+                    ""
                 }
             ),
             None => outln!("  {:<22} no rung meets it", c.measure),

@@ -105,6 +105,8 @@ pub struct Cheapest {
     /// (ladder key, value, error, seconds, peak memory [MB]); None when no rung meets the
     /// tolerance.
     pub rung: Option<(String, f64, f64, f64, f64)>,
+    /// The rung warned (its error may be between periodic states, `warning_notes`).
+    pub warned: bool,
 }
 
 fn rung(out: &Path, row: &Row, key: String, value: f64) -> Rung {
@@ -214,22 +216,20 @@ impl AccuracyReport {
         ERROR_NAMES
             .iter()
             .enumerate()
-            .map(|(m, measure)| Cheapest {
-                measure,
-                rung: self
+            .map(|(m, measure)| {
+                let best = self
                     .rungs
                     .iter()
                     .filter(|r| !r.is_reference && r.errors[m] <= tolerance)
-                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
-                    .map(|r| {
-                        (
-                            r.key.clone(),
-                            r.value,
-                            r.errors[m],
-                            r.seconds,
-                            r.peak_memory,
-                        )
+                    .min_by(|a, b| a.seconds.total_cmp(&b.seconds));
+                Cheapest {
+                    measure,
+                    rung: best.map(|r| {
+                        let (key, value) = (r.key.clone(), r.value);
+                        (key, value, r.errors[m], r.seconds, r.peak_memory)
                     }),
+                    warned: best.is_some_and(|r| !r.warnings.is_empty()),
+                }
             })
             .collect()
     }
