@@ -181,6 +181,85 @@ fn resolve(
     reduced::newton(problem, &settings, start, reporter)
 }
 
+/// The re-solves of one check: the solve's problem, c, tolerance and Krylov hint.
+struct Resolves<'a> {
+    problem: &'a ReducedProblem,
+    c: f64,
+    tolerance: f64,
+    hint: &'a KrylovHint,
+    reporter: &'a dyn Reporter,
+}
+
+impl Resolves<'_> {
+    /// The exact law at N = `n` and the solve's c, from `start`.
+    fn at_samples(&self, n: usize, start: &[f64]) -> NewtonOutcome {
+        resolve(
+            self.problem,
+            (n, self.c, self.tolerance),
+            (RESOLVE_ITERATIONS, 0),
+            start,
+            self.hint,
+            self.reporter,
+        )
+    }
+
+    /// The first of `C_ALTERNATIVES` whose re-solve at N = `n` converges from `start`: its
+    /// outcome (with the iterations of all tried) and its c; the last tried where none does.
+    fn second_c(&self, n: usize, start: &[f64]) -> (NewtonOutcome, f64) {
+        let loose = self.tolerance.max(C_RESOLVE_TOLERANCE);
+        let mut spent = 0;
+        let mut last = None;
+        for factor in C_ALTERNATIVES {
+            let mut o = resolve(
+                self.problem,
+                (n, factor * self.c, loose),
+                (C_RESOLVE_ITERATIONS, C_RESOLVE_HOVER),
+                start,
+                self.hint,
+                self.reporter,
+            );
+            spent += o.iterations;
+            o.iterations = spent;
+            let converged = o.converged;
+            last = Some((o, factor * self.c));
+            if converged {
+                break;
+            }
+        }
+        last.expect("C_ALTERNATIVES is not empty")
+    }
+
+    /// N doubled from `samples` (the first doubling's outcome given) while the answer
+    /// changes by more than `SAMPLES_TOLERANCE`, at most `MAX_DOUBLINGS` times: the final N
+    /// and outcome, the changes and iterations recorded in `check`.
+    fn double_samples(
+        &self,
+        samples: usize,
+        solved: NewtonOutcome,
+        first: NewtonOutcome,
+        check: &mut KnobCheck,
+    ) -> (usize, NewtonOutcome) {
+        let (mut n, mut best) = (samples, solved);
+        let mut next = Some(first);
+        for _ in 0..MAX_DOUBLINGS {
+            let o = next
+                .take()
+                .unwrap_or_else(|| self.at_samples(2 * n, &best.multipliers));
+            check.iterations += o.iterations;
+            if !o.converged {
+                break;
+            }
+            let change = relative_change(self.problem, &best.multipliers, &o.multipliers);
+            check.samples_changes.push(change);
+            (n, best) = (2 * n, o);
+            if change <= SAMPLES_TOLERANCE {
+                break;
+            }
+        }
+        (n, best)
+    }
+}
+
 /// Raise N from `samples` until λ settles; returns the final (N, outcome) and the check.
 /// `hint`: the preconditioner the solve's last Krylov step used, which the re-solves start
 /// with.
@@ -203,68 +282,24 @@ pub fn adapt_samples(
         seconds: 0.0,
         underdamped_share: None,
     };
+    let resolves = Resolves {
+        problem,
+        c,
+        tolerance,
+        hint,
+        reporter,
+    };
     // The first doubling and the second c's re-solve at its N run side by side (the Newton is
     // sequential, the machine has a second core); the latter stands when the doublings stop
     // at that N, else it is redone at the N they reach.
-    let solve = |n: usize, c: f64, start: &[f64]| {
-        resolve(
-            problem,
-            (n, c, tolerance),
-            (RESOLVE_ITERATIONS, 0),
-            start,
-            hint,
-            reporter,
-        )
-    };
-    // The first of `C_ALTERNATIVES` that converges: its outcome (with the iterations of all
-    // tried) and its c; the last tried where none does.
-    let check_c = |n: usize, start: &[f64]| {
-        let loose = tolerance.max(C_RESOLVE_TOLERANCE);
-        let mut spent = 0;
-        let mut last = None;
-        for factor in C_ALTERNATIVES {
-            let mut o = resolve(
-                problem,
-                (n, factor * c, loose),
-                (C_RESOLVE_ITERATIONS, C_RESOLVE_HOVER),
-                start,
-                hint,
-                reporter,
-            );
-            spent += o.iterations;
-            o.iterations = spent;
-            let converged = o.converged;
-            last = Some((o, factor * c));
-            if converged {
-                break;
-            }
-        }
-        last.expect("C_ALTERNATIVES is not empty")
-    };
     let (first, (mut alt, mut c_alt)) = rayon::join(
-        || solve(2 * samples, c, &solved.multipliers),
-        || check_c(2 * samples, &solved.multipliers),
+        || resolves.at_samples(2 * samples, &solved.multipliers),
+        || resolves.second_c(2 * samples, &solved.multipliers),
     );
     check.iterations += alt.iterations;
-    let (mut n, mut best) = (samples, solved);
-    let mut next = Some(first);
-    for _ in 0..MAX_DOUBLINGS {
-        let o = next
-            .take()
-            .unwrap_or_else(|| solve(2 * n, c, &best.multipliers));
-        check.iterations += o.iterations;
-        if !o.converged {
-            break;
-        }
-        let change = relative_change(problem, &best.multipliers, &o.multipliers);
-        check.samples_changes.push(change);
-        (n, best) = (2 * n, o);
-        if change <= SAMPLES_TOLERANCE {
-            break;
-        }
-    }
+    let (n, best) = resolves.double_samples(samples, solved, first, &mut check);
     if n != 2 * samples {
-        (alt, c_alt) = check_c(n, &best.multipliers);
+        (alt, c_alt) = resolves.second_c(n, &best.multipliers);
         check.iterations += alt.iterations;
     }
     check.c_alternative = c_alt;
