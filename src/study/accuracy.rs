@@ -130,6 +130,17 @@ fn rung(out: &Path, row: &Row, key: String, value: f64) -> Rung {
     }
 }
 
+impl Rung {
+    /// The rung's value as the table prints it (`transient` for the transient reference).
+    fn value_label(&self) -> String {
+        if self.key == "reference" {
+            "transient".into()
+        } else {
+            tick(self.value)
+        }
+    }
+}
+
 fn relative(v: f64, reference: f64) -> f64 {
     if reference == 0.0 && v == 0.0 {
         0.0
@@ -261,11 +272,7 @@ impl AccuracyReport {
             }
         };
         for r in &self.rungs {
-            let value = if r.key == "reference" {
-                "transient".into()
-            } else {
-                tick(r.value)
-            };
+            let value = r.value_label();
             let _ = writeln!(
                 s,
                 "| {} | {value} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
@@ -320,13 +327,8 @@ impl AccuracyReport {
             self.rungs.len()
         )];
         for r in warned {
-            let value = if r.key == "reference" {
-                "transient".into()
-            } else {
-                tick(r.value)
-            };
             for w in &r.warnings {
-                notes.push(format!("{} = {value}: {w}", short(&r.key)));
+                notes.push(format!("{} = {}: {w}", short(&r.key), r.value_label()));
             }
         }
         notes
@@ -405,7 +407,7 @@ impl AccuracyReport {
             let (x, y) = (r.seconds, r.errors[m]);
             if !r.is_reference && x > 0.0 && y > 0.0 && y.is_finite() {
                 fig = fig.mark(
-                    format!("{} = {}: warned", short(&r.key), tick(r.value)),
+                    format!("{} = {}: warned", short(&r.key), r.value_label()),
                     (x, y),
                 );
             }
