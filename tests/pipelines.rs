@@ -599,7 +599,9 @@ fn quickstart_probe_amplitude_equals_a_direct_library_solve() {
     }
 }
 
-/// The summary says what was simulated, and a scene pays only for that.
+/// TEST GOAL: the summary says what was simulated, and a scene pays only for that (one
+/// harmonic load: one factorization; no damping: real arithmetic); the command line says
+/// it in words.
 #[test]
 fn summary_lists_the_effects_and_harmonics_computed() {
     let out = common::temp_out("quickstart-effects");
@@ -623,10 +625,9 @@ fn summary_lists_the_effects_and_harmonics_computed() {
     assert!(e["contact"].is_null());
     assert_eq!(e["mass"], "consistent");
     let out2 = common::temp_out("quickstart-undamped");
-    run_ok(&[
+    let said = run_ok(&[
         "run",
         "pipelines/quickstart.yaml",
-        "--quiet",
         "--set",
         "damping=null",
         "--set",
@@ -641,6 +642,10 @@ fn summary_lists_the_effects_and_harmonics_computed() {
     );
     assert_eq!(s["effects"]["arithmetic"], "real");
     assert!(s["effects"]["damping"].is_null());
+    // The command line says it in words.
+    let line = "simulated: static load, harmonic 3 excited; no damping; no contact; consistent \
+                mass; time basis fourier, harmonics 0, 3 computed, real arithmetic";
+    assert!(said.lines().any(|l| l == line), "{said}");
 }
 
 /// ParaView as a real client: pvbatch opens the series, finds the time steps and arrays,

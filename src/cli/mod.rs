@@ -94,9 +94,7 @@ pub fn show_run(result: &RunResult) {
         show_newton_log(&solve.newton_log);
     }
     eprintln!("wrote {}", result.dir.display());
-    if let Ok(effects) = serde_json::to_string(&s.effects) {
-        eprintln!("simulated: {effects}");
-    }
+    eprintln!("simulated: {}", s.effects.describe());
     show_headline(s);
 }
 

@@ -171,6 +171,87 @@ pub struct EffectsSummary {
     pub arithmetic: Option<String>,
 }
 
+impl EffectsSummary {
+    /// What was simulated, in words, for people (the command line's `simulated:` line):
+    /// `harmonic 1 excited; damping Rayleigh: alpha = 2e2 1/s, beta = 1e-7 s; contact
+    /// unilateral, …; redistributed mass; time basis fourier, harmonics 0–10 computed,
+    /// complex arithmetic`.
+    pub fn describe(&self) -> String {
+        let e = &self.effects;
+        let mut loads = Vec::new();
+        if e.static_load {
+            loads.push("static load".to_string());
+        }
+        match e.excited_harmonics.as_slice() {
+            [] => {}
+            [k] => loads.push(format!("harmonic {k} excited")),
+            ks => loads.push(format!("harmonics {} excited", ranges(ks))),
+        }
+        if e.prescribed_motion {
+            loads.push("prescribed motion".into());
+        }
+        let mut parts = vec![
+            if loads.is_empty() {
+                "no load".to_string()
+            } else {
+                loads.join(", ")
+            },
+            e.damping
+                .as_ref()
+                .map_or("no damping".into(), |d| format!("damping {d}")),
+            e.contact
+                .as_ref()
+                .map_or("no contact".into(), |c| format!("contact {c}")),
+            format!("{} mass", mass_word(e.mass)),
+        ];
+        let mut solve = Vec::new();
+        if let Some(basis) = &self.time_basis {
+            solve.push(format!("time basis {basis}"));
+        }
+        match self.harmonics_computed.as_deref() {
+            Some([k]) => solve.push(format!("harmonic {k} computed")),
+            Some([]) | None => {}
+            Some(ks) => solve.push(format!("harmonics {} computed", ranges(ks))),
+        }
+        if let Some(arithmetic) = &self.arithmetic {
+            solve.push(format!("{arithmetic} arithmetic"));
+        }
+        if !solve.is_empty() {
+            parts.push(solve.join(", "));
+        }
+        parts.join("; ")
+    }
+}
+
+fn mass_word(m: super::model::MassModel) -> &'static str {
+    use super::model::MassModel;
+    match m {
+        MassModel::Consistent => "consistent",
+        MassModel::Lumped => "lumped",
+        MassModel::Redistributed => "redistributed",
+    }
+}
+
+/// Ascending integers with runs of three or more written as ranges: `0–10`, `0, 3`,
+/// `1, 3–6`.
+fn ranges(v: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < v.len() {
+        let mut j = i;
+        while j + 1 < v.len() && v[j + 1] == v[j] + 1 {
+            j += 1;
+        }
+        if j >= i + 2 {
+            out.push(format!("{}–{}", v[i], v[j]));
+        } else {
+            out.extend(v[i..=j].iter().map(usize::to_string));
+        }
+        i = j + 1;
+    }
+    out.join(", ")
+}
+
 /// Problem sizes.
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct Sizes {
@@ -624,5 +705,21 @@ fn peak_change_from_half_h(
     match (peak(harmonics / 2), peak(harmonics)) {
         (Some(half), Some(full)) if full > 0.0 => (Some(half), Some((full - half) / full)),
         (half, _) => (half, None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ranges;
+
+    /// TEST GOAL: lists of harmonics print with runs of three or more as ranges.
+    #[test]
+    fn harmonic_lists_print_runs_of_three_or_more_as_ranges() {
+        assert_eq!(ranges(&[1]), "1");
+        assert_eq!(ranges(&[0, 3]), "0, 3");
+        assert_eq!(ranges(&[0, 1]), "0, 1");
+        assert_eq!(ranges(&(0..=10).collect::<Vec<_>>()), "0–10");
+        assert_eq!(ranges(&[1, 3, 4, 5, 6, 9]), "1, 3–6, 9");
+        assert_eq!(ranges(&[]), "");
     }
 }
