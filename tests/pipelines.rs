@@ -1258,3 +1258,37 @@ fn the_write_stage_reports_each_frame_to_the_reporter() {
     let calls = recording.0.into_inner().unwrap();
     assert!(!calls.iter().any(|c| c.contains(WRITE_TASK)), "{calls:#?}");
 }
+
+/// TEST GOAL: the contact Newton's log on the command line numbers the Newton steps as the
+/// summary counts them (the last numbered line is the headline's count, 37 on the
+/// 0.5%-damped reference strip at H = 45, whose log of 54 lines is elided in the middle) and
+/// shows where each Newton run (a smoothing level, the exact law) starts.
+#[test]
+fn the_newton_log_numbers_the_steps_the_summary_counts() {
+    let out = common::temp_out("newton-log");
+    let said = run_ok(&[
+        "run",
+        "pipelines/reference_strip.yaml",
+        "--set",
+        "damping.alpha=86",
+        "--set",
+        "harmonic_balance.harmonics=45",
+        "--set",
+        "stability.check=false",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let s = common::read_json(&out.join("summary.json"));
+    let counted = s["contact"]["newton_iterations"].as_u64().expect("a count");
+    let numbered: Vec<u64> = said
+        .lines()
+        .filter_map(|l| l.trim_start().strip_prefix("iteration "))
+        .filter_map(|l| l.split(':').next()?.trim().parse().ok())
+        .collect();
+    assert_eq!(numbered.last(), Some(&counted), "{said}");
+    assert!(numbered.windows(2).all(|w| w[1] > w[0]), "{numbered:?}");
+    let starts = said
+        .lines()
+        .filter(|l| l.trim_start().starts_with("run start:"));
+    assert!(starts.count() >= 2, "{said}");
+}

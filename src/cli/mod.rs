@@ -215,12 +215,28 @@ pub fn show_compare(c: &Comparison) {
 }
 
 /// The contact Newton's log, one line per iteration (long logs are elided in the middle).
+/// The contact Newton's log: each Newton step numbered as the summary counts them, and the
+/// start of each Newton run (a smoothing level, the exact law, a retry) as a line of its
+/// own; the first 30 lines and the last 5.
 fn show_newton_log(log: &[IterationLog]) {
+    let mut steps = 0;
     for (i, l) in log.iter().enumerate() {
+        let start = l.step == 0.0;
+        steps += usize::from(!start);
         if i < 30 || i + 5 >= log.len() {
+            let what = if start {
+                "    run start:    ".to_string()
+            } else {
+                format!("    iteration {steps:>3}:")
+            };
+            let step = if start {
+                String::new()
+            } else {
+                format!(", step {}", l.step)
+            };
             eprintln!(
-                "    iteration {i:>3}: residual {:.3e}, active samples {:>5}, step {}",
-                l.residual, l.active_samples, l.step
+                "{what} residual {:.3e}, active samples {:>5}{step}",
+                l.residual, l.active_samples
             );
         } else if i == 30 {
             eprintln!("    …");
