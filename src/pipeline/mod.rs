@@ -75,23 +75,9 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let stability = stages::stability(p, mesh, &model, &solution, &mut stages)?;
     warnings.extend(stability.warning());
     let staged = StagedDir::create(&out)?;
-    let summary = stages.run("write", || {
-        // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
-        let samples = solution
-            .contact
-            .as_ref()
-            .map_or(hb_settings(p).samples, |c| c.samples);
-        let sampled = Sampled::harmonic_balance(&model, &solution, p.output.frames, samples);
-        if !options.summary_only {
-            let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
-            sampled.write(staged.path(), &model, contact, fields, reporter)?;
-            report::write_amplitudes(staged.path(), &model, &solution)?;
-            stages::copy_mesh(&mesh_info, staged.path())?;
-        }
-        let summary = summary::harmonic_balance(p, mesh_info, &model, &solution, &sampled);
-        Ok((summary, sampled))
+    let (mut summary, sampled) = stages.run("write", || {
+        write_run(p, options, mesh_info, &model, &solution, &staged, reporter)
     })?;
-    let (mut summary, sampled) = summary;
     run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
     let (check, resonance_warnings) = resonance;
     summary.resonance = check;
@@ -101,6 +87,34 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
+}
+
+/// Stage `write`: the time samples (the frame series, the contact history), the harmonic
+/// amplitudes and the mesh into the staged output (only the summary with `summary_only`),
+/// and the run's summary.
+fn write_run(
+    p: &Pipeline,
+    options: &RunOptions,
+    mesh_info: MeshInfo,
+    model: &Model,
+    solution: &crate::hbm::Solution,
+    staged: &StagedDir,
+    reporter: &dyn Reporter,
+) -> Result<(Summary, Sampled)> {
+    // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
+    let samples = solution
+        .contact
+        .as_ref()
+        .map_or(hb_settings(p).samples, |c| c.samples);
+    let sampled = Sampled::harmonic_balance(model, solution, p.output.frames, samples);
+    if !options.summary_only {
+        let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
+        sampled.write(staged.path(), model, contact, fields, reporter)?;
+        report::write_amplitudes(staged.path(), model, solution)?;
+        stages::copy_mesh(&mesh_info, staged.path())?;
+    }
+    let summary = summary::harmonic_balance(p, mesh_info, model, solution, &sampled);
+    Ok((summary, sampled))
 }
 
 /// A solution with a non-finite coefficient is a model error (inputs of extreme magnitude
