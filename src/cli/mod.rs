@@ -214,7 +214,6 @@ pub fn show_compare(c: &Comparison) {
     }
 }
 
-/// The contact Newton's log, one line per iteration (long logs are elided in the middle).
 /// The contact Newton's log: each Newton step numbered as the summary counts them, and the
 /// start of each Newton run (a smoothing level, the exact law, a retry) as a line of its
 /// own; the first 30 lines and the last 5.

@@ -34,6 +34,17 @@ pub enum MassModel {
     Redistributed,
 }
 
+impl MassModel {
+    /// The name the summary writes (serde's).
+    pub fn name(self) -> &'static str {
+        match self {
+            MassModel::Consistent => "consistent",
+            MassModel::Lumped => "lumped",
+            MassModel::Redistributed => "redistributed",
+        }
+    }
+}
+
 /// What the scene simulates (and so what the run pays for).
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct Effects {

@@ -202,7 +202,7 @@ impl EffectsSummary {
             e.contact
                 .as_ref()
                 .map_or("no contact".into(), |c| format!("contact {c}")),
-            format!("{} mass", mass_word(e.mass)),
+            format!("{} mass", e.mass.name()),
         ];
         let mut solve = Vec::new();
         if let Some(basis) = &self.time_basis {
@@ -220,15 +220,6 @@ impl EffectsSummary {
             parts.push(solve.join(", "));
         }
         parts.join("; ")
-    }
-}
-
-fn mass_word(m: super::model::MassModel) -> &'static str {
-    use super::model::MassModel;
-    match m {
-        MassModel::Consistent => "consistent",
-        MassModel::Lumped => "lumped",
-        MassModel::Redistributed => "redistributed",
     }
 }
 
@@ -721,5 +712,18 @@ mod tests {
         assert_eq!(ranges(&(0..=10).collect::<Vec<_>>()), "0–10");
         assert_eq!(ranges(&[1, 3, 4, 5, 6, 9]), "1, 3–6, 9");
         assert_eq!(ranges(&[]), "");
+    }
+
+    /// TEST GOAL: the mass model's name in words is the one summary.json writes.
+    #[test]
+    fn mass_model_names_are_the_summarys() {
+        use crate::pipeline::model::MassModel;
+        for m in [
+            MassModel::Consistent,
+            MassModel::Lumped,
+            MassModel::Redistributed,
+        ] {
+            assert_eq!(serde_json::to_value(m).ok(), Some(m.name().into()));
+        }
     }
 }

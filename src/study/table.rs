@@ -1,7 +1,8 @@
 //! A parameter study's results: `study.csv` (one row per point: parameters, outputs, status,
-//! exit class, error, key, and the point's warnings joined by ` | `), plots of each output against each parameter (lines for grids, one
-//! per value of the other parameter; a heat map per output for two-parameter grids; points for
-//! lists and Latin hypercubes), and `manifest.json`. Built from the points' records only, so a
+//! exit class, error, key, and the point's warnings joined by ` | `), plots of each output
+//! against each parameter (lines for grids, one per value of the other parameter; a heat map
+//! per output for two-parameter grids; points for lists and Latin hypercubes), and
+//! `manifest.json`. Built from the points' records only, so a
 //! one-process run and merged shards give the same table.
 //!
 //! Publishing is staged: everything is written into `<out>/.results.partial-<pid>` and moved
