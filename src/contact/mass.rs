@@ -84,6 +84,9 @@ fn polar_inertia(mesh: &Mesh2d, m: &[f64], centre: [f64; 2]) -> f64 {
         .sum()
 }
 
+/// The redistributed diagonal mass of a mesh whose lumped diagonal mass is `lumped` (2 dofs
+/// per node, equal), with no inertia on `massless_nodes` (the contact nodes): their mass to
+/// their rings, then the centre of mass restored (see the header).
 pub fn redistribute_mass(
     mesh: &Mesh2d,
     lumped: &[f64],
@@ -107,25 +110,13 @@ pub fn redistribute_mass(
     let inertia_before = polar_inertia(mesh, lumped, centre);
 
     let mut m: Vec<f64> = (0..mesh.nodes.len()).map(|n| lumped[2 * n]).collect();
-    let mut received = vec![0.0; mesh.nodes.len()];
     let mut moved = 0.0;
     for &c in &massless {
         let mc = m[c];
         if mc == 0.0 {
             continue;
         }
-        // First ring of non-contact nodes; widen once if the cells around are all contact nodes.
-        let near = adjacency.neighbours(mesh, c);
-        let mut ring: Vec<usize> = near.iter().copied().filter(|&n| !is_massless[n]).collect();
-        if ring.is_empty() {
-            ring = near
-                .into_iter()
-                .flat_map(|n| adjacency.neighbours(mesh, n))
-                .filter(|&n| !is_massless[n])
-                .collect();
-            ring.sort_unstable();
-            ring.dedup();
-        }
+        let ring = receiving_ring(mesh, &adjacency, &is_massless, c);
         let weight: f64 = ring.iter().map(|&n| lumped[2 * n]).sum();
         if ring.is_empty() || !(weight > 0.0) {
             return Err(Error::Model(format!(
@@ -133,42 +124,13 @@ pub fn redistribute_mass(
             )));
         }
         for &n in &ring {
-            let share = mc * lumped[2 * n] / weight;
-            m[n] += share;
-            received[n] += share;
+            m[n] += mc * lumped[2 * n] / weight;
         }
         m[c] = 0.0;
         moved += mc;
     }
-    // Restore the first moment: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j), w_j = m_j over all massive
-    // nodes. (Correcting the receiving ring alone can need negative masses: on a flat contact
-    // face every receiver lies on the same side of the moved mass.)
-    let weights: Vec<f64> = m
-        .iter()
-        .enumerate()
-        .map(|(n, &v)| if is_massless[n] { 0.0 } else { v })
-        .collect();
-    let (_, first_now) = {
-        let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
-        moments(mesh, &full)
-    };
-    let delta = [first[0] - first_now[0], first[1] - first_now[1]];
     if moved > 0.0 {
-        let mut a = Matrix3::zeros();
-        for (n, &w) in weights.iter().enumerate() {
-            if w == 0.0 {
-                continue;
-            }
-            let v = Vector3::new(1.0, mesh.nodes[n][0], mesh.nodes[n][1]);
-            a += v * v.transpose() * w;
-        }
-        let rhs = Vector3::new(0.0, delta[0], delta[1]);
-        let mu = a.lu().solve(&rhs).unwrap_or_else(Vector3::zeros);
-        for (n, &w) in weights.iter().enumerate() {
-            if w > 0.0 {
-                m[n] += w * (mu[0] + mu[1] * mesh.nodes[n][0] + mu[2] * mesh.nodes[n][1]);
-            }
-        }
+        restore_first_moment(mesh, &mut m, &is_massless, first);
     }
     if let Some((n, v)) = m
         .iter()
@@ -187,4 +149,58 @@ pub fn redistribute_mass(
         moved_fraction: moved / total,
         inertia_change: (inertia_after - inertia_before) / inertia_before,
     })
+}
+
+/// The nodes contact node `c`'s mass goes to: its first ring of non-contact nodes, widened
+/// once where the cells around it are all contact nodes.
+fn receiving_ring(
+    mesh: &Mesh2d,
+    adjacency: &CellsOfNode,
+    is_massless: &[bool],
+    c: usize,
+) -> Vec<usize> {
+    let near = adjacency.neighbours(mesh, c);
+    let ring: Vec<usize> = near.iter().copied().filter(|&n| !is_massless[n]).collect();
+    if !ring.is_empty() {
+        return ring;
+    }
+    let mut ring: Vec<usize> = near
+        .into_iter()
+        .flat_map(|n| adjacency.neighbours(mesh, n))
+        .filter(|&n| !is_massless[n])
+        .collect();
+    ring.sort_unstable();
+    ring.dedup();
+    ring
+}
+
+/// Restore the first moment `first` of the nodal masses `m`: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j),
+/// w_j = m_j over all massive nodes. (Correcting the receiving ring alone can need negative
+/// masses: on a flat contact face every receiver lies on the same side of the moved mass.)
+fn restore_first_moment(mesh: &Mesh2d, m: &mut [f64], is_massless: &[bool], first: [f64; 2]) {
+    let weights: Vec<f64> = m
+        .iter()
+        .enumerate()
+        .map(|(n, &v)| if is_massless[n] { 0.0 } else { v })
+        .collect();
+    let (_, first_now) = {
+        let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
+        moments(mesh, &full)
+    };
+    let delta = [first[0] - first_now[0], first[1] - first_now[1]];
+    let mut a = Matrix3::zeros();
+    for (n, &w) in weights.iter().enumerate() {
+        if w == 0.0 {
+            continue;
+        }
+        let v = Vector3::new(1.0, mesh.nodes[n][0], mesh.nodes[n][1]);
+        a += v * v.transpose() * w;
+    }
+    let rhs = Vector3::new(0.0, delta[0], delta[1]);
+    let mu = a.lu().solve(&rhs).unwrap_or_else(Vector3::zeros);
+    for (n, &w) in weights.iter().enumerate() {
+        if w > 0.0 {
+            m[n] += w * (mu[0] + mu[1] * mesh.nodes[n][0] + mu[2] * mesh.nodes[n][1]);
+        }
+    }
 }
