@@ -523,6 +523,61 @@ fn relative_change(state: &[f64], previous: &[f64]) -> f64 {
     distance(state, previous) / norm(state)
 }
 
+/// The periodicity of a march, period by period: the state x = (u, T u̇) at each period
+/// start against the last one (`changes`), and the displacements against the start's
+/// (`departures`).
+struct Periodicity {
+    period: f64,
+    start_state: Vec<f64>,
+    /// (‖u‖² + ‖u̇/ω‖²)^½ of the start: the displacement amplitude of a harmonic motion,
+    /// whatever its phase.
+    start_amplitude: f64,
+    last_state: Vec<f64>,
+    changes: Vec<f64>,
+    departures: Vec<f64>,
+}
+
+impl Periodicity {
+    fn new(period: f64, u: &[f64], v: &[f64]) -> Self {
+        let start_state = state_of(period, u, v);
+        let n = u.len();
+        let start_amplitude = (norm(&start_state[..n]).powi(2)
+            + (norm(&start_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
+        .sqrt();
+        Periodicity {
+            period,
+            last_state: start_state.clone(),
+            start_state,
+            start_amplitude,
+            changes: Vec::new(),
+            departures: Vec::new(),
+        }
+    }
+
+    /// Record the state at the end of a period; returns its change from the last.
+    fn observe(&mut self, u: &[f64], v: &[f64]) -> f64 {
+        let state = state_of(self.period, u, v);
+        let change = relative_change(&state, &self.last_state);
+        self.changes.push(change);
+        let n = u.len();
+        self.departures
+            .push(distance(u, &self.start_state[..n]) / self.start_amplitude);
+        self.last_state = state;
+        change
+    }
+}
+
+/// The state x = (u, T v) a march's periodicity is measured on.
+fn state_of(period: f64, u: &[f64], v: &[f64]) -> Vec<f64> {
+    u.iter()
+        .copied()
+        .chain(v.iter().map(|v| v * period))
+        .collect()
+}
+
+/// March `problem` period by period until the state at a period start changes by less than
+/// `settings.periodic_tolerance` from the last (not after the first period from rest), its
+/// `decided` rule stops it, or `settings.max_periods` are marched; the last period sampled.
 pub fn run_to_periodic(
     problem: &TransientProblem,
     settings: &TransientSettings,
@@ -530,36 +585,18 @@ pub fn run_to_periodic(
 ) -> Result<TransientResult> {
     let start = Instant::now();
     let (stepper, steps, per_sample) = Stepper::new(problem, settings)?;
-    let (n, dt) = (problem.mass.len(), stepper.dt);
+    let dt = stepper.dt;
     let mut s = stepper.start(problem)?;
     let samples = settings.samples_per_period.max(1);
     let nc = s.contact.lambda.len();
     let mut record = LastPeriod::new(samples, steps, per_sample, nc, problem.probes.len());
+    let mut watch = Periodicity::new(problem.period, &s.u, &s.v_half);
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
-    let (mut changes, mut departures) = (Vec::new(), Vec::new());
-    let period = problem.period;
-    let state_of = |u: &[f64], v: &[f64]| -> Vec<f64> {
-        u.iter()
-            .copied()
-            .chain(v.iter().map(|v| v * period))
-            .collect()
-    };
-    let start_state = state_of(&s.u, &s.v_half);
-    // ‖u‖² + ‖u̇/ω‖²: the displacement amplitude of a harmonic motion, whatever its phase.
-    let start_amplitude = (norm(&start_state[..n]).powi(2)
-        + (norm(&start_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
-    .sqrt();
-    let mut last_state = start_state.clone();
     while periods < settings.max_periods {
         for step in 0..steps {
             stepper.step(&mut s, periods * steps + step)?;
-            record.record(
-                step,
-                dt,
-                [&s.u_prev, &s.u, &s.u_next],
-                &s.contact.lambda,
-                &problem.probes,
-            );
+            let us = [&s.u_prev[..], &s.u, &s.u_next];
+            record.record(step, dt, us, &s.contact.lambda, &problem.probes);
             s.rotate();
         }
         periods += 1;
@@ -569,30 +606,20 @@ pub fn run_to_periodic(
                 settings.courant
             )));
         }
-        let state = state_of(&s.u, &s.v_half);
-        change = relative_change(&state, &last_state);
-        changes.push(change);
-        departures.push(distance(&s.u, &start_state[..n]) / start_amplitude);
-        let status = format!("change {change:.2e}");
-        reporter.progress(
-            "periods",
-            periods as u64,
-            Some(settings.max_periods as u64),
-            &status,
-        );
+        change = watch.observe(&s.u, &s.v_half);
+        let (done, of) = (periods as u64, Some(settings.max_periods as u64));
+        reporter.progress("periods", done, of, &format!("change {change:.2e}"));
         // The first period from rest compares with a zero state: not a verdict.
         let from_rest = periods == 1 && problem.initial.is_none();
         if change < settings.periodic_tolerance && !from_rest {
             converged = true;
             break;
         }
-        if problem
-            .decided
-            .is_some_and(|decided| decided(&changes, &departures))
-        {
-            break;
+        if let Some(decided) = problem.decided {
+            if decided(&watch.changes, &watch.departures) {
+                break;
+            }
         }
-        last_state = state;
     }
     Ok(TransientResult {
         dt,
@@ -600,8 +627,8 @@ pub fn run_to_periodic(
         periods,
         converged,
         periodicity_error: change,
-        changes,
-        departures,
+        changes: watch.changes,
+        departures: watch.departures,
         end_state: InitialState {
             displacement: s.u.clone(),
             velocity: s.v_half.clone(),
