@@ -1060,79 +1060,87 @@ fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
     for (i, g) in b.fixed.iter().enumerate() {
         group_name(path, &format!("boundaries.fixed[{i}]"), g)?;
     }
-    let mut prescribed = Vec::new();
-    for (i, p) in b.prescribed.into_iter().enumerate() {
-        let field = format!("boundaries.prescribed[{i}]");
-        group_name(path, &format!("{field}.group"), &p.group)?;
-        let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
-        check_harmonic_indices(path, &field, &ks)?;
-        finite(path, &format!("{field}.static"), p.static_part)?;
-        for h in &p.harmonics {
-            finite(path, &format!("{field}.harmonics (k = {}).cos", h.k), h.cos)?;
-            finite(path, &format!("{field}.harmonics (k = {}).sin", h.k), h.sin)?;
-        }
-        prescribed.push(PrescribedSpec {
-            group: p.group,
-            component: match p.component {
-                RawComponent::X => 0,
-                RawComponent::Y => 1,
-            },
-            signal: Signal {
-                static_part: [p.static_part],
-                harmonics: p
-                    .harmonics
-                    .iter()
-                    .map(|h| (h.k, [h.cos], [h.sin]))
-                    .collect(),
-            },
-        });
-    }
-    let mut loads = Vec::new();
-    for (i, l) in b.loads.into_iter().enumerate() {
-        let field = format!("boundaries.loads[{i}]");
-        group_name(path, &format!("{field}.group"), &l.group)?;
-        let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
-        check_harmonic_indices(path, &field, &ks)?;
-        if let Some(s) = l.static_part {
-            finite_all(path, &format!("{field}.static"), &s)?;
-        }
-        for h in &l.harmonics {
-            finite_all(
-                path,
-                &format!("{field}.harmonics (k = {}).cos", h.k),
-                &h.cos,
-            )?;
-            finite_all(
-                path,
-                &format!("{field}.harmonics (k = {}).sin", h.k),
-                &h.sin,
-            )?;
-        }
-        if l.static_part.is_none() && l.harmonics.is_empty() {
-            return Err(config_error(
-                path,
-                format!(
-                    "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
-                    l.group
-                ),
-            ));
-        }
-        loads.push(LoadSpec {
-            group: l.group,
-            kind: match l.kind {
-                RawLoadKind::Traction => LoadKind::Traction,
-                RawLoadKind::Force => LoadKind::Force,
-            },
-            signal: Signal {
-                static_part: l.static_part.unwrap_or([0.0; 2]),
-                harmonics: l.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
-            },
-        });
-    }
+    let prescribed = b
+        .prescribed
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| validate_prescribed(path, i, p))
+        .collect::<Result<Vec<_>>>()?;
+    let loads = b
+        .loads
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| validate_load(path, i, l))
+        .collect::<Result<Vec<_>>>()?;
     Ok(Boundaries {
         fixed: b.fixed,
         prescribed,
         loads,
+    })
+}
+
+/// `boundaries.prescribed[i]`: a group name, distinct harmonic indices, finite values.
+fn validate_prescribed(path: &Path, i: usize, p: RawPrescribed) -> Result<PrescribedSpec> {
+    let field = format!("boundaries.prescribed[{i}]");
+    group_name(path, &format!("{field}.group"), &p.group)?;
+    let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
+    check_harmonic_indices(path, &field, &ks)?;
+    finite(path, &format!("{field}.static"), p.static_part)?;
+    for h in &p.harmonics {
+        finite(path, &format!("{field}.harmonics (k = {}).cos", h.k), h.cos)?;
+        finite(path, &format!("{field}.harmonics (k = {}).sin", h.k), h.sin)?;
+    }
+    Ok(PrescribedSpec {
+        group: p.group,
+        component: match p.component {
+            RawComponent::X => 0,
+            RawComponent::Y => 1,
+        },
+        signal: Signal {
+            static_part: [p.static_part],
+            harmonics: p
+                .harmonics
+                .iter()
+                .map(|h| (h.k, [h.cos], [h.sin]))
+                .collect(),
+        },
+    })
+}
+
+/// `boundaries.loads[i]`: a group name, distinct harmonic indices, finite values, and a
+/// static part or harmonics.
+fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpec> {
+    let field = format!("boundaries.loads[{i}]");
+    group_name(path, &format!("{field}.group"), &l.group)?;
+    let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
+    check_harmonic_indices(path, &field, &ks)?;
+    if let Some(s) = l.static_part {
+        finite_all(path, &format!("{field}.static"), &s)?;
+    }
+    for h in &l.harmonics {
+        let at = |part: &str| format!("{field}.harmonics (k = {}).{part}", h.k);
+        finite_all(path, &at("cos"), &h.cos)?;
+        finite_all(path, &at("sin"), &h.sin)?;
+    }
+    if l.static_part.is_none() && l.harmonics.is_empty() {
+        return Err(config_error(
+            path,
+            format!(
+                "boundaries.loads[{i}] (group {}): give a `static` part, `harmonics`, or both",
+                l.group
+            ),
+        ));
+    }
+    Ok(LoadSpec {
+        group: l.group,
+        kind: match l.kind {
+            RawLoadKind::Traction => LoadKind::Traction,
+            RawLoadKind::Force => LoadKind::Force,
+        },
+        signal: Signal {
+            static_part: l.static_part.unwrap_or([0.0; 2]),
+            harmonics: l.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
+        },
     })
 }
 
