@@ -365,88 +365,103 @@ pub struct ObstacleOutline {
 /// point lies on the obstacle (a line or circle to round-off; a curve's are its mesh nodes).
 pub fn obstacle_outline(mesh: &Mesh2d, spec: &ContactSpec, set: &ContactSet) -> ObstacleOutline {
     match &spec.obstacle {
-        ObstacleSpec::Line { point, normal } => {
-            let tangent = [-normal[1], normal[0]];
-            let s: Vec<f64> = set
-                .closest
-                .iter()
-                .map(|c| dot(sub(*c, *point), tangent))
-                .collect();
-            let lo = s.iter().cloned().fold(f64::INFINITY, f64::min);
-            let hi = s.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-            let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
-            let margin = (0.1 * (hi - lo)).max(0.01 * mesh_size(mesh));
-            let at = |s: f64| [point[0] + s * tangent[0], point[1] + s * tangent[1]];
-            ObstacleOutline {
-                points: vec![at(lo - margin), at(hi + margin)],
-                segments: vec![[0, 1]],
+        ObstacleSpec::Line { point, normal } => line_outline(mesh, set, *point, *normal),
+        ObstacleSpec::Circle { center, radius, .. } => circle_outline(set, *center, *radius),
+        ObstacleSpec::Curve { group } => curve_outline(mesh, group),
+    }
+}
+
+/// The line's segment under the contact nodes, 10% longer at each end (at least 1% of the
+/// mesh's size).
+fn line_outline(
+    mesh: &Mesh2d,
+    set: &ContactSet,
+    point: [f64; 2],
+    normal: [f64; 2],
+) -> ObstacleOutline {
+    let tangent = [-normal[1], normal[0]];
+    let s: Vec<f64> = set
+        .closest
+        .iter()
+        .map(|c| dot(sub(*c, point), tangent))
+        .collect();
+    let lo = s.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = s.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
+    let margin = (0.1 * (hi - lo)).max(0.01 * mesh_size(mesh));
+    let at = |s: f64| [point[0] + s * tangent[0], point[1] + s * tangent[1]];
+    ObstacleOutline {
+        points: vec![at(lo - margin), at(hi + margin)],
+        segments: vec![[0, 1]],
+    }
+}
+
+/// The circle's arc under the contact nodes (the circle minus the largest empty gap between
+/// their angles), 10% wider at each end (at least 1°), in `ARC_SEGMENTS` segments.
+fn circle_outline(set: &ContactSet, center: [f64; 2], radius: f64) -> ObstacleOutline {
+    let mut angles: Vec<f64> = set
+        .closest
+        .iter()
+        .map(|c| (c[1] - center[1]).atan2(c[0] - center[0]))
+        .collect();
+    angles.sort_by(f64::total_cmp);
+    let tau = 2.0 * std::f64::consts::PI;
+    let (mut start, mut span) = (0.0, tau);
+    if let (Some(&first), Some(&last)) = (angles.first(), angles.last()) {
+        let mut gap = (first + tau - last, last);
+        for w in angles.windows(2) {
+            if w[1] - w[0] > gap.0 {
+                gap = (w[1] - w[0], w[0]);
             }
         }
-        ObstacleSpec::Circle { center, radius, .. } => {
-            let mut angles: Vec<f64> = set
-                .closest
-                .iter()
-                .map(|c| (c[1] - center[1]).atan2(c[0] - center[0]))
-                .collect();
-            angles.sort_by(f64::total_cmp);
-            let tau = 2.0 * std::f64::consts::PI;
-            // The arc is the circle minus the largest empty gap between successive angles.
-            let (mut start, mut span) = (0.0, tau);
-            if let (Some(&first), Some(&last)) = (angles.first(), angles.last()) {
-                let mut gap = (first + tau - last, last);
-                for w in angles.windows(2) {
-                    if w[1] - w[0] > gap.0 {
-                        gap = (w[1] - w[0], w[0]);
-                    }
-                }
-                let extent = tau - gap.0;
-                let margin = (0.1 * extent).max(1f64.to_radians());
-                span = extent + 2.0 * margin;
-                start = gap.1 + gap.0 - margin;
-            }
-            let closed = span >= tau;
-            let span = span.min(tau);
-            let n = ARC_SEGMENTS;
-            let count = if closed { n } else { n + 1 };
-            let points = (0..count)
-                .map(|j| {
-                    let a = start + span * j as f64 / n as f64;
-                    [center[0] + radius * a.cos(), center[1] + radius * a.sin()]
+        let extent = tau - gap.0;
+        let margin = (0.1 * extent).max(1f64.to_radians());
+        span = extent + 2.0 * margin;
+        start = gap.1 + gap.0 - margin;
+    }
+    let closed = span >= tau;
+    let span = span.min(tau);
+    let n = ARC_SEGMENTS;
+    let count = if closed { n } else { n + 1 };
+    let points = (0..count)
+        .map(|j| {
+            let a = start + span * j as f64 / n as f64;
+            [center[0] + radius * a.cos(), center[1] + radius * a.sin()]
+        })
+        .collect();
+    let segments = (0..n).map(|j| [j, (j + 1) % count]).collect();
+    ObstacleOutline { points, segments }
+}
+
+/// The obstacle curve's edges as the mesh holds them (a quadratic edge as two segments).
+fn curve_outline(mesh: &Mesh2d, group: &str) -> ObstacleOutline {
+    let mut index: HashMap<usize, usize> = HashMap::new();
+    let mut outline = ObstacleOutline::default();
+    let edges = mesh
+        .edge_groups
+        .get(group)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
+    for e in edges {
+        let ids: Vec<usize> = e
+            .nodes
+            .iter()
+            .map(|&n| {
+                *index.entry(n).or_insert_with(|| {
+                    outline.points.push(mesh.nodes[n]);
+                    outline.points.len() - 1
                 })
-                .collect();
-            let segments = (0..n).map(|j| [j, (j + 1) % count]).collect();
-            ObstacleOutline { points, segments }
-        }
-        ObstacleSpec::Curve { group } => {
-            let mut index: HashMap<usize, usize> = HashMap::new();
-            let mut outline = ObstacleOutline::default();
-            let edges = mesh
-                .edge_groups
-                .get(group)
-                .map(Vec::as_slice)
-                .unwrap_or(&[]);
-            for e in edges {
-                let ids: Vec<usize> = e
-                    .nodes
-                    .iter()
-                    .map(|&n| {
-                        *index.entry(n).or_insert_with(|| {
-                            outline.points.push(mesh.nodes[n]);
-                            outline.points.len() - 1
-                        })
-                    })
-                    .collect();
-                if ids.len() == 3 {
-                    outline
-                        .segments
-                        .extend([[ids[0], ids[2]], [ids[2], ids[1]]]);
-                } else if ids.len() == 2 {
-                    outline.segments.push([ids[0], ids[1]]);
-                }
-            }
+            })
+            .collect();
+        if ids.len() == 3 {
             outline
+                .segments
+                .extend([[ids[0], ids[2]], [ids[2], ids[1]]]);
+        } else if ids.len() == 2 {
+            outline.segments.push([ids[0], ids[1]]);
         }
     }
+    outline
 }
 
 /// The diagonal of the mesh's bounding box.
