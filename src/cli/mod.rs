@@ -223,15 +223,13 @@ fn show_newton_log(log: &[IterationLog]) {
         let start = l.step == 0.0;
         steps += usize::from(!start);
         if i < 30 || i + 5 >= log.len() {
-            let what = if start {
-                "    run start:    ".to_string()
+            let (what, step) = if start {
+                ("    run start:    ".to_string(), String::new())
             } else {
-                format!("    iteration {steps:>3}:")
-            };
-            let step = if start {
-                String::new()
-            } else {
-                format!(", step {}", l.step)
+                (
+                    format!("    iteration {steps:>3}:"),
+                    format!(", step {}", l.step),
+                )
             };
             eprintln!(
                 "{what} residual {:.3e}, active samples {:>5}{step}",

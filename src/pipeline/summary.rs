@@ -182,11 +182,7 @@ impl EffectsSummary {
         if e.static_load {
             loads.push("static load".to_string());
         }
-        match e.excited_harmonics.as_slice() {
-            [] => {}
-            [k] => loads.push(format!("harmonic {k} excited")),
-            ks => loads.push(format!("harmonics {} excited", ranges(ks))),
-        }
+        loads.extend(harmonics_phrase(&e.excited_harmonics, "excited"));
         if e.prescribed_motion {
             loads.push("prescribed motion".into());
         }
@@ -208,11 +204,8 @@ impl EffectsSummary {
         if let Some(basis) = &self.time_basis {
             solve.push(format!("time basis {basis}"));
         }
-        match self.harmonics_computed.as_deref() {
-            Some([k]) => solve.push(format!("harmonic {k} computed")),
-            Some([]) | None => {}
-            Some(ks) => solve.push(format!("harmonics {} computed", ranges(ks))),
-        }
+        let computed = self.harmonics_computed.as_deref().unwrap_or_default();
+        solve.extend(harmonics_phrase(computed, "computed"));
         if let Some(arithmetic) = &self.arithmetic {
             solve.push(format!("{arithmetic} arithmetic"));
         }
@@ -220,6 +213,15 @@ impl EffectsSummary {
             parts.push(solve.join(", "));
         }
         parts.join("; ")
+    }
+}
+
+/// `harmonic 1 <what>` or `harmonics 0–10 <what>`; `None` for no harmonics.
+fn harmonics_phrase(ks: &[usize], what: &str) -> Option<String> {
+    match ks {
+        [] => None,
+        [k] => Some(format!("harmonic {k} {what}")),
+        ks => Some(format!("harmonics {} {what}", ranges(ks))),
     }
 }
 

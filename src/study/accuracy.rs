@@ -131,6 +131,11 @@ fn rung(out: &Path, row: &Row, key: String, value: f64) -> Rung {
 }
 
 impl Rung {
+    /// Whether the rung's run warned.
+    fn warned(&self) -> bool {
+        !self.warnings.is_empty()
+    }
+
     /// The rung's value as the table prints it (`transient` for the transient reference).
     fn value_label(&self) -> String {
         if self.key == "reference" {
@@ -239,7 +244,7 @@ impl AccuracyReport {
                         let (key, value) = (r.key.clone(), r.value);
                         (key, value, r.errors[m], r.seconds, r.peak_memory)
                     }),
-                    warned: best.is_some_and(|r| !r.warnings.is_empty()),
+                    warned: best.is_some_and(Rung::warned),
                 }
             })
             .collect()
@@ -311,11 +316,7 @@ impl AccuracyReport {
     /// The warnings of the rungs that warned, one line each, after a line on what they mean
     /// for the errors (empty when none warned).
     pub fn warning_notes(&self) -> Vec<String> {
-        let warned: Vec<&Rung> = self
-            .rungs
-            .iter()
-            .filter(|r| !r.warnings.is_empty())
-            .collect();
+        let warned: Vec<&Rung> = self.rungs.iter().filter(|r| r.warned()).collect();
         if warned.is_empty() {
             return Vec::new();
         }
@@ -403,7 +404,7 @@ impl AccuracyReport {
             fig = fig.line(short(key), pts);
         }
         // A warned rung's error may be between states, not what its setting costs.
-        for r in self.rungs.iter().filter(|r| !r.warnings.is_empty()) {
+        for r in self.rungs.iter().filter(|r| r.warned()) {
             let (x, y) = (r.seconds, r.errors[m]);
             if !r.is_reference && x > 0.0 && y > 0.0 && y.is_finite() {
                 fig = fig.mark(
@@ -471,11 +472,7 @@ pub fn publish(
         reference: report.reference_name(),
         rungs: report.rungs.len(),
         failed: report.rungs.iter().filter(|r| r.status != "ok").count(),
-        warned: report
-            .rungs
-            .iter()
-            .filter(|r| !r.warnings.is_empty())
-            .count(),
+        warned: report.rungs.iter().filter(|r| r.warned()).count(),
         files,
         execution,
     };

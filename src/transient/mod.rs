@@ -528,7 +528,8 @@ fn relative_change(state: &[f64], previous: &[f64]) -> f64 {
 /// (`departures`).
 struct Periodicity {
     period: f64,
-    start_state: Vec<f64>,
+    /// The displacements at the start.
+    start: Vec<f64>,
     /// (‖u‖² + ‖u̇/ω‖²)^½ of the start: the displacement amplitude of a harmonic motion,
     /// whatever its phase.
     start_amplitude: f64,
@@ -539,15 +540,15 @@ struct Periodicity {
 
 impl Periodicity {
     fn new(period: f64, u: &[f64], v: &[f64]) -> Self {
-        let start_state = state_of(period, u, v);
+        let last_state = state_of(period, u, v);
         let n = u.len();
-        let start_amplitude = (norm(&start_state[..n]).powi(2)
-            + (norm(&start_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
+        let start_amplitude = (norm(&last_state[..n]).powi(2)
+            + (norm(&last_state[n..]) / (2.0 * std::f64::consts::PI)).powi(2))
         .sqrt();
         Periodicity {
             period,
-            last_state: start_state.clone(),
-            start_state,
+            start: u.to_vec(),
+            last_state,
             start_amplitude,
             changes: Vec::new(),
             departures: Vec::new(),
@@ -559,9 +560,8 @@ impl Periodicity {
         let state = state_of(self.period, u, v);
         let change = relative_change(&state, &self.last_state);
         self.changes.push(change);
-        let n = u.len();
         self.departures
-            .push(distance(u, &self.start_state[..n]) / self.start_amplitude);
+            .push(distance(u, &self.start) / self.start_amplitude);
         self.last_state = state;
         change
     }
