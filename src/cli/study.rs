@@ -36,6 +36,20 @@ fn warned(n: usize) -> String {
     }
 }
 
+/// "; as cheap within the timing noise: harmonics = 20", or nothing: rungs whose wall times
+/// are within `TIME_NOISE` of each other are not ranked by them (the earliest in the study's
+/// order is named).
+fn tied_note(tied: &[String]) -> String {
+    match tied {
+        [] => String::new(),
+        _ => format!(
+            "; as cheap within the timing noise (×{}): {}",
+            hbcontact::study::accuracy::TIME_NOISE,
+            tied.join(", ")
+        ),
+    }
+}
+
 /// The accuracy table on stdout.
 pub fn show_accuracy(report: &AccuracyReport) {
     outln!("errors against {}", report.reference_name());
@@ -51,13 +65,14 @@ pub fn show_tolerance(report: &AccuracyReport, tolerance: f64) {
     for c in report.cheapest(tolerance) {
         match c.rung {
             Some((key, value, error, secs, memory)) => outln!(
-                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {}){}",
+                "  {:<22} {key} = {value} (error {error:.2e}, {secs:.3} s, {}){}{}",
                 c.measure,
                 if memory.is_finite() {
                     format!("peak memory {memory:.0} MB")
                 } else {
                     "peak memory not measured".into()
                 },
+                tied_note(&c.tied),
                 if c.warned {
                     "; this rung warned (above)"
                 } else {
