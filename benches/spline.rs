@@ -20,6 +20,7 @@ fn main() {
     let options = |tag: &str| RunOptions {
         out: Some(work.join(tag)),
         summary_only: true,
+        ..Default::default()
     };
     let run = |tag: &str, set: &str| -> Option<Summary> {
         let p = load_pipeline(&scene, &[off.clone(), set.to_string()]).ok()?;

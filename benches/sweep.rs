@@ -34,6 +34,7 @@ fn main() {
     let options = |dir: &str, summary_only: bool| RunOptions {
         out: Some(work.join(dir)),
         summary_only,
+        ..Default::default()
     };
     // A cold run at mid-span (warms the mesh cache too), then the one that counts.
     let mut cold = f64::NAN;

@@ -11,6 +11,7 @@ mod cli;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use hbcontact::config::load_pipeline;
+use hbcontact::output::staging::Replace;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::{Error, Reporter, Silent};
 
@@ -39,6 +40,23 @@ struct Common {
     /// Print nothing but errors (and, for `accuracy`, not its table either).
     #[arg(long, short)]
     quiet: bool,
+    /// When the output folder exists and holds files hbcontact did not write, move it aside
+    /// to `<folder>.moved-<time>` instead of refusing (exit 2). Nothing is ever deleted.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The run options the shared arguments give.
+fn run_options(c: &Common) -> RunOptions {
+    RunOptions {
+        out: c.out.clone(),
+        replace: if c.force {
+            Replace::MoveAside
+        } else {
+            Replace::IfOurs
+        },
+        ..Default::default()
+    }
 }
 
 #[derive(Subcommand)]
@@ -251,10 +269,7 @@ fn reporter(quiet: bool) -> Box<dyn Reporter> {
 
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions {
-        out: c.out.clone(),
-        ..Default::default()
-    };
+    let options = run_options(c);
     let reporter = reporter(c.quiet);
     let result = match mode {
         Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
@@ -270,10 +285,7 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
 /// failed part-way has written the curve so far and exits with its error's class.
 fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions {
-        out: c.out.clone(),
-        ..Default::default()
-    };
+    let options = run_options(c);
     let reporter = reporter(c.quiet);
     let result = if resume {
         hbcontact::sweep::resume(&pipeline, &options, &*reporter)?
@@ -292,10 +304,7 @@ fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
 fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions {
-        out: c.out.clone(),
-        ..Default::default()
-    };
+    let options = run_options(c);
     let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
     if json {
         outln!("{}", to_json(&report)?);
@@ -328,10 +337,7 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
 /// `hbcontact modes`: the table on stdout, the files in `<output.directory>-modes`.
 fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
     let pipeline = load_pipeline(&c.pipeline, &c.set)?;
-    let options = RunOptions {
-        out: c.out.clone(),
-        ..Default::default()
-    };
+    let options = run_options(c);
     let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.quiet))?;
     if !c.quiet {
         cli::show_modes(&result);

@@ -105,6 +105,7 @@ fn march(hz: f64, dir: &Path, previous: bool, courant: f64) -> (f64, bool) {
     let options = RunOptions {
         out: Some(dir.to_path_buf()),
         summary_only: true,
+        ..Default::default()
     };
     let s = pipeline::run_transient(&p, &options, &Silent)
         .unwrap_or_else(|e| panic!("{hz} Hz: {e}"))

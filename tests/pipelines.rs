@@ -1253,6 +1253,7 @@ fn the_write_stage_reports_each_frame_to_the_reporter() {
     let options = RunOptions {
         out: Some(common::temp_out("write-progress-summary-only")),
         summary_only: true,
+        ..Default::default()
     };
     pipeline::run(&p, &options, &recording).unwrap_or_else(|e| panic!("{e}"));
     let calls = recording.0.into_inner().unwrap();

@@ -266,6 +266,7 @@ fn plots_are_skipped_when_switched_off_or_summary_only_and_contact_plots_need_co
     let options = RunOptions {
         out: Some(summary_only.clone()),
         summary_only: true,
+        ..Default::default()
     };
     pipeline::run(&p, &options, &hbcontact::Silent).unwrap_or_else(|e| panic!("{e}"));
     assert!(summary_only.join("summary.json").is_file());

@@ -202,6 +202,7 @@ fn splines_resolve_the_reference_strip_impact_peak_that_fourier_smears() {
     let options = RunOptions {
         out: Some(common::temp_out("spline-contact-transient")),
         summary_only: true,
+        ..Default::default()
     };
     let marching = pipeline::run_transient(&p, &options, &Silent)
         .unwrap_or_else(|e| panic!("{e}"))

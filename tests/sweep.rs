@@ -26,6 +26,7 @@ fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
     let options = RunOptions {
         out: Some(common::temp_out(tag)),
         summary_only: true,
+        ..Default::default()
     };
     let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
     r.summary
@@ -444,6 +445,7 @@ fn transient_in(dir: &std::path::Path, overrides: &[&str]) -> hbcontact::Result<
     let options = RunOptions {
         out: Some(dir.to_path_buf()),
         summary_only: true,
+        ..Default::default()
     };
     pipeline::run_transient(&p, &options, &Silent).map(|r| r.summary)
 }

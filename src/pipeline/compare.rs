@@ -395,7 +395,11 @@ fn opening_overlay(hb: &Table, tm: &Table) -> Option<Overlay> {
 /// Write `compare.json` and `compare.csv` into `dir` (each written under a temporary name and
 /// renamed), and the overlays into `dir/plots` (`compare_<quantity>.svg` and `.png`).
 pub fn write(c: &Comparison, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    crate::output::staging::claim_entries(
+        dir,
+        "compare",
+        &["compare.json", "compare.csv", "plots"],
+    )?;
     super::plots::write_overlays(c, &dir.join("plots"))?;
     write_json(&dir.join("compare.json"), c)?;
     let mut csv = String::from(

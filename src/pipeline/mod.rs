@@ -22,6 +22,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, TransientStart};
+use crate::output::staging::{self, Replace};
 use crate::output::StagedDir;
 use crate::progress::Reporter;
 use crate::Result;
@@ -39,6 +40,8 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Write `summary.json` only, not the VTU series, CSV histories and mesh (study points).
     pub summary_only: bool,
+    /// Who may replace an existing output folder (`--force`: move one not ours aside).
+    pub replace: Replace,
 }
 
 /// A finished run: where its files are and what it reports.
@@ -59,7 +62,7 @@ pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
 /// `hbcontact run`: the harmonic-balance steady state.
 pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<RunResult> {
     let out = output_dir(p, options);
-    crate::output::staging::remove_stale_partials(&out, reporter);
+    staging::claim(&out, options.replace, reporter)?;
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
@@ -74,7 +77,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     warnings.extend(sanity::check_contact_result(&model, &solution));
     let stability = stages::stability(p, mesh, &model, &solution, &mut stages)?;
     warnings.extend(stability.warning());
-    let staged = StagedDir::create(&out)?;
+    let staged = StagedDir::create(&out, "run", options.replace)?;
     let (mut summary, sampled) = stages.run("write", || {
         write_run(p, options, mesh_info, &model, &solution, &staged, reporter)
     })?;
@@ -187,7 +190,7 @@ pub fn run_transient(
     reporter: &dyn Reporter,
 ) -> Result<RunResult> {
     let out = transient_output_dir(p, options);
-    crate::output::staging::remove_stale_partials(&out, reporter);
+    staging::claim(&out, options.replace, reporter)?;
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
@@ -202,7 +205,7 @@ pub fn run_transient(
         }
     };
     let (marching, result) = stages::march(p, &model, initial, &mut stages)?;
-    let staged = StagedDir::create(&out)?;
+    let staged = StagedDir::create(&out, "transient", options.replace)?;
     let (mut summary, sampled) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
         if !options.summary_only {

@@ -105,12 +105,12 @@ pub fn modes(
         )));
     }
     let out = modes_output_dir(p, options);
-    crate::output::staging::remove_stale_partials(&out, reporter);
+    crate::output::staging::claim(&out, options.replace, reporter)?;
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
     let modes = stages.run("modes", || natural_modes(&model, count))?;
-    let staged = StagedDir::create(&out)?;
+    let staged = StagedDir::create(&out, "modes", options.replace)?;
     let mut summary = stages.run("write", || {
         let infos = write_mode_shapes(staged.path(), &model, &modes)?;
         stages::copy_mesh(&mesh_info, staged.path())?;

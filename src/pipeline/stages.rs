@@ -138,6 +138,7 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
     let mut meshed = stages.run("mesh", || {
         mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
     })?;
+    crate::output::staging::mark_kept(&cache_dir, "mesh-cache")?;
     let first = stages.run("read", || Ok(mesh::msh::read_msh(&meshed.msh)))?;
     let mesh = match first {
         // A cached mesh that passed its checksum but does not read (a damaged write) is made

@@ -167,6 +167,8 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     let options = RunOptions {
         out: Some(dir.clone()),
         summary_only: !point.full && !amplitudes,
+        // The point's folder is the study's own (under its `points/`).
+        replace: crate::output::staging::Replace::Owned,
     };
     let probe = needs.probe.as_deref();
     let memory = needs.peak_memory.then(reset_peak_memory);

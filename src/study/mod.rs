@@ -97,6 +97,21 @@ impl StudyReport {
     }
 }
 
+/// What a study writes into its results folder: it replaces these and touches nothing else
+/// there (a user's own files beside them stay); a folder without the marker that already
+/// holds one of them is refused (`output::staging::claim_entries`).
+pub const OWNED_ENTRIES: [&str; 9] = [
+    "study.csv",
+    "manifest.json",
+    "plots",
+    "points",
+    "accuracy.csv",
+    "accuracy.svg",
+    "accuracy.png",
+    "slurm",
+    ".results",
+];
+
 /// The study's results directory.
 pub fn output_dir(study: &Study, options: &StudyOptions) -> PathBuf {
     options.out.clone().unwrap_or_else(|| study.out.clone())
@@ -107,7 +122,7 @@ pub fn output_dir(study: &Study, options: &StudyOptions) -> PathBuf {
 pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Result<StudyReport> {
     let out = output_dir(study, options);
     let points = plan::plan(study)?;
-    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    crate::output::staging::claim_entries(&out, "study", &OWNED_ENTRIES)?;
     crate::output::staging::remove_stale_partials(&out.join(".results"), reporter);
     if options.shard.is_none() {
         table::clear_results(&out)?;
@@ -159,7 +174,7 @@ pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Re
 pub fn merge(study: &Study, options: &StudyOptions) -> Result<StudyReport> {
     let out = output_dir(study, options);
     let points = plan::plan(study)?;
-    std::fs::create_dir_all(&out).map_err(|e| Error::io(&out, e))?;
+    crate::output::staging::claim_entries(&out, "study", &OWNED_ENTRIES)?;
     table::clear_results(&out)?;
     finish(study, out, &points, None)
 }

@@ -71,6 +71,7 @@ pub fn write_scripts(
     let exe = std::env::current_exe().map_err(|e| Error::io("hbcontact executable", e))?;
     let (study_file, out_abs) = (absolute(study_file)?, absolute(out)?);
     let cwd = std::env::current_dir().map_err(|e| Error::io(".", e))?;
+    crate::output::staging::claim_entries(&out_abs, "study", &super::OWNED_ENTRIES)?;
     let dir = out_abs.join("slurm");
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let mut common = format!(

@@ -300,6 +300,7 @@ impl Staged {
             std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         }
         std::fs::create_dir_all(dir.join("plots")).map_err(|e| Error::io(&dir, e))?;
+        crate::output::staging::mark(&dir, "study", ".results")?;
         Ok(Staged {
             dir,
             out: out.to_path_buf(),
@@ -312,6 +313,7 @@ impl Staged {
             .map_err(|e| Error::io(&self.dir, e))?
             .flatten()
             .map(|e| e.file_name())
+            .filter(|n| n != crate::output::staging::MARKER)
             .collect();
         names.sort_by_key(|n| n == "manifest.json");
         for name in names {

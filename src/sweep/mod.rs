@@ -230,7 +230,7 @@ fn execute(
     })?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
-    crate::output::staging::remove_stale_partials(&out, reporter);
+    crate::output::staging::claim(&out, options.replace, reporter)?;
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || pipeline::sanity::check_mesh(p, &mesh))?;
@@ -241,7 +241,7 @@ fn execute(
     if let Some(s) = &saved {
         resume::check_state(s, &model, p)?;
     }
-    let staged = StagedDir::create(&out)?;
+    let staged = StagedDir::create(&out, "sweep", options.replace)?;
     if saved.is_some() {
         resume::carry_over(&out, staged.path())?;
     }

@@ -156,6 +156,7 @@ pub fn run_summary(name: &str, overrides: &[&str], tag: &str) -> pipeline::Summa
     let options = pipeline::RunOptions {
         out: Some(temp_out(tag)),
         summary_only: true,
+        ..Default::default()
     };
     pipeline::run(&p, &options, &hbcontact::Silent)
         .unwrap_or_else(|e| panic!("{tag}: {e}"))
