@@ -50,27 +50,14 @@ fn a_users_folder_survives_every_subcommand_pointed_at_it() {
         "--set",
         "sweep.to=1560",
     ];
+    let with = |cmd: &'static str, pipeline: &'static str, sets: &[&'static str]| {
+        [&[cmd, pipeline, "--out", out][..], sets].concat()
+    };
     let cases: Vec<Vec<&str>> = vec![
-        [
-            &["run", "pipelines/quickstart.yaml", "--out", out][..],
-            &QUICK,
-        ]
-        .concat(),
-        [
-            &["transient", "pipelines/quickstart.yaml", "--out", out][..],
-            &QUICK,
-        ]
-        .concat(),
-        [
-            &["modes", "pipelines/quickstart.yaml", "--out", out][..],
-            &QUICK,
-        ]
-        .concat(),
-        [
-            &["sweep", "pipelines/strip_sweep.yaml", "--out", out][..],
-            &strip,
-        ]
-        .concat(),
+        with("run", "pipelines/quickstart.yaml", &QUICK),
+        with("transient", "pipelines/quickstart.yaml", &QUICK),
+        with("modes", "pipelines/quickstart.yaml", &QUICK),
+        with("sweep", "pipelines/strip_sweep.yaml", &strip),
     ];
     for args in &cases {
         let o = common::hbcontact(args);

@@ -997,9 +997,11 @@ fn a_closed_stdout_ends_the_command_cleanly_without_a_panic() {
     }
 }
 
-/// TEST GOAL: a run removes the `.partial-<pid>` folders that dead runs left next to its
-/// output (here a fake `x.partial-<pid>` of a pid with no /proc entry) and says so, and keeps
-/// the partial folder of a run that is still alive (this test's own pid).
+/// TEST GOAL: a run removes the `.partial-<pid>` folder that a dead run into the same target
+/// left next to its output (here `quickstart.partial-<pid>` of a pid with no /proc entry,
+/// holding the tool's marker for that target and pid) and says so, and keeps the partial
+/// folder of a run that is still alive (this test's own pid). Look-alikes without the marker
+/// are kept: `ownership.rs`.
 #[test]
 fn a_run_removes_partial_outputs_of_dead_runs_and_keeps_live_ones() {
     let parent = common::temp_out("stale-partials");
@@ -1007,11 +1009,22 @@ fn a_run_removes_partial_outputs_of_dead_runs_and_keeps_live_ones() {
     let dead_pid = (999_999u32..)
         .find(|p| !Path::new(&format!("/proc/{p}")).exists())
         .unwrap();
-    let dead = parent.join(format!("x.partial-{dead_pid}"));
+    let marker = |pid: u32| {
+        format!(
+            r#"{{"tool":"hbcontact","version":"0.1.0","command":"run","target":"quickstart","pid":{pid},"entries":[]}}"#
+        )
+    };
+    let dead = parent.join(format!("quickstart.partial-{dead_pid}"));
     std::fs::create_dir_all(dead.join("sub")).unwrap();
     std::fs::write(dead.join("sub/frame_0000.vtu"), "half written").unwrap();
-    let live = parent.join(format!("y.partial-{}", std::process::id()));
+    std::fs::write(dead.join(".hbcontact-output.json"), marker(dead_pid)).unwrap();
+    let live = parent.join(format!("quickstart.partial-{}", std::process::id()));
     std::fs::create_dir_all(&live).unwrap();
+    std::fs::write(
+        live.join(".hbcontact-output.json"),
+        marker(std::process::id()),
+    )
+    .unwrap();
     let out = parent.join("quickstart");
     let o = common::hbcontact(&[
         "run",

@@ -16,17 +16,27 @@ use common::run_summary as run;
 /// q̈ + α q̇ + ω_n² q = 0), so the largest Floquet multiplier is exactly that: 0.705 at
 /// α = 857 s⁻¹, f = 1225.5 Hz. The verdict is stable, and the state stays where harmonic
 /// balance put it (exact here: the response is one harmonic).
+/// The run itself needs no marching there (its contact set does not change over the period:
+/// `tests/floquet.rs`), so the march is called directly.
 #[test]
 fn marched_multiplier_of_a_state_off_the_wall_is_the_mass_damping_decay_per_period() {
-    let s = run(
-        "strip_sweep",
-        &[
-            "geometry.parameters.lc=0.025",
-            "geometry.parameters.gap=1e-3",
-        ],
-        "stability-off-wall",
-    );
-    let v = s.stability.expect("a verdict");
+    let sets = [
+        "geometry.parameters.lc=0.025",
+        "geometry.parameters.gap=1e-3",
+    ];
+    let p = common::scene("strip_sweep", &sets);
+    let model = common::model(&p, hbcontact::pipeline::Purpose::HarmonicBalance);
+    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let marching = common::model(&p, hbcontact::pipeline::Purpose::Transient);
+    let v = hbcontact::pipeline::stability::by_marching(
+        &p,
+        &p.stability,
+        &marching,
+        model.system.omega,
+        solution.contact.as_ref(),
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let exact = (-857.0 / (2.0 * 1225.4930618f64)).exp();
     let mu = v.multiplier.expect("a measured multiplier");
     println!("{v:?}; e^(-αT/2) = {exact:.4}");
@@ -34,6 +44,10 @@ fn marched_multiplier_of_a_state_off_the_wall_is_the_mass_damping_decay_per_peri
     assert_eq!(v.method, Method::Marching);
     assert!((mu - exact).abs() < 0.05, "μ̂ = {mu}, exact {exact}");
     assert!(v.departure.unwrap() < 1e-2, "{:?}", v.departure);
+    let s = run("strip_sweep", &sets, "stability-off-wall");
+    let run_verdict = s.stability.expect("a verdict");
+    assert_eq!(run_verdict.verdict, Verdict::Stable);
+    assert_eq!(run_verdict.periods, 0, "{}", run_verdict.reason);
     assert!(s.warnings.iter().all(|w| !w.contains("unstable")));
 }
 

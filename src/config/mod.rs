@@ -214,11 +214,26 @@ pub struct TransientSpec {
     pub perturbation: f64,
 }
 
+/// How contact states are judged.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StabilityMethod {
+    /// Floquet multipliers of the harmonic-balance state on its own discrete model (not yet
+    /// converged in the modal truncation on every scene: docs/method.md §15).
+    Floquet,
+    /// Time marching from the perturbed state (the diagonal-mass explicit model).
+    #[default]
+    March,
+    /// Floquet's verdict, audited by time marching: disagreements are flagged.
+    Both,
+}
+
 /// The stability check of `run` and the sweep points.
 #[derive(Clone, Debug)]
 pub struct StabilitySpec {
-    /// March contact scenes from the perturbed harmonic-balance state.
+    /// Judge contact scenes (`method`).
     pub check: bool,
+    pub method: StabilityMethod,
     pub max_periods: usize,
     /// The start state is scaled by 1 + this.
     pub perturbation: f64,
@@ -232,6 +247,7 @@ impl Default for StabilitySpec {
     fn default() -> Self {
         StabilitySpec {
             check: true,
+            method: StabilityMethod::March,
             max_periods: 200,
             perturbation: 1e-3,
             every: 1,

@@ -425,10 +425,16 @@ struct RawTransient {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Stability")]
 struct RawStability {
-    /// Check contact scenes by time marching from the perturbed harmonic-balance state (a
-    /// linear scene's verdict follows from its damping, without marching). Default: true.
+    /// Judge contact scenes' states (a linear scene's verdict follows from its damping, a
+    /// static one has none). Default: true.
     #[serde(default)]
     check: Option<bool>,
+    /// `march` (the default): time marching from the perturbed state; `floquet`: the Floquet
+    /// multipliers of the harmonic-balance state on its own discrete model (cheap, but not
+    /// yet converged in its modal truncation on every scene, docs/method.md §15); `both`:
+    /// Floquet's verdict audited by marching, disagreements flagged.
+    #[serde(default)]
+    method: Option<super::StabilityMethod>,
     /// The most periods marched per check (it ends early once the verdict is clear), ≥ 1.
     /// Default: 200.
     #[serde(default)]
@@ -1394,6 +1400,9 @@ fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<Stabilit
     };
     if let Some(v) = r.check {
         spec.check = v;
+    }
+    if let Some(v) = r.method {
+        spec.method = v;
     }
     if let Some(v) = r.max_periods {
         if v == 0 {

@@ -18,6 +18,7 @@
 //! the contact reduction runs only when there is an obstacle.
 
 pub mod basis;
+pub mod floquet;
 pub mod fourier;
 pub mod frames;
 mod globalize;

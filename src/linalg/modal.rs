@@ -124,6 +124,16 @@ impl ModalBasis {
         self.theta.len()
     }
 
+    /// θ, the Ritz values (Φᵀ K Φ = diag(θ)).
+    pub fn theta(&self) -> &[f64] {
+        &self.theta
+    }
+
+    /// BΦ, row-major n_c × r.
+    pub fn b_phi(&self) -> &[f64] {
+        &self.b_phi
+    }
+
     /// Whether BΦ was formed for this B.
     pub fn built_for(&self, b: &Csc) -> bool {
         self.b == *b

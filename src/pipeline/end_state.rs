@@ -71,6 +71,9 @@ pub fn save(
         displacement: state.displacement.clone(),
         velocity: state.velocity.clone(),
     };
+    // The folder counts end_state.json as the tool's own (a state saved here to march from
+    // is replaced by the next run, like its results).
+    crate::output::staging::claim_entries(dir, "transient", &[FILE])?;
     let path = dir.join(FILE);
     let text = serde_json::to_string(&state)
         .map_err(|e| Error::Model(format!("internal: cannot encode the end state: {e}")))?;

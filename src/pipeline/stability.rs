@@ -42,6 +42,7 @@ use serde::Serialize;
 use crate::config::{Pipeline, StabilitySpec};
 use crate::contact::ContactOperator;
 use crate::fem::DofMap;
+use crate::hbm::floquet::{self, Crossing, FloquetModel, Segment};
 use crate::hbm::{self, ContactSolution};
 use crate::pipeline::model::time_basis;
 use crate::pipeline::{hb_settings, Model, Purpose};
@@ -84,6 +85,8 @@ pub enum Verdict {
 pub enum Method {
     /// A linear scene: from its damping, no marching.
     Linear,
+    /// The Floquet multipliers of the harmonic-balance state (`hbm::floquet`).
+    Floquet,
     /// Time marching from the perturbed harmonic-balance state.
     Marching,
     None,
@@ -94,9 +97,30 @@ pub enum Method {
 pub struct Stability {
     pub verdict: Verdict,
     pub method: Method,
-    /// μ̂, the estimated largest Floquet multiplier modulus (marching only).
+    /// The largest Floquet multiplier's modulus |μ| (Floquet), or μ̂, its estimate from the
+    /// period-to-period change (marching).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub multiplier: Option<f64>,
+    /// Floquet: the largest multiplier's argument [rad], in [0, π].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub argument: Option<f64>,
+    /// Floquet: how the largest multiplier crosses (unstable) or would cross (stable) the
+    /// unit circle.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crossing: Option<Crossing>,
+    /// Floquet: the frequency of the motion the leading multiplier brings [Hz]: half the
+    /// drive's at a period doubling, |arg μ|/(2π)·f for a complex pair.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub new_frequency_hz: Option<f64>,
+    /// Floquet: the reduced model's dimension r (modes and attachment vectors) and the
+    /// segments of constant contact over the period.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reduced_dimension: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub segments: Option<usize>,
+    /// `method: both`: what the time-marching audit said, where it disagrees.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub audit: Option<String>,
     /// Periods marched.
     pub periods: usize,
     /// The last period-to-period change d.
@@ -115,11 +139,8 @@ impl Stability {
         Stability {
             verdict: Verdict::NotChecked,
             method: Method::None,
-            multiplier: None,
-            periods: 0,
-            change: None,
-            departure: None,
             reason: "not checked (stability.check: false)".into(),
+            ..Stability::blank(Method::None)
         }
     }
 
@@ -132,14 +153,48 @@ impl Stability {
     }
 
     fn undecided() -> Stability {
+        Stability::blank(Method::Marching)
+    }
+
+    /// Undecided by `method`, every measure empty.
+    fn blank(method: Method) -> Stability {
         Stability {
             verdict: Verdict::Undecided,
-            method: Method::Marching,
+            method,
             multiplier: None,
+            argument: None,
+            crossing: None,
+            new_frequency_hz: None,
+            reduced_dimension: None,
+            segments: None,
+            audit: None,
             periods: 0,
             change: None,
             departure: None,
             reason: String::new(),
+        }
+    }
+
+    /// A contact set that does not change over the period: the perturbation sees a linear
+    /// time-invariant structure (the closed nodes held), judged by its damping like a linear
+    /// scene.
+    pub fn constant_contact(model: &Model) -> Stability {
+        let linear = linear(model);
+        Stability {
+            reason: format!(
+                "the contact set does not change over the period, so the perturbation sees a linear structure (closed nodes held): {}",
+                linear.reason
+            ),
+            ..linear
+        }
+    }
+
+    /// A static state (H = 0): no motion to judge.
+    pub fn static_state() -> Stability {
+        Stability {
+            verdict: Verdict::NotChecked,
+            reason: "a static state (H = 0): no periodic motion to judge".into(),
+            ..Stability::blank(Method::None)
         }
     }
 
@@ -152,8 +207,15 @@ impl Stability {
         }
     }
 
-    /// The run's warning when the state is not one the structure settles into.
+    /// The run's warning when the state is not one the structure settles into, or when the
+    /// time-marching audit disagrees with the Floquet verdict.
     pub fn warning(&self) -> Option<String> {
+        if let Some(audit) = &self.audit {
+            return Some(format!(
+                "the Floquet verdict ({:?}: {}) and the time-marching audit disagree: {audit}. Marching uses another discretization (diagonal mass, explicit steps); where the harmonic balance is coarse (raise the harmonics) the two orbits differ",
+                self.verdict, self.reason
+            ));
+        }
         match self.verdict {
             Verdict::Unstable => Some(format!(
                 "the harmonic-balance state is unstable: {}. The structure does not settle into it; a frequency sweep (`hbcontact sweep`) shows the stable branches, and `hbcontact transient` what it does instead",
@@ -176,16 +238,89 @@ pub fn linear(model: &Model) -> Stability {
         .is_some_and(|(a, b)| a > 0.0 || b > 0.0);
     Stability {
         verdict: Verdict::Stable,
-        method: Method::Linear,
-        multiplier: None,
-        periods: 0,
-        change: None,
-        departure: None,
         reason: if damped {
             "a damped linear scene: every free vibration decays".into()
         } else {
             "an undamped linear scene: free vibrations neither grow nor decay (stable, not asymptotically)".into()
         },
+        ..Stability::blank(Method::Linear)
+    }
+}
+
+/// The verdict from the Floquet multipliers of `solution`, a contact state of `model`
+/// (the model the harmonic balance solved: its mass, its contact law's samples).
+pub fn by_floquet(model: &Model, solution: &hbm::Solution) -> Result<Stability> {
+    let (Some(contact), Some(cm)) = (&solution.contact, &model.contact) else {
+        return Ok(linear(model));
+    };
+    let segments = floquet::segments(&solution.basis, solution.omega, contact);
+    let nodes = floquet::closed_nodes(&segments);
+    let reduced = FloquetModel::new(&model.system, &cm.operator.b_free, &nodes)?;
+    floquet_verdict(&reduced, &segments, solution.omega)
+}
+
+/// The verdict from the multipliers of the state whose closed sets are `segments`, at ω.
+pub fn floquet_verdict(
+    reduced: &FloquetModel,
+    segments: &[Segment],
+    omega: f64,
+) -> Result<Stability> {
+    let m = reduced.multipliers(segments)?;
+    let mu = m.leading();
+    let (modulus, argument) = (mu.norm(), mu.im.atan2(mu.re).abs());
+    let crossing = m.crossing();
+    let f = omega / (2.0 * std::f64::consts::PI);
+    let new_frequency_hz = match crossing {
+        Crossing::Fold => None,
+        Crossing::PeriodDoubling => Some(0.5 * f),
+        Crossing::NeimarkSacker => Some(argument / (2.0 * std::f64::consts::PI) * f),
+    };
+    let motion = new_frequency_hz.map_or(String::new(), |h| format!(", a motion at {h:.4} Hz"));
+    let (verdict, reason) = if modulus > 1.0 + floquet::MARGIN {
+        let reason = format!(
+            "the largest Floquet multiplier |μ| = {modulus:.4} (arg {:.1}°) lies outside the unit circle: stability is lost by {}{motion}",
+            argument.to_degrees(),
+            crossing.describe()
+        );
+        (Verdict::Unstable, reason)
+    } else if modulus < 1.0 - floquet::MARGIN {
+        let reason = format!(
+            "every Floquet multiplier lies inside the unit circle (largest |μ| = {modulus:.4}, arg {:.1}°)",
+            argument.to_degrees()
+        );
+        (Verdict::Stable, reason)
+    } else {
+        let reason = format!(
+            "the largest Floquet multiplier lies on the unit circle (|μ| = {modulus:.7}): undamped, or at a bifurcation ({})",
+            crossing.describe()
+        );
+        (Verdict::Undecided, reason)
+    };
+    Ok(Stability {
+        verdict,
+        multiplier: Some(modulus),
+        argument: Some(argument),
+        crossing: Some(crossing),
+        new_frequency_hz,
+        reduced_dimension: Some(reduced.dim()),
+        segments: Some(m.segments),
+        reason,
+        ..Stability::blank(Method::Floquet)
+    })
+}
+
+/// `method: both`: Floquet's verdict, with the marched one where they disagree.
+pub fn audited(floquet: Stability, marched: Stability) -> Stability {
+    let agree = floquet.verdict == marched.verdict || marched.verdict == Verdict::Undecided;
+    if agree {
+        return floquet;
+    }
+    Stability {
+        audit: Some(format!(
+            "time marching says {:?}: {}",
+            marched.verdict, marched.reason
+        )),
+        ..floquet
     }
 }
 
@@ -381,12 +516,12 @@ pub fn judge(changes: &[f64], departures: &[f64], e: f64, refine: &str) -> Stabi
     };
     Stability {
         verdict,
-        method: Method::Marching,
         multiplier: mu,
         periods,
         change: Some(d),
         departure: Some(e),
         reason,
+        ..Stability::blank(Method::Marching)
     }
 }
 

@@ -13,7 +13,7 @@ use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
 use super::stability::{self, Stability};
 use super::summary::{MeshInfo, Summary};
-use crate::config::{BasisSpec, Pipeline};
+use crate::config::{BasisSpec, Pipeline, StabilityMethod};
 use crate::hbm::{self, HbSettings, Solution};
 use crate::mesh::{self, Mesh2d};
 use crate::output::tables::write_json;
@@ -258,8 +258,10 @@ pub fn march<'m>(
 }
 
 /// Stage `stability`: the verdict on the harmonic-balance `solution` of `model`. Contact
-/// scenes march a model of the same mesh with a diagonal mass from its own harmonic-balance
-/// state (solved from `solution`'s multipliers); linear scenes judge by their damping.
+/// scenes: the Floquet multipliers of the state (`stability.method: floquet`, the default),
+/// time marching (`march`: a model of the same mesh with a diagonal mass from its own
+/// harmonic-balance state, solved from `solution`'s multipliers) or both; linear scenes
+/// judge by their damping, static states (H = 0) are not judged.
 pub fn stability(
     p: &Pipeline,
     mesh: Mesh2d,
@@ -274,6 +276,40 @@ pub fn stability(
             _ => Stability::not_checked(),
         });
     };
+    if contact.harmonics == 0 {
+        return Ok(Stability::static_state());
+    }
+    let segments = crate::hbm::floquet::segments(&solution.basis, solution.omega, contact);
+    if segments.len() == 1 {
+        return Ok(Stability::constant_contact(model));
+    }
+    let floquet = match spec.method {
+        StabilityMethod::March => None,
+        _ => Some(stages.run("stability", || stability::by_floquet(model, solution))),
+    };
+    match (spec.method, floquet) {
+        (StabilityMethod::Floquet, Some(Ok(verdict))) => return Ok(verdict),
+        (StabilityMethod::Both, Some(Ok(verdict))) => {
+            let marched = march_verdict(p, mesh, model, contact, stages)?;
+            return Ok(stability::audited(verdict, marched));
+        }
+        (_, Some(Err(e))) => stages.reporter.warning(&format!(
+            "no Floquet multipliers ({e}): judged by time marching instead"
+        )),
+        _ => {}
+    }
+    march_verdict(p, mesh, model, contact, stages)
+}
+
+/// The time-marching verdict on `contact`, a state of `model`.
+fn march_verdict(
+    p: &Pipeline,
+    mesh: Mesh2d,
+    model: &Model,
+    contact: &crate::hbm::ContactSolution,
+    stages: &mut Stages,
+) -> Result<Stability> {
+    let spec = &p.stability;
     let reporter = stages.reporter;
     stages.run("stability", || {
         let marching = build(p, mesh, Purpose::Transient)?;

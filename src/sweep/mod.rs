@@ -29,11 +29,11 @@ use rayon::prelude::*;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Pipeline, SweepSpec};
+use crate::config::{Pipeline, StabilityMethod, SweepSpec};
 use crate::hbm::basis::TimeBasis;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
-use crate::hbm::ContactSolution;
+use crate::hbm::{floquet, ContactSolution};
 use crate::mesh::Mesh2d;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
@@ -464,7 +464,9 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
 type Start = (usize, f64, Option<ContactSolution>);
 
 /// Stage `stability`: the verdict at every `stability.every`-th point and on both sides of
-/// every fold (`pipeline::stability`; contact scenes by marching, the points in parallel).
+/// every fold (`pipeline::stability`): the Floquet multipliers of each point's state, on one
+/// reduced model for the whole curve (`stability.method: floquet`), time marching (`march`,
+/// the points in parallel), or both (marching audits Floquet).
 fn judge_points(
     p: &Pipeline,
     mesh: Mesh2d,
@@ -499,22 +501,36 @@ fn judge_points(
         .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
         .filter(|(i, _, _)| !judged(*i))
         .collect();
-    let marching = build(p, mesh, Purpose::Transient)?;
-    let done = AtomicUsize::new(0);
-    let total = Some(chosen.len() as u64);
-    let verdicts: Vec<Result<Stability>> = chosen
-        .par_iter()
-        .map(|(_, omega, start)| {
-            let verdict =
-                stability::by_marching(p, spec, &marching, *omega, start.as_ref(), &Silent);
-            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-            reporter.progress("stability", n as u64, total, "points checked by marching");
-            verdict
-        })
-        .collect();
-    reporter.task_done("stability");
-    for ((i, _, _), verdict) in chosen.into_iter().zip(verdicts) {
-        let verdict = verdict.unwrap_or_else(|e| Stability::cannot_march(&e));
+    // A point whose contact set does not change over the period needs no check.
+    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
+    let constant = |(_, omega, start): &&Start| {
+        start
+            .as_ref()
+            .is_some_and(|s| floquet::segments(&basis, *omega, s).len() == 1)
+    };
+    let (fixed, chosen): (Vec<&Start>, Vec<&Start>) = chosen.into_iter().partition(constant);
+    for (i, _, _) in fixed {
+        let verdict = Stability::constant_contact(model);
+        if let Some(row) = writer.rows.iter_mut().find(|r| r.index == *i) {
+            row.stable = verdict.stable();
+        }
+        writer.verdicts.push((*i, verdict));
+    }
+    let floquet = match spec.method {
+        StabilityMethod::March => None,
+        _ => by_floquet(p, model, &chosen, reporter),
+    };
+    let marched = match (spec.method, &floquet) {
+        (StabilityMethod::Floquet, Some(_)) => None,
+        _ => Some(by_marching(p, mesh, &chosen, reporter)?),
+    };
+    for (k, (i, _, _)) in chosen.iter().enumerate() {
+        let verdict = match (&floquet, &marched) {
+            (Some(f), Some(m)) => stability::audited(f[k].clone(), m[k].clone()),
+            (Some(f), None) => f[k].clone(),
+            (None, Some(m)) => m[k].clone(),
+            (None, None) => Stability::not_checked(),
+        };
         if let Some(row) = writer.rows.iter_mut().find(|r| r.index == *i) {
             row.stable = verdict.stable();
             row.multiplier = verdict.multiplier;
@@ -522,6 +538,67 @@ fn judge_points(
         writer.verdicts.push((*i, verdict));
     }
     Ok(())
+}
+
+/// The Floquet verdicts of the `chosen` points, on one reduced model (the nodes any of them
+/// closes); `None`, with a warning, where the scene allows none (then time marching judges).
+fn by_floquet(
+    p: &Pipeline,
+    model: &Model,
+    chosen: &[&Start],
+    reporter: &dyn Reporter,
+) -> Option<Vec<Stability>> {
+    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
+    let op = &model.contact.as_ref()?.operator;
+    let segments: Vec<Option<Vec<floquet::Segment>>> = chosen
+        .iter()
+        .map(|(_, omega, start)| start.as_ref().map(|s| floquet::segments(&basis, *omega, s)))
+        .collect();
+    let nodes = floquet::closed_nodes(segments.iter().flatten().flatten());
+    let reduced = match floquet::FloquetModel::new(&model.system, &op.b_free, &nodes) {
+        Ok(r) => r,
+        Err(e) => {
+            reporter.warning(&format!(
+                "no Floquet multipliers ({e}): the points are judged by time marching instead"
+            ));
+            return None;
+        }
+    };
+    let verdicts = chosen
+        .iter()
+        .zip(&segments)
+        .map(|((_, omega, _), seg)| match seg {
+            Some(seg) => stability::floquet_verdict(&reduced, seg, *omega)
+                .unwrap_or_else(|e| Stability::cannot_march(&e)),
+            _ => Stability::not_checked(),
+        })
+        .collect();
+    Some(verdicts)
+}
+
+/// The time-marching verdicts of the `chosen` points, in parallel.
+fn by_marching(
+    p: &Pipeline,
+    mesh: Mesh2d,
+    chosen: &[&Start],
+    reporter: &dyn Reporter,
+) -> Result<Vec<Stability>> {
+    let spec = &p.stability;
+    let marching = build(p, mesh, Purpose::Transient)?;
+    let done = AtomicUsize::new(0);
+    let total = Some(chosen.len() as u64);
+    let verdicts: Vec<Stability> = chosen
+        .par_iter()
+        .map(|(_, omega, start)| {
+            let verdict =
+                stability::by_marching(p, spec, &marching, *omega, start.as_ref(), &Silent);
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            reporter.progress("stability", n as u64, total, "points checked by marching");
+            verdict.unwrap_or_else(|e| Stability::cannot_march(&e))
+        })
+        .collect();
+    reporter.task_done("stability");
+    Ok(verdicts)
 }
 
 /// One point's row: the outputs a single-frequency run's summary would give.
