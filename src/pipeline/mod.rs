@@ -70,6 +70,7 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
         build(p, mesh.clone(), Purpose::HarmonicBalance)
     })?;
     warnings.extend(sanity::check_initial_penetration(&model));
+    stages.run("check", || stages::check_stability_march(p, &model))?;
     stages::touch_solve_memory(p, &model);
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
@@ -224,6 +225,20 @@ pub fn run_transient(
     Ok(RunResult { dir, summary })
 }
 
+/// The marches the scene's commands would make, estimated (`transient::budget`): the
+/// stability check of `run` refused as it would be (exit 2), `hbcontact transient` beyond
+/// the machine a warning. A model that does not build is left to `run` to report.
+fn check_marches(p: &Pipeline, mesh: &crate::mesh::Mesh2d, reporter: &dyn Reporter) -> Result<()> {
+    let Ok(model) = build(p, mesh.clone(), Purpose::Transient) else {
+        return Ok(());
+    };
+    stages::check_stability_march(p, &model)?;
+    if let Err(e) = stages::check_transient_march(p, &model) {
+        reporter.warning(&format!("`hbcontact transient` would stop: {e}"));
+    }
+    Ok(())
+}
+
 /// What `check` found.
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct CheckReport {
@@ -263,6 +278,7 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
             .map(|spec| crate::contact::geometry::build_contact_set(&mesh, spec))
             .transpose()
     })?;
+    stages.run("check", || check_marches(p, &mesh, reporter))?;
     let groups = mesh
         .node_groups
         .iter()

@@ -237,9 +237,8 @@ pub fn march<'m>(
             "internal: transient needs a diagonal mass".into(),
         ));
     };
-    let probe_nodes: Vec<usize> = model.probes.iter().flat_map(|(_, n)| n.clone()).collect();
     let contact = model.contact.as_ref().map(|c| &c.operator);
-    let marching = Marching::new(&model.system, diag, contact, &probe_nodes)
+    let marching = Marching::new(&model.system, diag, contact, &probe_nodes(model))
         .map_err(|e| stages.context("march", e))?;
     let settings = TransientSettings {
         courant: p.transient.courant,
@@ -322,9 +321,75 @@ fn march_verdict(
             reporter,
         );
         // A scene time marching cannot take (e.g. prescribed motion on contact nodes) gets no
-        // verdict, and says why; the harmonic-balance result stands.
-        Ok(verdict.unwrap_or_else(|e| Stability::cannot_march(&e)))
+        // verdict, and says why; the harmonic-balance result stands. A march refused as
+        // beyond the machine (`transient::budget`) is bad input, as `check` says.
+        match verdict {
+            Err(e) if e.exit_code() == 2 => Err(stability_march_refused(e)),
+            v => Ok(v.unwrap_or_else(|e| Stability::cannot_march(&e))),
+        }
     })
+}
+
+/// The march of the stability check `run` makes on a contact scene, estimated on `model`
+/// (whose diagonal mass and stiffness the march takes) before anything is solved, and refused
+/// now (exit 2) if it is beyond the machine (`transient::budget`). The estimate samples once
+/// per period, the march a few times: their steps per period differ by fewer than its samples.
+pub fn check_stability_march(p: &Pipeline, model: &Model) -> Result<()> {
+    if model.contact.is_none() || !p.stability.check {
+        return Ok(());
+    }
+    let settings = TransientSettings {
+        courant: p.transient.courant,
+        periodic_tolerance: 0.0,
+        max_periods: p.stability.max_periods,
+        samples_per_period: 1,
+    };
+    admit_march(model, &settings, &[]).map_err(stability_march_refused)
+}
+
+/// The march of `hbcontact transient` on `model` (a `Purpose::Transient` one): `Err` with the
+/// refusal it would meet (`transient::budget`).
+pub fn check_transient_march(p: &Pipeline, model: &Model) -> Result<()> {
+    let settings = TransientSettings {
+        courant: p.transient.courant,
+        periodic_tolerance: p.transient.periodic_tolerance,
+        max_periods: p.transient.max_periods,
+        samples_per_period: p.output.frames,
+    };
+    admit_march(model, &settings, &probe_nodes(model))
+}
+
+/// `Err` with the refusal of a march of `model` with `settings` that is beyond the machine;
+/// `Ok` for one within it, and for one that cannot be set up (its own run says why).
+fn admit_march(model: &Model, settings: &TransientSettings, probes: &[usize]) -> Result<()> {
+    let Some(diag) = &model.mass_diagonal else {
+        return Ok(());
+    };
+    let contact = model.contact.as_ref().map(|c| &c.operator);
+    let Ok(marching) = Marching::new(&model.system, diag, contact, probes) else {
+        return Ok(());
+    };
+    match transient::estimate(&marching.problem(), settings) {
+        Ok(estimate) => estimate
+            .admit(&transient::budget::Limits::of_machine())
+            .map(|_| ()),
+        Err(_) => Ok(()),
+    }
+}
+
+/// A refusal of the stability check's march, saying whose march it is and how to skip it.
+fn stability_march_refused(e: Error) -> Error {
+    match e {
+        Error::Input(why) => Error::Input(format!(
+            "the stability check of `run` marches in time (`stability.check: false` skips it, \
+             stability.max_periods bounds its periods): {why}"
+        )),
+        e => e,
+    }
+}
+
+fn probe_nodes(model: &Model) -> Vec<usize> {
+    model.probes.iter().flat_map(|(_, n)| n.clone()).collect()
 }
 
 /// Write `summary.json` (with the stage times so far) into the staged directory and commit it.

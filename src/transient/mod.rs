@@ -14,6 +14,7 @@
 //! Both give an LCP: find p = −λ ≥ 0 with w = W p − q ≥ 0, p·w = 0 (q: the predicted
 //! penetration), solved by a primal–dual active set method warm-started from the last step.
 
+pub mod budget;
 pub mod setup;
 
 use std::time::{Duration, Instant};
@@ -461,25 +462,53 @@ impl LastPeriod {
 }
 
 /// Δt stable for central differences (with stiffness damping), fitted to the period and the
-/// samples: (Δt, steps per period, steps per sample).
+/// samples: (Δt, steps per period, steps per sample); a march beyond the machine's limits
+/// (`budget`) is refused here, before anything sized by its steps is allocated.
 fn time_step(
     problem: &TransientProblem,
     product: &RowPairs,
     settings: &TransientSettings,
-    beta: f64,
 ) -> Result<(f64, usize, usize)> {
+    let estimate = estimate_with(problem, product, settings)?;
+    let (steps, per_sample) = estimate.admit(&budget::Limits::of_machine())?;
+    Ok((problem.period / steps as f64, steps, per_sample))
+}
+
+/// The cost of marching `problem` with `settings` (`budget`), without marching: what
+/// `check` and `run` ask before they solve.
+pub fn estimate(
+    problem: &TransientProblem,
+    settings: &TransientSettings,
+) -> Result<budget::Estimate> {
+    estimate_with(problem, &RowPairs::new(problem.stiffness), settings)
+}
+
+fn estimate_with(
+    problem: &TransientProblem,
+    product: &RowPairs,
+    settings: &TransientSettings,
+) -> Result<budget::Estimate> {
     let omega_max = estimate_max_eigenvalue(product, problem.mass).sqrt() * 1.05;
     if !(omega_max > 0.0 && omega_max.is_finite()) {
         return Err(Error::Model(
             "time marching: no massive dof or no stiffness".into(),
         ));
     }
-    let xi = beta * omega_max / 2.0;
-    let dt_stable = settings.courant * (2.0 / omega_max) * ((1.0 + xi * xi).sqrt() - xi);
-    let s = settings.samples_per_period.max(1);
-    let per_sample = ((problem.period / dt_stable) / s as f64).ceil().max(1.0) as usize;
-    let steps = per_sample * s;
-    Ok((problem.period / steps as f64, steps, per_sample))
+    let beta = problem.rayleigh.map_or(0.0, |(_, b)| b);
+    let sizes = budget::Sizes {
+        free: problem.mass.len(),
+        contact_rows: problem.contact.as_ref().map_or(0, |c| c.g0.len()),
+        massless: problem.mass.iter().filter(|&&m| m <= 0.0).count(),
+        probes: problem.probes.len(),
+        stiffness_entries: problem.stiffness.values.len(),
+    };
+    Ok(budget::Estimate::new(
+        omega_max,
+        beta,
+        problem.period,
+        settings,
+        sizes,
+    ))
 }
 
 /// W = Δt² B M⁻¹ Bᵀ / (1 + αΔt/2) for forward-increment multipliers on massive dofs.
@@ -704,14 +733,14 @@ impl<'a> Stepper<'a> {
         let (k, mass) = (problem.stiffness, problem.mass);
         let n = mass.len();
         let (alpha, beta) = problem.rayleigh.unwrap_or((0.0, 0.0));
+        let product = RowPairs::new(k);
+        let (dt, steps, per_sample) = time_step(problem, &product, settings)?;
         let is_z: Vec<bool> = (0..n).map(|i| mass[i] <= 0.0).collect();
         let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
         let rows = contact_rows(problem, &is_z)?;
         let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
         let g0 = problem.contact.as_ref().map(|c| c.g0);
         let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
-        let product = RowPairs::new(k);
-        let (dt, steps, per_sample) = time_step(problem, &product, settings, beta)?;
         let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
         let damp = alpha * dt / 2.0;
         let push = (0..n)
