@@ -4,7 +4,9 @@
 //! panics, and ends either in a value whose invariants hold (finite numbers, indices in range)
 //! or in a bad-input error (exit class 2) that names the file and stays short. A `.msh`
 //! reader also never holds more memory than a small multiple of the file's size, whatever
-//! count the file claims.
+//! count the file claims. A mutated `sweep.json` (from a real sweep stopped at its point
+//! budget) is resumed, in process, by `hbcontact sweep --resume`: it continues or is refused
+//! with exit class 2 naming the file or its saved point, and no allocation exceeds 1 GiB.
 //!
 //! `make test` runs 256 cases per target (proptest's default); the long run is
 //! `PROPTEST_CASES=100000 cargo test --release --test fuzz`. Failing inputs proptest finds are
@@ -711,6 +713,330 @@ fn fuzz_seeds_load_unmutated() {
             held as f64 / bytes.len() as f64
         );
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// sweep.json mutations: a saved sweep resumed.
+
+/// The seed sweep: strip_sweep_light stopped at its budget of 6 points (1200–1279 Hz, 105
+/// contact unknowns), swept once per test process.
+fn sweep_seed() -> &'static Path {
+    static SEED: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    SEED.get_or_init(|| {
+        let dir = root().join(format!(
+            "output/test-fuzz/sweep-seed-{}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        let options = hbcontact::pipeline::RunOptions {
+            out: Some(dir.clone()),
+            ..Default::default()
+        };
+        let p = sweep_pipeline(6);
+        let result = hbcontact::sweep::run(&p, &options, &hbcontact::Silent);
+        let result = result.unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(result.summary.rows.len(), 6);
+        dir
+    })
+}
+
+/// strip_sweep_light with `max_points`, no stability check and no plots.
+fn sweep_pipeline(max_points: usize) -> Pipeline {
+    let path = root().join("pipelines/strip_sweep_light.yaml");
+    let sets = [
+        format!("sweep.max_points={max_points}"),
+        "stability.check=false".into(),
+        "output.plots=false".into(),
+    ];
+    hbcontact::config::load_pipeline(&path, &sets).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A value put in place of a node of sweep.json.
+#[derive(Clone, Debug)]
+enum JsonValue {
+    Zero,
+    Negative,
+    Scaled(f64),
+    Tiny,
+    Huge,
+    HugeInt,
+    BigInt,
+    Null,
+    Bool,
+    Text,
+    EmptyList,
+    EmptyMap,
+}
+
+impl JsonValue {
+    fn json(&self, old: &serde_json::Value) -> serde_json::Value {
+        use serde_json::json;
+        let number = old.as_f64().unwrap_or(1.0);
+        match self {
+            JsonValue::Zero => json!(0),
+            JsonValue::Negative => json!(-number),
+            JsonValue::Scaled(f) => json!(number * f),
+            JsonValue::Tiny => json!(1e-300),
+            JsonValue::Huge => json!(1e300),
+            JsonValue::HugeInt => json!(u64::MAX),
+            JsonValue::BigInt => json!(1_000_000_000_000u64),
+            JsonValue::Null => json!(null),
+            JsonValue::Bool => json!(true),
+            JsonValue::Text => json!("word"),
+            JsonValue::EmptyList => json!([]),
+            JsonValue::EmptyMap => json!({}),
+        }
+    }
+}
+
+fn json_value() -> impl Strategy<Value = JsonValue> {
+    prop_oneof![
+        Just(JsonValue::Zero),
+        Just(JsonValue::Negative),
+        prop_oneof![
+            Just(1e-6),
+            Just(0.5),
+            Just(1.0 + 1e-9),
+            Just(2.0),
+            Just(1e6)
+        ]
+        .prop_map(JsonValue::Scaled),
+        Just(JsonValue::Tiny),
+        Just(JsonValue::Huge),
+        Just(JsonValue::HugeInt),
+        Just(JsonValue::BigInt),
+        Just(JsonValue::Null),
+        Just(JsonValue::Bool),
+        Just(JsonValue::Text),
+        Just(JsonValue::EmptyList),
+        Just(JsonValue::EmptyMap),
+    ]
+}
+
+/// One mutation of sweep.json: of its tree, then of its text.
+#[derive(Clone, Debug)]
+enum JsonEdit {
+    Replace(Index, JsonValue),
+    DeleteKey(Index),
+    /// Keep a prefix of a list.
+    Shorten(Index, Index),
+    /// Swap two entries of a list.
+    Swap(Index, Index, Index),
+    Truncate(Index),
+    FlipByte(Index, u8),
+}
+
+fn json_edit() -> impl Strategy<Value = JsonEdit> {
+    prop_oneof![
+        6 => (any::<Index>(), json_value()).prop_map(|(i, v)| JsonEdit::Replace(i, v)),
+        2 => any::<Index>().prop_map(JsonEdit::DeleteKey),
+        2 => (any::<Index>(), any::<Index>()).prop_map(|(i, k)| JsonEdit::Shorten(i, k)),
+        1 => (any::<Index>(), any::<Index>(), any::<Index>())
+            .prop_map(|(i, a, b)| JsonEdit::Swap(i, a, b)),
+        1 => any::<Index>().prop_map(JsonEdit::Truncate),
+        1 => (any::<Index>(), 1..=255u8).prop_map(|(i, m)| JsonEdit::FlipByte(i, m)),
+    ]
+}
+
+/// The paths of sweep.json's nodes (as JSON pointers), the long multiplier and tangent lists
+/// each counting with their first three entries only, so edits spread over every field.
+fn json_paths(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    out.push(at.clone());
+    let long = at.ends_with("/multipliers") || at.ends_with("/tangent");
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, child) in m {
+                json_paths(child, format!("{at}/{k}"), out);
+            }
+        }
+        serde_json::Value::Array(a) => {
+            let n = if long { a.len().min(3) } else { a.len() };
+            for (i, child) in a.iter().take(n).enumerate() {
+                json_paths(child, format!("{at}/{i}"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+fn edit_json_tree(tree: &mut serde_json::Value, e: &JsonEdit) {
+    let mut all = Vec::new();
+    json_paths(tree, String::new(), &mut all);
+    let lists: Vec<&String> = all
+        .iter()
+        .filter(|p| tree.pointer(p).is_some_and(|v| v.is_array()))
+        .collect();
+    match e {
+        JsonEdit::Replace(at, v) => {
+            if let Some(n) = tree.pointer_mut(&all[at.index(all.len())]) {
+                *n = v.json(n);
+            }
+        }
+        JsonEdit::DeleteKey(at) => {
+            let path = all[at.index(all.len())].clone();
+            let Some((parent, key)) = path.rsplit_once('/') else {
+                return;
+            };
+            if let Some(m) = tree.pointer_mut(parent).and_then(|p| p.as_object_mut()) {
+                m.remove(key);
+            }
+        }
+        JsonEdit::Shorten(at, keep) if !lists.is_empty() => {
+            let path = lists[at.index(lists.len())].clone();
+            if let Some(a) = tree.pointer_mut(&path).and_then(|p| p.as_array_mut()) {
+                a.truncate(keep.index(a.len() + 1));
+            }
+        }
+        JsonEdit::Swap(at, i, j) if !lists.is_empty() => {
+            let path = lists[at.index(lists.len())].clone();
+            if let Some(a) = tree.pointer_mut(&path).and_then(|p| p.as_array_mut()) {
+                if !a.is_empty() {
+                    let (i, j) = (i.index(a.len()), j.index(a.len()));
+                    a.swap(i, j);
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The seed's sweep.json with the edits.
+fn mutate_json(seed: &str, edits: &[JsonEdit]) -> Vec<u8> {
+    let mut tree: serde_json::Value = serde_json::from_str(seed).expect("the seed parses");
+    for e in edits {
+        edit_json_tree(&mut tree, e);
+    }
+    let mut bytes = serde_json::to_vec_pretty(&tree).expect("a JSON tree writes");
+    for e in edits {
+        match e {
+            JsonEdit::Truncate(at) => bytes.truncate(at.index(bytes.len() + 1)),
+            JsonEdit::FlipByte(at, mask) if !bytes.is_empty() => {
+                let i = at.index(bytes.len());
+                bytes[i] ^= mask;
+            }
+            _ => {}
+        }
+    }
+    bytes
+}
+
+/// Copy the seed sweep's folder to `to` (replacing it) with `sweep_json` for its sweep.json.
+fn sweep_case_dir(to: &Path, sweep_json: &[u8]) {
+    let _ = std::fs::remove_dir_all(to);
+    let status = std::process::Command::new("cp")
+        .arg("-r")
+        .arg(sweep_seed())
+        .arg(to)
+        .status()
+        .expect("cp runs");
+    assert!(status.success());
+    std::fs::write(to.join("sweep.json"), sweep_json).expect("scratch write");
+}
+
+/// Resume the sweep in `dir` for one more point: it continues, or it fails with exit class 2
+/// naming sweep.json or its saved point; no allocation above `REFUSED_BYTES`.
+fn sweep_case(dir: &Path) -> std::result::Result<(), TestCaseError> {
+    let options = hbcontact::pipeline::RunOptions {
+        out: Some(dir.to_path_buf()),
+        ..Default::default()
+    };
+    let p = sweep_pipeline(7);
+    let (result, _) = measure(|| hbcontact::sweep::resume(&p, &options, &hbcontact::Silent));
+    let error = match result {
+        Ok(r) => match r.failure {
+            None => return Ok(()),
+            Some(e) => e,
+        },
+        Err(e) => e,
+    };
+    let text = error.to_string();
+    prop_assert_eq!(error.exit_code(), 2, "bad input is exit class 2: {}", text);
+    prop_assert!(
+        text.contains("sweep.json") || text.contains("saved point"),
+        "the error names the file or its saved point: {}",
+        text
+    );
+    prop_assert!(
+        text.chars().count() <= 5000,
+        "a short error: {}",
+        text.len()
+    );
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(config())]
+    /// TEST GOAL: a mutated sweep.json (numbers zeroed, negated, scaled, made tiny, huge or
+    /// 10¹²; values made null, text, lists or maps; keys deleted; lists shortened or their
+    /// entries swapped; truncated; bytes flipped) resumed by `sweep --resume` never panics and
+    /// never allocates more than 1 GiB at once: it continues, or fails with exit class 2
+    /// naming the file or its saved point.
+    #[test]
+    fn mutated_sweep_json_resumes_or_is_refused_naming_the_file(
+        edits in prop::collection::vec(json_edit(), 1..4),
+    ) {
+        let seed = std::fs::read_to_string(sweep_seed().join("sweep.json")).expect("the seed reads");
+        let dir = scratch("sweep-case");
+        sweep_case_dir(&dir, &mutate_json(&seed, &edits));
+        sweep_case(&dir)?;
+    }
+}
+
+/// TEST GOAL: the three tampered sweep.json files of issue #46 are refused by
+/// `hbcontact sweep --resume` with exit 2 naming the file and the field: `resume.samples`
+/// = 10¹² (it drove the process to 23 GB), `resume.samples` = 0 (an index out of bounds
+/// panic) and `rows = []` (exit 0 claiming the sweep reached 1800 Hz); the seed itself
+/// resumes.
+#[test]
+fn regression_tampered_sweep_json_fields_are_refused_naming_them() {
+    let seed = std::fs::read_to_string(sweep_seed().join("sweep.json")).expect("the seed reads");
+    let cases: [(&str, serde_json::Value, &str); 3] = [
+        (
+            "/resume/samples",
+            serde_json::json!(1_000_000_000_000u64),
+            "`resume.samples`",
+        ),
+        ("/resume/samples", serde_json::json!(0), "`resume.samples`"),
+        ("/rows", serde_json::json!([]), "`rows` is empty"),
+    ];
+    let dir = scratch("sweep-regression");
+    for (pointer, value, field) in cases {
+        let mut tree: serde_json::Value = serde_json::from_str(&seed).unwrap();
+        *tree.pointer_mut(pointer).unwrap() = value;
+        sweep_case_dir(&dir, &serde_json::to_vec(&tree).unwrap());
+        let dir_arg = dir.to_string_lossy().to_string();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+            .args([
+                "sweep",
+                "pipelines/strip_sweep_light.yaml",
+                "--resume",
+                "--quiet",
+            ])
+            .args([
+                "--set",
+                "sweep.max_points=7",
+                "--set",
+                "stability.check=false",
+            ])
+            .args(["--out", &dir_arg])
+            .current_dir(root())
+            .output()
+            .expect("hbcontact runs");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{pointer}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{dir_arg}/sweep.json")),
+            "{stderr}"
+        );
+        assert!(stderr.contains(field), "{stderr}");
+    }
+    sweep_case_dir(&dir, seed.as_bytes());
+    let options = hbcontact::pipeline::RunOptions {
+        out: Some(dir.clone()),
+        ..Default::default()
+    };
+    let resumed = hbcontact::sweep::resume(&sweep_pipeline(7), &options, &hbcontact::Silent);
+    assert_eq!(resumed.map(|r| r.summary.rows.len()).ok(), Some(7));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -30,7 +30,7 @@ use crate::progress::Reporter;
 /// Relative change of the answer below which a doubled N counts as converged.
 pub const SAMPLES_TOLERANCE: f64 = 1e-3;
 /// Doublings of N tried at most (N grows at most 4×).
-const MAX_DOUBLINGS: usize = 2;
+pub const MAX_DOUBLINGS: usize = 2;
 /// Relative change of the answer between c and the second c above which the run warns.
 pub const C_TOLERANCE: f64 = 1e-2;
 /// The second c's re-solve tolerance (at least; the solve's own where that is looser):

@@ -1010,7 +1010,8 @@ impl<'a> Continuation<'a> {
 }
 
 /// The saved point re-solved on its frame by Newton from its own multipliers (which
-/// already solve it: no iteration when nothing changed).
+/// already solve it: no iteration when nothing changed). One that does not solve again
+/// belongs to another scene, or was edited: bad input.
 fn resolve_saved(
     frame: &Frame,
     newton: &NewtonSettings,
@@ -1019,8 +1020,8 @@ fn resolve_saved(
 ) -> Result<NewtonOutcome> {
     let o = super::reduced::newton(&frame.problem, newton, &r.multipliers, reporter);
     if !o.converged || o.multipliers.len() != r.multipliers.len() {
-        return Err(Error::NotConverged(format!(
-            "the saved point at {:.6} Hz does not solve again ({}): resume needs the scene the \
+        return Err(Error::Input(format!(
+            "the saved point (sweep.json's `resume`) at {:.6} Hz does not solve again ({}): resume needs the scene the \
              sweep was started with; sweep again without --resume",
             hz(frame.omega),
             o.reason

@@ -239,7 +239,7 @@ fn execute(
     })?;
     warnings.extend(pipeline::sanity::check_initial_penetration(&model));
     if let Some(s) = &saved {
-        resume::check_state(s, &model, p)?;
+        resume::check_state(s, &model, p, &out)?;
     }
     let staged = StagedDir::create(&out, "sweep", options.replace)?;
     if saved.is_some() {

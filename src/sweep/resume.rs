@@ -7,6 +7,22 @@
 //! λ (a cold solve could land on another branch where the curve is multi-valued), and the
 //! continuation goes on with the same scaling and step, so the points after it are those of
 //! an uninterrupted sweep. Rows, frames and point folders from before are kept.
+//!
+//! sweep.json is read back like user input (a file anyone may edit): at most
+//! `MAX_FILE_BYTES`, and every field checked before it sizes or steers anything (`check_rows`,
+//! `check_continuation`, `check_lists`, `check_state`), each refusal naming the file and the
+//! field, exit 2:
+//! - rows: at least one, row i has index i (the order the sweep writes), finite positive
+//!   frequencies, one value per output (finite, or null for an output the scene lacks);
+//! - the continuation state: the last row's index, ω = 2π f of that row (relative 1e-9), a
+//!   finite positive step (brought within `sweep.min_step`, `max_step`), a unit tangent (‖τ‖ − 1 within 1e-6)
+//!   of one entry per multiplier plus τ_ω, τ_ω the last row's `tangent_frequency`, finite
+//!   multipliers, and `stopped.point` that same row;
+//! - with contact: as many multipliers as the model has contact unknowns, c and F finite and
+//!   positive, and N = N₀ 2^k (N₀ the pipeline's samples, k ≤ `MAX_DOUBLINGS`, the doublings
+//!   the first point's knob check may make); without contact: τ = [±1], no multipliers,
+//!   c = F = N = 0;
+//! - folds, frames, written points and earlier resumes: rows that exist, in order.
 
 use std::path::Path;
 
@@ -14,6 +30,7 @@ use serde::Deserialize;
 
 use super::{FoldReport, Stopped, SweepRow, WrittenPoint};
 use crate::config::{Pipeline, SweepSpec};
+use crate::hbm::knobs::MAX_DOUBLINGS;
 use crate::hbm::sweep::ContinuationState;
 use crate::pipeline::Model;
 use crate::{Error, Result};
@@ -36,35 +53,103 @@ pub struct Saved {
     pub resume: Option<ContinuationState>,
 }
 
+/// The largest sweep.json read back: 64 MiB holds a sweep of `MAX_SWEEP_POINTS` rows and
+/// the multipliers of thousands of contact nodes at a thousand harmonics.
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
+
 fn refuse(message: String) -> Error {
     Error::Input(format!(
         "--resume: {message}; or sweep again from the start without --resume"
     ))
 }
 
-/// The sweep saved in `out`, checked against the pipeline's `sweep` block: the same range
-/// and H (they fix the scaling), unfinished, and more points allowed than it has.
-pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
-    let path = out.join("sweep.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| {
+/// A refusal of field `field` of the sweep.json at `path`.
+fn bad_field(path: &Path, field: &str, why: String) -> Error {
+    refuse(format!(
+        "{}: `{field}` {why}: the file was not written by this sweep or was changed since",
+        path.display()
+    ))
+}
+
+/// `Err` naming `field` unless `ok`.
+fn require(ok: bool, path: &Path, field: &str, why: impl FnOnce() -> String) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(bad_field(path, field, why()))
+    }
+}
+
+/// The text of `path`, refused beyond `MAX_FILE_BYTES` before it is read.
+fn read_bounded(path: &Path) -> Result<String> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| {
         refuse(format!(
             "cannot read {} ({e}): there is no sweep to continue",
             path.display()
         ))
-    })?;
-    let saved: Saved = serde_json::from_str(&text).map_err(|e| {
+    };
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let mut text = String::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_string(&mut text)
+        .map_err(cannot)?;
+    if text.len() as u64 > MAX_FILE_BYTES {
+        return Err(refuse(format!(
+            "{} is larger than {} MiB, more than any sweep writes",
+            path.display(),
+            MAX_FILE_BYTES >> 20
+        )));
+    }
+    Ok(text)
+}
+
+/// The sweep saved in `out`, checked against the pipeline's `sweep` block: the same range
+/// and H (they fix the scaling), unfinished, and more points allowed than it has.
+pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
+    let path = out.join("sweep.json");
+    let text = read_bounded(&path)?;
+    let mut saved: Saved = serde_json::from_str(&text).map_err(|e| {
         refuse(format!(
             "{} is not a sweep.json this version can continue ({e})",
             path.display()
         ))
     })?;
+    check_settings(&path, &saved, p, spec)?;
+    let Some(state) = &saved.resume else {
+        return Err(refuse(format!(
+            "{} holds no continuation state",
+            path.display()
+        )));
+    };
+    check_rows(&path, &saved.rows)?;
+    check_continuation(&path, &saved, state)?;
+    check_lists(&path, &saved)?;
+    let saved_points = state.index + 1;
+    if spec.max_points <= saved_points {
+        return Err(refuse(format!(
+            "sweep.max_points = {} allows no point after the {saved_points} saved in {}: raise it, e.g. --set sweep.max_points={}",
+            spec.max_points,
+            path.display(),
+            2 * spec.max_points.max(saved_points)
+        )));
+    }
+    if let Some(state) = &mut saved.resume {
+        // A step saved under other sweep.min_step, max_step than the resume's.
+        state.step = state.step.max(spec.min_step).min(spec.max_step);
+    }
+    Ok(saved)
+}
+
+/// The same range and H as the pipeline's (they fix the scaling), and unfinished.
+fn check_settings(path: &Path, saved: &Saved, p: &Pipeline, spec: &SweepSpec) -> Result<()> {
     let same = |key: &str, now: f64, then: f64| {
         if now == then {
             Ok(())
         } else {
             Err(refuse(format!(
                 "{key} is {now} but the sweep saved in {} used {then}: resume with the same {key}",
-                out.display()
+                path.display()
             )))
         }
     };
@@ -79,30 +164,166 @@ pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
     if saved.stopped.is_none() {
         return Err(refuse(format!(
             "the sweep saved in {} reached {} Hz: nothing to continue",
-            out.display(),
+            path.display(),
             saved.to_hz
         )));
     }
-    let Some(state) = &saved.resume else {
-        return Err(refuse(format!(
-            "{} holds no continuation state",
-            path.display()
-        )));
-    };
-    if spec.max_points <= state.index + 1 {
-        return Err(refuse(format!(
-            "sweep.max_points = {} allows no point after the {} saved: raise it, e.g. --set sweep.max_points={}",
-            spec.max_points,
-            state.index + 1,
-            2 * spec.max_points.max(state.index + 1)
-        )));
+    Ok(())
+}
+
+/// Rows as the sweep writes them: at least one, row i with index i, finite positive
+/// frequencies, one value per output (finite or NaN), finite numbers elsewhere.
+fn check_rows(path: &Path, rows: &[SweepRow]) -> Result<()> {
+    require(!rows.is_empty(), path, "rows", || "is empty".into())?;
+    let columns = super::outputs().len();
+    for (i, r) in rows.iter().enumerate() {
+        let field = |name: &str| format!("rows[{i}].{name}");
+        require(r.index == i, path, &field("index"), || {
+            format!("is {} (rows are written in order)", r.index)
+        })?;
+        let hz = r.frequency_hz;
+        require(
+            hz.is_finite() && hz > 0.0,
+            path,
+            &field("frequency_hz"),
+            || format!("= {hz} is not a positive frequency"),
+        )?;
+        require(r.values.len() == columns, path, &field("values"), || {
+            format!(
+                "has {} values, not one per column ({columns})",
+                r.values.len()
+            )
+        })?;
+        require(
+            !r.values.iter().any(|v| v.is_infinite()),
+            path,
+            &field("values"),
+            || "holds an infinity".into(),
+        )?;
+        let numbers = [r.step, r.tangent_frequency, r.seconds];
+        let optional = [r.multiplier, r.underdamped_share];
+        let finite = numbers
+            .iter()
+            .chain(optional.iter().flatten())
+            .all(|v| v.is_finite());
+        require(finite, path, &field("step"), || {
+            "or another number of the row is not finite".into()
+        })?;
     }
-    Ok(saved)
+    Ok(())
+}
+
+/// The continuation state against the rows: the last row's index, ω and τ_ω, a positive
+/// step, a unit tangent of one entry per multiplier plus τ_ω, and `stopped` at that row.
+fn check_continuation(path: &Path, saved: &Saved, state: &ContinuationState) -> Result<()> {
+    let last = &saved.rows[saved.rows.len() - 1];
+    require(state.index == last.index, path, "resume.index", || {
+        format!(
+            "= {} is not the last row's index {}",
+            state.index, last.index
+        )
+    })?;
+    let omega = 2.0 * std::f64::consts::PI * last.frequency_hz;
+    let same = (state.omega - omega).abs() <= 1e-9 * omega;
+    require(same, path, "resume.omega", || {
+        format!(
+            "= {} is not 2π times the last row's {} Hz",
+            state.omega, last.frequency_hz
+        )
+    })?;
+    require(
+        state.step.is_finite() && state.step > 0.0,
+        path,
+        "resume.step",
+        || format!("= {} is not a positive step", state.step),
+    )?;
+    check_tangent(path, state, last.tangent_frequency)?;
+    let finite = state.multipliers.iter().all(|v| v.is_finite());
+    require(finite, path, "resume.multipliers", || {
+        "holds a non-finite value".into()
+    })?;
+    if let Some(stopped) = &saved.stopped {
+        let at_last = stopped.point == last.index && stopped.frequency_hz == last.frequency_hz;
+        require(at_last, path, "stopped", || {
+            format!(
+                "names row {} at {} Hz, not the last row",
+                stopped.point, stopped.frequency_hz
+            )
+        })?;
+    }
+    Ok(())
+}
+
+fn check_tangent(path: &Path, state: &ContinuationState, tangent_frequency: f64) -> Result<()> {
+    let t = &state.tangent;
+    require(
+        t.len() == state.multipliers.len() + 1,
+        path,
+        "resume.tangent",
+        || {
+            format!(
+                "has {} entries for {} multipliers (one more is τ_ω)",
+                t.len(),
+                state.multipliers.len()
+            )
+        },
+    )?;
+    let length = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+    require((length - 1.0).abs() <= 1e-6, path, "resume.tangent", || {
+        format!("has length {length}, not 1")
+    })?;
+    require(
+        t[t.len() - 1] == tangent_frequency,
+        path,
+        "resume.tangent",
+        || {
+            format!(
+                "ends in τ_ω = {}, not the last row's tangent_frequency {tangent_frequency}",
+                t[t.len() - 1]
+            )
+        },
+    )
+}
+
+/// Folds, frames, written points and earlier resumes name rows that exist, in order.
+fn check_lists(path: &Path, saved: &Saved) -> Result<()> {
+    let n = saved.rows.len();
+    let increasing = |v: &[usize]| v.windows(2).all(|w| w[0] < w[1]) && v.iter().all(|&i| i < n);
+    require(increasing(&saved.frames), path, "frames", || {
+        format!("are not increasing rows below {n}")
+    })?;
+    require(
+        increasing(&saved.resumed_from),
+        path,
+        "resumed_from",
+        || format!("are not increasing rows below {n}"),
+    )?;
+    let folds: Vec<usize> = saved.folds.iter().map(|f| f.after).collect();
+    let fold_hz = saved
+        .folds
+        .iter()
+        .all(|f| f.frequency_hz.is_finite() && f.frequency_hz > 0.0);
+    require(increasing(&folds) && fold_hz, path, "folds", || {
+        format!("are not increasing rows below {n} at positive frequencies")
+    })?;
+    for (i, w) in saved.written.iter().enumerate() {
+        let name = w.folder.strip_prefix("points/").unwrap_or("");
+        let plain = !name.is_empty() && !name.contains(['/', '\\']) && name != "..";
+        require(w.row < n && plain, path, &format!("written[{i}]"), || {
+            format!(
+                "names row {} and folder {}",
+                w.row,
+                crate::error::excerpt(&w.folder)
+            )
+        })?;
+    }
+    Ok(())
 }
 
 /// The saved state fits the model: as many contact unknowns (nodes × (2H + 1), with
-/// H = ⌊S/2⌋ for a spline basis of S segments).
-pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline) -> Result<()> {
+/// H = ⌊S/2⌋ for a spline basis of S segments), and the scalars of a contact curve (c, F,
+/// N) or of a linear one (none).
+pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Result<()> {
     let h = match p.harmonic_balance.basis {
         crate::config::BasisSpec::Spline { segments, .. } => segments / 2,
         crate::config::BasisSpec::Fourier => p.harmonic_balance.harmonics,
@@ -115,7 +336,43 @@ pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline) -> Result<()> {
             "the saved sweep has {have} contact unknowns and this scene {want}: the mesh or the contact set changed since"
         )));
     }
-    Ok(())
+    let path = out.join("sweep.json");
+    match (&saved.resume, model.contact.is_some()) {
+        (Some(state), true) => check_contact_scalars(&path, state, p),
+        (Some(state), false) => {
+            let linear = state.tangent.len() == 1 && state.c == 0.0 && state.force_scale == 0.0;
+            require(linear && state.samples == 0, &path, "resume", || {
+                "holds contact scalars (tangent, c, force_scale, samples) for a scene without contact".into()
+            })
+        }
+        (None, _) => Ok(()),
+    }
+}
+
+/// c and F finite and positive; N one the first point's knob check can reach from the
+/// pipeline's samples N₀: N₀ 2^k, k ≤ `MAX_DOUBLINGS`.
+fn check_contact_scalars(path: &Path, state: &ContinuationState, p: &Pipeline) -> Result<()> {
+    for (field, v) in [
+        ("resume.c", state.c),
+        ("resume.force_scale", state.force_scale),
+    ] {
+        require(v.is_finite() && v > 0.0, path, field, || {
+            format!("= {v} is not positive")
+        })?;
+    }
+    let n0 = crate::pipeline::hb_settings(p).samples;
+    let allowed: Vec<usize> = (0..=MAX_DOUBLINGS as u32).map(|k| n0 << k).collect();
+    require(
+        allowed.contains(&state.samples),
+        path,
+        "resume.samples",
+        || {
+            format!(
+            "= {} is not one the pipeline's samples allow ({allowed:?}: harmonic_balance.samples, doubled by the knob check)",
+            state.samples
+        )
+        },
+    )
 }
 
 /// The rows each resume continued from, this one's included.
