@@ -152,7 +152,8 @@ struct StudyArgs {
     /// Print nothing but errors.
     #[arg(long, short)]
     quiet: bool,
-    /// Points run at once (default: the study's `threads`, else one per core).
+    /// Points run at once (default: the study's `threads`, else one per core); more than
+    /// the cores is cut to them, with a warning.
     #[arg(long)]
     threads: Option<usize>,
     /// Run one slice `i/n` of the points and write no table (a Slurm array task).

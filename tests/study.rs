@@ -994,3 +994,52 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
     let manifest = common::read_json(&out.join("manifest.json"));
     assert_eq!(manifest["warned"], 1, "{manifest}");
 }
+
+/// Two points varying the gap, with `threads` in the study file when given.
+fn two_point_study(dir: &Path, threads: Option<usize>) -> PathBuf {
+    let body =
+        "parameters:\n  - {key: geometry.parameters.gap, values: [1.0e-7, 2.0e-7], unit: m}\n";
+    let body = match threads {
+        Some(t) => format!("threads: {t}\n{body}"),
+        None => body.to_string(),
+    };
+    strip_study(dir, &body)
+}
+
+/// TEST GOAL: `study --threads 1000000` (which started that many threads) and a study file's
+/// `threads: 1000` run at most one point per core: each warns "threads = N is more than the
+/// C cores here: running C points at once", completes with every point ok, and its manifest
+/// records C threads.
+#[test]
+fn threads_beyond_the_cores_are_cut_to_them_with_a_warning() {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let dir = common::temp_out("study-threads");
+    let warning = |n: usize| {
+        format!("threads = {n} is more than the {cores} cores here: running {cores} points at once")
+    };
+    let from_flag = two_point_study(&dir.join("flag"), None);
+    let from_file = two_point_study(&dir.join("file"), Some(1000));
+    for (study, extra, n) in [
+        (&from_flag, vec!["--threads", "1000000"], 1_000_000),
+        (&from_file, vec![], 1000),
+    ] {
+        let out = study.parent().unwrap().join("out");
+        let mut args = vec![
+            "study",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = run_ok(&args);
+        assert!(stderr(&o).contains(&warning(n)), "{}", stderr(&o));
+        let rows = table_without_times(&out.join("study.csv"));
+        assert!(
+            column(&rows, "status").iter().all(|s| s == "ok"),
+            "{rows:?}"
+        );
+        assert_eq!(rows.len(), 3, "{rows:?}");
+        let manifest = common::read_json(&out.join("manifest.json"));
+        assert_eq!(manifest["execution"]["threads"], cores);
+    }
+}

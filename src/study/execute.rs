@@ -320,11 +320,21 @@ pub struct Execution {
     pub points_seconds: f64,
 }
 
-/// Points run at once: the option, else one per core.
-pub fn thread_count(requested: Option<usize>) -> usize {
-    requested
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .max(1)
+/// Points run at once: the option, else one per core; never more than the cores this process
+/// may use (more would only share them, each point holding its model's memory), with a
+/// warning to `reporter` when a request is cut (`--threads 1000000` started that many).
+pub fn thread_count(requested: Option<usize>, reporter: &dyn Reporter) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match requested {
+        Some(n) if n > cores => {
+            reporter.warning(&format!(
+                "threads = {n} is more than the {cores} cores here: running {cores} points at once"
+            ));
+            cores
+        }
+        Some(n) => n.max(1),
+        None => cores,
+    }
 }
 
 /// Run the points not done yet, `threads` at once, telling `reporter` about each.

@@ -143,7 +143,10 @@ pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Re
     };
     // Accuracy studies time their rungs, so they run one at a time unless told otherwise.
     let default_threads = study.accuracy.as_ref().map(|_| 1);
-    let threads = execute::thread_count(options.threads.or(study.threads).or(default_threads));
+    let threads = execute::thread_count(
+        options.threads.or(study.threads).or(default_threads),
+        reporter,
+    );
     let needs = execute::Needs {
         probe: study.probe.clone(),
         modes: study.natural_frequencies(),
