@@ -64,6 +64,7 @@ fn main() {
             order: 2,
             quads: false,
             gmsh: None,
+            trusted: false,
         };
         let t = Instant::now();
         let meshed = match mesh_geometry(&request, &work.join("cache")) {

@@ -44,6 +44,19 @@ struct Common {
     /// to `<folder>.moved-<time>` instead of refusing (exit 2). Nothing is ever deleted.
     #[arg(long)]
     force: bool,
+    /// Let gmsh read the `.geo` as it is: without this, a geometry that runs programs
+    /// (SystemCall, Shell, …), writes files (Printf > file, Save, …) or includes files outside
+    /// its folder is refused (exit 2). Only for a geometry you wrote yourself.
+    #[arg(long)]
+    trust_geometry: bool,
+}
+
+/// The pipeline the shared arguments name, with `--set` applied and `--trust-geometry`
+/// (which no file can set).
+fn load(c: &Common) -> hbcontact::Result<hbcontact::config::Pipeline> {
+    let mut pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    pipeline.geometry.trusted = c.trust_geometry;
+    Ok(pipeline)
 }
 
 /// The run options the shared arguments give.
@@ -269,7 +282,7 @@ fn reporter(quiet: bool) -> Box<dyn Reporter> {
 }
 
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let pipeline = load(c)?;
     let options = run_options(c);
     let reporter = reporter(c.quiet);
     let result = match mode {
@@ -285,7 +298,7 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
 /// `hbcontact sweep [--resume]`: the folds, the end and what was written; a sweep that
 /// failed part-way has written the curve so far and exits with its error's class.
 fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let pipeline = load(c)?;
     let options = run_options(c);
     let reporter = reporter(c.quiet);
     let result = if resume {
@@ -304,7 +317,7 @@ fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
 
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
 fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let pipeline = load(c)?;
     let options = run_options(c);
     let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
     if json {
@@ -337,7 +350,7 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
 
 /// `hbcontact modes`: the table on stdout, the files in `<output.directory>-modes`.
 fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let pipeline = load(c)?;
     let options = run_options(c);
     let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.quiet))?;
     if !c.quiet {
@@ -475,7 +488,7 @@ fn accuracy(
 ) -> hbcontact::Result<()> {
     use hbcontact::study::spec::{Accuracy, Design, Ladder, Reference, WriteLevel};
     use hbcontact::study::{self, StudyOptions};
-    let pipeline = load_pipeline(&c.pipeline, &c.set)?;
+    let pipeline = load(c)?;
     let mut parsed = ladders
         .iter()
         .map(|l| ladder(&c.pipeline, l))

@@ -328,6 +328,7 @@ fn cantilever(order: u8, size: f64) -> Mesh2d {
         order,
         quads: false,
         gmsh: None,
+        trusted: false,
     };
     let meshed = mesh_geometry(&request, &root.join("output/test-mesh-cache"))
         .unwrap_or_else(|e| panic!("{e}"));

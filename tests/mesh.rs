@@ -18,6 +18,7 @@ fn request(geo: &str, order: u8) -> MeshRequest {
         order,
         quads: false,
         gmsh: None,
+        trusted: false,
     }
 }
 

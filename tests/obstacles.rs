@@ -402,6 +402,7 @@ fn curve_obstacle_meshed_by_gmsh_matches_the_wall_line() {
         order: 2,
         quads: false,
         gmsh: None,
+        trusted: false,
     };
     let meshed = mesh_geometry(&request, &common::root().join("output/test-mesh-cache"))
         .unwrap_or_else(|e| panic!("{e}"));

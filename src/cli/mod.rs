@@ -252,6 +252,9 @@ pub fn show_check(report: &CheckReport) {
         m.min_edge_length,
         if m.cache_hit { "cached" } else { "meshed" }
     );
+    if let Some(gmsh) = &report.gmsh {
+        outln!("gmsh: {gmsh} ({})", m.gmsh_version);
+    }
     outln!("groups:");
     for (name, g) in &report.groups {
         outln!(

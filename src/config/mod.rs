@@ -53,6 +53,9 @@ pub struct Geometry {
     pub max_aspect_ratio: f64,
     /// Accept a mesh of several disconnected parts.
     pub allow_disconnected: bool,
+    /// Let gmsh read the `.geo` without the scan for statements that run programs or touch
+    /// other files (`mesh::guard`). Never read from a file: only `--trust-geometry` sets it.
+    pub trusted: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

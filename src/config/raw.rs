@@ -1016,6 +1016,7 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
         gmsh_timeout,
         max_aspect_ratio,
         allow_disconnected: g.allow_disconnected,
+        trusted: false,
     })
 }
 

@@ -57,6 +57,9 @@ pub struct MeshRequest {
     pub order: u8,
     pub quads: bool,
     pub gmsh: Option<PathBuf>,
+    /// Skip the scan of the `.geo` for statements that run programs or touch other files
+    /// (`super::guard`; `--trust-geometry`).
+    pub trusted: bool,
 }
 
 /// The mesh file made (or found in the cache).
@@ -1053,6 +1056,7 @@ pub fn mesh_geometry_with(
 ) -> Result<MeshedGeometry> {
     let geo = &request.geo;
     if geo.extension().is_some_and(|e| e == "geo") {
+        super::guard::check_geometry(geo, request.trusted)?;
         super::geo::check_parameters(geo, &request.parameters)?;
     }
     if geo.extension().is_some_and(|e| e == "msh") {

@@ -3,6 +3,7 @@
 
 pub mod geo;
 pub mod gmsh;
+pub mod guard;
 pub mod msh;
 
 use std::collections::BTreeMap;

@@ -243,6 +243,10 @@ fn check_marches(p: &Pipeline, mesh: &crate::mesh::Mesh2d, reporter: &dyn Report
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct CheckReport {
     pub mesh: MeshInfo,
+    /// The gmsh command a `.geo` is meshed with (the pipeline's `geometry.gmsh`, else
+    /// `.venv/bin/gmsh`, else gmsh on PATH): what a pipeline from elsewhere would run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gmsh: Option<String>,
     /// Contact nodes kept (contact scenes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub contact_nodes: Option<usize>,
@@ -291,7 +295,13 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
             (name.clone(), info)
         })
         .collect();
+    let geo = &p.geometry.file;
+    let gmsh = geo.extension().is_some_and(|e| e == "geo").then(|| {
+        crate::mesh::gmsh::find_gmsh(p.geometry.gmsh.as_deref(), geo.parent())
+            .map_or_else(|e| e.to_string(), |c| c.describe())
+    });
     Ok(CheckReport {
+        gmsh,
         groups,
         mesh: info,
         contact_nodes: set.as_ref().map(|s| s.nodes.len()),

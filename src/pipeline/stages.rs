@@ -122,6 +122,7 @@ pub fn mesh_request(p: &Pipeline) -> (mesh::gmsh::MeshRequest, mesh::gmsh::MeshL
         order: p.geometry.order,
         quads: p.geometry.quads,
         gmsh: p.geometry.gmsh.clone(),
+        trusted: p.geometry.trusted,
     };
     let limits = mesh::gmsh::MeshLimits {
         max_elements: p.geometry.max_elements,

@@ -355,6 +355,17 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
         return Err(bad(path, "name: give a non-empty name without slashes"));
     }
     let pipeline = resolve(path, &raw.pipeline)?;
+    let keys = raw.set.keys().map(|k| ("set".to_string(), k.as_str()));
+    let varied = raw.parameters.iter().enumerate();
+    let varied = varied.map(|(i, p)| (format!("parameters[{i}]"), p.key.as_str()));
+    let ladders = raw
+        .accuracy
+        .iter()
+        .flat_map(|a| a.ladders.iter().enumerate());
+    let ladders = ladders.map(|(i, l)| (format!("accuracy.ladders[{i}]"), l.key.as_str()));
+    for (field, key) in keys.chain(varied).chain(ladders) {
+        check_key(path, &field, key)?;
+    }
     let mut set: Vec<String> = raw.set.iter().map(|(k, v)| format!("{k}={v}")).collect();
     set.extend(extra_set.iter().cloned());
     let design = match raw.design {
@@ -451,6 +462,23 @@ fn check_layout(path: &Path, design: &Design, params: &[Parameter], accuracy: bo
                 ),
             ));
         }
+    }
+    Ok(())
+}
+
+/// Pipeline keys a study file may not set or vary: they name a program to run.
+pub const PROGRAM_KEYS: [&str; 1] = ["geometry.gmsh"];
+
+/// Refuse a key of `PROGRAM_KEYS` (a study someone else wrote must not choose what runs).
+fn check_key(path: &Path, field: &str, key: &str) -> Result<()> {
+    if PROGRAM_KEYS.contains(&key.trim()) {
+        return Err(bad(
+            path,
+            format!(
+                "{field}: `{}` names a program to run, which a study may not set or vary: set it in the pipeline, or leave it out to use .venv/bin/gmsh or gmsh on PATH",
+                key.trim()
+            ),
+        ));
     }
     Ok(())
 }
