@@ -23,6 +23,18 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// A short, coarse sweep of the strip against its wall.
+const SHORT_SWEEP: [&str; 8] = [
+    "--set",
+    "geometry.parameters.lc=0.025",
+    "--set",
+    "stability.check=false",
+    "--set",
+    "sweep.from=1550",
+    "--set",
+    "sweep.to=1560",
+];
+
 const QUICK: [&str; 4] = [
     "--set",
     "geometry.mesh_size=0.01",
@@ -40,16 +52,7 @@ fn a_users_folder_survives_every_subcommand_pointed_at_it() {
     let user = root.join("userdata");
     user_folder(&user);
     let out = user.to_str().unwrap();
-    let strip = [
-        "--set",
-        "geometry.parameters.lc=0.025",
-        "--set",
-        "stability.check=false",
-        "--set",
-        "sweep.from=1550",
-        "--set",
-        "sweep.to=1560",
-    ];
+    let strip = SHORT_SWEEP;
     let with = |cmd: &'static str, pipeline: &'static str, sets: &[&'static str]| {
         [&[cmd, pipeline, "--out", out][..], sets].concat()
     };
@@ -206,21 +209,19 @@ fn force_moves_a_users_folder_aside_and_runs_replace_only_their_own() {
     assert_eq!(moved_aside(&root, "userdata").len(), 1);
     // A sweep's output nested in the run's folder survives the next run.
     let nested = user.join("sweep");
-    let o = common::hbcontact(&[
-        "sweep",
-        "pipelines/strip_sweep.yaml",
-        "-q",
-        "--out",
-        nested.to_str().unwrap(),
-        "--set",
-        "geometry.parameters.lc=0.025",
-        "--set",
-        "stability.check=false",
-        "--set",
-        "sweep.from=1550",
-        "--set",
-        "sweep.to=1560",
-    ]);
+    let o = common::hbcontact(
+        &[
+            &[
+                "sweep",
+                "pipelines/strip_sweep.yaml",
+                "-q",
+                "--out",
+                nested.to_str().unwrap(),
+            ][..],
+            &SHORT_SWEEP,
+        ]
+        .concat(),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&[]);
     assert!(o.status.success(), "{}", stderr(&o));
