@@ -303,7 +303,7 @@ impl FloquetModel {
         let r = self.dim();
         let top = q.transpose() * phi.rows(0, r);
         let bottom = q.transpose() * phi.rows(r, r);
-        let (mut new_top, mut new_bottom) = (top.clone(), bottom.clone());
+        let (mut new_top, mut new_bottom) = (DMatrix::zeros(r, 2 * r), DMatrix::zeros(r, 2 * r));
         for k in 0..r {
             let t = transition(lambda[k], self.alpha + self.beta * lambda[k], tau);
             for j in 0..2 * r {

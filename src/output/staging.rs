@@ -176,6 +176,11 @@ pub fn claim(final_dir: &Path, replace: Replace, reporter: &dyn Reporter) -> Res
     Ok(())
 }
 
+/// A folder's own name (the marker's `target`).
+fn folder_name(dir: &Path) -> Option<String> {
+    dir.file_name().map(|n| n.to_string_lossy().into_owned())
+}
+
 fn parent_of(final_dir: &Path) -> PathBuf {
     match final_dir.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -190,10 +195,7 @@ fn parent_of(final_dir: &Path) -> PathBuf {
 /// else that looks like one is left alone. Returns what went.
 pub fn remove_stale_partials(final_dir: &Path, reporter: &dyn Reporter) -> Vec<PathBuf> {
     let proc_fs = Path::new("/proc");
-    let Some(target) = final_dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-    else {
+    let Some(target) = folder_name(final_dir) else {
         return Vec::new();
     };
     if !proc_fs.join("self").exists() {
@@ -262,15 +264,12 @@ pub struct StagedDir {
 impl StagedDir {
     /// Stage `final_dir` for `command` (the marker's word: `run`, `sweep`, …).
     pub fn create(final_dir: &Path, command: &str, replace: Replace) -> Result<Self> {
-        let name = final_dir
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .ok_or_else(|| {
-                Error::Input(format!(
-                    "output directory {} has no name",
-                    final_dir.display()
-                ))
-            })?;
+        let name = folder_name(final_dir).ok_or_else(|| {
+            Error::Input(format!(
+                "output directory {} has no name",
+                final_dir.display()
+            ))
+        })?;
         let parent = parent_of(final_dir);
         std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
         let temp_dir = parent.join(format!("{name}.partial-{}", std::process::id()));
@@ -302,11 +301,7 @@ impl StagedDir {
     /// Replace the previous output by the staged one, by the rule in the module's header:
     /// ours is replaced (nested outputs carried over), anything else refused or moved aside.
     pub fn commit(mut self) -> Result<PathBuf> {
-        let target = self
-            .final_dir
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let target = folder_name(&self.final_dir).unwrap_or_default();
         let written: Vec<String> = names(&self.temp_dir)
             .map_err(|e| Error::io(&self.temp_dir, e))?
             .into_iter()
@@ -374,10 +369,7 @@ impl Drop for StagedDir {
 /// that a later run replacing the folder counts them as its own.
 pub fn claim_entries(out: &Path, command: &str, claimed: &[&str]) -> Result<()> {
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let target = out
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let target = folder_name(out).unwrap_or_default();
     let (command, mut entries) = match read_marker(out) {
         Some(m) => (m.command, m.entries),
         None => {
@@ -409,10 +401,7 @@ pub fn claim_entries(out: &Path, command: &str, claimed: &[&str]) -> Result<()> 
 /// run's folder that holds it counts it as the tool's own.
 pub fn mark_kept(dir: &Path, command: &str) -> Result<()> {
     if dir.is_dir() && read_marker(dir).is_none() {
-        let target = dir
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let target = folder_name(dir).unwrap_or_default();
         write_marker(dir, command, &target, Vec::new())?;
     }
     Ok(())

@@ -112,8 +112,8 @@ pub struct Stability {
     /// drive's at a period doubling, |arg μ|/(2π)·f for a complex pair.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub new_frequency_hz: Option<f64>,
-    /// Floquet: the reduced model's dimension r (modes and attachment vectors) and the
-    /// segments of constant contact over the period.
+    /// Floquet: the reduced model's dimension r (the modes kept dynamic) and the segments of
+    /// constant contact over the period.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reduced_dimension: Option<usize>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -138,7 +138,6 @@ impl Stability {
     pub fn not_checked() -> Stability {
         Stability {
             verdict: Verdict::NotChecked,
-            method: Method::None,
             reason: "not checked (stability.check: false)".into(),
             ..Stability::blank(Method::None)
         }
@@ -149,6 +148,14 @@ impl Stability {
         Stability {
             reason: format!("time marching could not check it: {why}"),
             ..Stability::undecided()
+        }
+    }
+
+    /// Undecided, because the Floquet multipliers could not be computed.
+    pub fn no_multipliers(why: &Error) -> Stability {
+        Stability {
+            reason: format!("no Floquet multipliers: {why}"),
+            ..Stability::blank(Method::Floquet)
         }
     }
 
@@ -247,16 +254,16 @@ pub fn linear(model: &Model) -> Stability {
     }
 }
 
-/// The verdict from the Floquet multipliers of `solution`, a contact state of `model`
-/// (the model the harmonic balance solved: its mass, its contact law's samples).
-pub fn by_floquet(model: &Model, solution: &hbm::Solution) -> Result<Stability> {
-    let (Some(contact), Some(cm)) = (&solution.contact, &model.contact) else {
+/// The verdict from the Floquet multipliers of a contact state of `model` (the model the
+/// harmonic balance solved: its mass) at ω, whose law's closed sets are `segments`
+/// (`floquet::segments`).
+pub fn by_floquet(model: &Model, segments: &[Segment], omega: f64) -> Result<Stability> {
+    let Some(cm) = &model.contact else {
         return Ok(linear(model));
     };
-    let segments = floquet::segments(&solution.basis, solution.omega, contact);
-    let nodes = floquet::closed_nodes(&segments);
+    let nodes = floquet::closed_nodes(segments);
     let reduced = FloquetModel::new(&model.system, &cm.operator.b_free, &nodes)?;
-    floquet_verdict(&reduced, &segments, solution.omega)
+    floquet_verdict(&reduced, segments, omega)
 }
 
 /// The verdict from the multipliers of the state whose closed sets are `segments`, at ω.

@@ -285,7 +285,9 @@ pub fn stability(
     }
     let floquet = match spec.method {
         StabilityMethod::March => None,
-        _ => Some(stages.run("stability", || stability::by_floquet(model, solution))),
+        _ => Some(stages.run("stability", || {
+            stability::by_floquet(model, &segments, solution.omega)
+        })),
     };
     match (spec.method, floquet) {
         (StabilityMethod::Floquet, Some(Ok(verdict))) => return Ok(verdict),

@@ -501,24 +501,31 @@ fn judge_points(
         .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
         .filter(|(i, _, _)| !judged(*i))
         .collect();
-    // A point whose contact set does not change over the period needs no check.
+    // Each point's closed sets over the period, once: a point whose set does not change
+    // needs no check, the others go to Floquet and/or marching.
     let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
-    let constant = |(_, omega, start): &&Start| {
-        start
-            .as_ref()
-            .is_some_and(|s| floquet::segments(&basis, *omega, s).len() == 1)
-    };
-    let (fixed, chosen): (Vec<&Start>, Vec<&Start>) = chosen.into_iter().partition(constant);
-    for (i, _, _) in fixed {
-        let verdict = Stability::constant_contact(model);
-        if let Some(row) = writer.rows.iter_mut().find(|r| r.index == *i) {
-            row.stable = verdict.stable();
-        }
-        writer.verdicts.push((*i, verdict));
+    let with_segments: Vec<(&Start, Option<Vec<floquet::Segment>>)> = chosen
+        .into_iter()
+        .map(|start| {
+            let (_, omega, contact) = start;
+            (
+                start,
+                contact
+                    .as_ref()
+                    .map(|s| floquet::segments(&basis, *omega, s)),
+            )
+        })
+        .collect();
+    let (fixed, varying): (Vec<_>, Vec<_>) = with_segments
+        .into_iter()
+        .partition(|(_, seg)| seg.as_ref().is_some_and(|s| s.len() == 1));
+    for ((i, _, _), _) in fixed {
+        record(writer, *i, Stability::constant_contact(model));
     }
+    let (chosen, segments): (Vec<&Start>, Vec<_>) = varying.into_iter().unzip();
     let floquet = match spec.method {
         StabilityMethod::March => None,
-        _ => by_floquet(p, model, &chosen, reporter),
+        _ => by_floquet(model, &chosen, &segments, reporter),
     };
     let marched = match (spec.method, &floquet) {
         (StabilityMethod::Floquet, Some(_)) => None,
@@ -531,29 +538,30 @@ fn judge_points(
             (None, Some(m)) => m[k].clone(),
             (None, None) => Stability::not_checked(),
         };
-        if let Some(row) = writer.rows.iter_mut().find(|r| r.index == *i) {
-            row.stable = verdict.stable();
-            row.multiplier = verdict.multiplier;
-        }
-        writer.verdicts.push((*i, verdict));
+        record(writer, *i, verdict);
     }
     Ok(())
 }
 
-/// The Floquet verdicts of the `chosen` points, on one reduced model (the nodes any of them
-/// closes); `None`, with a warning, where the scene allows none (then time marching judges).
+/// Point `i`'s verdict, into its row (`stable`, `multiplier`) and the writer's verdicts.
+fn record(writer: &mut points::Writer, i: usize, verdict: Stability) {
+    if let Some(row) = writer.rows.iter_mut().find(|r| r.index == i) {
+        row.stable = verdict.stable();
+        row.multiplier = verdict.multiplier;
+    }
+    writer.verdicts.push((i, verdict));
+}
+
+/// The Floquet verdicts of the `chosen` points (their closed sets `segments`), on one
+/// reduced model (the nodes any of them closes); `None`, with a warning, where the scene
+/// allows none (then time marching judges).
 fn by_floquet(
-    p: &Pipeline,
     model: &Model,
     chosen: &[&Start],
+    segments: &[Option<Vec<floquet::Segment>>],
     reporter: &dyn Reporter,
 ) -> Option<Vec<Stability>> {
-    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
     let op = &model.contact.as_ref()?.operator;
-    let segments: Vec<Option<Vec<floquet::Segment>>> = chosen
-        .iter()
-        .map(|(_, omega, start)| start.as_ref().map(|s| floquet::segments(&basis, *omega, s)))
-        .collect();
     let nodes = floquet::closed_nodes(segments.iter().flatten().flatten());
     let reduced = match floquet::FloquetModel::new(&model.system, &op.b_free, &nodes) {
         Ok(r) => r,
@@ -566,11 +574,11 @@ fn by_floquet(
     };
     let verdicts = chosen
         .iter()
-        .zip(&segments)
+        .zip(segments)
         .map(|((_, omega, _), seg)| match seg {
             Some(seg) => stability::floquet_verdict(&reduced, seg, *omega)
-                .unwrap_or_else(|e| Stability::cannot_march(&e)),
-            _ => Stability::not_checked(),
+                .unwrap_or_else(|e| Stability::no_multipliers(&e)),
+            None => Stability::not_checked(),
         })
         .collect();
     Some(verdicts)
