@@ -69,14 +69,24 @@ fn a_march_beyond_the_machine_is_refused_by_transient_naming_the_estimate() {
     }
 }
 
-/// TEST GOAL: `hbcontact run` refuses the same three scenes (its stability check would march)
-/// with exit 2 before it solves, saying the march is the stability check's and how to skip
-/// it; `hbcontact check` reports the same refusal.
+/// TEST GOAL: with `stability.method: march`, `hbcontact run` refuses the same three scenes
+/// (its stability check would march) with exit 2 before it solves, saying the march is the
+/// stability check's and how to skip it; `hbcontact check` reports the same refusal. With the
+/// default Floquet check nothing marches and `check` passes them.
 #[test]
 fn a_stability_march_beyond_the_machine_is_refused_by_run_and_check() {
     for (tag, pipeline, sets, advice) in CRASHES {
+        let default = hbcontact("check", pipeline, &format!("{tag}-floquet"), sets);
+        let stderr = String::from_utf8_lossy(&default.stderr);
+        assert!(default.status.success(), "{stderr}");
+        assert!(
+            !stderr.contains("stability check of `run` marches"),
+            "{stderr}"
+        );
+        let mut sets = sets.to_vec();
+        sets.push("stability.method=march");
         for command in ["run", "check"] {
-            let output = hbcontact(command, pipeline, &format!("{tag}-{command}"), sets);
+            let output = hbcontact(command, pipeline, &format!("{tag}-{command}"), &sets);
             assert_march_refused(&output, advice);
             let stderr = String::from_utf8_lossy(&output.stderr);
             assert!(stderr.contains("stability.check: false"), "{stderr}");

@@ -106,7 +106,11 @@ fn linear_scene_is_judged_by_its_damping_and_the_check_can_be_turned_off() {
 fn strip_sweep_verdicts_are_unstable_past_the_upper_fold_and_stable_off_the_resonance() {
     let p = common::scene(
         "strip_sweep",
-        &["geometry.parameters.lc=0.025", "stability.every=3"],
+        &[
+            "geometry.parameters.lc=0.025",
+            "stability.every=3",
+            "stability.method=march",
+        ],
     );
     let out = common::temp_out("stability-sweep");
     let options = RunOptions {

@@ -221,11 +221,12 @@ pub struct TransientSpec {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum StabilityMethod {
-    /// Floquet multipliers of the harmonic-balance state on its own discrete model (not yet
-    /// converged in the modal truncation on every scene: docs/method.md §15).
+    /// Floquet multipliers of the harmonic-balance state on its own discrete model: Hill's
+    /// method on the Fourier basis, the monodromy of a modal reduction on splines
+    /// (docs/method.md §15).
+    #[default]
     Floquet,
     /// Time marching from the perturbed state (the diagonal-mass explicit model).
-    #[default]
     March,
     /// Floquet's verdict, audited by time marching: disagreements are flagged.
     Both,
@@ -250,7 +251,7 @@ impl Default for StabilitySpec {
     fn default() -> Self {
         StabilitySpec {
             check: true,
-            method: StabilityMethod::March,
+            method: StabilityMethod::Floquet,
             max_periods: 200,
             perturbation: 1e-3,
             every: 1,

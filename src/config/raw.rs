@@ -429,10 +429,11 @@ struct RawStability {
     /// static one has none). Default: true.
     #[serde(default)]
     check: Option<bool>,
-    /// `march` (the default): time marching from the perturbed state; `floquet`: the Floquet
-    /// multipliers of the harmonic-balance state on its own discrete model (cheap, but not
-    /// yet converged in its modal truncation on every scene, docs/method.md §15); `both`:
-    /// Floquet's verdict audited by marching, disagreements flagged.
+    /// `floquet` (the default): the Floquet multipliers of the harmonic-balance state on its
+    /// own discrete model (Hill's method on the Fourier basis, docs/method.md §15), with the
+    /// kind of loss of stability; `march`: time marching from the perturbed state (another
+    /// discretization: diagonal mass, explicit steps); `both`: Floquet's verdict audited by
+    /// marching, disagreements flagged.
     #[serde(default)]
     method: Option<super::StabilityMethod>,
     /// The most periods marched per check (it ends early once the verdict is clear), ≥ 1.

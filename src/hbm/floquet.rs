@@ -47,8 +47,9 @@ pub const MODES: usize = 16;
 /// bifurcation).
 pub const MARGIN: f64 = 1e-6;
 
-/// A multiplier with |Im μ| below this fraction of |μ| is real.
-const REAL: f64 = 1e-7;
+/// A multiplier with |Im μ| below this fraction of |μ| is real (Hill's method splits a real
+/// multiplier into a pair 1e-5 apart: its two exponent copies σ ± iω/2 are computed apart).
+const REAL: f64 = 1e-3;
 
 /// The closed contact nodes over one part of the period: (node indices, duration [s]).
 pub type Segment = (Vec<usize>, f64);
@@ -319,7 +320,7 @@ impl FloquetModel {
 }
 
 /// The rows of B as dense free-dof vectors.
-fn b_rows(b: &Csc) -> Vec<Vec<f64>> {
+pub(super) fn b_rows(b: &Csc) -> Vec<Vec<f64>> {
     let mut rows = vec![vec![0.0; b.ncols]; b.nrows];
     for (j, window) in b.col_ptr.windows(2).enumerate() {
         for p in window[0]..window[1] {

@@ -765,6 +765,7 @@ pub(super) fn solve_contact(
         damping_path: route.damping,
         complementarity,
         knob_check,
+        compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
     })
 }
 

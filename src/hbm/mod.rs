@@ -22,6 +22,7 @@ pub mod floquet;
 pub mod fourier;
 pub mod frames;
 mod globalize;
+pub mod hill;
 pub mod knobs;
 pub mod reduced;
 pub mod sampler;

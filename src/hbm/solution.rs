@@ -69,6 +69,9 @@ pub struct ContactSolution {
     pub complementarity: Complementarity,
     /// The N and c checks (`knobs`).
     pub knob_check: super::knobs::KnobCheck,
+    /// G_k, the compliance per harmonic the state was solved with (`ReducedProblem`), for
+    /// Hill's method (`hill`); `None` once a caller has no more use for it.
+    pub compliance: Option<std::sync::Arc<Vec<Vec<c64>>>>,
 }
 
 /// The detour a contact solve took where the direct one failed, in words (`None`: direct):
@@ -120,6 +123,7 @@ impl ContactSolution {
                 underdamped_share,
             },
             newton,
+            compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
         }
     }
 

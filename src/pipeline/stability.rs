@@ -43,6 +43,7 @@ use crate::config::{Pipeline, StabilitySpec};
 use crate::contact::ContactOperator;
 use crate::fem::DofMap;
 use crate::hbm::floquet::{self, Crossing, FloquetModel, Segment};
+use crate::hbm::hill::HillModel;
 use crate::hbm::{self, ContactSolution};
 use crate::pipeline::model::time_basis;
 use crate::pipeline::{hb_settings, Model, Purpose};
@@ -266,6 +267,35 @@ pub fn by_floquet(model: &Model, segments: &[Segment], omega: f64) -> Result<Sta
     floquet_verdict(&reduced, segments, omega)
 }
 
+/// The Hill model of a contact scene on a Fourier basis (`None`: splines, judged by the
+/// monodromy of `hbm::floquet`; or no contact).
+pub fn hill_model(model: &Model, basis: &hbm::basis::TimeBasis) -> Result<Option<HillModel>> {
+    match (&model.contact, basis) {
+        (Some(cm), hbm::basis::TimeBasis::Fourier) => Ok(Some(HillModel::new(
+            &model.system,
+            &cm.operator.b_free,
+            hbm::hill::MODES,
+        )?)),
+        _ => Ok(None),
+    }
+}
+
+/// The Floquet verdict on `contact`, a state of `model` at ω whose closed sets are
+/// `segments`: Hill's method on its own harmonic-balance model where `hill` is given and the
+/// state carries its compliance, the monodromy of the reduced model otherwise.
+pub fn by_floquet_state(
+    model: &Model,
+    hill: Option<&HillModel>,
+    omega: f64,
+    contact: &ContactSolution,
+    segments: &[Segment],
+) -> Result<Stability> {
+    match hill {
+        Some(hill) if contact.compliance.is_some() => by_hill(hill, contact, omega),
+        _ => by_floquet(model, segments, omega),
+    }
+}
+
 /// The verdict from the multipliers of the state whose closed sets are `segments`, at ω.
 pub fn floquet_verdict(
     reduced: &FloquetModel,
@@ -273,6 +303,27 @@ pub fn floquet_verdict(
     omega: f64,
 ) -> Result<Stability> {
     let m = reduced.multipliers(segments)?;
+    Ok(verdict_of(&m, reduced.dim(), omega))
+}
+
+/// The verdict by Hill's method (`hbm::hill`) on `contact`, a Fourier state at ω solved with
+/// the compliance it carries.
+pub fn by_hill(hill: &HillModel, contact: &ContactSolution, omega: f64) -> Result<Stability> {
+    let compliance = contact.compliance.as_ref().ok_or_else(|| {
+        crate::Error::Model("internal: the state carries no compliance for Hill's method".into())
+    })?;
+    let r = hill.modes_for(omega, contact.harmonics);
+    let m = hill.truncated(r).multipliers(compliance, contact, omega)?;
+    let mut verdict = verdict_of(&m, r, omega);
+    verdict.reason = format!(
+        "{}; Hill's method on the harmonic-balance model itself (H = {}, N = {}, {r} modes dynamic): the verdict of the state at this H",
+        verdict.reason, contact.harmonics, contact.samples
+    );
+    Ok(verdict)
+}
+
+/// The verdict from the multipliers `m` of a model with `dim` modes kept dynamic, at ω.
+pub fn verdict_of(m: &floquet::Multipliers, dim: usize, omega: f64) -> Stability {
     let mu = m.leading();
     let (modulus, argument) = (mu.norm(), mu.im.atan2(mu.re).abs());
     let crossing = m.crossing();
@@ -303,17 +354,17 @@ pub fn floquet_verdict(
         );
         (Verdict::Undecided, reason)
     };
-    Ok(Stability {
+    Stability {
         verdict,
         multiplier: Some(modulus),
         argument: Some(argument),
         crossing: Some(crossing),
         new_frequency_hz,
-        reduced_dimension: Some(reduced.dim()),
+        reduced_dimension: Some(dim),
         segments: Some(m.segments),
         reason,
         ..Stability::blank(Method::Floquet)
-    })
+    }
 }
 
 /// `method: both`: Floquet's verdict, with the marched one where they disagree.

@@ -286,7 +286,7 @@ pub fn stability(
     let floquet = match spec.method {
         StabilityMethod::March => None,
         _ => Some(stages.run("stability", || {
-            stability::by_floquet(model, &segments, solution.omega)
+            floquet_verdict(model, solution, contact, &segments)
         })),
     };
     match (spec.method, floquet) {
@@ -301,6 +301,18 @@ pub fn stability(
         _ => {}
     }
     march_verdict(p, mesh, model, contact, stages)
+}
+
+/// The Floquet verdict on `contact`, the contact part of `solution`, a state of `model`
+/// (`stability::by_floquet_state`, on a Hill model of its own).
+fn floquet_verdict(
+    model: &Model,
+    solution: &Solution,
+    contact: &crate::hbm::ContactSolution,
+    segments: &[crate::hbm::floquet::Segment],
+) -> Result<Stability> {
+    let hill = stability::hill_model(model, &solution.basis)?;
+    stability::by_floquet_state(model, hill.as_ref(), solution.omega, contact, segments)
 }
 
 /// The time-marching verdict on `contact`, a state of `model`.

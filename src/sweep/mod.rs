@@ -31,6 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Pipeline, StabilityMethod, SweepSpec};
 use crate::hbm::basis::TimeBasis;
+use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
 use crate::hbm::{floquet, ContactSolution};
@@ -380,9 +381,22 @@ fn continue_curve(
     let contact = model.contact.as_ref().map(|c| &c.operator);
     STOP.store(false, Ordering::SeqCst);
     RUNNING.store(true, Ordering::SeqCst);
+    let hill = inline_judge(p, model, reporter);
     let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
         writer.point(info, solution)?;
-        starts.push((info.index, info.omega, solution.contact.clone()));
+        if let (Some(hill), Some(contact)) = (&hill, &solution.contact) {
+            record(
+                writer,
+                info.index,
+                judge_state(model, hill, info.omega, contact),
+            );
+        }
+        // The compliance is kept only as long as a verdict may need it.
+        let contact = solution.contact.clone().map(|c| ContactSolution {
+            compliance: None,
+            ..c
+        });
+        starts.push((info.index, info.omega, contact));
         if STOP.load(Ordering::SeqCst) {
             return Err(Error::Interrupted(format!(
                 "interrupted after the point at {:.6} Hz",
@@ -460,6 +474,43 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
     }
 }
 
+/// The Hill model that judges each point as it is found (`stability.method` floquet or both
+/// on a Fourier basis); `None` otherwise, or with a warning where the modes fail (the points
+/// are then judged afterwards as `judge_points` says).
+fn inline_judge(p: &Pipeline, model: &Model, reporter: &dyn Reporter) -> Option<HillModel> {
+    let spec = &p.stability;
+    if !spec.check || spec.method == StabilityMethod::March || model.contact.is_none() {
+        return None;
+    }
+    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
+    stability::hill_model(model, &basis).unwrap_or_else(|e| {
+        reporter.warning(&format!(
+            "no Hill model ({e}): the points are judged afterwards"
+        ));
+        None
+    })
+}
+
+/// One point's Floquet verdict by Hill's method: a static state is not judged, a contact set
+/// that does not change over the period is judged by its damping.
+fn judge_state(
+    model: &Model,
+    hill: &HillModel,
+    omega: f64,
+    contact: &ContactSolution,
+) -> Stability {
+    if contact.harmonics == 0 {
+        return Stability::static_state();
+    }
+    let basis = crate::hbm::basis::TimeBasis::Fourier;
+    let segments = floquet::segments(&basis, omega, contact);
+    if segments.len() == 1 {
+        return Stability::constant_contact(model);
+    }
+    stability::by_floquet_state(model, Some(hill), omega, contact, &segments)
+        .unwrap_or_else(|e| Stability::no_multipliers(&e))
+}
+
 /// A point's ω and contact solution: where a stability check starts from.
 type Start = (usize, f64, Option<ContactSolution>);
 
@@ -492,14 +543,25 @@ fn judge_points(
     let beside_fold = |i: usize| folds.iter().any(|&f| i == f || i == f + 1);
     let last = rows.last().map_or(0, |r| r.index);
     // Points found in this run; a resumed sweep keeps the verdicts its saved rows have.
+    // Hill's method judged each point as it was found (`inline_judge`): what remains is the
+    // marching audit of `both`, or the points it could not judge.
+    let inline: Vec<(usize, Stability)> = writer.verdicts.clone();
+    let judged_inline = |i: usize| inline.iter().any(|(j, _)| *j == i);
     let judged = |i: usize| {
         rows.iter()
             .any(|r| r.index == i && (r.stable.is_some() || r.multiplier.is_some()))
     };
+    let audit = spec.method == StabilityMethod::Both;
     let chosen: Vec<&Start> = starts
         .iter()
         .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
-        .filter(|(i, _, _)| !judged(*i))
+        .filter(|(i, _, _)| {
+            if judged_inline(*i) {
+                audit
+            } else {
+                !judged(*i)
+            }
+        })
         .collect();
     // Each point's closed sets over the period, once: a point whose set does not change
     // needs no check, the others go to Floquet and/or marching.
@@ -525,6 +587,17 @@ fn judge_points(
     let (chosen, segments): (Vec<&Start>, Vec<_>) = varying.into_iter().unzip();
     let floquet = match spec.method {
         StabilityMethod::March => None,
+        _ if chosen.iter().all(|(i, _, _)| judged_inline(*i)) => Some(
+            chosen
+                .iter()
+                .map(|(i, _, _)| {
+                    inline
+                        .iter()
+                        .find(|(j, _)| j == i)
+                        .map_or_else(Stability::not_checked, |(_, v)| v.clone())
+                })
+                .collect(),
+        ),
         _ => by_floquet(model, &chosen, &segments, reporter),
     };
     let marched = match (spec.method, &floquet) {
@@ -549,6 +622,7 @@ fn record(writer: &mut points::Writer, i: usize, verdict: Stability) {
         row.stable = verdict.stable();
         row.multiplier = verdict.multiplier;
     }
+    writer.verdicts.retain(|(j, _)| *j != i);
     writer.verdicts.push((i, verdict));
 }
 

@@ -1,0 +1,231 @@
+//! Floquet multipliers by Hill's method on the harmonic-balance model itself (`hbm::hill`,
+//! the `stability.method: floquet` verdict of Fourier states), held against closed forms, an
+//! independent time integration, its own dense eigenvalues, and the folds of a sweep.
+
+mod common;
+
+use faer::c64;
+use hbcontact::fem::modes::lowest_modes;
+use hbcontact::hbm::floquet::Crossing;
+use hbcontact::hbm::hill::{Eigen, HillModel, SampledLaw};
+use hbcontact::pipeline::Purpose;
+use nalgebra::DMatrix;
+
+/// The monodromy of ÿ + α ẏ + k(t) y = 0, k piecewise constant over `segments` (stiffness,
+/// duration), by classical Runge–Kutta with `steps` steps per segment.
+fn rk4_monodromy(alpha: f64, segments: &[(f64, f64)], steps: usize) -> [[f64; 2]; 2] {
+    let column = |mut y: f64, mut v: f64| {
+        for &(k, tau) in segments {
+            let h = tau / steps as f64;
+            let f = |y: f64, v: f64| (v, -alpha * v - k * y);
+            for _ in 0..steps {
+                let (a1, b1) = f(y, v);
+                let (a2, b2) = f(y + 0.5 * h * a1, v + 0.5 * h * b1);
+                let (a3, b3) = f(y + 0.5 * h * a2, v + 0.5 * h * b2);
+                let (a4, b4) = f(y + h * a3, v + h * b3);
+                y += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+                v += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
+            }
+        }
+        (y, v)
+    };
+    let ((y0, v0), (y1, v1)) = (column(1.0, 0.0), column(0.0, 1.0));
+    [[y0, y1], [v0, v1]]
+}
+
+/// The multiplier of largest modulus of a 2 × 2 monodromy.
+fn leading(phi: [[f64; 2]; 2]) -> c64 {
+    let (tr, det) = (
+        phi[0][0] + phi[1][1],
+        phi[0][0] * phi[1][1] - phi[0][1] * phi[1][0],
+    );
+    let disc = c64::new(tr * tr - 4.0 * det, 0.0).sqrt();
+    let (a, b) = (
+        (c64::new(tr, 0.0) + disc) * 0.5,
+        (c64::new(tr, 0.0) - disc) * 0.5,
+    );
+    if a.norm() >= b.norm() {
+        a
+    } else {
+        b
+    }
+}
+
+/// The bilinear oscillator as a harmonic-balance state: one mode (θ = 1, gap E = 2, α =
+/// 0.02) and a static rest G = 4/k_c, so that a closed node adds k_c = 8 to the stiffness; the
+/// node closed where cos ωt > cos(0.3π) (g = cos ωt − cos 0.3π, λ = 0). Returns the compliance
+/// G_k = E²/(θ − k²ω² + ikωα) + G, the law's coefficients and ω.
+fn bilinear_state(h: usize) -> (Vec<Vec<c64>>, Vec<f64>, Vec<f64>, f64) {
+    let (theta, e, alpha, rest) = (1.0, 2.0, 0.02, 4.0 / 8.0);
+    let omega = 2.0 / 0.7;
+    let compliance = (0..=h)
+        .map(|k| {
+            let kw = k as f64 * omega;
+            vec![c64::new(e * e, 0.0) / c64::new(theta - kw * kw, kw * alpha) + rest]
+        })
+        .collect();
+    let mut gaps = vec![0.0; 2 * h + 1];
+    gaps[0] = -(0.3 * std::f64::consts::PI).cos();
+    gaps[1] = 1.0;
+    (compliance, vec![0.0; 2 * h + 1], gaps, omega)
+}
+
+/// TEST GOAL: on the bilinear oscillator (k = 1 open, 9 closed for 30% of the period T =
+/// 0.7π, α = 0.02: inside its principal parametric resonance), Hill's method on the
+/// harmonic-balance model at H = 40 (N = 16H samples) finds the leading multiplier of a fine
+/// Runge–Kutta integration of the piecewise-linear equation (closed over the same samples'
+/// share of the period) within 1%, real below −1, a period doubling; and it converges: at
+/// H = 20 it is farther off than at H = 40.
+#[test]
+fn hill_multipliers_of_the_bilinear_oscillator_match_an_independent_integration() {
+    let model = HillModel::from_parts(vec![1.0], DMatrix::from_element(1, 1, 2.0), (0.02, 0.0));
+    let mut errors = Vec::new();
+    for h in [20, 40] {
+        let (compliance, lambda, gaps, omega) = bilinear_state(h);
+        let samples = 16 * h;
+        let law = SampledLaw {
+            harmonics: h,
+            samples,
+            c: 1.0,
+            multipliers: &lambda,
+            gaps: &gaps,
+        };
+        let m = model
+            .multipliers_of(&compliance, &law, omega, Eigen::Dense)
+            .unwrap();
+        // The samples closed: t_n = nT/N with cos(2πn/N) > cos(0.3π), each holding T/N.
+        let closed = (0..samples)
+            .filter(|&n| {
+                (2.0 * std::f64::consts::PI * n as f64 / samples as f64).cos()
+                    > (0.3 * std::f64::consts::PI).cos()
+            })
+            .count();
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let share = closed as f64 / samples as f64;
+        let reference = leading(rk4_monodromy(
+            0.02,
+            &[(9.0, share * period), (1.0, (1.0 - share) * period)],
+            20_000,
+        ));
+        let mu = m.leading();
+        let error = (mu - reference).norm() / reference.norm();
+        println!("H = {h}: Hill {mu:?}, integration {reference:?}, error {error:.2e}");
+        assert!(
+            reference.re < -1.0 && reference.im.abs() < 1e-9,
+            "{reference:?}"
+        );
+        errors.push(error);
+        if h == 40 {
+            assert!(error < 0.01, "H = 40: {error}");
+            assert_eq!(m.crossing(), Crossing::PeriodDoubling);
+        }
+    }
+    assert!(errors[1] < errors[0], "no convergence in H: {errors:?}");
+}
+
+/// TEST GOAL: with the wall out of reach no node closes and Hill's multipliers are those of
+/// the damped modes kept, e^{(−c/2 ± i√(ω² − c²/4))T} with c = α + βω², for the lowest modes
+/// computed independently by `lowest_modes`, to 1e-6, by dense eigenvalues and by shift-invert
+/// Arnoldi alike (the largest modulus the same to 1e-6).
+#[test]
+fn hill_multipliers_out_of_reach_are_the_damped_modes() {
+    let sets = [
+        "geometry.parameters.gap=0.05",
+        "contact.search_distance=1.0",
+        "harmonic_balance.harmonics=5",
+    ];
+    let p = common::scene("strip_wall", &sets);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let contact = solution.contact.as_ref().unwrap();
+    let b = &model.contact.as_ref().unwrap().operator.b_free;
+    let hill = HillModel::new(&model.system, b, 8).unwrap();
+    let compliance = contact.compliance.as_ref().expect("the solve keeps G_k");
+    let law = SampledLaw {
+        harmonics: contact.harmonics,
+        samples: contact.samples,
+        c: contact.c,
+        multipliers: &contact.multipliers,
+        gaps: &contact.gaps,
+    };
+    let dense = hill
+        .multipliers_of(compliance, &law, solution.omega, Eigen::Dense)
+        .unwrap();
+    let arnoldi = hill
+        .multipliers_of(compliance, &law, solution.omega, Eigen::Arnoldi)
+        .unwrap();
+    let (alpha, beta) = model.system.rayleigh.unwrap();
+    let period = solution.period();
+    for (w2, _) in lowest_modes(&model.system.k_ff, &model.system.m_ff, 4, 0.0).unwrap() {
+        let c = alpha + beta * w2;
+        let expected = c64::new(
+            (-0.5 * c * period).exp() * ((w2 - 0.25 * c * c).sqrt() * period).cos(),
+            (-0.5 * c * period).exp() * ((w2 - 0.25 * c * c).sqrt() * period).sin(),
+        );
+        let nearest = dense
+            .values
+            .iter()
+            .map(|mu| (mu - expected).norm())
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            nearest < 1e-6 * expected.norm(),
+            "ω² = {w2:e}: {expected:?} not among {:?}",
+            dense.values
+        );
+    }
+    let (a, d) = (arnoldi.leading().norm(), dense.leading().norm());
+    assert!((a - d).abs() < 1e-6 * d, "Arnoldi {a} against dense {d}");
+}
+
+/// TEST GOAL: along the strip's stiffened resonance (5% damping, H = 10, coarse mesh) Hill's
+/// verdict changes at the folds the sweep locates, because its multiplier +1 is exactly a
+/// singular Jacobian of the harmonic-balance solve: the points approaching the upper fold are
+/// stable, every point of the branch between the upper and the lower fold is unstable (a
+/// multiplier above 1), and the points past the lower fold are stable again. The row on each
+/// side of a fold is left out: the fold lies within that step, on either side of the row.
+#[test]
+fn hill_verdict_changes_at_the_folds_of_the_strip_sweep() {
+    use hbcontact::pipeline::RunOptions;
+    use hbcontact::sweep;
+    let p = common::scene("strip_sweep", &["geometry.parameters.lc=0.025"]);
+    let out = common::temp_out("hill-sweep");
+    let options = RunOptions {
+        out: Some(out),
+        ..Default::default()
+    };
+    let s = sweep::run(&p, &options, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .summary;
+    let upper = s
+        .folds
+        .iter()
+        .find(|f| f.frequency_hz > 1650.0)
+        .expect("the upper fold");
+    let lower = s
+        .folds
+        .iter()
+        .find(|f| f.after > upper.after)
+        .expect("the lower fold");
+    let row = |i: usize| &s.rows[i];
+    for i in upper.after - 4..upper.after {
+        assert_eq!(
+            row(i).stable,
+            Some(true),
+            "before the upper fold: {:?}",
+            row(i)
+        );
+    }
+    for i in upper.after + 2..lower.after {
+        let r = row(i);
+        assert_eq!(r.stable, Some(false), "between the folds: {r:?}");
+        assert!(r.multiplier.is_some_and(|mu| mu > 1.0), "{r:?}");
+    }
+    for i in lower.after + 2..(lower.after + 5).min(s.rows.len()) {
+        assert_eq!(
+            row(i).stable,
+            Some(true),
+            "past the lower fold: {:?}",
+            row(i)
+        );
+    }
+}
