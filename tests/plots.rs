@@ -296,3 +296,35 @@ fn arc_lengths_run_along_the_boundary_from_its_leftmost_end() {
     assert_eq!(&s[..4], &[0.0, 1.5, 3.0, 7.0]);
     assert!(s[4].is_nan());
 }
+
+/// TEST GOAL: the probe plot's title names the probe group once: quickstart's group is called
+/// `probe`, and its plot is titled "probe: mean displacement over one period", not
+/// "probe probe: …" (issue #50).
+#[test]
+fn the_probe_plot_title_names_its_group_once() {
+    let out = common::temp_out("plots-probe-title");
+    run_ok(&[
+        "run",
+        "pipelines/quickstart.yaml",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let svg = check_plot(&out.join("plots/probe_probe"), &[]);
+    let titles: Vec<&String> = svg
+        .texts
+        .iter()
+        .filter(|t| t.contains("mean displacement"))
+        .collect();
+    assert_eq!(
+        titles,
+        ["probe: mean displacement over one period"],
+        "{:?}",
+        svg.texts
+    );
+    assert!(
+        svg.texts.iter().all(|t| !t.contains("probe probe")),
+        "{:?}",
+        svg.texts
+    );
+}

@@ -87,6 +87,17 @@ pub fn write_run_plots(
     Ok(files)
 }
 
+/// The probe plot's title: the group named once ("probe: …" for a group called `probe`,
+/// "probe tip: …" for a group `tip`).
+fn probe_title(name: &str) -> String {
+    let who = if name.to_lowercase().contains("probe") {
+        name.to_string()
+    } else {
+        format!("probe {name}")
+    };
+    format!("{who}: mean displacement over one period")
+}
+
 /// `probe_<group>`: each probe group's mean u_x and u_y over the period.
 fn probe_figures(model: &Model, sampled: &Sampled, period: f64) -> Vec<(String, Figure)> {
     let h = &sampled.history;
@@ -97,7 +108,7 @@ fn probe_figures(model: &Model, sampled: &Sampled, period: f64) -> Vec<(String, 
         .map(|((name, _), [x, y])| {
             let s = style(h.times.len());
             let fig = Figure::new(
-                format!("probe {name}: mean displacement over one period"),
+                probe_title(name),
                 time_axis(period),
                 Axis::linear("displacement [m]"),
             )
