@@ -947,12 +947,12 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
     assert!(svg.contains("harmonics = 15: warned"), "the plot marks it");
     assert!(!svg.contains("harmonics = 20: warned"));
     assert!(
-        lines[1].starts_with("harmonic_balance.harmonics,1.5e1,ok,")
+        lines[1].starts_with("harmonic_balance.harmonics,15,ok,")
             && lines[1].contains("depends on the complementarity parameter"),
         "{text}"
     );
     assert!(
-        lines[2].starts_with("harmonic_balance.harmonics,2e1,ok,") && lines[2].ends_with(",,"),
+        lines[2].starts_with("harmonic_balance.harmonics,20,ok,") && lines[2].ends_with(",,"),
         "{text}"
     );
 
@@ -986,9 +986,9 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
             .find(|l| l.split(',').nth(1) == Some(alpha))
             .unwrap_or_else(|| panic!("alpha = {alpha}: {text}"))
     };
-    assert!(row("8.57e2").ends_with(','), "{text}");
+    assert!(row("857").ends_with(','), "{text}");
     assert!(
-        row("8.6e1").contains("depends on the complementarity parameter"),
+        row("86").contains("depends on the complementarity parameter"),
         "{text}"
     );
     let manifest = common::read_json(&out.join("manifest.json"));
@@ -1042,4 +1042,37 @@ fn threads_beyond_the_cores_are_cut_to_them_with_a_warning() {
         let manifest = common::read_json(&out.join("manifest.json"));
         assert_eq!(manifest["execution"]["threads"], cores);
     }
+}
+
+/// TEST GOAL: study.csv writes integers as integers: the harmonics varied (4, 8) and the
+/// Newton iterations are written `4`, `8`, `7`, not `4e0`, `8e0`, `7e0`; a fraction keeps its
+/// shortest exact form (the gap 1e-7), and the numbers read back to the values (issue #50).
+#[test]
+fn study_csv_writes_integers_as_integers() {
+    let dir = common::temp_out("study-integers");
+    let study = strip_study(
+        &dir,
+        "parameters:\n  - {key: harmonic_balance.harmonics, values: [4, 8]}\noutputs: [newton_iterations, peak_contact_force]\n",
+    );
+    let out = dir.join("out");
+    run_study(&study, &out);
+    let rows = table_without_times(&out.join("study.csv"));
+    assert_eq!(column(&rows, "harmonic_balance.harmonics"), ["4", "8"]);
+    for n in column(&rows, "newton_iterations") {
+        assert!(
+            !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()),
+            "newton_iterations {n:?} is not written as an integer: {rows:?}"
+        );
+    }
+    for f in column(&rows, "peak_contact_force") {
+        assert!(f.parse::<f64>().is_ok_and(|v| v > 0.0), "{f:?}");
+    }
+    use hbcontact::study::table::csv_number;
+    assert_eq!(csv_number(8.0), "8");
+    assert_eq!(csv_number(-3.0), "-3");
+    assert_eq!(csv_number(1000.0), "1000");
+    assert_eq!(csv_number(1e-7), "1e-7");
+    assert_eq!(csv_number(1.5e5 + 0.25), "1.5000025e5");
+    assert_eq!(csv_number(1e20), "1e20");
+    assert_eq!(csv_number(f64::NAN), "");
 }
