@@ -402,3 +402,36 @@ fn time_basis_is_read_defaulted_and_its_limits_named() {
         );
     }
 }
+
+/// TEST GOAL: a relative `geometry.file` is looked up next to the pipeline, then in its parent
+/// directory, then in the working directory: a pipeline in a folder of its own (two levels
+/// below anything holding `geometries/`) that names `geometries/quickstart.geo` finds the one
+/// beside the working directory (the crate root, where cargo runs the tests); a file found
+/// nowhere is refused with each place tried named (issue #50).
+#[test]
+fn geometry_file_is_found_beside_the_pipeline_its_parent_or_the_working_directory() {
+    let dir = root().join("output/test-runs/config-geometry-lookup/scene/own");
+    std::fs::create_dir_all(&dir).unwrap();
+    let quickstart = std::fs::read_to_string(root().join("pipelines/quickstart.yaml")).unwrap();
+    assert!(quickstart.contains("file: geometries/quickstart.geo"));
+    let pipeline = dir.join("quickstart.yaml");
+    std::fs::write(&pipeline, &quickstart).unwrap();
+    assert!(!dir.join("geometries").exists() && !dir.join("../geometries").exists());
+    let p = load_pipeline(&pipeline, &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(p.geometry.file, PathBuf::from("geometries/quickstart.geo"));
+
+    let e = match load_pipeline(
+        &pipeline,
+        &["geometry.file=geometries/nope.geo".to_string()],
+    ) {
+        Ok(_) => panic!("a missing geometry must not load"),
+        Err(e) => e.to_string(),
+    };
+    let tried = format!(
+        "(tried {}, {}, geometries/nope.geo)",
+        dir.join("geometries/nope.geo").display(),
+        dir.join("../geometries/nope.geo").display()
+    );
+    assert!(e.contains(&tried), "{tried} not in: {e}");
+    assert!(e.contains("working directory"), "{e}");
+}

@@ -65,8 +65,9 @@ struct RawPipeline {
 #[schemars(rename = "Geometry")]
 struct RawGeometry {
     /// The gmsh `.geo` file, or a ready `.msh` (then `parameters`, `mesh_size`, `order` and
-    /// `quads` are not used). Relative paths are looked up next to the pipeline file, then in
-    /// its parent directory. Required.
+    /// `quads` are not used). A relative path is looked up next to the pipeline file, then in
+    /// its parent directory (so `geometries/x.geo` works from `pipelines/`), then in the
+    /// working directory; the first that exists is used. Required.
     file: PathBuf,
     /// Numbers passed to gmsh as `-setnumber NAME VALUE` (the `.geo`'s `DefineConstant`s), in
     /// the geometry's units. Default: none.
@@ -826,7 +827,7 @@ fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
 }
 
 /// A relative path from the pipeline: next to it, then one level up (the project root for
-/// `pipelines/x.yaml`), else an error naming both.
+/// `pipelines/x.yaml`), then from the working directory; else an error naming each place tried.
 fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
     if file.is_absolute() {
         return if file.exists() {
@@ -839,19 +840,20 @@ fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
         };
     }
     let dir = path.parent().unwrap_or(Path::new("."));
-    let candidates = [dir.join(file), dir.join("..").join(file)];
-    for c in &candidates {
-        if c.exists() {
-            return Ok(c.clone());
-        }
+    let mut candidates = vec![dir.join(file), dir.join("..").join(file)];
+    if !candidates.iter().any(|c| c == file) {
+        candidates.push(file.to_path_buf());
     }
+    if let Some(found) = candidates.iter().find(|c| c.exists()) {
+        return Ok(found.clone());
+    }
+    let tried: Vec<String> = candidates.iter().map(|c| c.display().to_string()).collect();
     Err(config_error(
         path,
         format!(
-            "{field}: {} not found (tried {} and {}); paths are relative to the pipeline file or its parent directory",
+            "{field}: {} not found (tried {}); a relative path is looked up next to the pipeline file, then in its parent directory, then in the working directory",
             file.display(),
-            candidates[0].display(),
-            candidates[1].display()
+            tried.join(", ")
         ),
     ))
 }
