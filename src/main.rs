@@ -26,24 +26,17 @@ struct Cli {
     command: Command,
 }
 
+/// The pipeline a subcommand reads and how.
 #[derive(clap::Args)]
-struct Common {
+struct Input {
     /// The pipeline YAML.
     pipeline: PathBuf,
     /// Override a pipeline value, e.g. `--set harmonic_balance.harmonics=20` (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Write results here instead of `output.directory` (`transient`: instead of
-    /// `<output.directory>-transient`).
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Print nothing but errors (and, for `accuracy`, not its table either).
+    /// Print nothing but errors.
     #[arg(long, short)]
     quiet: bool,
-    /// When the output folder exists and holds files hbcontact did not write, move it aside
-    /// to `<folder>.moved-<time>` instead of refusing (exit 2). Nothing is ever deleted.
-    #[arg(long)]
-    force: bool,
     /// Let gmsh read the `.geo` as it is: without this, a geometry that runs programs
     /// (SystemCall, Shell, …), writes files (Printf > file, Save, …) or includes files outside
     /// its folder is refused (exit 2). Only for a geometry you wrote yourself.
@@ -51,9 +44,24 @@ struct Common {
     trust_geometry: bool,
 }
 
-/// The pipeline the shared arguments name, with `--set` applied and `--trust-geometry`
-/// (which no file can set).
-fn load(c: &Common) -> hbcontact::Result<hbcontact::config::Pipeline> {
+/// A pipeline and the output folder a subcommand writes (each subcommand's help names its
+/// default folder: `mut_arg("out", …)` below).
+#[derive(clap::Args)]
+struct Common {
+    #[command(flatten)]
+    input: Input,
+    /// Write the results into DIR.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// When the output folder exists and holds files hbcontact did not write, move it aside
+    /// to `<folder>.moved-<time>` instead of refusing (exit 2). Nothing is ever deleted.
+    #[arg(long)]
+    force: bool,
+}
+
+/// The pipeline the arguments name, with `--set` applied and `--trust-geometry` (which no
+/// file can set).
+fn load(c: &Input) -> hbcontact::Result<hbcontact::config::Pipeline> {
     let mut pipeline = load_pipeline(&c.pipeline, &c.set)?;
     pipeline.geometry.trusted = c.trust_geometry;
     Ok(pipeline)
@@ -74,15 +82,19 @@ fn run_options(c: &Common) -> RunOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compute the periodic steady state by harmonic balance and write the results.
+    /// Compute the periodic steady state by harmonic balance and write the results to
+    /// `output.directory` (default `output/<name>`).
+    #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `output.directory`")))]
     Run(Common),
     /// March in time from rest to the periodic state (the cross-check) and write the results
-    /// to `<output.directory>-transient` (or `--out`), beside the harmonic-balance result.
+    /// to `<output.directory>-transient`, beside the harmonic-balance result.
+    #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `<output.directory>-transient`")))]
     Transient(Common),
     /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
-    /// block), written to `<output.directory>/sweep` (or `--out`): sweep.csv, sweep.json, the
-    /// curve's plots, frames.pvd along it and full outputs at the folds, the peak and
-    /// `sweep.write_at`. Ctrl-C stops it after the current point and writes the curve so far.
+    /// block), written to `<output.directory>/sweep`: sweep.csv, sweep.json, the curve's plots,
+    /// frames.pvd along it and full outputs at the folds, the peak and `sweep.write_at`. Ctrl-C
+    /// stops it after the current point and writes the curve so far.
+    #[command(mut_arg("out", |a| a.help("Write the sweep into DIR instead of `<output.directory>/sweep`")))]
     Sweep {
         #[command(flatten)]
         common: Common,
@@ -98,10 +110,16 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// What accuracy costs: run ladders of settings and tabulate error against wall time.
+    /// What accuracy costs: run ladders of settings and tabulate error against wall time in
+    /// `<output.directory>-accuracy` (accuracy.csv, accuracy.svg).
+    #[command(mut_arg("quiet", |a| a.help("Print nothing but errors: not the accuracy table either (--tolerance's answer still prints)")))]
     Accuracy {
         #[command(flatten)]
-        common: Common,
+        input: Input,
+        /// Write accuracy.csv, accuracy.svg and the rungs' results into DIR instead of
+        /// `<output.directory>-accuracy`.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
         /// A ladder `key=v1,v2,...` (cheapest first; the last value is the reference), e.g.
         /// `harmonic_balance.harmonics=5,10,20,40` or `geometry.mesh_size=0.004,0.002,0.001`
         /// (repeatable). Default: harmonics H/4, H/2, H, 2H for contact scenes and element
@@ -116,7 +134,8 @@ enum Command {
         tolerance: Option<f64>,
     },
     /// Natural frequencies with the scene's supports (contact open), mode shapes as a VTU
-    /// series and effective modal masses, written to `<output.directory>-modes` (or `--out`).
+    /// series and effective modal masses, written to `<output.directory>-modes`.
+    #[command(mut_arg("out", |a| a.help("Write modes.pvd, the mode shapes and modes.json into DIR instead of `<output.directory>-modes`")))]
     Modes {
         #[command(flatten)]
         common: Common,
@@ -126,15 +145,15 @@ enum Command {
     },
     /// Differences between a harmonic-balance result and a time-marching one of the same
     /// scene (probe amplitudes, contact forces, harmonics), printed and written as
-    /// compare.json and compare.csv into HB_DIR (or `--out`), with overlay plots of both in
-    /// its plots/ (compare_*.svg and .png).
+    /// compare.json and compare.csv into HB_DIR, with overlay plots of both in its plots/
+    /// (compare_*.svg and .png).
     Compare {
         /// The `hbcontact run` result directory.
         hb_dir: PathBuf,
         /// The `hbcontact transient` result directory (`<dir>-transient`).
         transient_dir: PathBuf,
-        /// Write compare.json, compare.csv and plots/compare_* here instead of HB_DIR.
-        #[arg(long)]
+        /// Write compare.json, compare.csv and plots/compare_* into DIR instead of HB_DIR.
+        #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Print nothing but errors.
         #[arg(long, short)]
@@ -242,11 +261,18 @@ fn main() -> ExitCode {
         Command::Transient(c) => run(c, Mode::Transient),
         Command::Check { common, json } => check(common, *json),
         Command::Accuracy {
-            common,
+            input,
+            out,
             ladders,
             transient_reference,
             tolerance,
-        } => accuracy(common, ladders, *transient_reference, *tolerance),
+        } => accuracy(
+            input,
+            out.as_deref(),
+            ladders,
+            *transient_reference,
+            *tolerance,
+        ),
         Command::Study(args) => study(args),
         Command::Schema { which } => schema(*which),
         Command::Modes { common, count } => modes(common, *count),
@@ -282,14 +308,14 @@ fn reporter(quiet: bool) -> Box<dyn Reporter> {
 }
 
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
-    let pipeline = load(c)?;
+    let pipeline = load(&c.input)?;
     let options = run_options(c);
-    let reporter = reporter(c.quiet);
+    let reporter = reporter(c.input.quiet);
     let result = match mode {
         Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
         Mode::Transient => pipeline::run_transient(&pipeline, &options, &*reporter)?,
     };
-    if !c.quiet {
+    if !c.input.quiet {
         cli::show_run(&result);
     }
     Ok(())
@@ -298,15 +324,15 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
 /// `hbcontact sweep [--resume]`: the folds, the end and what was written; a sweep that
 /// failed part-way has written the curve so far and exits with its error's class.
 fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
-    let pipeline = load(c)?;
+    let pipeline = load(&c.input)?;
     let options = run_options(c);
-    let reporter = reporter(c.quiet);
+    let reporter = reporter(c.input.quiet);
     let result = if resume {
         hbcontact::sweep::resume(&pipeline, &options, &*reporter)?
     } else {
         hbcontact::sweep::run(&pipeline, &options, &*reporter)?
     };
-    if !c.quiet {
+    if !c.input.quiet {
         cli::show_sweep(&result);
     }
     match result.failure {
@@ -317,14 +343,14 @@ fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
 
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
 fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
-    let pipeline = load(c)?;
+    let pipeline = load(&c.input)?;
     let options = run_options(c);
-    let report = pipeline::check(&pipeline, &options, &*reporter(c.quiet || json))?;
+    let report = pipeline::check(&pipeline, &options, &*reporter(c.input.quiet || json))?;
     if json {
         outln!("{}", to_json(&report)?);
-    } else if !c.quiet {
+    } else if !c.input.quiet {
         cli::show_check(&report);
-        outln!("ok: {} is valid", c.pipeline.display());
+        outln!("ok: {} is valid", c.input.pipeline.display());
     }
     Ok(())
 }
@@ -350,10 +376,10 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
 
 /// `hbcontact modes`: the table on stdout, the files in `<output.directory>-modes`.
 fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
-    let pipeline = load(c)?;
+    let pipeline = load(&c.input)?;
     let options = run_options(c);
-    let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.quiet))?;
-    if !c.quiet {
+    let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.input.quiet))?;
+    if !c.input.quiet {
         cli::show_modes(&result);
     }
     Ok(())
@@ -481,7 +507,8 @@ fn ladder(path: &std::path::Path, l: &str) -> hbcontact::Result<hbcontact::study
 
 /// `hbcontact accuracy`: an accuracy study built from the command line.
 fn accuracy(
-    c: &Common,
+    c: &Input,
+    out: Option<&std::path::Path>,
     ladders: &[String],
     transient_reference: bool,
     tolerance: Option<f64>,
@@ -510,7 +537,7 @@ fn accuracy(
             values: vec![1.0, 2.0],
         });
     }
-    let out = c.out.clone().unwrap_or_else(|| {
+    let out = out.map(std::path::Path::to_path_buf).unwrap_or_else(|| {
         let mut d = pipeline.output.directory.clone().into_os_string();
         d.push("-accuracy");
         PathBuf::from(d)
