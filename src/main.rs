@@ -102,10 +102,11 @@ enum Command {
         #[arg(long)]
         resume: bool,
     },
-    /// Validate the pipeline and the geometry's groups without solving.
+    /// Validate the pipeline and the geometry's groups without solving (writes nothing but
+    /// the mesh cache).
     Check {
         #[command(flatten)]
-        common: Common,
+        input: Input,
         /// Print the findings as JSON only (for scripts).
         #[arg(long)]
         json: bool,
@@ -259,7 +260,7 @@ fn main() -> ExitCode {
         Command::Run(c) => run(c, Mode::Run),
         Command::Sweep { common, resume } => sweep(common, *resume),
         Command::Transient(c) => run(c, Mode::Transient),
-        Command::Check { common, json } => check(common, *json),
+        Command::Check { input, json } => check(input, *json),
         Command::Accuracy {
             input,
             out,
@@ -342,15 +343,18 @@ fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
 }
 
 /// `hbcontact check`: a readable list of what was found, or JSON only with `--json`.
-fn check(c: &Common, json: bool) -> hbcontact::Result<()> {
-    let pipeline = load(&c.input)?;
-    let options = run_options(c);
-    let report = pipeline::check(&pipeline, &options, &*reporter(c.input.quiet || json))?;
+fn check(c: &Input, json: bool) -> hbcontact::Result<()> {
+    let pipeline = load(c)?;
+    let report = pipeline::check(
+        &pipeline,
+        &RunOptions::default(),
+        &*reporter(c.quiet || json),
+    )?;
     if json {
         outln!("{}", to_json(&report)?);
-    } else if !c.input.quiet {
+    } else if !c.quiet {
         cli::show_check(&report);
-        outln!("ok: {} is valid", c.input.pipeline.display());
+        outln!("ok: {} is valid", c.pipeline.display());
     }
     Ok(())
 }

@@ -9,8 +9,8 @@ use std::process::Output;
 /// `hbcontact <command> <pipeline> --quiet --out <tagged dir> --set …`.
 fn hbcontact(command: &str, pipeline: &str, tag: &str, sets: &[&str]) -> Output {
     let dir = common::temp_out(&format!("bounds-{tag}"));
-    let dir = dir.to_string_lossy().to_string();
-    let mut args = vec![command, pipeline, "--quiet", "--out", &dir];
+    let directory = format!("output.directory={}", dir.display());
+    let mut args = vec![command, pipeline, "--quiet", "--set", &directory];
     for s in sets {
         args.extend(["--set", s]);
     }
@@ -99,7 +99,12 @@ fn a_stability_march_beyond_the_machine_is_refused_by_run_and_check() {
 #[test]
 fn check_warns_when_only_the_transient_command_would_be_refused() {
     let (_, pipeline, sets, _) = CRASHES[0];
-    let mut args = vec!["check", pipeline, "--out", "output/test-runs/bounds-warn"];
+    let mut args = vec![
+        "check",
+        pipeline,
+        "--set",
+        "output.directory=output/test-runs/bounds-warn",
+    ];
     for s in sets.iter().chain(&["stability.check=false"]) {
         args.extend(["--set", s]);
     }

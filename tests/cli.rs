@@ -81,3 +81,22 @@ fn each_subcommands_help_describes_its_own_options_only() {
     }
     assert!(help(&["accuracy"]).contains("accuracy table"));
 }
+
+/// TEST GOAL: `check` writes nothing, so it offers no `--out` (nor `--force`): its help lists
+/// neither, and a script that passes `--out` is refused by name with exit 2 before anything
+/// runs.
+#[test]
+fn check_offers_no_out_and_refuses_it_by_name() {
+    let text = help(&["check"]);
+    assert!(
+        !text.contains("--out") && !text.contains("--force"),
+        "{text}"
+    );
+    let o = common::hbcontact(&["check", "pipelines/quickstart.yaml", "--out", "somewhere"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unexpected argument '--out'"),
+        "{}",
+        stderr(&o)
+    );
+}

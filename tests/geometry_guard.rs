@@ -28,13 +28,8 @@ fn scene(tag: &str, statement: &str) -> PathBuf {
 
 fn check(dir: &Path, extra: &[&str]) -> Output {
     let yaml = dir.join("scene.yaml");
-    let out = dir.join("out");
-    let mut args = vec![
-        "check",
-        yaml.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let directory = format!("output.directory={}", dir.join("out").display());
+    let mut args = vec!["check", yaml.to_str().unwrap(), "--set", &directory];
     args.extend(extra);
     common::hbcontact(&args)
 }

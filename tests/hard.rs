@@ -627,13 +627,13 @@ fn an_inverted_cell_is_bad_input() {
     let (code, err) = check(&pipeline("undamped_resonance"), &[]);
     assert_eq!(code, Some(0), "{err}");
     // Mesh into a cache of our own, then move the last node (a mid-side node of the surface).
-    let out_arg = out.to_string_lossy().to_string();
+    let directory = format!("output.directory={}", out.display());
     let o = common::hbcontact(&[
         "check",
         &pipeline("undamped_resonance"),
         "--quiet",
-        "--out",
-        &out_arg,
+        "--set",
+        &directory,
     ]);
     assert!(o.status.success());
     let cached = std::fs::read_dir(dir.join(".mesh-cache"))

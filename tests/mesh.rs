@@ -303,8 +303,8 @@ fn an_absurd_mesh_size_is_refused_by_check_from_the_estimate() {
         "pipelines/quickstart.yaml",
         "--set",
         "geometry.mesh_size=1e-9",
-        "--out",
-        out,
+        "--set",
+        &format!("output.directory={out}"),
         "-q",
     ]);
     let secs = start.elapsed().as_secs_f64();
@@ -381,8 +381,8 @@ fn gmsh_beyond_its_time_limit_is_killed_and_leaves_no_process() {
         "geometry.mesh_size=1.5e-4",
         "--set",
         "geometry.gmsh_timeout=1",
-        "--out",
-        &format!("output/{tag}/quickstart"),
+        "--set",
+        &format!("output.directory=output/{tag}/quickstart"),
         "-q",
     ]);
     let secs = start.elapsed().as_secs_f64();
@@ -416,8 +416,8 @@ fn gmsh_dies_when_hbcontact_is_terminated_or_killed() {
                 "pipelines/quickstart.yaml",
                 "--set",
                 "geometry.mesh_size=1.5e-4",
-                "--out",
-                &out,
+                "--set",
+                &format!("output.directory={out}"),
                 "-q",
             ])
             .current_dir(common::root())
