@@ -1,7 +1,7 @@
 //! The `hbcontact` command. `main` is the only place that prints an error and picks the exit
-//! code: 0 success, 2 bad input (pipeline, geometry, mesh, gmsh), 3 a model that cannot be
-//! solved as set up, 4 the nonlinear solver did not converge, 5 writing results failed, 6 a
-//! study finished but some of its points failed (their errors are in its study.csv).
+//! code (`Error::exit_code`; `EXIT_CODES`, which `--help` lists: 0 success, 2 bad input, 3 a
+//! model that cannot be solved as set up, 4 not converged, 5 writing failed, 6 a study with
+//! failed points, 130 interrupted).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -15,11 +15,25 @@ use hbcontact::output::staging::Replace;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::{Error, Reporter, Silent};
 
+/// The exit codes, as `--help` lists them (README, "Run it", says the same).
+const EXIT_CODES: &str = "\
+Exit codes:
+  0    success
+  2    bad input: the pipeline, a study, the geometry, the mesh, gmsh, an output folder that
+       is not ours (see --force), an unknown option
+  3    a model that cannot be solved as set up (singular, resonant)
+  4    the nonlinear solver did not converge (the message says what to change)
+  5    writing results failed
+  6    a study finished but some of its points failed (their errors are in study.csv)
+  130  interrupted (Ctrl-C, SIGTERM, SIGHUP; a sweep first stops after its current point
+       and writes the curve so far)";
+
 #[derive(Parser)]
 #[command(
     name = "hbcontact",
     version,
-    about = "Periodic steady-state vibration of 2-D elastic bodies with unilateral contact, by harmonic-balance finite elements"
+    about = "Periodic steady-state vibration of 2-D elastic bodies with unilateral contact, by harmonic-balance finite elements",
+    after_help = EXIT_CODES
 )]
 struct Cli {
     #[command(subcommand)]
@@ -82,8 +96,10 @@ fn run_options(c: &Common) -> RunOptions {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Compute the periodic steady state by harmonic balance and write the results to
-    /// `output.directory` (default `output/<name>`).
+    /// Compute the periodic steady state by harmonic balance, check a contact scene's state for
+    /// stability (by time marching, or Floquet multipliers: `stability.method`;
+    /// `--set stability.check=false` skips it) and write the results to `output.directory`
+    /// (default `output/<name>`).
     #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `output.directory`")))]
     Run(Common),
     /// March in time from rest to the periodic state (the cross-check) and write the results
@@ -92,8 +108,10 @@ enum Command {
     Transient(Common),
     /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
     /// block), written to `<output.directory>/sweep`: sweep.csv, sweep.json, the curve's plots,
-    /// frames.pvd along it and full outputs at the folds, the peak and `sweep.write_at`. Ctrl-C
-    /// stops it after the current point and writes the curve so far.
+    /// frames.pvd along it and full outputs at the folds, the peak and `sweep.write_at`. The
+    /// points' stability is checked on both sides of each fold and every `stability.every`
+    /// points (`--set stability.check=false` skips it). Ctrl-C stops it after the current
+    /// point and writes the curve so far.
     #[command(mut_arg("out", |a| a.help("Write the sweep into DIR instead of `<output.directory>/sweep`")))]
     Sweep {
         #[command(flatten)]

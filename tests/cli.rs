@@ -26,7 +26,8 @@ fn help(args: &[&str]) -> String {
 
 /// TEST GOAL: every subcommand's help speaks of that subcommand only: no option reads
 /// "(`transient`: …)" or "(for `accuracy` …)" elsewhere; `--out` names the folder that
-/// subcommand writes by default; the accuracy table is mentioned by `accuracy` alone.
+/// subcommand writes by default; the accuracy table is mentioned by `accuracy` alone; `run`
+/// and `sweep` say that `stability.check` switches their stability check off.
 #[test]
 fn each_subcommands_help_describes_its_own_options_only() {
     let subcommands = [
@@ -80,6 +81,45 @@ fn each_subcommands_help_describes_its_own_options_only() {
         );
     }
     assert!(help(&["accuracy"]).contains("accuracy table"));
+    for sub in ["run", "sweep"] {
+        assert!(
+            help(&[sub]).contains("stability.check"),
+            "`{sub} --help` does not say how to skip the stability check"
+        );
+    }
+}
+
+/// TEST GOAL: `hbcontact --help` lists every exit code the command can end with (the codes
+/// `Error::exit_code` gives, 0 and 130), one per line.
+#[test]
+fn the_top_level_help_lists_the_exit_codes() {
+    let text = help(&[]);
+    let codes = text
+        .split("Exit codes:")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no exit codes in --help:\n{text}"));
+    for code in ["0", "2", "3", "4", "5", "6", "130"] {
+        assert!(
+            codes
+                .lines()
+                .any(|l| l.trim_start().starts_with(&format!("{code} "))),
+            "exit code {code} not listed:\n{codes}"
+        );
+    }
+    let errors = [
+        hbcontact::Error::Input("x".into()),
+        hbcontact::Error::Model("x".into()),
+        hbcontact::Error::NotConverged("x".into()),
+        hbcontact::Error::io(std::path::Path::new("x"), std::io::Error::other("x")),
+        hbcontact::Error::Interrupted("x".into()),
+    ];
+    for e in errors {
+        let code = format!("{} ", e.exit_code());
+        assert!(
+            codes.lines().any(|l| l.trim_start().starts_with(&code)),
+            "{e:?}'s exit code {code}not listed:\n{codes}"
+        );
+    }
 }
 
 /// TEST GOAL: `check` writes nothing, so it offers no `--out` (nor `--force`): its help lists
