@@ -1,5 +1,11 @@
-//! The command line's `Reporter`: progress bars (indicatif) for long tasks when stderr is a
-//! terminal, plain lines (at most one per task and second) when it is not.
+//! The command line's `Reporter`. Each stage is one line, `[mesh] 0.378 s`, when it ends. Long
+//! tasks (the sweep's frequency, a study's points, the contact Newton, the marching periods)
+//! show as progress bars (indicatif) when stderr is a terminal; otherwise as plain lines, at
+//! most one per second in all, each naming every task under way (`sweep 41: 1402.964 Hz;
+//! factor 3/11: harmonic 2`); a task that a line showed and that ends in a state no line
+//! showed says that last state once (`points 9/9: …`), unless it ran inside another (a
+//! sweep's hundreds of factorizations print nothing of their own). A stage that shows
+//! progress is announced (`[stability]`) before its first line.
 
 use std::collections::HashMap;
 use std::io::IsTerminal;
@@ -9,6 +15,9 @@ use std::time::{Duration, Instant};
 use hbcontact::Reporter;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+/// The shortest time between two progress lines (without a terminal).
+const LINE_INTERVAL: Duration = Duration::from_secs(1);
+
 pub struct Cli {
     bars: Option<MultiProgress>,
     state: Mutex<State>,
@@ -16,8 +25,41 @@ pub struct Cli {
 
 #[derive(Default)]
 struct State {
+    /// Terminal: a bar per task under way, and a spinner for the running stage.
     bars: HashMap<String, ProgressBar>,
-    last_line: HashMap<String, Instant>,
+    stage_bar: Option<ProgressBar>,
+    /// Lines: the tasks under way in the order they started, each with its latest state and
+    /// whether a line showed it.
+    tasks: Vec<Task>,
+    /// The stage started and not yet named on a line.
+    unannounced: Option<String>,
+    /// When the last progress line was printed.
+    last_line: Option<Instant>,
+}
+
+struct Task {
+    name: String,
+    text: String,
+    /// A line showed `text`.
+    shown: bool,
+    /// A line showed this task at all (a task too short for one stays silent to its end).
+    seen: bool,
+}
+
+impl State {
+    /// Print the tasks under way on one line (announcing the stage first).
+    fn print_tasks(&mut self) {
+        if let Some(stage) = self.unannounced.take() {
+            eprintln!("[{stage}]");
+        }
+        let line: Vec<&str> = self.tasks.iter().map(|t| t.text.as_str()).collect();
+        eprintln!("  {}", line.join("; "));
+        for t in &mut self.tasks {
+            t.shown = true;
+            t.seen = true;
+        }
+        self.last_line = Some(Instant::now());
+    }
 }
 
 impl Cli {
@@ -60,14 +102,41 @@ impl Cli {
         bar.enable_steady_tick(Duration::from_millis(200));
         bar
     }
+
+    fn stage_spinner(mp: &MultiProgress, name: &str) -> ProgressBar {
+        let bar = ProgressBar::new_spinner().with_style(
+            ProgressStyle::with_template("[{prefix}] {spinner} {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
+        let bar = mp.insert(0, bar.with_prefix(name.to_string()));
+        bar.enable_steady_tick(Duration::from_millis(200));
+        bar
+    }
 }
 
 impl Reporter for Cli {
     fn stage(&self, name: &str) {
-        self.line(&format!("[{name}]"));
+        let Ok(mut state) = self.state.lock() else {
+            return;
+        };
+        match &self.bars {
+            Some(mp) => {
+                if let Some(old) = state.stage_bar.take() {
+                    old.finish_and_clear();
+                }
+                state.stage_bar = Some(Self::stage_spinner(mp, name));
+            }
+            None => state.unannounced = Some(name.to_string()),
+        }
     }
 
     fn stage_done(&self, name: &str, seconds: f64) {
+        if let Ok(mut state) = self.state.lock() {
+            if let Some(bar) = state.stage_bar.take() {
+                bar.finish_and_clear();
+            }
+            state.unannounced = None;
+        }
         self.line(&format!("[{name}] {seconds:.3} s"));
     }
 
@@ -85,26 +154,46 @@ impl Reporter for Cli {
                 bar.set_message(status.to_string());
             }
             None => {
-                let now = Instant::now();
-                let due = state
-                    .last_line
-                    .get(task)
-                    .is_none_or(|t| now.duration_since(*t) >= Duration::from_secs(1));
+                let of = total.map(|n| format!("/{n}")).unwrap_or_default();
+                let text = match status {
+                    "" => format!("{task} {done}{of}"),
+                    _ => format!("{task} {done}{of}: {status}"),
+                };
+                match state.tasks.iter_mut().find(|t| t.name == task) {
+                    Some(t) => {
+                        t.shown &= t.text == text;
+                        t.text = text;
+                    }
+                    None => state.tasks.push(Task {
+                        name: task.to_string(),
+                        text,
+                        shown: false,
+                        seen: false,
+                    }),
+                }
+                let due = state.last_line.is_none_or(|t| t.elapsed() >= LINE_INTERVAL);
                 if due {
-                    state.last_line.insert(task.to_string(), now);
-                    let of = total.map(|n| format!("/{n}")).unwrap_or_default();
-                    eprintln!("  {task} {done}{of}: {status}");
+                    state.print_tasks();
                 }
             }
         }
     }
 
     fn task_done(&self, task: &str) {
-        if let Ok(mut state) = self.state.lock() {
-            if let Some(bar) = state.bars.remove(task) {
-                bar.finish_and_clear();
-            }
-            state.last_line.remove(task);
+        let Ok(mut state) = self.state.lock() else {
+            return;
+        };
+        if let Some(bar) = state.bars.remove(task) {
+            bar.finish_and_clear();
+        }
+        let Some(i) = state.tasks.iter().position(|t| t.name == task) else {
+            return;
+        };
+        let ended = state.tasks.remove(i);
+        if ended.seen && !ended.shown && state.tasks.is_empty() {
+            state.tasks.push(ended);
+            state.print_tasks();
+            state.tasks.clear();
         }
     }
 

@@ -506,6 +506,7 @@ pub fn newton_until(
             break (!within).then(|| why.to_string());
         }
     };
+    reporter.task_done("contact Newton");
     NewtonOutcome {
         relative_residual: residual.relative(&current),
         multipliers: current.x,

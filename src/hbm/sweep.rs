@@ -558,7 +558,7 @@ impl<'a> Continuation<'a> {
                     return Ok((next, frame, info));
                 }
                 Err(why) if *ds * 0.5 >= self.s.min_step => {
-                    let status = format!("Δs/2: {why}");
+                    let status = format!("from {:.3} Hz, Δs/2: {why}", hz(p.omega));
                     self.reporter.progress("sweep", index as u64, None, &status);
                     *ds *= 0.5;
                 }

@@ -540,7 +540,8 @@ fn spawn_bounded(
     Ok((child, RunningGuard { pgid, ended: false }))
 }
 
-/// gmsh's stdout: each line reported as progress and passed on to the conversation.
+/// gmsh's stdout: each of gmsh's lines reported as progress (the conversation's own answers,
+/// `hbcontact:…`, are not), and every line passed on to the conversation.
 fn read_stdout(
     stdout: Option<std::process::ChildStdout>,
     reporter: &dyn Reporter,
@@ -553,8 +554,10 @@ fn read_stdout(
             .map_while(|l| l.ok())
             .enumerate()
         {
-            let status: String = line.trim().chars().take(100).collect();
-            reporter.progress("gmsh", i as u64 + 1, None, &status);
+            if !line.starts_with("hbcontact:") {
+                let status: String = line.trim().chars().take(100).collect();
+                reporter.progress("gmsh", i as u64 + 1, None, &status);
+            }
             text.push_str(&line);
             text.push('\n');
             let _ = sender.send(line);
