@@ -107,16 +107,17 @@ enum Command {
     #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `<output.directory>-transient`")))]
     Transient(Common),
     /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
-    /// block), written to `<output.directory>/sweep`: sweep.csv, sweep.json, the curve's plots,
+    /// block), written to `<output.directory>-sweep`: sweep.csv, sweep.json, the curve's plots,
     /// frames.pvd along it and full outputs at the folds, the peak and `sweep.write_at`. The
     /// points' stability is checked on both sides of each fold and every `stability.every`
     /// points (`--set stability.check=false` skips it). Ctrl-C stops it after the current
     /// point and writes the curve so far.
-    #[command(mut_arg("out", |a| a.help("Write the sweep into DIR instead of `<output.directory>/sweep`")))]
+    #[command(mut_arg("out", |a| a.help("Write the sweep into DIR instead of `<output.directory>-sweep` (`--resume`: continue the one in DIR)")))]
     Sweep {
         #[command(flatten)]
         common: Common,
-        /// Continue the sweep saved in the output directory from its last point.
+        /// Continue the sweep saved in the output folder from its last point (give the same
+        /// pipeline, `--set` and `--out` as the sweep it continues).
         #[arg(long)]
         resume: bool,
     },

@@ -57,7 +57,7 @@ fn each_subcommands_help_describes_its_own_options_only() {
     let out_default = [
         ("run", "`output.directory`"),
         ("transient", "`<output.directory>-transient`"),
-        ("sweep", "`<output.directory>/sweep`"),
+        ("sweep", "`<output.directory>-sweep`"),
         ("modes", "`<output.directory>-modes`"),
         ("accuracy", "`<output.directory>-accuracy`"),
     ];

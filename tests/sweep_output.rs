@@ -572,3 +572,65 @@ fn an_interrupted_sweep_writes_the_curve_so_far_and_resumes() {
     assert_eq!(&after[..rows.len()], &rows[..]);
     assert_eq!(resumed["stopped"]["class"], "max_points");
 }
+
+/// `hbcontact sweep SCENE --quiet` with RANGE, the sweep's own `sets` and `args`, into
+/// `--out out` when given.
+fn sweep_into(out: Option<&Path>, sets: &[&str], args: &[&str]) -> Output {
+    let mut all = vec!["sweep", SCENE, "--quiet"];
+    if let Some(out) = out {
+        all.extend(["--out", out.to_str().unwrap()]);
+    }
+    for s in RANGE.iter().chain(sets) {
+        all.extend(["--set", s]);
+    }
+    all.extend(args);
+    common::hbcontact(&all)
+}
+
+/// The entries of a folder, sorted.
+fn entries(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    names.sort();
+    names
+}
+
+fn row_count(dir: &Path) -> usize {
+    common::read_json(&dir.join("sweep.json"))["rows"]
+        .as_array()
+        .unwrap()
+        .len()
+}
+
+/// TEST GOAL: one layout with and without `--out` (issue #50): `sweep` writes
+/// `<output.directory>-sweep/` beside the run's folder (as `transient` writes `-transient`,
+/// and making no run folder), `--out DIR` writes the same entries into DIR itself, and
+/// `--resume` continues the sweep in the folder so named, leaving the other alone.
+#[test]
+fn a_sweep_writes_output_directory_sweep_or_the_out_folder_with_the_same_entries() {
+    let base = common::temp_out("sweep-output-layout");
+    let directory = format!("output.directory={}", base.join("scene").display());
+    let by_default = base.join("scene-sweep");
+    let named = base.join("named");
+    let ten = [directory.as_str(), "sweep.max_points=10"];
+    assert_exit(&sweep_into(None, &ten, &[]), 0, "the sweep without --out");
+    assert_exit(
+        &sweep_into(Some(&named), &ten, &[]),
+        0,
+        "the sweep with --out",
+    );
+    assert!(!base.join("scene").exists(), "no run folder, no nesting");
+    assert!(entries(&by_default).contains(&"sweep.json".to_string()));
+    assert_eq!(entries(&by_default), entries(&named));
+
+    let twelve = [directory.as_str(), "sweep.max_points=12"];
+    let o = sweep_into(None, &twelve, &["--resume"]);
+    assert_exit(&o, 0, "the resume without --out");
+    assert_eq!(row_count(&by_default), 12);
+    assert_eq!(row_count(&named), 10, "the other folder is left alone");
+    let o = sweep_into(Some(&named), &twelve, &["--resume"]);
+    assert_exit(&o, 0, "the resume with --out");
+    assert_eq!(row_count(&named), 12);
+}

@@ -533,8 +533,10 @@ enum RawField {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Output")]
 struct RawOutput {
-    /// The results directory (relative to the working directory); `hbcontact transient`
-    /// appends `-transient`; `--out` overrides it. Default: `output/<name>`.
+    /// The results directory of `hbcontact run` (relative to the working directory);
+    /// `transient`, `sweep`, `modes` and `accuracy` write beside it, appending `-transient`,
+    /// `-sweep`, `-modes` and `-accuracy`; a command's `--out` names its folder instead.
+    /// Default: `output/<name>`.
     #[serde(default)]
     directory: Option<PathBuf>,
     /// Snapshots written over one period (also the transient's samples per period), ≥ 1.

@@ -1,5 +1,5 @@
 //! `hbcontact sweep`: a frequency-response curve of a pipeline's scene, by the continuation of
-//! `hbm::sweep`, written as `<output.directory>/sweep/` (staged, then committed):
+//! `hbm::sweep`, written as `<output.directory>-sweep/` or `--out` (staged, then committed):
 //! - `sweep.csv` (one row per point: frequency, the outputs, how the point was found) and
 //!   `sweep.json` (the typed `SweepSummary`: folds, why it stopped, what `--resume` needs);
 //! - `sweep.svg`/`.png` and (contact scenes) `sweep_force.svg`/`.png`: the curves (`plot`);
@@ -188,12 +188,14 @@ pub struct SweepResult {
     pub failure: Option<Error>,
 }
 
-/// The sweep's output directory: `<output.directory>/sweep`, or `--out`.
+/// The sweep's output directory: `--out`, else `output.directory` with `-sweep` appended
+/// (`output/<name>-sweep`), beside the run's as `transient` and `modes` write theirs.
 pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
-    options
-        .out
-        .clone()
-        .unwrap_or_else(|| p.output.directory.join("sweep"))
+    options.out.clone().unwrap_or_else(|| {
+        let mut d = p.output.directory.clone().into_os_string();
+        d.push("-sweep");
+        PathBuf::from(d)
+    })
 }
 
 static RUNNING: AtomicBool = AtomicBool::new(false);
