@@ -558,6 +558,11 @@ fn an_interrupted_sweep_writes_the_curve_so_far_and_resumes() {
     let last = rows.last().unwrap();
     println!("interrupted after {} rows: {}", rows.len(), json["stopped"]);
     assert_eq!(json["stopped"]["class"], "interrupted");
+    let reason = json["stopped"]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains(&format!("--out {} --resume`", out.display())),
+        "the hint resumes this folder: {reason}"
+    );
     assert_eq!(json["stopped"]["point"], last["index"]);
     assert!(rows.len() >= 5 && rows.len() < 200, "{}", rows.len());
     assert_eq!(read_csv(&out.join("sweep.csv")).len(), rows.len());
@@ -633,4 +638,64 @@ fn a_sweep_writes_output_directory_sweep_or_the_out_folder_with_the_same_entries
     let o = sweep_into(Some(&named), &twelve, &["--resume"]);
     assert_exit(&o, 0, "the resume with --out");
     assert_eq!(row_count(&named), 12);
+}
+
+/// TEST GOAL: a sweep that stops short prints (stdout, and sweep.json's `stopped.reason`) the
+/// command that continues it, repeating the `--set` arguments and `--out DIR` (issue #50:
+/// the hint used to omit `--out` and so resumed another folder); run by a shell as printed,
+/// with the budget raised, it continues the sweep in DIR.
+#[test]
+fn the_resume_hint_of_a_stopped_sweep_repeats_out_and_set_and_resumes_that_folder() {
+    let out = common::temp_out("sweep-output-hint");
+    let o = Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .args(["sweep", SCENE, "--out", out.to_str().unwrap()])
+        .args(RANGE.iter().flat_map(|s| ["--set", s]))
+        .args(["--set", "sweep.max_points=10"])
+        .current_dir(common::root())
+        .output()
+        .unwrap();
+    assert_exit(&o, 0, "the sweep stopped by max_points");
+    let reason = common::read_json(&out.join("sweep.json"))["stopped"]["reason"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let command = reason
+        .split('`')
+        .nth(1)
+        .unwrap_or_else(|| panic!("no `command` in: {reason}"));
+    println!("{command}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains(command), "stdout lacks the hint: {stdout}");
+    assert!(command.starts_with("hbcontact sweep pipelines/strip_sweep.yaml "));
+    assert!(command.ends_with(" --resume"), "{command}");
+    assert!(
+        command.contains(&format!("--out {}", out.display())),
+        "{command}"
+    );
+    for s in RANGE.iter().chain(&["sweep.max_points=10"]) {
+        assert!(
+            command.contains(&format!("--set {s}")) || command.contains(&format!("--set '{s}'")),
+            "--set {s} missing: {command}"
+        );
+    }
+
+    let bin = Path::new(env!("CARGO_BIN_EXE_hbcontact")).parent().unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let resumed = Command::new("sh")
+        .args([
+            "-c",
+            &format!("{command} --quiet --set sweep.max_points=13"),
+        ])
+        .env("PATH", path)
+        .current_dir(common::root())
+        .output()
+        .unwrap();
+    assert_exit(&resumed, 0, "the printed command");
+    let json = common::read_json(&out.join("sweep.json"));
+    assert_eq!(json["rows"].as_array().unwrap().len(), 13);
+    assert_eq!(json["resumed_from"], serde_json::json!([9]));
 }

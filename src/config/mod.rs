@@ -17,6 +17,8 @@ pub struct Pipeline {
     pub name: String,
     /// The YAML file it came from (for messages).
     pub source: PathBuf,
+    /// The `--set KEY=VALUE` overrides applied to it, in order (for the commands hints repeat).
+    pub overrides: Vec<String>,
     pub geometry: Geometry,
     pub material: MaterialSpec,
     pub boundaries: Boundaries,

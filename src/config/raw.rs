@@ -811,7 +811,9 @@ pub fn parse_pipeline(path: &Path, text: &str, overrides: &[String]) -> Result<P
             }
         }
     };
-    validate(path, raw)
+    let mut pipeline = validate(path, raw)?;
+    pipeline.overrides = overrides.to_vec();
+    Ok(pipeline)
 }
 
 fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
@@ -880,6 +882,7 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let pipeline = Pipeline {
         name: raw.name,
         source: path.to_path_buf(),
+        overrides: Vec::new(),
         geometry,
         material,
         boundaries,

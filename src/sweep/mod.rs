@@ -429,8 +429,8 @@ fn stop_report(
 ) -> Option<Stopped> {
     let last = writer.rows.last()?;
     let resume_hint = format!(
-        "`hbcontact sweep {} --resume` continues from here into {}",
-        p.source.display(),
+        "`{}` continues from here into {}",
+        resume::command(p, out),
         out.display()
     );
     let (class, reason) = match failure {

@@ -53,6 +53,44 @@ pub struct Saved {
     pub resume: Option<ContinuationState>,
 }
 
+/// The command that continues the sweep written to `out`, as the hints of a stopped sweep
+/// print it: the pipeline, its `--set` overrides in order, `--out` where `out` is not the
+/// default folder, `--trust-geometry` where it was given, then `--resume`; each word quoted
+/// for a POSIX shell where it needs it.
+pub fn command(p: &Pipeline, out: &Path) -> String {
+    let mut words = vec![
+        "hbcontact".to_string(),
+        "sweep".to_string(),
+        p.source.display().to_string(),
+    ];
+    for o in &p.overrides {
+        words.extend(["--set".to_string(), o.clone()]);
+    }
+    if out != super::output_dir(p, &crate::pipeline::RunOptions::default()) {
+        words.extend(["--out".to_string(), out.display().to_string()]);
+    }
+    if p.geometry.trusted {
+        words.push("--trust-geometry".to_string());
+    }
+    words.push("--resume".to_string());
+    let quoted: Vec<String> = words.iter().map(|w| shell_word(w)).collect();
+    quoted.join(" ")
+}
+
+/// `word` as a POSIX shell reads it back: as is when it holds only characters no shell
+/// treats specially, else in single quotes (a quote inside as `'\''`).
+fn shell_word(word: &str) -> String {
+    let plain = !word.is_empty()
+        && word
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-./=:,+@%".contains(c));
+    if plain {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
+}
+
 /// The largest sweep.json read back: 64 MiB holds a sweep of `MAX_SWEEP_POINTS` rows and
 /// the multipliers of thousands of contact nodes at a thousand harmonics.
 pub const MAX_FILE_BYTES: u64 = 64 << 20;
