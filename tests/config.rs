@@ -435,3 +435,524 @@ fn geometry_file_is_found_beside_the_pipeline_its_parent_or_the_working_director
     assert!(e.contains(&tried), "{tried} not in: {e}");
     assert!(e.contains("working directory"), "{e}");
 }
+
+/// The pipeline every bound is tried on: a sweep with contact, damping and loads.
+const BOUNDS_BASE: &str = "pipelines/strip_sweep.yaml";
+
+/// Overrides that give a key a place to live in `BOUNDS_BASE` (a list entry, an obstacle or
+/// basis variant, a start to perturb), applied to every key under the prefix.
+const BOUNDS_SETUP: &[(&str, &[&str])] = &[
+    (
+        "boundaries.prescribed",
+        &["boundaries.prescribed=[{group: drive, component: x, static: 0.0, harmonics: [{k: 1, cos: 0.0, sin: 0.0}]}]"],
+    ),
+    ("boundaries.loads.static", &["boundaries.loads.0.static=[0.0, 0.0]"]),
+    (
+        "contact.obstacle.line",
+        &["contact.obstacle={line: {point: [0.0, 0.0], normal: [-1.0, 0.0]}}"],
+    ),
+    (
+        "contact.obstacle.circle",
+        &["contact.obstacle={circle: {center: [0.0, 0.0], radius: 1.0}}"],
+    ),
+    (
+        "harmonic_balance.basis.spline",
+        &["harmonic_balance.basis={spline: {degree: 3, segments: 33}}"],
+    ),
+    ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
+    ("transient.perturbation", &["transient.start=harmonic_balance"]),
+];
+
+/// Other keys a value just inside a bound needs to be valid as a whole (a step of 1 needs a
+/// max_step of 1, 100000 spline segments are even and a sweep with contact takes odd ones).
+const BOUNDS_INSIDE_COMPANIONS: &[(&str, &[&str])] = &[
+    ("sweep.step", &["sweep.max_step=1.0", "sweep.min_step=1e-9"]),
+    ("output.max_frames", &["output.frames=1"]),
+    ("harmonic_balance.basis.spline.segments", &["sweep=null"]),
+    (
+        "boundaries.loads.harmonics.k",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+    (
+        "boundaries.prescribed.harmonics.k",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+];
+
+/// Bounds stated relative to other keys (the doc comment's phrase, from its operator) and the
+/// overrides that break each.
+const BOUNDS_RELATIONAL: &[(&str, &str, &[&str])] = &[
+    (
+        "harmonic_balance.harmonics",
+        "≥ every harmonic",
+        &["harmonic_balance.harmonics=0"],
+    ),
+    (
+        "harmonic_balance.samples",
+        "> 2·harmonics",
+        &["harmonic_balance.samples=20"],
+    ),
+    (
+        "harmonic_balance.basis.spline.segments",
+        "≥ degree + 1",
+        &["harmonic_balance.basis.spline.segments=3"],
+    ),
+    (
+        "harmonic_balance.basis.spline.segments",
+        "> 2 × the highest harmonic",
+        &[
+            "harmonic_balance.basis.spline.degree=2",
+            "harmonic_balance.basis.spline.segments=3",
+            "boundaries.loads.0.harmonics.0.k=2",
+        ],
+    ),
+    ("sweep.to", "≠ from", &["sweep.to=1000.0"]),
+    ("sweep.max_step", "≥ step", &["sweep.max_step=0.005"]),
+    (
+        "boundaries.loads.harmonics.k",
+        "at most once",
+        &["boundaries.loads.0.harmonics=[{k: 1}, {k: 1}]"],
+    ),
+    (
+        "boundaries.prescribed.harmonics.k",
+        "at most once",
+        &["boundaries.prescribed.0.harmonics=[{k: 1}, {k: 1}]"],
+    ),
+];
+
+/// A numeric leaf of the pipeline schema: its key (`a.b.c`), its `--set` path (list entries as
+/// `.0`), whether it is an integer, its description and the schema's own range.
+struct NumericKey {
+    key: String,
+    set_path: String,
+    integer: bool,
+    description: String,
+    minimum: Option<f64>,
+    maximum: Option<f64>,
+}
+
+/// Every numeric key of the schema, following `$ref`, `allOf`/`anyOf`/`oneOf` and `items`;
+/// maps with free keys (`geometry.parameters`) are skipped (their values are only finite).
+fn numeric_keys(
+    schema: &serde_json::Value,
+    definitions: &serde_json::Value,
+    key: &str,
+    set_path: &str,
+    description: Option<&str>,
+    out: &mut Vec<NumericKey>,
+) {
+    use serde_json::Value;
+    let Some(object) = schema.as_object() else {
+        return;
+    };
+    let description = object
+        .get("description")
+        .and_then(Value::as_str)
+        .or(description);
+    if let Some(reference) = object.get("$ref").and_then(Value::as_str) {
+        let name = reference.rsplit('/').next().unwrap_or_default();
+        let target = definitions
+            .get(name)
+            .unwrap_or_else(|| panic!("unresolved $ref {reference}"));
+        numeric_keys(target, definitions, key, set_path, description, out);
+    }
+    for combinator in ["allOf", "anyOf", "oneOf"] {
+        for sub in object
+            .get(combinator)
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            numeric_keys(sub, definitions, key, set_path, description, out);
+        }
+    }
+    if let Some(items) = object.get("items") {
+        numeric_keys(
+            items,
+            definitions,
+            key,
+            &format!("{set_path}.0"),
+            description,
+            out,
+        );
+    }
+    if let Some(properties) = object.get("properties").and_then(Value::as_object) {
+        for (name, sub) in properties {
+            let join = |prefix: &str| {
+                if prefix.is_empty() {
+                    name.clone()
+                } else {
+                    format!("{prefix}.{name}")
+                }
+            };
+            numeric_keys(sub, definitions, &join(key), &join(set_path), None, out);
+        }
+    }
+    let types: Vec<&str> = match object.get("type") {
+        Some(Value::String(t)) => vec![t.as_str()],
+        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => Vec::new(),
+    };
+    let integer = types.contains(&"integer");
+    if (integer || types.contains(&"number")) && !out.iter().any(|k| k.set_path == set_path) {
+        out.push(NumericKey {
+            key: key.to_string(),
+            set_path: set_path.to_string(),
+            integer,
+            description: description.unwrap_or_default().to_string(),
+            minimum: object.get("minimum").and_then(Value::as_f64),
+            maximum: object.get("maximum").and_then(Value::as_f64),
+        });
+    }
+}
+
+/// A bound a doc comment states: the limit and whether it is allowed.
+#[derive(Clone, Copy, Debug)]
+enum Bound {
+    Lower(f64, bool),
+    Upper(f64, bool),
+}
+
+/// The number at the start of `text` if what follows it ends the bound (`> 0,`, `≥ 1 and`,
+/// `at most 1e9 (…)`), not if it starts an expression (`> 2·harmonics`, `> 2 × …`).
+fn leading_number(text: &str) -> Option<(f64, usize)> {
+    let end = text
+        .find(|c: char| !(c.is_ascii_digit() || "eE+-.".contains(c)))
+        .unwrap_or(text.len());
+    // A full stop after the number ends the sentence.
+    let end = text[..end].trim_end_matches('.').len();
+    let value: f64 = text[..end].parse().ok()?;
+    let rest = text[end..].trim_start();
+    let ends = rest.is_empty()
+        || rest.starts_with([',', ';', ')', ':', '.', '('])
+        || rest.starts_with("and ");
+    ends.then_some((value, end))
+}
+
+/// The bounds stated before `Default:` in a description, and the phrases, from their operator
+/// on, that compare with something other than a number (`≥ step`, `≠ from`).
+fn stated_bounds(description: &str) -> (Vec<Bound>, Vec<String>) {
+    let text = description.split_whitespace().collect::<Vec<_>>().join(" ");
+    let text = text.replace('−', "-");
+    let text = text.split("Default:").next().unwrap_or_default();
+    // Code spans (`points/at_<f>Hz/`) are names, not bounds.
+    let mut text: String = text
+        .split('`')
+        .enumerate()
+        .map(|(i, part)| if i % 2 == 0 { part } else { "code" })
+        .collect::<Vec<_>>()
+        .join("");
+    let mut bounds = Vec::new();
+    let blank = |text: &mut String, start: usize, end: usize| {
+        text.replace_range(start..end, &" ".repeat(end - start));
+    };
+    // Intervals `in (a, b]`.
+    while let Some(start) = text.find("in (").or_else(|| text.find("in [")) {
+        let open = text.as_bytes()[start + 3];
+        let body_end = text[start..]
+            .find([')', ']'])
+            .map(|i| start + i)
+            .unwrap_or_else(|| panic!("an unclosed interval in {description:?}"));
+        let close = text.as_bytes()[body_end];
+        let (a, b) = text[start + 4..body_end]
+            .split_once(',')
+            .unwrap_or_else(|| panic!("an interval without a comma in {description:?}"));
+        let (a, b): (f64, f64) = match (a.trim().parse(), b.trim().parse()) {
+            (Ok(a), Ok(b)) => (a, b),
+            _ => panic!("an interval of non-numbers in {description:?}"),
+        };
+        bounds.push(Bound::Lower(a, open == b'['));
+        bounds.push(Bound::Upper(b, close == b']'));
+        blank(&mut text, start, body_end + 1);
+    }
+    // `|·| ≤ x`.
+    while let Some(start) = text.find("|·| ≤ ") {
+        let after = start + "|·| ≤ ".len();
+        let (x, len) = leading_number(&text[after..])
+            .unwrap_or_else(|| panic!("|·| ≤ without a number in {description:?}"));
+        bounds.push(Bound::Lower(-x, true));
+        bounds.push(Bound::Upper(x, true));
+        blank(&mut text, start, after + len);
+    }
+    // Integer ranges `2 … 7`.
+    while let Some(mid) = text.find(" … ") {
+        let start = text[..mid].rfind(' ').map_or(0, |i| i + 1);
+        let after = mid + " … ".len();
+        let a: f64 = text[start..mid]
+            .parse()
+            .unwrap_or_else(|_| panic!("a range of non-numbers in {description:?}"));
+        let (b, len) = leading_number(&text[after..])
+            .unwrap_or_else(|| panic!("a range of non-numbers in {description:?}"));
+        bounds.push(Bound::Lower(a, true));
+        bounds.push(Bound::Upper(b, true));
+        blank(&mut text, start, after + len);
+    }
+    // Comparisons.
+    let mut relational = Vec::new();
+    let operators = ["≥", ">", "≤", "<", "≠", "at least", "at most"];
+    let mut at = 0;
+    while let Some((start, op)) = operators
+        .iter()
+        .filter_map(|op| text[at..].find(op).map(|i| (at + i, *op)))
+        .min_by_key(|(i, _)| *i)
+    {
+        let after = start + op.len();
+        let number = leading_number(text[after..].trim_start()).map(|(x, len)| {
+            (
+                x,
+                after + (text[after..].len() - text[after..].trim_start().len()) + len,
+            )
+        });
+        match (op, number) {
+            ("≥" | "at least", Some((x, end))) => {
+                bounds.push(Bound::Lower(x, true));
+                at = end;
+            }
+            (">", Some((x, end))) => {
+                bounds.push(Bound::Lower(x, false));
+                at = end;
+            }
+            ("≤" | "at most", Some((x, end))) => {
+                bounds.push(Bound::Upper(x, true));
+                at = end;
+            }
+            ("<", Some((x, end))) => {
+                bounds.push(Bound::Upper(x, false));
+                at = end;
+            }
+            _ => {
+                relational.push(text[start..].to_string());
+                at = after;
+            }
+        }
+    }
+    (bounds, relational)
+}
+
+/// A value as `--set` writes it: an integer, or a float in exponent form.
+fn yaml_number(x: f64, integer: bool) -> String {
+    if integer {
+        format!("{}", x as i64)
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// The value just outside a bound and the one at or just inside it.
+fn outside_and_inside(bound: Bound, integer: bool) -> (f64, f64) {
+    let step = if integer {
+        1.0
+    } else if bound_value(bound) == 0.0 {
+        1e-9
+    } else {
+        1e-6 * bound_value(bound).abs()
+    };
+    match bound {
+        Bound::Lower(x, true) => (x - step, x),
+        Bound::Lower(x, false) => (x, x + step),
+        Bound::Upper(x, true) => (x + step, x),
+        Bound::Upper(x, false) => (x, x - step),
+    }
+}
+
+fn bound_value(bound: Bound) -> f64 {
+    match bound {
+        Bound::Lower(x, _) | Bound::Upper(x, _) => x,
+    }
+}
+
+/// `load_pipeline` of `BOUNDS_BASE` with the key's setup and `sets`.
+fn load_with(key: &str, sets: &[String]) -> Result<hbcontact::config::Pipeline, String> {
+    let mut overrides: Vec<String> = BOUNDS_SETUP
+        .iter()
+        .filter(|(prefix, _)| key.starts_with(prefix))
+        .flat_map(|(_, s)| s.iter().map(|s| s.to_string()))
+        .collect();
+    overrides.extend(sets.iter().cloned());
+    load_pipeline(&root().join(BOUNDS_BASE), &overrides).map_err(|e| e.to_string())
+}
+
+/// The message with list indices and harmonic labels taken out, so that
+/// `boundaries.loads[0].harmonics (k = 1).cos[0]` reads `boundaries.loads.harmonics.cos`.
+fn without_indices(message: &str) -> String {
+    let mut out = String::new();
+    let mut rest = message;
+    while !rest.is_empty() {
+        if let Some(tail) = rest.strip_prefix('[') {
+            if let Some(close) = tail.find(']') {
+                if tail[..close].chars().all(|c| c.is_ascii_digit()) && close > 0 {
+                    rest = &tail[close + 1..];
+                    continue;
+                }
+            }
+        }
+        if let Some(tail) = rest.strip_prefix(" (k = ") {
+            if let Some(close) = tail.find(')') {
+                if tail[..close].chars().all(|c| c.is_ascii_digit()) {
+                    rest = &tail[close + 1..];
+                    continue;
+                }
+            }
+        }
+        let c = rest.chars().next().unwrap_or_default();
+        out.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    out
+}
+
+/// Refused, in a message that names the pipeline file and the key.
+fn assert_refused_naming(key: &str, sets: &[String], claim: &str) {
+    match load_with(key, sets) {
+        Ok(_) => panic!("{key}: {sets:?} is accepted, but {claim}"),
+        Err(message) => {
+            assert!(
+                message.contains("strip_sweep.yaml") && without_indices(&message).contains(key),
+                "{key}: {sets:?} ({claim}) is refused, but the message does not name the file and the key: {message}"
+            );
+        }
+    }
+}
+
+/// TEST GOAL: every numeric key holds the bounds its documentation states (issue #46). The
+/// pipeline schema is walked; for every number or integer key, each bound its description
+/// states before `Default:` (`> 0`, `≥ 1`, `in (0, 1e-2]`, `in [1e-3, 1e3]`, `|·| ≤ 1`,
+/// `2 … 7`, `at most 1e9`) and the schema's own `minimum`/`maximum` are tried: a value just
+/// outside is refused naming the file and the key, the value at or just inside is accepted.
+/// Bounds relative to other keys (`≥ step`, `≠ from`) are tried from a table, which must match
+/// the descriptions exactly; and every floating key refuses ±inf, NaN and ±1e31. Before, an
+/// infinite `geometry.max_aspect_ratio`, `sweep.from = 1e29`, `stability.every = 0`,
+/// `solver.tolerance = 1e29` and `solver.c_scale = 1e29` were all taken.
+#[test]
+fn every_numeric_key_holds_the_bounds_its_documentation_states() {
+    let schema = hbcontact::config::pipeline_schema();
+    let definitions = schema
+        .get("definitions")
+        .cloned()
+        .unwrap_or(serde_json::Value::Null);
+    let mut keys = Vec::new();
+    numeric_keys(&schema, &definitions, "", "", None, &mut keys);
+    let names: Vec<&str> = keys.iter().map(|k| k.key.as_str()).collect();
+    for expected in [
+        "geometry.max_aspect_ratio",
+        "harmonic_balance.solver.c_scale",
+        "harmonic_balance.basis.spline.degree",
+        "contact.obstacle.circle.radius",
+        "boundaries.loads.harmonics.k",
+        "sweep.write_at",
+        "stability.every",
+    ] {
+        assert!(
+            names.contains(&expected),
+            "the walk missed {expected}: {names:?}"
+        );
+    }
+    let mut relational_used = vec![false; BOUNDS_RELATIONAL.len()];
+    let mut tried = 0;
+    for k in &keys {
+        let (mut bounds, relational) = stated_bounds(&k.description);
+        if k.integer {
+            // An unsigned type's `minimum: 0` is the type's, not a documented bound.
+            bounds.extend(
+                k.minimum
+                    .filter(|&m| m > 0.0)
+                    .map(|m| Bound::Lower(m, true)),
+            );
+            bounds.extend(k.maximum.map(|m| Bound::Upper(m, true)));
+        }
+        for bound in bounds {
+            let (outside, inside) = outside_and_inside(bound, k.integer);
+            if k.integer && outside < 0.0 {
+                continue; // an unsigned type refuses it before any check
+            }
+            let set = |x: f64| format!("{}={}", k.set_path, yaml_number(x, k.integer));
+            assert_refused_naming(
+                &k.key,
+                &[set(outside)],
+                &format!("the doc states {bound:?}"),
+            );
+            let mut sets: Vec<String> = BOUNDS_INSIDE_COMPANIONS
+                .iter()
+                .filter(|(key, _)| *key == k.key)
+                .flat_map(|(_, s)| s.iter().map(|s| s.to_string()))
+                .collect();
+            sets.push(set(inside));
+            if let Err(e) = load_with(&k.key, &sets) {
+                panic!("{}: {sets:?} is within {bound:?} but refused: {e}", k.key);
+            }
+            tried += 1;
+        }
+        for phrase in relational {
+            let Some(i) = BOUNDS_RELATIONAL
+                .iter()
+                .position(|(key, start, _)| *key == k.key && phrase.starts_with(start))
+            else {
+                panic!(
+                    "{}: the description states {phrase:?}, which is neither a number nor in BOUNDS_RELATIONAL",
+                    k.key
+                );
+            };
+            relational_used[i] = true;
+            let sets: Vec<String> = BOUNDS_RELATIONAL[i]
+                .2
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+            assert_refused_naming(&k.key, &sets, &format!("the doc states {phrase:?}"));
+            tried += 1;
+        }
+        if !k.integer {
+            for bad in [".inf", "-.inf", ".nan", "1e31", "-1e31"] {
+                let sets = [format!("{}={bad}", k.set_path)];
+                assert_refused_naming(&k.key, &sets, "numbers are finite and at most 1e30");
+            }
+        }
+    }
+    for (used, (key, phrase, _)) in relational_used.iter().zip(BOUNDS_RELATIONAL) {
+        assert!(
+            used,
+            "BOUNDS_RELATIONAL names {key} {phrase:?}, which no description states"
+        );
+    }
+    eprintln!("{tried} bounds tried on {} numeric keys", keys.len());
+    assert!(tried >= 50, "only {tried} bounds tried");
+}
+
+/// TEST GOAL: the documented bounds that were not enforced are refused by `check` with exit
+/// code 2, naming the file and the key: an infinite `geometry.max_aspect_ratio`, a sweep from
+/// 1e29 Hz, `stability.every = 0`, a contact tolerance of 1e29 (it stopped after one Newton
+/// iteration, 7% off) and `c_scale = 1e29` (contact force 0).
+#[test]
+fn documented_bounds_that_ran_before_are_refused_by_check() {
+    let cases: [(&str, &str); 6] = [
+        (
+            "geometry.max_aspect_ratio=.inf",
+            "geometry.max_aspect_ratio = inf must be a finite number of at least 1",
+        ),
+        (
+            "sweep={from: 1e29, to: 1800.0}",
+            "sweep.from = 1e29 Hz is above 1e9 Hz",
+        ),
+        ("stability.every=0", "stability.every = 0: give at least 1"),
+        (
+            "harmonic_balance.solver.tolerance=1e29",
+            "harmonic_balance.solver.tolerance = 1e29 is above 1e-2",
+        ),
+        (
+            "harmonic_balance.solver.c_scale=1e29",
+            "harmonic_balance.solver.c_scale = 1e29 must lie in [1e-3, 1e3]",
+        ),
+        (
+            "harmonic_balance.solver.tolerance=0.011",
+            "harmonic_balance.solver.tolerance = 0.011 is above 1e-2",
+        ),
+    ];
+    for (set, named) in cases {
+        let (code, err) = check(&[set]);
+        assert_eq!(code, Some(2), "{set}: {err}");
+        assert!(
+            err.contains(named) && err.contains("strip_wall.yaml"),
+            "{set}: {err}"
+        );
+    }
+}

@@ -90,17 +90,17 @@ struct RawGeometry {
     #[serde(default)]
     gmsh: Option<PathBuf>,
     /// Refuse to mesh when the estimated number of elements exceeds this (the estimate comes
-    /// from gmsh on a coarsened mesh, before the real one). Default: 2000000.
+    /// from gmsh on a coarsened mesh, before the real one), ≥ 1. Default: 2000000.
     #[serde(default)]
     #[schemars(range(min = 1))]
     max_elements: Option<u64>,
-    /// Time limit of one gmsh run, in seconds, > 0: gmsh (with its process group) is killed
-    /// beyond it. Default: 600.
+    /// Time limit of one gmsh run, in seconds, > 0 and at most 1e7: gmsh (with its process
+    /// group) is killed beyond it. Default: 600.
     #[serde(default)]
     gmsh_timeout: Option<f64>,
     /// Refuse a mesh with a cell whose aspect ratio (longest edge² over the area, halved for
-    /// triangles: a/b for an a × b rectangle or its halves) exceeds this, ≥ 1; above 20 a run
-    /// warns. Default: 1000.
+    /// triangles: a/b for an a × b rectangle or its halves) exceeds this, ≥ 1 and finite;
+    /// above 20 a run warns. Default: 1000.
     #[serde(default)]
     max_aspect_ratio: Option<f64>,
     /// Accept a mesh whose cells form several disconnected parts (each then needs its own
@@ -264,8 +264,9 @@ struct RawDamping {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Solver")]
 struct RawSolver {
-    /// Relative tolerance on the complementarity residual (‖R‖∞ over the force scale), > 0.
-    /// Default: 1e-8.
+    /// Relative tolerance on the complementarity residual (‖R‖∞ over the force scale), in
+    /// (0, 1e-2]: a looser one stops Newton before the contact forces mean anything (at 1e29
+    /// after one iteration, 2% off). Default: 1e-8.
     #[serde(default)]
     tolerance: Option<f64>,
     /// Iteration limit of each Newton run (direct, each ladder rung, each c; a smoothing level
@@ -273,7 +274,8 @@ struct RawSolver {
     #[serde(default)]
     max_iterations: Option<usize>,
     /// The complementarity parameter c as a multiple of 1/mean|G_0,ii| (the inverse of the
-    /// contact nodes' mean static compliance), > 0. Default: 1.
+    /// contact nodes' mean static compliance), in [1e-3, 1e3] (the six orders over which the
+    /// answer is the same; beyond, the residual's scale hides an unconverged state). Default: 1.
     #[serde(default)]
     c_scale: Option<f64>,
     /// Wall-time budget of the whole contact solve (every attempt), in seconds, > 0: beyond it
@@ -287,14 +289,16 @@ struct RawSolver {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "HarmonicBalance")]
 struct RawHarmonicBalance {
-    /// The fundamental frequency f, in Hz (ω = 2πf, period 1/f), > 0. Required.
+    /// The fundamental frequency f, in Hz (ω = 2πf, period 1/f), > 0 and at most 1e9.
+    /// Required.
     frequency: f64,
-    /// The highest harmonic H of the contact solve (≥ every harmonic the loads excite).
-    /// Linear scenes solve the harmonics their loads excite. Required.
+    /// The highest harmonic H of the contact solve (≥ every harmonic the loads excite), at
+    /// most 1000. Linear scenes solve the harmonics their loads excite. Required.
     harmonics: usize,
-    /// Time samples N per period for the contact terms, > 2·harmonics. Default: 16·H, at
-    /// least 64 (1 for H = 0). With a spline basis: a multiple of its segments S with at
-    /// least degree + 1 per segment (Gauss points in each segment); default 8·S.
+    /// Time samples N per period for the contact terms, > 2·harmonics, at most 1000000.
+    /// Default: 16·H, at least 64 (1 for H = 0). With a spline basis: a multiple of its
+    /// segments S with at least degree + 1 per segment (Gauss points in each segment); default
+    /// 8·S.
     #[serde(default)]
     samples: Option<usize>,
     /// The contact solver's settings. Default: each key's default.
@@ -324,7 +328,7 @@ enum RawBasis {
         #[serde(default)]
         degree: Option<usize>,
         /// The number S of uniform segments per period (S unknowns per scalar), ≥ degree + 1
-        /// and > 2 × the highest harmonic a load or motion excites. Required.
+        /// and > 2 × the highest harmonic a load or motion excites, at most 100000. Required.
         segments: usize,
     },
 }
@@ -399,7 +403,8 @@ struct RawContact {
 #[schemars(rename = "Transient")]
 struct RawTransient {
     /// Stop when the state at the start of two successive periods differs by less than this
-    /// (relative), > 0. Default: 1e-6.
+    /// (relative), in (0, 1e-2]: a state that changes by more than 1% per period is not
+    /// periodic. Default: 1e-6.
     #[serde(default)]
     periodic_tolerance: Option<f64>,
     /// The most periods marched (0 counts as 1). Default: 2000.
@@ -471,9 +476,10 @@ enum RawStart {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Sweep")]
 struct RawSweep {
-    /// Start frequency [Hz], > 0 (the curve starts with a single-frequency solve there).
+    /// Start frequency [Hz], > 0 and at most 1e9 (the curve starts with a single-frequency
+    /// solve there).
     from: f64,
-    /// End frequency [Hz], > 0, ≠ from (below `from` sweeps down).
+    /// End frequency [Hz], > 0 and at most 1e9, ≠ from (below `from` sweeps down).
     to: f64,
     /// Initial arc-length step, a fraction of the span, in (0, 1]. Default: 0.01.
     #[serde(default)]
@@ -484,7 +490,7 @@ struct RawSweep {
     /// Largest step, ≥ step. Default: 0.05.
     #[serde(default)]
     max_step: Option<f64>,
-    /// At most this many points, ≥ 2. Default: 500.
+    /// At most this many points, ≥ 2 and at most 100000. Default: 500.
     #[serde(default)]
     max_points: Option<usize>,
     /// Largest relative change of the contact gaps (without contact: of the response) from
@@ -545,7 +551,7 @@ struct RawOutput {
     #[schemars(range(min = 1))]
     frames: Option<usize>,
     /// The most frames `output.frames` may ask for (a guard against typos that would write
-    /// millions of files). Default: 10000.
+    /// millions of files), ≥ 1. Default: 10000.
     #[serde(default)]
     #[schemars(range(min = 1))]
     max_frames: Option<usize>,
@@ -585,6 +591,15 @@ pub const DEFAULT_MAX_FRAMES: usize = 10_000;
 pub const MAX_MAGNITUDE: f64 = 1e30;
 /// The longest group name accepted.
 pub const MAX_NAME_CHARS: usize = 256;
+/// The loosest `harmonic_balance.solver.tolerance`: on strip_wall 1e-2 moves the peak contact
+/// force by 3e-4 of itself, while 1e29 stops after one iteration 7% off.
+pub const MAX_SOLVER_TOLERANCE: f64 = 1e-2;
+/// The range of `harmonic_balance.solver.c_scale`: over these six orders the answer is the same
+/// to 1% (`hard.rs::c_over_six_orders_converges_near_the_default_answer`); at 1e29 the
+/// residual, measured against c, is small before the contact force has formed.
+pub const C_SCALE_RANGE: (f64, f64) = (1e-3, 1e3);
+/// The loosest `transient.periodic_tolerance`.
+pub const MAX_PERIODIC_TOLERANCE: f64 = 1e-2;
 
 fn config_error(path: &Path, message: impl Into<String>) -> Error {
     Error::Config {
@@ -1004,12 +1019,13 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
     let max_aspect_ratio = g
         .max_aspect_ratio
         .unwrap_or(crate::pipeline::sanity::DEFAULT_MAX_ASPECT);
-    if !(max_aspect_ratio >= 1.0) {
+    if !(1.0..=MAX_MAGNITUDE).contains(&max_aspect_ratio) {
         return Err(config_error(
             path,
             format!(
-                "geometry.max_aspect_ratio = {} must be at least 1",
-                show(max_aspect_ratio)
+                "geometry.max_aspect_ratio = {} must be a finite number of at least 1 (default {}; a cell beyond 1000 is a mesh error, not a shape)",
+                show(max_aspect_ratio),
+                crate::pipeline::sanity::DEFAULT_MAX_ASPECT
             ),
         ));
     }
@@ -1057,13 +1073,13 @@ fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
 fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> {
     for (j, &k) in ks.iter().enumerate() {
         if k == 0 || ks[..j].contains(&k) {
-            return Err(config_error(path, format!("{field}.harmonics: k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
+            return Err(config_error(path, format!("{field}.harmonics[{j}].k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
         }
         if k > MAX_HARMONICS {
             return Err(config_error(
                 path,
                 format!(
-                    "{field}.harmonics: k = {k} is above the limit of {MAX_HARMONICS} harmonics"
+                    "{field}.harmonics[{j}].k = {k} is above the limit of {MAX_HARMONICS} harmonics"
                 ),
             ));
         }
@@ -1165,14 +1181,13 @@ fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<R
     };
     finite(path, "damping.alpha", d.alpha)?;
     finite(path, "damping.beta", d.beta)?;
-    if !(d.alpha >= 0.0 && d.beta >= 0.0) {
-        return Err(config_error(
-            path,
-            format!(
-                "damping: alpha = {} and beta = {} must be ≥ 0",
-                d.alpha, d.beta
-            ),
-        ));
+    for (field, v) in [("damping.alpha", d.alpha), ("damping.beta", d.beta)] {
+        if !(v >= 0.0) {
+            return Err(config_error(
+                path,
+                format!("{field} = {} must be ≥ 0 (0: no such damping)", show(v)),
+            ));
+        }
     }
     Ok(Some(Rayleigh {
         alpha: d.alpha,
@@ -1220,12 +1235,32 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
     if let Some(s) = hb.solver {
         if let Some(t) = s.tolerance {
             solver.tolerance = positive(path, "harmonic_balance.solver.tolerance", t)?;
+            if t > MAX_SOLVER_TOLERANCE {
+                return Err(config_error(
+                    path,
+                    format!(
+                        "harmonic_balance.solver.tolerance = {} is above {MAX_SOLVER_TOLERANCE:e}: Newton would stop before the contact forces are converged; use at most {MAX_SOLVER_TOLERANCE:e} (default 1e-8)",
+                        show(t)
+                    ),
+                ));
+            }
         }
         if let Some(n) = s.max_iterations {
             solver.max_iterations = n;
         }
         if let Some(c) = s.c_scale {
-            solver.c_scale = positive(path, "harmonic_balance.solver.c_scale", c)?;
+            if !(C_SCALE_RANGE.0..=C_SCALE_RANGE.1).contains(&c) {
+                return Err(config_error(
+                    path,
+                    format!(
+                        "harmonic_balance.solver.c_scale = {} must lie in [{:e}, {:e}]: beyond, the residual's scale hides an unconverged contact state; use 1 (the default), or 0.3 or 0.1 when contact solves stall",
+                        show(c),
+                        C_SCALE_RANGE.0,
+                        C_SCALE_RANGE.1
+                    ),
+                ));
+            }
+            solver.c_scale = c;
         }
         if let Some(t) = s.max_seconds {
             solver.max_seconds = positive(path, "harmonic_balance.solver.max_seconds", t)?;
@@ -1364,6 +1399,15 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
     };
     if let Some(v) = t.periodic_tolerance {
         spec.periodic_tolerance = positive(path, "transient.periodic_tolerance", v)?;
+        if v > MAX_PERIODIC_TOLERANCE {
+            return Err(config_error(
+                path,
+                format!(
+                    "transient.periodic_tolerance = {} is above {MAX_PERIODIC_TOLERANCE:e}: a state that changes by more than 1% per period is not periodic; use at most {MAX_PERIODIC_TOLERANCE:e} (default 1e-6)",
+                    show(v)
+                ),
+            ));
+        }
     }
     if let Some(v) = t.max_periods {
         spec.max_periods = v.max(1);
@@ -1435,7 +1479,13 @@ fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<Stabilit
         spec.perturbation = v;
     }
     if let Some(v) = r.every {
-        spec.every = v.max(1);
+        if v == 0 {
+            return Err(config_error(
+                path,
+                "stability.every = 0: give at least 1 (1, the default, checks every point), or set stability.check: false".to_string(),
+            ));
+        }
+        spec.every = v;
     }
     if let Some(v) = r.max_seconds {
         spec.max_seconds = positive(path, "stability.max_seconds", v)?;
@@ -1445,8 +1495,8 @@ fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<Stabilit
 
 fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
     let mut spec = SweepSpec {
-        from_hz: positive(path, "sweep.from", s.from)?,
-        to_hz: positive(path, "sweep.to", s.to)?,
+        from_hz: sweep_frequency(path, "sweep.from", s.from)?,
+        to_hz: sweep_frequency(path, "sweep.to", s.to)?,
         ..SweepSpec::default()
     };
     if spec.from_hz == spec.to_hz {
@@ -1456,7 +1506,16 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
         ));
     }
     if let Some(v) = s.step {
-        spec.step = positive(path, "sweep.step", v)?.min(1.0);
+        spec.step = positive(path, "sweep.step", v)?;
+        if v > 1.0 {
+            return Err(config_error(
+                path,
+                format!(
+                    "sweep.step = {} must lie in (0, 1]: it is a fraction of the frequency span (default 0.01)",
+                    show(v)
+                ),
+            ));
+        }
     }
     if let Some(v) = s.min_step {
         spec.min_step = positive(path, "sweep.min_step", v)?;
@@ -1496,11 +1555,18 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
         ));
     }
     if !(spec.min_step <= spec.step && spec.step <= spec.max_step) {
+        let field = if spec.step > spec.max_step {
+            "sweep.max_step"
+        } else {
+            "sweep.min_step"
+        };
         return Err(config_error(
             path,
             format!(
-                "sweep: min_step ({}) ≤ step ({}) ≤ max_step ({}) must hold",
-                spec.min_step, spec.step, spec.max_step
+                "{field}: sweep.min_step ({}) ≤ sweep.step ({}) ≤ sweep.max_step ({}) must hold",
+                show(spec.min_step),
+                show(spec.step),
+                show(spec.max_step)
             ),
         ));
     }
@@ -1509,6 +1575,21 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
 
 /// The most points one sweep may take (each is a set of factorizations).
 const MAX_SWEEP_POINTS: usize = 100_000;
+
+/// `sweep.from` and `sweep.to`: positive and at most `MAX_FREQUENCY`, like
+/// `harmonic_balance.frequency`.
+fn sweep_frequency(path: &Path, field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > MAX_FREQUENCY {
+        return Err(config_error(
+            path,
+            format!(
+                "{field} = {} Hz is above {MAX_FREQUENCY:e} Hz: at such frequencies elastic waves are micrometres long and the continuum model does not apply (is the unit Hz?)",
+                show(v)
+            ),
+        ));
+    }
+    positive(path, field, v)
+}
 
 fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result<OutputSpec> {
     let out = output.unwrap_or(RawOutput {
