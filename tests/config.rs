@@ -465,9 +465,12 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
 
 /// Other keys a value just inside a bound needs to be valid as a whole (a step of 1 needs a
 /// max_step of 1, 100000 spline segments are even and a sweep with contact takes odd ones).
+/// They apply to the value inside only: the one outside is tried on the base alone.
 const BOUNDS_INSIDE_COMPANIONS: &[(&str, &[&str])] = &[
     ("sweep.step", &["sweep.max_step=1.0", "sweep.min_step=1e-9"]),
     ("output.max_frames", &["output.frames=1"]),
+    // Just under 0.5 is only allowed in plane stress (plane strain stops at 0.4999995).
+    ("material.poisson_ratio", &["material.model=plane_stress"]),
     ("harmonic_balance.basis.spline.segments", &["sweep=null"]),
     (
         "boundaries.loads.harmonics.k",

@@ -694,15 +694,19 @@ fn disconnected_bodies_and_empty_groups_are_named() {
     assert!(err.contains("`body`") && err.contains("empty"), "{err}");
 }
 
-/// TEST GOAL: a body starting 5 mm inside the wall (2.5% of its size) warns naming the
-/// strain; a ×1e6 load that drives the tip 4 mm into a wall 0.1 µm away warns of the
-/// sampled penetration's strain (issue #9: neither warned).
+/// TEST GOAL: a body starting 5 mm inside the wall (2.5% of its size), meant so
+/// (`contact.allow_initial_penetration`), warns naming the strain; a ×1e6 load that drives the
+/// tip 4 mm into a wall 0.1 µm away warns of the sampled penetration's strain (issue #9:
+/// neither warned).
 #[test]
 fn deep_initial_and_sampled_penetrations_warn_naming_the_strain() {
     let r = run(
         "pipelines/strip_wall.yaml",
         "deep-start",
-        &["geometry.parameters.gap=-5e-3"],
+        &[
+            "geometry.parameters.gap=-5e-3",
+            "contact.allow_initial_penetration=true",
+        ],
     );
     let w = r.warnings();
     assert!(
@@ -723,6 +727,170 @@ fn deep_initial_and_sampled_penetrations_warn_naming_the_strain() {
     );
     let plain = run("pipelines/strip_wall.yaml", "deep-none", &[]);
     assert!(!plain.warnings().iter().any(|w| w.contains("penetrat")));
+}
+
+/// TEST GOAL: an obstacle on the wrong side of the body is refused by `check` (issue #46: it
+/// passed), naming how many contact nodes start inside and how deep, and the key that says it
+/// is meant: the strip 5 mm inside its wall (all 9 tip nodes, 5.000e-3 m, 2.5% of its size)
+/// and the half-disc over a line whose normal points away from it (150 of 151 nodes). With
+/// `contact.allow_initial_penetration` the strip passes, `check` counting the 9 nodes; the
+/// shipped 1 µm preload passes without it (5 nodes start inside, 1e-6 m deep).
+#[test]
+fn an_obstacle_on_the_wrong_side_is_refused_naming_the_nodes_inside_it() {
+    let (code, err) = check(
+        "pipelines/strip_wall.yaml",
+        &["geometry.parameters.gap=-5e-3"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    for part in [
+        "strip_wall.yaml",
+        "9 of 9 contact nodes of `tip` start inside the obstacle",
+        "the deepest by 5.000e-3 m",
+        "2.50%",
+        "wrong side",
+        "contact.allow_initial_penetration: true",
+    ] {
+        assert!(err.contains(part), "no `{part}` in: {err}");
+    }
+    let (code, err) = check(
+        "pipelines/half_disc.yaml",
+        &["contact.obstacle={line: {point: [0.0, 0.0], normal: [0.0, -1.0]}}"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("150 of 151 contact nodes") && err.contains("wrong side"),
+        "{err}"
+    );
+    let out = common::hbcontact(&[
+        "check",
+        "pipelines/strip_wall.yaml",
+        "--set",
+        "geometry.parameters.gap=-5e-3",
+        "--set",
+        "contact.allow_initial_penetration=true",
+    ]);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stdout.contains("9 start inside it, the deepest by 5.000e-3 m"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("contact.allow_initial_penetration"),
+        "{stderr}"
+    );
+    let out = common::hbcontact(&["check", &pipeline("preloaded")]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("5 start inside it, the deepest by 1.000e-6 m"),
+        "{stdout}"
+    );
+}
+
+/// TEST GOAL: Poisson's ratio → 0.5 in plane strain is named as what it is (issue #46: at
+/// 0.4999999999 the cantilever was "K is singular … rigid body", exit 3): from λ/μ = 1e6
+/// `check` refuses it (exit 2) naming near-incompressibility and the fix, and from ν = 0.49 a
+/// warning names locking; in plane stress (λ* bounded) nothing is said.
+#[test]
+fn near_incompressible_plane_strain_is_named_locking_not_a_rigid_body() {
+    let (code, err) = check(
+        "pipelines/cantilever.yaml",
+        &["material.poisson_ratio=0.4999999999"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    for part in [
+        "cantilever.yaml",
+        "material.poisson_ratio = 0.4999999999",
+        "near-incompressible",
+        "ν ≤ 0.49",
+        "plane_stress",
+    ] {
+        assert!(err.contains(part), "no `{part}` in: {err}");
+    }
+    assert!(!err.contains("rigid"), "{err}");
+    let (code, err) = check(
+        "pipelines/strip_wall.yaml",
+        &["material.poisson_ratio=0.495"],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("near-incompressible")
+            && err.contains("lock")
+            && err.contains("geometry.order: 2"),
+        "{err}"
+    );
+    let (code, err) = check(
+        "pipelines/quickstart.yaml",
+        &["material.poisson_ratio=0.4999999999"],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("incompressible"), "{err}");
+}
+
+/// TEST GOAL: a body that the supports leave free to move rigidly is told its free motions
+/// (issue #46: the quickstart without its clamp ran with exit 0, no warning, "nearest natural
+/// frequency 0.0017 Hz"). Driven dynamically it runs with a warning naming both translations
+/// and the rotation; pinned at one corner only the rotation about that corner is free; where
+/// the static stiffness is needed (the cantilever's static tip load) holding x alone leaves
+/// the y translation free, an error (exit 3) at `check` naming it; a misspelt support group
+/// is still that error (exit 2).
+#[test]
+fn an_unsupported_body_is_told_its_free_rigid_motions() {
+    let r = run(
+        "pipelines/quickstart.yaml",
+        "free-body",
+        &["boundaries.fixed=[]"],
+    );
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    let w = r.warnings();
+    assert!(
+        w.iter()
+            .any(|w| w.contains("not held against rigid-body motion")
+                && w.contains("translation along x")
+                && w.contains("translation along y")
+                && w.contains("rotation about")),
+        "{w:?}"
+    );
+    let (code, err) = check("pipelines/quickstart.yaml", &["boundaries.fixed=[probe]"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("rotation about (2.0000e-1, 5.0000e-2) is free")
+            && !err.contains("translation"),
+        "{err}"
+    );
+    let (code, err) = check(
+        "pipelines/cantilever.yaml",
+        &[
+            "boundaries.fixed=[]",
+            "boundaries.prescribed=[{group: clamp, component: x}]",
+        ],
+    );
+    assert_eq!(code, Some(3), "{err}");
+    assert!(
+        err.contains("translation along y is free")
+            && !err.contains("translation along x")
+            && err.contains("static stiffness K is singular")
+            && err.contains("boundaries.prescribed"),
+        "{err}"
+    );
+    // A misspelt support is that (exit 2), not a free body.
+    let (code, err) = check("pipelines/strip_wall.yaml", &["boundaries.fixed=[clammp]"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("clammp") && !err.contains("rigid-body"),
+        "{err}"
+    );
+    let plain = run("pipelines/quickstart.yaml", "free-body-none", &[]);
+    assert!(!plain.warnings().iter().any(|w| w.contains("rigid-body")));
 }
 
 /// TEST GOAL: with `harmonic_balance.solver.max_iterations = 0` the contact solve stops

@@ -116,6 +116,7 @@ fn spec(boundary: &str, obstacle: ObstacleSpec, search: Option<f64>) -> ContactS
         obstacle,
         search_distance: search,
         mass: ContactMass::Lumped,
+        allow_initial_penetration: false,
     }
 }
 

@@ -266,5 +266,10 @@ pub fn show_check(report: &CheckReport) {
     }
     if let (Some(kept), Some(candidates)) = (report.contact_nodes, report.contact_candidates) {
         outln!("contact: {kept} of {candidates} boundary nodes face the obstacle");
+        if let (Some(n), Some(depth)) = (report.penetrated_nodes, report.deepest_penetration) {
+            if n > 0 {
+                outln!("  {n} start inside it, the deepest by {depth:.3e} m");
+            }
+        }
     }
 }

@@ -205,6 +205,9 @@ pub struct ContactSpec {
     /// Candidates farther than this from the obstacle are dropped; `None` keeps all.
     pub search_distance: Option<f64>,
     pub mass: ContactMass,
+    /// Accept nodes that start deeper inside the obstacle than a small strain of the body
+    /// (`pipeline::sanity::check_initial_penetration`).
+    pub allow_initial_penetration: bool,
 }
 
 #[derive(Clone, Debug)]

@@ -110,7 +110,7 @@ struct RawGeometry {
 }
 
 /// The 2-D model of the out-of-plane direction.
-#[derive(Deserialize, JsonSchema, Clone, Copy)]
+#[derive(Deserialize, JsonSchema, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 #[schemars(rename = "PlaneModel")]
 enum RawPlaneModel {
@@ -127,7 +127,9 @@ enum RawPlaneModel {
 struct RawMaterial {
     /// Young's modulus E, a stress (Pa in SI, MPa in mm–N–s), > 0. Required.
     youngs_modulus: f64,
-    /// Poisson's ratio ν (dimensionless), in (−1, 0.5). Required.
+    /// Poisson's ratio ν (dimensionless), in (−1, 0.5), and in plane strain also
+    /// < 0.4999995 (λ/μ = 2ν/(1 − 2ν) under 1e6; beyond, the stiffness is singular to working
+    /// precision). From 0.49 on, plane strain warns: displacement elements lock. Required.
     poisson_ratio: f64,
     /// Mass density ρ (kg/m³ in SI, t/mm³ in mm–N–s), > 0. Required.
     density: f64,
@@ -395,6 +397,11 @@ struct RawContact {
     /// `redistributed` (contact nodes carry no inertia) or `lumped`. Default: `redistributed`.
     #[serde(default)]
     mass: RawMass,
+    /// Accept contact nodes that start inside the obstacle deeper than 0.1% of the body's size
+    /// (a deliberate interference or preload). Default: false (refused, exit code 2: usually an
+    /// obstacle on the wrong side of the body or a unit slip).
+    #[serde(default)]
+    allow_initial_penetration: bool,
 }
 
 /// Settings of `hbcontact transient`.
@@ -598,6 +605,9 @@ pub const MAX_SOLVER_TOLERANCE: f64 = 1e-2;
 /// to 1% (`hard.rs::c_over_six_orders_converges_near_the_default_answer`); at 1e29 the
 /// residual, measured against c, is small before the contact force has formed.
 pub const C_SCALE_RANGE: (f64, f64) = (1e-3, 1e3);
+/// The largest Poisson's ratio in plane strain (λ/μ just under 1e6): the cantilever's static
+/// stiffness is singular from 0.49999999 on; 0.4999995 still leaves it six digits.
+pub const MAX_PLANE_STRAIN_POISSON: f64 = 0.4999995;
 /// The loosest `transient.periodic_tolerance`.
 pub const MAX_PERIODIC_TOLERANCE: f64 = 1e-2;
 
@@ -1056,6 +1066,16 @@ fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
             ),
         ));
     }
+    if m.model == RawPlaneModel::PlaneStrain && m.poisson_ratio >= MAX_PLANE_STRAIN_POISSON {
+        let ratio = 2.0 * m.poisson_ratio / (1.0 - 2.0 * m.poisson_ratio);
+        return Err(config_error(
+            path,
+            format!(
+                "material.poisson_ratio = {} in plane strain is near-incompressible beyond what displacement elements compute (λ/μ = {ratio:.1e}, at least 1e6: the stiffness matrix loses the digits that tell bending from volume change, and the solve finds it singular); use ν ≤ 0.49 (it already models rubber-like solids within a few percent, with geometry.order: 2), or plane_stress for a thin plate; mixed u–p elements are not available",
+                m.poisson_ratio
+            ),
+        ));
+    }
     let thickness = positive(path, "material.thickness", m.thickness.unwrap_or(1.0))?;
     Ok(MaterialSpec {
         youngs_modulus: m.youngs_modulus,
@@ -1385,6 +1405,7 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
         boundary: c.boundary,
         obstacle,
         search_distance: c.search_distance,
+        allow_initial_penetration: c.allow_initial_penetration,
         mass: match c.mass {
             RawMass::Redistributed => ContactMass::Redistributed,
             RawMass::Lumped => ContactMass::Lumped,

@@ -66,10 +66,13 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
+    warnings.extend(stages.run("check", || {
+        sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)
+    })?);
     let model = stages.run("assemble", || {
         build(p, mesh.clone(), Purpose::HarmonicBalance)
     })?;
-    warnings.extend(sanity::check_initial_penetration(&model));
+    warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
     stages.run("check", || stages::check_stability_march(p, &model))?;
     stages::touch_solve_memory(p, &model);
     let resonance = stages::resonance(&model, &mut stages);
@@ -195,8 +198,11 @@ pub fn run_transient(
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
+    warnings.extend(stages.run("check", || {
+        sanity::check_supports(p, &mesh, Purpose::Transient)
+    })?);
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
-    warnings.extend(sanity::check_initial_penetration(&model));
+    warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
     let initial = match p.transient.start {
         TransientStart::Rest => None,
         TransientStart::HarmonicBalance => Some(harmonic_balance_start(p, &model, &mut stages)?),
@@ -253,6 +259,12 @@ pub struct CheckReport {
     /// Nodes of the contact boundary group (contact scenes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub contact_candidates: Option<usize>,
+    /// Kept contact nodes that start inside the obstacle (a negative initial gap).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub penetrated_nodes: Option<usize>,
+    /// The deepest initial penetration, a length ≥ 0 (0: none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub deepest_penetration: Option<f64>,
     /// The mesh's physical groups: name → what they hold.
     pub groups: std::collections::BTreeMap<String, GroupInfo>,
 }
@@ -277,10 +289,20 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         for w in sanity::check_mesh(p, &mesh)? {
             reporter.warning(&w);
         }
-        p.contact
+        if let Some(w) = sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)? {
+            reporter.warning(&w);
+        }
+        let set = p
+            .contact
             .as_ref()
             .map(|spec| crate::contact::geometry::build_contact_set(&mesh, spec))
-            .transpose()
+            .transpose()?;
+        if let Some(set) = &set {
+            if let Some(w) = sanity::check_penetration_of(p, &mesh, set)? {
+                reporter.warning(&w);
+            }
+        }
+        Ok(set)
     })?;
     stages.run("check", || check_marches(p, &mesh, reporter))?;
     let groups = mesh
@@ -306,5 +328,7 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         mesh: info,
         contact_nodes: set.as_ref().map(|s| s.nodes.len()),
         contact_candidates: set.as_ref().map(|s| s.candidates),
+        penetrated_nodes: set.as_ref().map(|s| sanity::initial_penetration(s).0),
+        deepest_penetration: set.as_ref().map(|s| sanity::initial_penetration(s).1),
     })
 }

@@ -19,9 +19,20 @@
 //!   one is refused unless `geometry.allow_disconnected`.
 //! - empty groups: physical groups the .msh names but gives no element (warned; refused when
 //!   the pipeline names one).
+//! - locking: in plane strain λ/μ = 2ν/(1 − 2ν); from ν = `LOCKING_POISSON` (λ/μ = 49) the
+//!   volumetric stiffness of displacement elements stiffens bending and shear (warned; the
+//!   config refuses λ/μ ≥ 1e6).
+//! - rigid-body motions of a part: u = (a − θ(y − y_c), b + θ(x − x_c)). Those that vanish on
+//!   every held dof (`boundaries.fixed`, `boundaries.prescribed`) are free: the null space of
+//!   A = Σ r rᵀ over the held dofs' rows r = (1, 0, −(y − y_c)/L) or (0, 1, (x − x_c)/L), L the
+//!   part's size. Free motions warn; where harmonic balance needs the static stiffness (contact,
+//!   or a static load or motion) they make K singular: an error naming them.
+//! - initial penetration: contact nodes with a negative initial gap. Deeper than
+//!   `SMALL_STRAIN` S it is refused unless `contact.allow_initial_penetration` (then warned).
 
-use super::model::Model;
-use crate::config::Pipeline;
+use super::model::{Model, Purpose};
+use crate::config::{Pipeline, PlaneModelSpec};
+use crate::contact::geometry::ContactSet;
 use crate::fem::{self, Material};
 use crate::hbm::basis::TimeBasis;
 use crate::hbm::Solution;
@@ -36,6 +47,8 @@ pub const DEFAULT_MAX_ASPECT: f64 = 1e3;
 pub const SMALL_STRAIN: f64 = 1e-3;
 /// Complementarity violation above which a contact run warns.
 pub const VIOLATION_WARN: f64 = 0.15;
+/// Poisson's ratio from which plane strain warns of locking (λ/μ = 49).
+pub const LOCKING_POISSON: f64 = 0.49;
 
 fn input(p: &Pipeline, message: String) -> Error {
     Error::Config {
@@ -107,8 +120,8 @@ fn cell_quality(p: &Pipeline, mesh: &Mesh2d, warnings: &mut Vec<String>) -> Resu
     Ok(longest)
 }
 
-/// The number of connected parts of the cells and one node of each part.
-fn parts(mesh: &Mesh2d) -> Vec<(usize, usize)> {
+/// Every node's root in the union of the cells sharing nodes (a node of no cell is its own).
+fn part_roots(mesh: &Mesh2d) -> Vec<usize> {
     let mut parent: Vec<usize> = (0..mesh.nodes.len()).collect();
     fn find(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
@@ -124,10 +137,15 @@ fn parts(mesh: &Mesh2d) -> Vec<(usize, usize)> {
             parent[b] = a;
         }
     }
+    (0..parent.len()).map(|i| find(&mut parent, i)).collect()
+}
+
+/// The number of connected parts of the cells and one node of each part.
+fn parts(mesh: &Mesh2d) -> Vec<(usize, usize)> {
+    let roots_of = part_roots(mesh);
     let mut roots: std::collections::BTreeMap<usize, (usize, usize)> = Default::default();
     for (i, cell) in mesh.cells.iter().enumerate() {
-        let r = find(&mut parent, cell.nodes[0]);
-        roots.entry(r).or_insert((0, i)).0 += 1;
+        roots.entry(roots_of[cell.nodes[0]]).or_insert((0, i)).0 += 1;
     }
     roots.into_values().collect()
 }
@@ -190,6 +208,7 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
             p.geometry.file.display()
         ));
     }
+    warnings.extend(check_locking(p));
     let material = super::model::material(p);
     let f_res = resolvable_frequency(p, &material, longest);
     let f = p.harmonic_balance.frequency;
@@ -223,17 +242,259 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
     Ok(warnings)
 }
 
-/// An initial penetration beyond a small strain of the body's size (warning).
-pub fn check_initial_penetration(model: &Model) -> Option<String> {
-    let contact = model.contact.as_ref()?;
-    let deepest = contact.set.gaps.iter().cloned().fold(0.0f64, f64::min);
-    let size = body_size(&model.mesh);
-    (-deepest > SMALL_STRAIN * size).then(|| format!(
-        "the body starts {:.3e} m inside the obstacle, a strain of {:.2}% of its size {size:.3e} m, beyond small-strain elasticity ({}%): check the geometry's position (a unit or sign slip?), or expect the linear-elastic answer to be only indicative",
-        -deepest,
-        100.0 * -deepest / size,
-        100.0 * SMALL_STRAIN
+/// Near-incompressible plane strain: a warning naming locking and what to do.
+fn check_locking(p: &Pipeline) -> Option<String> {
+    let nu = p.material.poisson_ratio;
+    if p.material.model != PlaneModelSpec::PlaneStrain || nu < LOCKING_POISSON {
+        return None;
+    }
+    let ratio = 2.0 * nu / (1.0 - 2.0 * nu);
+    let order = if p.geometry.order == 1 {
+        "use geometry.order: 2 (linear elements lock worst) and "
+    } else {
+        ""
+    };
+    Some(format!(
+        "material.poisson_ratio = {nu} in plane strain is near-incompressible (λ/μ = {ratio:.3e}, warned from ν = {LOCKING_POISSON}): displacement elements lock, their volumetric stiffness stiffens bending and shear, so displacements come out too small and natural frequencies too high; {order}check the answer on a finer mesh, or use a smaller ν if the material allows (mixed u–p elements are not available)"
     ))
+}
+
+/// The rigid-body motions that the held dofs leave free, per connected part of the mesh (the
+/// part named by its cells and a node when there are several), described.
+pub fn free_rigid_motions(p: &Pipeline, mesh: &Mesh2d) -> Vec<(String, Vec<String>)> {
+    let roots = part_roots(mesh);
+    let mut held = vec![[false; 2]; mesh.nodes.len()];
+    for g in &p.boundaries.fixed {
+        for &n in mesh.node_groups.get(g).into_iter().flatten() {
+            held[n] = [true; 2];
+        }
+    }
+    for pr in &p.boundaries.prescribed {
+        for &n in mesh.node_groups.get(&pr.group).into_iter().flatten() {
+            held[n][pr.component] = true;
+        }
+    }
+    // Per part: its nodes (of cells), in first-cell order.
+    let mut members: std::collections::BTreeMap<usize, (usize, Vec<usize>)> = Default::default();
+    let mut seen = vec![false; mesh.nodes.len()];
+    for (i, cell) in mesh.cells.iter().enumerate() {
+        for &n in &cell.nodes {
+            if !seen[n] {
+                seen[n] = true;
+                members
+                    .entry(roots[n])
+                    .or_insert_with(|| (i, Vec::new()))
+                    .1
+                    .push(n);
+            }
+        }
+    }
+    let several = members.len() > 1;
+    let mut found = Vec::new();
+    for (first_cell, nodes) in members.values() {
+        let free = part_free_motions(mesh, nodes, &held);
+        if free.is_empty() {
+            continue;
+        }
+        let name = if several {
+            let cells = mesh
+                .cells
+                .iter()
+                .filter(|c| roots[c.nodes[0]] == roots[nodes[0]])
+                .count();
+            let at = mesh.nodes[mesh.cells[*first_cell].nodes[0]];
+            format!(
+                "the part of {cells} cells near ({:.4e}, {:.4e})",
+                at[0], at[1]
+            )
+        } else {
+            "the body".to_string()
+        };
+        found.push((name, free));
+    }
+    found
+}
+
+/// The free rigid-body motions of one part (`nodes`), described.
+fn part_free_motions(mesh: &Mesh2d, nodes: &[usize], held: &[[bool; 2]]) -> Vec<String> {
+    use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+    let count = nodes.len() as f64;
+    let mut centre = [0.0; 2];
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &n in nodes {
+        for c in 0..2 {
+            centre[c] += mesh.nodes[n][c] / count;
+            lo[c] = lo[c].min(mesh.nodes[n][c]);
+            hi[c] = hi[c].max(mesh.nodes[n][c]);
+        }
+    }
+    let size = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+    if !(size > 0.0 && size.is_finite()) {
+        return Vec::new();
+    }
+    let mut a = Matrix3::<f64>::zeros();
+    let mut rows = 0usize;
+    for &n in nodes {
+        let (dx, dy) = (
+            (mesh.nodes[n][0] - centre[0]) / size,
+            (mesh.nodes[n][1] - centre[1]) / size,
+        );
+        for (c, r) in [
+            (0, Vector3::new(1.0, 0.0, -dy)),
+            (1, Vector3::new(0.0, 1.0, dx)),
+        ] {
+            if held[n][c] {
+                a += r * r.transpose();
+                rows += 1;
+            }
+        }
+    }
+    let all = ["translation along x", "translation along y"]
+        .map(str::to_string)
+        .to_vec();
+    if rows == 0 {
+        let mut all = all;
+        all.push(format!(
+            "rotation about ({:.4e}, {:.4e})",
+            centre[0], centre[1]
+        ));
+        return all;
+    }
+    let eigen = SymmetricEigen::new(a);
+    let scale = eigen.eigenvalues.iter().cloned().fold(0.0f64, f64::max);
+    let null: Vec<Vector3<f64>> = (0..3)
+        .filter(|&i| eigen.eigenvalues[i] <= 1e-9 * scale)
+        .map(|i| eigen.eigenvectors.column(i).into_owned())
+        .collect();
+    let describe = |v: Vector3<f64>| {
+        let (a, b, theta) = (v[0], v[1], v[2] / size);
+        let t = a.hypot(b);
+        if (v[2]).abs() <= 1e-6 * t {
+            if b.abs() <= 1e-6 * t {
+                "translation along x".to_string()
+            } else if a.abs() <= 1e-6 * t {
+                "translation along y".to_string()
+            } else {
+                format!("translation along ({:.3}, {:.3})", a / t, b / t)
+            }
+        } else {
+            format!(
+                "rotation about ({:.4e}, {:.4e})",
+                centre[0] - b / theta,
+                centre[1] + a / theta
+            )
+        }
+    };
+    match null.as_slice() {
+        [] => Vec::new(),
+        [v] => vec![describe(*v)],
+        [v, w] => {
+            // The plane of free motions holds a translation (θ = 0): name it and the rotation
+            // orthogonal to it.
+            let translation = v * w[2] - w * v[2];
+            let rotation = v * v[2] + w * w[2];
+            vec![describe(translation), describe(rotation)]
+        }
+        _ => {
+            let mut all = all;
+            all.push(format!(
+                "rotation about ({:.4e}, {:.4e})",
+                centre[0], centre[1]
+            ));
+            all
+        }
+    }
+}
+
+/// Whether harmonic balance solves with the static stiffness K: contact couples harmonic 0
+/// in, and a static load or motion is harmonic 0.
+fn needs_static_stiffness(p: &Pipeline, purpose: Purpose) -> bool {
+    let b = &p.boundaries;
+    purpose == Purpose::HarmonicBalance
+        && (p.contact.is_some()
+            || b.loads.iter().any(|l| l.signal.static_part != [0.0; 2])
+            || b.prescribed.iter().any(|m| m.signal.static_part != [0.0]))
+}
+
+/// Supports: rigid-body motions no held dof stops. A warning when the scene can still be
+/// solved (a dynamic load on a free body); an error naming them where harmonic balance needs
+/// the static stiffness, which they make singular.
+pub fn check_supports(p: &Pipeline, mesh: &Mesh2d, purpose: Purpose) -> Result<Option<String>> {
+    // A misspelt support group is that error (exit 2), not a free body.
+    super::model::check_groups(p, mesh)?;
+    let free = free_rigid_motions(p, mesh);
+    if free.is_empty() {
+        return Ok(None);
+    }
+    let list = free
+        .iter()
+        .map(|(part, motions)| {
+            let verb = if motions.len() == 1 { "is" } else { "are" };
+            format!("for {part}, {} {verb} free", motions.join(", "))
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    let fix = "hold it with boundaries.fixed, or boundaries.prescribed on the free components, on a group";
+    if needs_static_stiffness(p, purpose) {
+        let why = if p.contact.is_some() {
+            "a contact solve includes the static harmonic, and the obstacle alone does not hold a body in harmonic balance"
+        } else {
+            "the static load or motion has no equilibrium"
+        };
+        return Err(Error::Model(format!(
+            "the body is not held against rigid-body motion ({list}: no dof of boundaries.fixed or boundaries.prescribed stops it), so the static stiffness K is singular and {why}; {fix}"
+        )));
+    }
+    Ok(Some(format!(
+        "the body is not held against rigid-body motion ({list}: no dof of boundaries.fixed or boundaries.prescribed stops it): it responds as a free body, with natural frequencies at 0 Hz and a response that grows as 1/ω² below its first elastic mode; if a support is meant, {fix}"
+    )))
+}
+
+/// Contact nodes that start inside the obstacle: how many and the deepest penetration (≥ 0).
+pub fn initial_penetration(set: &ContactSet) -> (usize, f64) {
+    let count = set.gaps.iter().filter(|&&g| g < 0.0).count();
+    let deepest = set.gaps.iter().cloned().fold(0.0f64, f64::min);
+    (count, -deepest)
+}
+
+/// An initial penetration deeper than a small strain of the body's size: bad input (an
+/// obstacle on the wrong side, a unit slip) unless `contact.allow_initial_penetration`, then
+/// a warning.
+pub fn check_initial_penetration(p: &Pipeline, model: &Model) -> Result<Option<String>> {
+    match &model.contact {
+        Some(contact) => check_penetration_of(p, &model.mesh, &contact.set),
+        None => Ok(None),
+    }
+}
+
+/// `check_initial_penetration` on a contact set.
+pub fn check_penetration_of(
+    p: &Pipeline,
+    mesh: &Mesh2d,
+    set: &ContactSet,
+) -> Result<Option<String>> {
+    let (count, depth) = initial_penetration(set);
+    let size = body_size(mesh);
+    if !(depth > SMALL_STRAIN * size) {
+        return Ok(None);
+    }
+    let strain = 100.0 * depth / size;
+    let allowed = p
+        .contact
+        .as_ref()
+        .is_some_and(|c| c.allow_initial_penetration);
+    if !allowed {
+        let boundary = p.contact.as_ref().map_or("", |c| c.boundary.as_str());
+        return Err(input(p, format!(
+            "{count} of {} contact nodes of `{boundary}` start inside the obstacle, the deepest by {depth:.3e} m (a strain of {strain:.2}% of the body's size {size:.3e} m, beyond small-strain elasticity's {}%): is the obstacle on the wrong side of the body (a line's normal points out of the obstacle toward the body; a circle's body_inside), or the geometry off by a unit or a sign? If the interference is meant (a preload), set contact.allow_initial_penetration: true",
+            set.gaps.len(),
+            100.0 * SMALL_STRAIN
+        )));
+    }
+    Ok(Some(format!(
+        "{count} contact nodes start inside the obstacle (contact.allow_initial_penetration), the deepest by {depth:.3e} m, a strain of {strain:.2}% of the body's size {size:.3e} m, beyond small-strain elasticity ({}%): expect the linear-elastic answer to be only indicative",
+        100.0 * SMALL_STRAIN
+    )))
 }
 
 /// Warnings on a harmonic-balance contact result: a sampled penetration beyond a small

@@ -237,10 +237,15 @@ fn execute(
     let mut stages = Stages::new(p, reporter);
     let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
     let mut warnings = stages.run("check", || pipeline::sanity::check_mesh(p, &mesh))?;
+    warnings.extend(stages.run("check", || {
+        pipeline::sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)
+    })?);
     let model = stages.run("assemble", || {
         build(p, mesh.clone(), Purpose::HarmonicBalance)
     })?;
-    warnings.extend(pipeline::sanity::check_initial_penetration(&model));
+    warnings.extend(stages.run("check", || {
+        pipeline::sanity::check_initial_penetration(p, &model)
+    })?);
     if let Some(s) = &saved {
         resume::check_state(s, &model, p, &out)?;
     }
