@@ -175,7 +175,7 @@ enum Command {
         /// Write compare.json, compare.csv and plots/compare_* into DIR instead of HB_DIR.
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
-        /// Print nothing but errors.
+        /// Print nothing but errors and the warnings that the two scenes differ.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -417,6 +417,10 @@ fn compare(
     quiet: bool,
 ) -> hbcontact::Result<()> {
     let comparison = pipeline::compare::compare(hb, transient)?;
+    // Even with --quiet: a comparison of two different scenes must not pass unnoticed.
+    for w in &comparison.warnings {
+        eprintln!("warning: {w}");
+    }
     let dir = out.unwrap_or(hb);
     pipeline::compare::write(&comparison, dir)?;
     if !quiet {

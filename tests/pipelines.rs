@@ -184,6 +184,136 @@ fn run_ok(args: &[&str]) -> String {
     stderr
 }
 
+/// A result directory as `compare` reads it: a summary of `mode` (a contact scene on the
+/// strip's lc = 2.5 mm mesh) changed at the JSON pointers of `changes`, and a probes.csv of
+/// one period at 500 Hz.
+fn fake_result(dir: &Path, mode: &str, changes: &[(&str, serde_json::Value)]) {
+    let mut summary = serde_json::json!({
+        "name": "strip_wall",
+        "mode": mode,
+        "pipeline": "pipelines/strip_wall.yaml",
+        "frequency_hz": 500.0,
+        "mesh": {
+            "geometry": "pipelines/../geometries/strip_wall.geo",
+            "parameters": {"gap": 1e-7, "lc": 0.0025},
+            "mesh_size": null,
+            "order": 1,
+            "nodes": 499,
+            "cells": 810,
+            "min_edge_length": 0.0016266734095707184
+        },
+        "sizes": {"free_dofs": 978, "prescribed_dofs": 20},
+        "effects": {
+            "static_load": false,
+            "excited_harmonics": [1],
+            "prescribed_motion": false,
+            "damping": "Rayleigh: alpha = 1.5e3 1/s, beta = 1e-7 s",
+            "contact": "unilateral, `tip` against the rigid curve `wall`",
+            "mass": if mode == "transient" { "lumped" } else { "consistent" }
+        },
+        "contact_setup": {"candidates": 5, "kept": 5, "min_initial_gap": 1e-7, "max_initial_gap": 1e-7}
+    });
+    for (pointer, value) in changes {
+        *summary
+            .pointer_mut(pointer)
+            .unwrap_or_else(|| panic!("no {pointer} in the fake summary")) = value.clone();
+    }
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("summary.json"), summary.to_string()).unwrap();
+    let mut csv = String::from("time,probe_ux\n");
+    for j in 0..32 {
+        let t = j as f64 / (32.0 * 500.0);
+        let x = 1e-7 * (2.0 * std::f64::consts::PI * 500.0 * t).cos();
+        csv.push_str(&format!("{t:e},{x:e}\n"));
+    }
+    std::fs::write(dir.join("probes.csv"), csv).unwrap();
+}
+
+/// TEST GOAL: `compare` knows what it compares (issue #46: two different scenes compared with
+/// exit 0 and −46% "differences" without a word). Results on different meshes (node counts,
+/// element order) or at different frequencies are refused with exit 2 naming the summary
+/// field and both values, and nothing is written; the same mesh with another contact gap,
+/// geometry parameter or damping is compared with a warning naming each, printed even with
+/// `--quiet` and kept in compare.json; a run and a transient of one scene (whose mass models
+/// differ by design) compare without a warning.
+#[test]
+fn compare_refuses_different_meshes_and_warns_naming_other_differences() {
+    let base = common::temp_out("compare-scenes");
+    let compare =
+        |hb: &[(&str, serde_json::Value)], tm: &[(&str, serde_json::Value)], tag: &str| {
+            let (h, t, out) = (
+                base.join(format!("{tag}-hb")),
+                base.join(format!("{tag}-tm")),
+                base.join(format!("{tag}-out")),
+            );
+            fake_result(&h, "harmonic_balance", hb);
+            fake_result(&t, "transient", tm);
+            let o = common::hbcontact(&[
+                "compare",
+                h.to_str().unwrap(),
+                t.to_str().unwrap(),
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ]);
+            (
+                o.status.code(),
+                String::from_utf8_lossy(&o.stderr).to_string(),
+                out,
+            )
+        };
+    let (code, err, out) = compare(&[], &[], "same");
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!err.contains("warning"), "{err}");
+    let json = common::read_json(&out.join("compare.json"));
+    assert_eq!(json["warnings"], serde_json::json!([]), "{json}");
+
+    for (tag, change, named) in [
+        (
+            "nodes",
+            ("/mesh/nodes", serde_json::json!(1787)),
+            "`mesh.nodes` 499 (harmonic balance) and 1787 (transient)",
+        ),
+        (
+            "order",
+            ("/mesh/order", serde_json::json!(2)),
+            "`mesh.order` 1 (harmonic balance) and 2 (transient)",
+        ),
+        (
+            "frequency",
+            ("/frequency_hz", serde_json::json!(400.0)),
+            "at 400 Hz",
+        ),
+    ] {
+        let (code, err, out) = compare(&[], &[change], tag);
+        assert_eq!(code, Some(2), "{tag}: {err}");
+        assert!(
+            err.contains(named) && !err.contains("panicked"),
+            "{tag}: {err}"
+        );
+        assert!(!out.join("compare.json").exists(), "{tag}: written");
+    }
+    let (code, err, out) = compare(
+        &[],
+        &[
+            ("/contact_setup/min_initial_gap", serde_json::json!(2e-7)),
+            ("/effects/damping", serde_json::json!("none")),
+            ("/mesh/parameters/gap", serde_json::json!(2e-7)),
+        ],
+        "gap",
+    );
+    assert_eq!(code, Some(0), "{err}");
+    for part in [
+        "warning: the scenes differ in `contact_setup.min_initial_gap` 1e-7 (harmonic balance) and 2e-7 (transient)",
+        "warning: the scenes differ in `effects.damping`",
+        "warning: the scenes differ in `mesh.parameters`",
+    ] {
+        assert!(err.contains(part), "no `{part}` in: {err}");
+    }
+    let json = common::read_json(&out.join("compare.json"));
+    assert_eq!(json["warnings"].as_array().map(Vec::len), Some(3), "{json}");
+}
+
 /// Complementarity-violation bounds of the shipped contact scenes, about 2× the measured
 /// value (strip_wall 0.075, half_disc 0.0072, blade_casing 0.066); other scenes: 0.15.
 fn complementarity_bound(name: &str) -> f64 {

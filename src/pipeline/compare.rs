@@ -14,6 +14,13 @@
 //! step), and the first three harmonics of the total contact force (TM from
 //! `contact_steps.csv`, every step).
 //!
+//! Same scene: the two summaries must describe one mesh (`MESH_KEYS`: order, node and cell
+//! counts, shortest edge) and one frequency, else `compare` refuses (exit 2): differences
+//! between meshes are not the solvers'. Other differences of the scene as the summaries record
+//! it (`SCENE_KEYS`: name, geometry parameters and mesh size, supports, loads' harmonics,
+//! damping, contact set and gaps) are `warnings`, printed before the table (parameters written
+//! out at their `.geo` default give the same mesh).
+//!
 //! Overlays: `Comparison::overlays` keeps both time series of every probe column, of the
 //! opening of the contact node with the largest HB force (`contact.csv`; time marching at its
 //! frames) and of the total contact force; `write` draws them (`plots::write_overlays`).
@@ -76,7 +83,11 @@ pub struct Comparison {
     /// The fundamental frequency both share [Hz].
     pub frequency_hz: f64,
     pub differences: Vec<Difference>,
-    /// Things to know about the comparison (different scene names, missing probes).
+    /// How the two scenes differ, as their summaries record them (name, supports, loads'
+    /// harmonics, damping, contact set and gaps): each makes the differences the scenes' as
+    /// much as the solvers'. Empty when the scenes agree.
+    pub warnings: Vec<String>,
+    /// Things to know about the comparison (missing probes, contact in one result only).
     pub notes: Vec<String>,
     /// Both solvers' series of every compared signal (not written; for plots).
     #[serde(skip)]
@@ -110,24 +121,109 @@ pub fn compare(hb_dir: &Path, transient_dir: &Path) -> Result<Comparison> {
             tm.dir.display()
         )));
     }
+    let meshes = differing(&hb, &tm, MESH_KEYS);
+    if !meshes.is_empty() {
+        return Err(Error::Input(format!(
+            "{} and {} are results on different meshes ({}): their differences would be the meshes', not the solvers'; compare a `run` and a `transient` of the same pipeline and geometry settings",
+            hb.dir.display(),
+            tm.dir.display(),
+            meshes.join("; ")
+        )));
+    }
+    let scene = differing(&hb, &tm, SCENE_KEYS);
     let mut c = Comparison {
         harmonic_balance: hb.dir.clone(),
         transient: tm.dir.clone(),
         frequency_hz,
         differences: Vec::new(),
+        warnings: scene
+            .into_iter()
+            .map(|d| format!("the scenes differ in {d}: the differences below are partly the scenes', not only the solvers'"))
+            .collect(),
         notes: Vec::new(),
         overlays: Vec::new(),
     };
-    if hb.summary["name"] != tm.summary["name"] {
-        c.notes.push(format!(
-            "the scene names differ ({} and {})",
-            hb.summary["name"], tm.summary["name"]
-        ));
-    }
     let omega = 2.0 * std::f64::consts::PI * frequency_hz;
     compare_probes(&hb, &tm, omega, &mut c);
     compare_contact(&hb, &tm, omega, &mut c)?;
     Ok(c)
+}
+
+/// The summary fields that fix the mesh: results that differ in one are refused.
+const MESH_KEYS: &[&str] = &[
+    "/mesh/order",
+    "/mesh/nodes",
+    "/mesh/cells",
+    "/mesh/min_edge_length",
+];
+
+/// The summary fields that describe the rest of the scene both solvers see (not the mass
+/// model, the time basis or the harmonics computed, which are the solvers' own): results that
+/// differ in one are compared with a warning naming it.
+const SCENE_KEYS: &[&str] = &[
+    "/name",
+    "/pipeline",
+    "/mesh/geometry",
+    "/mesh/parameters",
+    "/mesh/mesh_size",
+    "/sizes/free_dofs",
+    "/sizes/prescribed_dofs",
+    "/effects/static_load",
+    "/effects/excited_harmonics",
+    "/effects/prescribed_motion",
+    "/effects/damping",
+    "/effects/contact",
+    "/contact_setup/candidates",
+    "/contact_setup/kept",
+    "/contact_setup/min_initial_gap",
+    "/contact_setup/max_initial_gap",
+];
+
+/// Whether two summary values are the same: numbers to 1e-9 relative, the rest exactly,
+/// objects and lists element by element.
+fn same(a: &serde_json::Value, b: &serde_json::Value) -> bool {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => match (x.as_f64(), y.as_f64()) {
+            (Some(x), Some(y)) => (x - y).abs() <= 1e-9 * x.abs().max(y.abs()),
+            _ => x == y,
+        },
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(x, y)| same(x, y))
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            x.len() == y.len() && x.iter().all(|(k, v)| y.get(k).is_some_and(|w| same(v, w)))
+        }
+        _ => a == b,
+    }
+}
+
+/// Each of `keys` (JSON pointers into the summaries) whose values differ, as
+/// "`mesh.nodes` 1787 (harmonic balance) and 1950 (transient)".
+fn differing(hb: &ResultDir, tm: &ResultDir, keys: &[&str]) -> Vec<String> {
+    let shown = |v: Option<&serde_json::Value>| {
+        v.map_or("absent".to_string(), |v| {
+            crate::error::excerpt(&v.to_string())
+        })
+    };
+    keys.iter()
+        .filter_map(|key| {
+            let (a, b) = (hb.summary.pointer(key), tm.summary.pointer(key));
+            let equal = match (a, b) {
+                (Some(a), Some(b)) => same(a, b),
+                (None, None) => true,
+                _ => false,
+            };
+            (!equal).then(|| {
+                format!(
+                    "`{}` {} (harmonic balance) and {} (transient)",
+                    key.trim_start_matches('/').replace('/', "."),
+                    shown(a),
+                    shown(b)
+                )
+            })
+        })
+        .collect()
 }
 
 fn read_dir(dir: &Path, mode: &str, producer: &str) -> Result<ResultDir> {
