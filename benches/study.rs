@@ -74,6 +74,7 @@ fn main() {
             out: Some(out),
             threads: Some(threads),
             shard: None,
+            trust_geometry: false,
         };
         let start = Instant::now();
         let report = match study::run(&spec, &options, &Silent) {
@@ -135,6 +136,7 @@ fn accuracy(root: &std::path::Path) {
         out: Some(out),
         threads: None,
         shard: None,
+        trust_geometry: false,
     };
     match study::run(&spec, &options, &Silent) {
         Ok(report) => {

@@ -236,6 +236,10 @@ struct StudyArgs {
     /// Accuracy studies: print the cheapest setting within this relative error, per measure.
     #[arg(long)]
     tolerance: Option<f64>,
+    /// Let gmsh read the points' `.geo` as it is (see `run --help`); only for a geometry you
+    /// wrote yourself. Passed on to the jobs `--slurm` writes.
+    #[arg(long)]
+    trust_geometry: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -447,6 +451,7 @@ fn study(a: &StudyArgs) -> hbcontact::Result<()> {
     let options = StudyOptions {
         out: a.out.clone(),
         threads: a.threads,
+        trust_geometry: a.trust_geometry,
         shard: a
             .shard
             .as_deref()
@@ -494,6 +499,7 @@ fn slurm(
         time: a.time.clone(),
         mem: a.mem.clone(),
         cpus_per_task: a.cpus_per_task,
+        trust_geometry: a.trust_geometry,
     };
     let scripts = write_scripts(&a.study, &spec.name, &out, &a.set, &o)?;
     if !a.quiet {
@@ -591,7 +597,11 @@ fn accuracy(
             ladders: parsed,
         }),
     };
-    let report = study::run(&spec, &StudyOptions::default(), &*reporter(c.quiet))?;
+    let options = StudyOptions {
+        trust_geometry: c.trust_geometry,
+        ..StudyOptions::default()
+    };
+    let report = study::run(&spec, &options, &*reporter(c.quiet))?;
     if let Some(acc) = &report.accuracy {
         if !c.quiet {
             cli::study::show_accuracy(acc);

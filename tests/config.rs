@@ -959,3 +959,64 @@ fn documented_bounds_that_ran_before_are_refused_by_check() {
         );
     }
 }
+
+/// TEST GOAL: a pipeline or study file is refused before the YAML parser sees it when it is
+/// larger than 4 MiB or nests deeper than 64 (issue #46: a 200 kB pipeline of 100 000 nested
+/// `[` kept `check` busy for over a minute): exit 2 from `check` and `study` in well under a
+/// second, naming the file, the line and the limit; flow (`[[[`), block (`- - -`) and
+/// indented nesting are all counted, and the shipped pipelines and studies pass.
+#[test]
+fn huge_or_deeply_nested_yaml_is_refused_before_parsing() {
+    let dir = root().join("output/test-runs/config-yaml-limits");
+    std::fs::create_dir_all(&dir).unwrap();
+    let flow = format!(
+        "name: x\ngeometry: {}{}\n",
+        "[".repeat(100_000),
+        "]".repeat(100_000)
+    );
+    let block = format!("name: x\ngeometry:\n  {}x\n", "- ".repeat(100_000));
+    let mut indented = String::from("name: x\n");
+    for d in 0..100 {
+        indented.push_str(&format!("{}k{d}:\n", " ".repeat(d)));
+    }
+    let huge = format!("name: x\n# {}\n", "x".repeat(5 << 20));
+    for (tag, text, named) in [
+        (
+            "flow",
+            &flow,
+            "line 2: the YAML nests 65 collections deep, beyond the limit of 64",
+        ),
+        ("block", &block, "line 3: the YAML nests"),
+        ("indented", &indented, "line 66: the YAML nests"),
+        ("huge", &huge, "larger than 4 MiB"),
+    ] {
+        for command in ["check", "study"] {
+            let file = dir.join(format!("{tag}-{command}.yaml"));
+            std::fs::write(&file, text).unwrap();
+            let started = std::time::Instant::now();
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
+                .args([command, file.to_str().unwrap(), "-q"])
+                .current_dir(root())
+                .output()
+                .expect("the hbcontact binary runs");
+            let seconds = started.elapsed().as_secs_f64();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{tag} {command}: {err}");
+            assert!(
+                err.contains(&format!("{tag}-{command}.yaml")) && err.contains(named),
+                "{tag} {command}: {err}"
+            );
+            assert!(seconds < 2.0, "{tag} {command}: {seconds} s");
+        }
+    }
+    for dir in ["pipelines", "pipelines/hard", "studies"] {
+        for entry in std::fs::read_dir(root().join(dir)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "yaml") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                let checked = hbcontact::config::limits::check_yaml(&text, "pipeline");
+                assert!(checked.is_ok(), "{}: {checked:?}", path.display());
+            }
+        }
+    }
+}

@@ -136,3 +136,59 @@ fn a_study_may_not_choose_the_gmsh_program() {
         assert!(e.contains("`geometry.gmsh` names a program"), "{tag}: {e}");
     }
 }
+
+/// TEST GOAL: `study` and `accuracy` mesh their points' `.geo` under the same guard: without
+/// `--trust-geometry` a point whose geometry runs a program fails and the program never runs;
+/// with it (issue #46: `accuracy` took the flag and dropped it, `study` had none) the
+/// geometry runs as written.
+#[test]
+fn study_and_accuracy_take_trust_geometry_for_their_points() {
+    for command in ["study", "accuracy"] {
+        let m = common::root().join(format!("output/test-runs/geometry-guard-{command}-made"));
+        let _ = std::fs::remove_file(&m);
+        let dir = scene(
+            &format!("{command}-points"),
+            &format!("SystemCall \"touch {}\";", m.display()),
+        );
+        let study = dir.join("study.yaml");
+        std::fs::write(
+            &study,
+            "name: s\npipeline: scene.yaml\nparameters:\n  - {key: material.youngs_modulus, values: [2.1e11]}\n",
+        )
+        .unwrap();
+        let target = match command {
+            "study" => study,
+            _ => dir.join("scene.yaml"),
+        };
+        for trusted in [false, true] {
+            let out = dir.join(format!("out-{trusted}"));
+            let mut args = vec![
+                command,
+                target.to_str().unwrap(),
+                "-q",
+                "--out",
+                out.to_str().unwrap(),
+            ];
+            if trusted {
+                args.push("--trust-geometry");
+            }
+            if command == "accuracy" {
+                // An accuracy study measures a probe's amplitude.
+                args.extend([
+                    "--set",
+                    "output.probes=[body]",
+                    "--set",
+                    "boundaries.loads=[{group: body, type: force, harmonics: [{k: 1, cos: [1.0e3, 0.0]}]}]",
+                ]);
+            }
+            let o = common::hbcontact(&args);
+            let e = stderr(&o);
+            assert_eq!(m.exists(), trusted, "{command}, trusted {trusted}: {e}");
+            if trusted {
+                assert!(o.status.success(), "{command}: {e}");
+            } else {
+                assert!(!o.status.success(), "{command}: {e}");
+            }
+        }
+    }
+}

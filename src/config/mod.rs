@@ -2,6 +2,7 @@
 //! and the validated `Pipeline` the stages consume (this file), whose invariants hold by
 //! construction: positive material constants, N > 2H, existing geometry file, and so on.
 
+pub mod limits;
 pub mod raw;
 pub mod schema;
 

@@ -729,6 +729,8 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
             format!("--set {shown}: expected KEY=VALUE, e.g. --set harmonic_balance.harmonics=20"),
         ));
     };
+    super::limits::check_yaml(value, "pipeline")
+        .map_err(|m| config_error(path, format!("--set {shown}: {m}")))?;
     let parsed: Value = serde_yaml::from_str(value).map_err(|e| {
         config_error(
             path,
@@ -799,14 +801,14 @@ fn apply_override(root: &mut Value, spec: &str, path: &Path) -> Result<()> {
 
 /// Read `path`, apply `--set key.path=value` overrides, and validate.
 pub fn load_pipeline(path: &Path, overrides: &[String]) -> Result<Pipeline> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| config_error(path, format!("cannot read the pipeline file: {e}")))?;
+    let text = super::limits::read_yaml(path, "pipeline").map_err(|m| config_error(path, m))?;
     parse_pipeline(path, &text, overrides)
 }
 
 /// A pipeline from its YAML `text`, as if read from `path` (relative files resolve from it,
 /// errors name it), with the `--set` overrides applied.
 pub fn parse_pipeline(path: &Path, text: &str, overrides: &[String]) -> Result<Pipeline> {
+    super::limits::check_yaml(text, "pipeline").map_err(|m| config_error(path, m))?;
     let raw: RawPipeline = if overrides.is_empty() {
         serde_yaml::from_str(text).map_err(|e| yaml_error(path, &e, None))?
     } else {

@@ -62,6 +62,9 @@ pub struct StudyOptions {
     pub threads: Option<usize>,
     /// Run only this slice, and write no table.
     pub shard: Option<Shard>,
+    /// Let gmsh read the points' `.geo` without the scan for statements that run programs or
+    /// touch other files (`--trust-geometry`; no study file can set it).
+    pub trust_geometry: bool,
 }
 
 /// How a study went.
@@ -121,7 +124,10 @@ pub fn output_dir(study: &Study, options: &StudyOptions) -> PathBuf {
 /// publish the table, plots and manifest.
 pub fn run(study: &Study, options: &StudyOptions, reporter: &dyn Reporter) -> Result<StudyReport> {
     let out = output_dir(study, options);
-    let points = plan::plan(study)?;
+    let mut points = plan::plan(study)?;
+    for p in &mut points {
+        p.pipeline.geometry.trusted = options.trust_geometry;
+    }
     crate::output::staging::claim_entries(&out, "study", &OWNED_ENTRIES)?;
     crate::output::staging::remove_stale_partials(&out.join(".results"), reporter);
     if options.shard.is_none() {

@@ -23,6 +23,8 @@ pub struct SlurmOptions {
     pub mem: Option<String>,
     /// Cores per task (the shard runs that many points at once).
     pub cpus_per_task: usize,
+    /// Pass `--trust-geometry` on to every job.
+    pub trust_geometry: bool,
 }
 
 /// The scripts written.
@@ -81,6 +83,9 @@ pub fn write_scripts(
     );
     for s in set {
         let _ = write!(common, " --set {}", quote(s));
+    }
+    if o.trust_geometry {
+        common.push_str(" --trust-geometry");
     }
     let mut array = header(name, o, &dir.join("shard-%a.log"));
     let _ = write!(

@@ -309,14 +309,14 @@ pub fn study_schema() -> serde_json::Value {
 
 /// Read and validate a study file; `set` adds command-line overrides after the study's own.
 pub fn load_study(path: &Path, set: &[String]) -> Result<Study> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| bad(path, format!("cannot read the study file: {e}")))?;
+    let text = crate::config::limits::read_yaml(path, "study").map_err(|m| bad(path, m))?;
     parse_study(path, &text, set)
 }
 
 /// A study from its YAML `text`, as if read from `path` (the pipeline resolves from it,
 /// errors name it); `set` adds command-line overrides after the study's own.
 pub fn parse_study(path: &Path, text: &str, set: &[String]) -> Result<Study> {
+    crate::config::limits::check_yaml(text, "study").map_err(|m| bad(path, m))?;
     let raw: RawStudy = serde_yaml::from_str(text).map_err(|e| {
         let at = e
             .location()
