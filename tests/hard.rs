@@ -659,7 +659,9 @@ fn an_inverted_cell_is_bad_input() {
 }
 
 /// TEST GOAL: two overlapping bodies that share no node are refused (exit 2) naming the
-/// parts and `geometry.allow_disconnected`, which lets them through; an empty named group
+/// parts and `geometry.allow_disconnected`, which lets them through, each part then needing
+/// its own support: the unheld second body is named with its free motions (exit 3: the
+/// contact solve needs the static stiffness), and held it passes; an empty named group
 /// warns, and is refused where the pipeline names it.
 #[test]
 fn disconnected_bodies_and_empty_groups_are_named() {
@@ -667,9 +669,16 @@ fn disconnected_bodies_and_empty_groups_are_named() {
     let (code, err) = check("pipelines/strip_wall.yaml", &[two]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("2 disconnected parts") && err.contains("geometry.allow_disconnected"));
+    let allowed = "geometry.allow_disconnected=true";
+    let (code, err) = check("pipelines/strip_wall.yaml", &[two, allowed]);
+    assert_eq!(code, Some(3), "{err}");
+    assert!(
+        err.matches("for the part of").count() == 1 && err.contains("translation along x"),
+        "{err}"
+    );
     let (code, err) = check(
         "pipelines/strip_wall.yaml",
-        &[two, "geometry.allow_disconnected=true"],
+        &[two, allowed, "boundaries.fixed=[clamp, second]"],
     );
     assert_eq!(code, Some(0), "{err}");
     let dir = common::temp_out("hard-empty-group");
