@@ -49,6 +49,15 @@ impl StageTimes {
         self.0.push((name.to_string(), secs));
     }
 
+    /// Add `secs` to stage `name`'s time (a stage done in parts, e.g. a sweep's checks made
+    /// as its points are found), or push it when the stage has not run.
+    pub fn add(&mut self, name: &str, secs: f64) {
+        match self.0.iter_mut().find(|(n, _)| n == name) {
+            Some((_, v)) => *v += secs,
+            None => self.push(name, secs),
+        }
+    }
+
     /// The time of stage `name` (summed if it ran several times; 0 if it never ran).
     pub fn get(&self, name: &str) -> f64 {
         self.0

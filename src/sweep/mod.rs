@@ -258,20 +258,24 @@ fn execute(
         points::Writer::new(p, &spec, &model, &mesh_info, staged.path(), saved.as_ref());
     let clock = Instant::now();
     let mut starts = Vec::new();
+    let mut judging = 0.0;
     let ended = continue_curve(
         p,
         &spec,
         &model,
         &mut writer,
-        &mut starts,
+        (&mut starts, &mut judging),
         saved.as_ref(),
         reporter,
     );
-    stages.times.push("sweep", clock.elapsed().as_secs_f64());
+    stages
+        .times
+        .push("sweep", clock.elapsed().as_secs_f64() - judging);
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run("stability", || {
         judge_points(p, mesh, &model, &mut writer, &starts, &folds, reporter)
     })?;
+    stages.times.add("stability", judging);
     let (timings, reduced, stopped, failure) = match ended {
         Ok(outcome) => (
             outcome.timings,
@@ -371,14 +375,15 @@ fn write(
     Ok((staged.commit()?, summary))
 }
 
-/// The continuation, each point handed to the writer (row, frame, kept solutions). A
-/// `request_stop` ends it after the current point with `Error::Interrupted`.
+/// The continuation, each point handed to the writer (row, frame, kept solutions) and, with
+/// Hill's method, judged (its seconds added to `judging`). A `request_stop` ends it after the
+/// current point with `Error::Interrupted`.
 fn continue_curve(
     p: &Pipeline,
     spec: &SweepSpec,
     model: &Model,
     writer: &mut points::Writer,
-    starts: &mut Vec<Start>,
+    (starts, judging): (&mut Vec<Start>, &mut f64),
     saved: Option<&resume::Saved>,
     reporter: &dyn Reporter,
 ) -> Result<continuation::SweepOutcome> {
@@ -392,11 +397,10 @@ fn continue_curve(
     let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
         writer.point(info, solution)?;
         if let (Some(hill), Some(contact)) = (&hill, &solution.contact) {
-            record(
-                writer,
-                info.index,
-                judge_state(model, hill, info.omega, contact),
-            );
+            let start = Instant::now();
+            let verdict = judge_state(model, hill, info.omega, contact);
+            *judging += start.elapsed().as_secs_f64();
+            record(writer, info.index, verdict);
         }
         // The compliance is kept only as long as a verdict may need it.
         let contact = solution.contact.clone().map(|c| ContactSolution {
