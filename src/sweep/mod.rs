@@ -396,7 +396,12 @@ fn continue_curve(
     let hill = inline_judge(p, model, reporter);
     let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
         writer.point(info, solution)?;
-        if let (Some(hill), Some(contact)) = (&hill, &solution.contact) {
+        // A resumed sweep's saved rows keep the verdicts they were saved with.
+        let saved_verdict = writer
+            .rows
+            .iter()
+            .any(|r| r.index == info.index && (r.stable.is_some() || r.multiplier.is_some()));
+        if let (Some(hill), Some(contact), false) = (&hill, &solution.contact, saved_verdict) {
             let start = Instant::now();
             let verdict = judge_state(model, hill, info.omega, contact);
             *judging += start.elapsed().as_secs_f64();
