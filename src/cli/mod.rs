@@ -108,8 +108,12 @@ fn show_headline(s: &Summary) {
     outln!("{}: {mode}", s.name);
     if let Some((name, a)) = &h.probe {
         outln!(
-            "  probe {name}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",
-            a.first_harmonic_x, a.first_harmonic_y, a.half_peak_to_peak_x, a.half_peak_to_peak_y
+            "  {}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",
+            crate::pipeline::plots::probe_label(name),
+            a.first_harmonic_x,
+            a.first_harmonic_y,
+            a.half_peak_to_peak_x,
+            a.half_peak_to_peak_y
         );
     }
     if let (Some(peak), Some(mean)) = (h.peak_contact_force, h.mean_contact_force) {

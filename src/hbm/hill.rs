@@ -132,11 +132,6 @@ impl HillModel {
         self.theta.len()
     }
 
-    /// The highest natural frequency kept dynamic [rad/s].
-    pub fn top_frequency(&self) -> f64 {
-        self.theta.last().map_or(0.0, |t| t.max(0.0).sqrt())
-    }
-
     /// The same model keeping its `r` lowest modes dynamic.
     pub fn truncated(&self, r: usize) -> HillModel {
         let r = r.min(self.dim());

@@ -90,12 +90,17 @@ pub fn write_run_plots(
 /// The probe plot's title: the group named once ("probe: …" for a group called `probe`,
 /// "probe tip: …" for a group `tip`).
 fn probe_title(name: &str) -> String {
-    let who = if name.to_lowercase().contains("probe") {
+    format!("{}: mean displacement over one period", probe_label(name))
+}
+
+/// A probe group in words, named once: "probe" for a group called `probe`, "probe tip" for a
+/// group `tip` (plots and the run's headline).
+pub fn probe_label(name: &str) -> String {
+    if name.to_lowercase().contains("probe") {
         name.to_string()
     } else {
         format!("probe {name}")
-    };
-    format!("{who}: mean displacement over one period")
+    }
 }
 
 /// `probe_<group>`: each probe group's mean u_x and u_y over the period.
