@@ -9,29 +9,6 @@ use hbcontact::hbm::floquet::{self, Crossing, FloquetModel};
 use hbcontact::pipeline::Purpose;
 use nalgebra::DMatrix;
 
-/// The monodromy of ÿ + α ẏ + k(t) y = 0, k piecewise constant over `segments` (stiffness,
-/// duration), by classical Runge–Kutta with `steps` steps per segment: independent of
-/// `floquet::transition`.
-fn rk4_monodromy(alpha: f64, segments: &[(f64, f64)], steps: usize) -> [[f64; 2]; 2] {
-    let column = |mut y: f64, mut v: f64| {
-        for &(k, tau) in segments {
-            let h = tau / steps as f64;
-            let f = |y: f64, v: f64| (v, -alpha * v - k * y);
-            for _ in 0..steps {
-                let (a1, b1) = f(y, v);
-                let (a2, b2) = f(y + 0.5 * h * a1, v + 0.5 * h * b1);
-                let (a3, b3) = f(y + 0.5 * h * a2, v + 0.5 * h * b2);
-                let (a4, b4) = f(y + h * a3, v + h * b3);
-                y += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-                v += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
-            }
-        }
-        (y, v)
-    };
-    let ((y0, v0), (y1, v1)) = (column(1.0, 0.0), column(0.0, 1.0));
-    [[y0, y1], [v0, v1]]
-}
-
 /// TEST GOAL: on a one-mode model with one contact node whose closing adds k_c = E²/G to the
 /// stiffness (a bilinear oscillator: k = 1 open, 9 closed, α = 0.02, closed for 30% of the
 /// period T = 0.7π, inside the principal parametric resonance), the monodromy equals a fine
@@ -52,7 +29,8 @@ fn bilinear_oscillator_multipliers_match_an_independent_integration() {
     );
     let segments = vec![(vec![0], 0.3 * period), (vec![], 0.7 * period)];
     let phi = model.monodromy(&segments).unwrap();
-    let reference = rk4_monodromy(alpha, &[(k + kc, 0.3 * period), (k, 0.7 * period)], 20_000);
+    let reference =
+        common::rk4_monodromy(alpha, &[(k + kc, 0.3 * period), (k, 0.7 * period)], 20_000);
     for i in 0..2 {
         for j in 0..2 {
             assert!(

@@ -11,28 +11,6 @@ use hbcontact::hbm::hill::{Eigen, HillModel, SampledLaw};
 use hbcontact::pipeline::Purpose;
 use nalgebra::DMatrix;
 
-/// The monodromy of ÿ + α ẏ + k(t) y = 0, k piecewise constant over `segments` (stiffness,
-/// duration), by classical Runge–Kutta with `steps` steps per segment.
-fn rk4_monodromy(alpha: f64, segments: &[(f64, f64)], steps: usize) -> [[f64; 2]; 2] {
-    let column = |mut y: f64, mut v: f64| {
-        for &(k, tau) in segments {
-            let h = tau / steps as f64;
-            let f = |y: f64, v: f64| (v, -alpha * v - k * y);
-            for _ in 0..steps {
-                let (a1, b1) = f(y, v);
-                let (a2, b2) = f(y + 0.5 * h * a1, v + 0.5 * h * b1);
-                let (a3, b3) = f(y + 0.5 * h * a2, v + 0.5 * h * b2);
-                let (a4, b4) = f(y + h * a3, v + h * b3);
-                y += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
-                v += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
-            }
-        }
-        (y, v)
-    };
-    let ((y0, v0), (y1, v1)) = (column(1.0, 0.0), column(0.0, 1.0));
-    [[y0, y1], [v0, v1]]
-}
-
 /// The multiplier of largest modulus of a 2 × 2 monodromy.
 fn leading(phi: [[f64; 2]; 2]) -> c64 {
     let (tr, det) = (
@@ -102,7 +80,7 @@ fn hill_multipliers_of_the_bilinear_oscillator_match_an_independent_integration(
             .count();
         let period = 2.0 * std::f64::consts::PI / omega;
         let share = closed as f64 / samples as f64;
-        let reference = leading(rk4_monodromy(
+        let reference = leading(common::rk4_monodromy(
             0.02,
             &[(9.0, share * period), (1.0, (1.0 - share) * period)],
             20_000,
@@ -141,13 +119,7 @@ fn hill_multipliers_out_of_reach_are_the_damped_modes() {
     let b = &model.contact.as_ref().unwrap().operator.b_free;
     let hill = HillModel::new(&model.system, b, 8).unwrap();
     let compliance = contact.compliance.as_ref().expect("the solve keeps G_k");
-    let law = SampledLaw {
-        harmonics: contact.harmonics,
-        samples: contact.samples,
-        c: contact.c,
-        multipliers: &contact.multipliers,
-        gaps: &contact.gaps,
-    };
+    let law = SampledLaw::of(contact);
     let dense = hill
         .multipliers_of(compliance, &law, solution.omega, Eigen::Dense)
         .unwrap();

@@ -72,6 +72,19 @@ pub struct SampledLaw<'a> {
     pub gaps: &'a [f64],
 }
 
+impl<'a> SampledLaw<'a> {
+    /// The law of a solved contact state.
+    pub fn of(contact: &'a ContactSolution) -> SampledLaw<'a> {
+        SampledLaw {
+            harmonics: contact.harmonics,
+            samples: contact.samples,
+            c: contact.c,
+            multipliers: &contact.multipliers,
+            gaps: &contact.gaps,
+        }
+    }
+}
+
 /// How the exponents are found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Eigen {
@@ -164,14 +177,7 @@ impl HillModel {
         contact: &ContactSolution,
         omega: f64,
     ) -> Result<Multipliers> {
-        let law = SampledLaw {
-            harmonics: contact.harmonics,
-            samples: contact.samples,
-            c: contact.c,
-            multipliers: &contact.multipliers,
-            gaps: &contact.gaps,
-        };
-        self.multipliers_of(compliance, &law, omega, Eigen::Auto)
+        self.multipliers_of(compliance, &SampledLaw::of(contact), omega, Eigen::Auto)
     }
 
     /// The Floquet multipliers of the state whose contact law is `law`, at ω, with the

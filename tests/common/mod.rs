@@ -174,3 +174,26 @@ pub fn hb_probe_amplitudes(
     let sampled = pipeline::report::Sampled::harmonic_balance_history(model, solution, 1, 64);
     pipeline::summary::probe_amplitudes(model, &sampled.history, harmonics)
 }
+
+/// The monodromy of ÿ + α ẏ + k(t) y = 0, k piecewise constant over `segments` (stiffness,
+/// duration), by classical Runge–Kutta with `steps` steps per segment: independent of
+/// `hbm::floquet::transition` and `hbm::hill`.
+pub fn rk4_monodromy(alpha: f64, segments: &[(f64, f64)], steps: usize) -> [[f64; 2]; 2] {
+    let column = |mut y: f64, mut v: f64| {
+        for &(k, tau) in segments {
+            let h = tau / steps as f64;
+            let f = |y: f64, v: f64| (v, -alpha * v - k * y);
+            for _ in 0..steps {
+                let (a1, b1) = f(y, v);
+                let (a2, b2) = f(y + 0.5 * h * a1, v + 0.5 * h * b1);
+                let (a3, b3) = f(y + 0.5 * h * a2, v + 0.5 * h * b2);
+                let (a4, b4) = f(y + h * a3, v + h * b3);
+                y += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+                v += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
+            }
+        }
+        (y, v)
+    };
+    let ((y0, v0), (y1, v1)) = (column(1.0, 0.0), column(0.0, 1.0));
+    [[y0, y1], [v0, v1]]
+}
