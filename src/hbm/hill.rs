@@ -28,6 +28,7 @@
 //! compliance): where the harmonic balance is coarse the verdict is that of the coarse model,
 //! and the harmonic ladder of the solve says whether the state itself has converged.
 
+use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{c64, Mat};
 use nalgebra::DMatrix;
 
@@ -52,15 +53,16 @@ pub const MIN_MODES: usize = 4;
 pub const ORDER: usize = 2400;
 
 /// Hill matrices up to this order get every eigenvalue (dense); larger ones the exponents
-/// nearest the shifts `SHIFTS` by shift-invert Arnoldi.
+/// nearest the shift `SHIFT` by shift-invert Arnoldi.
 pub const DENSE: usize = 240;
 
-/// Shift-invert Arnoldi's shifts σ/ω: right of the imaginary axis, over the upper half of the
-/// strip |Im s| ≤ ω/2 where each exponent has a copy (the lower half mirrors it).
-const SHIFTS: [(f64, f64); 2] = [(0.2, 0.125), (0.2, 0.375)];
+/// Shift-invert Arnoldi's shift σ/ω: real (so P(σ) is real) and right of the imaginary axis,
+/// nearer the rightmost exponents of the strip |Im s| ≤ ω/2, where each exponent has a copy,
+/// than any copy outside it.
+const SHIFT: f64 = 0.2;
 
-/// Krylov vectors per shift.
-const KRYLOV: usize = 80;
+/// Krylov vectors, plus 4 per dynamic mode (the strip holds 2r exponents).
+const KRYLOV: usize = 60;
 
 /// The contact law of a state as Hill's method reads it: λ and g coefficients (node-major,
 /// M per node), sampled at N instants with the complementarity parameter c.
@@ -197,17 +199,23 @@ impl HillModel {
         }
         let (closed, blocks, segments) = activity(law);
         let j0 = self.law_jacobian(compliance, law.c, &closed, &blocks, omega, h);
-        let coupling = self.coupling(j0, law.c, &closed, &blocks, h)?;
-        let hill = self.hill_matrix(&coupling, omega, h);
+        let (r, m) = (self.dim(), 2 * h + 1);
         let dense = match eigen {
-            Eigen::Auto => hill.nrows() <= DENSE,
+            Eigen::Auto => 2 * r * m <= DENSE,
             Eigen::Dense => true,
             Eigen::Arnoldi => false,
         };
+        let law = Linearized {
+            j0,
+            c: law.c,
+            closed: &closed,
+            blocks: &blocks,
+        };
         let exponents = if dense {
-            physical_exponents(&hill, self.dim(), h)?
+            let stiffness = self.stiffness(self.coupling(&law, h)?, omega, h);
+            physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h)?
         } else {
-            self.rightmost_exponents(&hill, omega, h)?
+            self.rightmost_exponents(&law, omega, h)?
         };
         let period = 2.0 * std::f64::consts::PI / omega;
         let mut values: Vec<c64> = exponents
@@ -291,16 +299,15 @@ impl HillModel {
 
     /// Ẽᵀ L = c Ẽᵀ J₀⁻¹ Q D P Ẽ (rM × rM, mode-major): how the modes' motion loads them
     /// back through the closed contacts.
-    fn coupling(
-        &self,
-        j0: Mat<f64>,
-        c: f64,
-        closed: &[usize],
-        blocks: &[Vec<f64>],
-        h: usize,
-    ) -> Result<Mat<f64>> {
+    fn coupling(&self, law: &Linearized, h: usize) -> Result<Mat<f64>> {
         use faer::linalg::solvers::Solve;
-        let (na, m, r) = (closed.len(), 2 * h + 1, self.dim());
+        let Linearized {
+            j0,
+            c,
+            closed,
+            blocks,
+        } = law;
+        let (c, na, m, r) = (*c, closed.len(), 2 * h + 1, self.dim());
         if na == 0 {
             return Ok(Mat::zeros(r * m, r * m));
         }
@@ -339,42 +346,56 @@ impl HillModel {
         Ok(out)
     }
 
-    /// The Hill matrix on (q̃, v), 2rM square.
-    fn hill_matrix(&self, coupling: &Mat<f64>, omega: f64, h: usize) -> Mat<f64> {
-        let (m, r) = (2 * h + 1, self.dim());
-        let n = r * m;
+    /// K̂ = Δ² + c_jΔ + θ_j + Ẽᵀ L on the modal coefficients (rM square, mode-major), made
+    /// from the coupling Ẽᵀ L in place.
+    fn stiffness(&self, mut coupling: Mat<f64>, omega: f64, h: usize) -> Mat<f64> {
+        let m = 2 * h + 1;
+        for j in 0..self.dim() {
+            let cj = self.alpha + self.beta * self.theta[j];
+            let base = j * m;
+            coupling[(base, base)] += self.theta[j];
+            for k in 1..=h {
+                let kw = k as f64 * omega;
+                let (ic, is) = (base + cos_index(k), base + sin_index(k));
+                // Δ[cos, sin] = kω, Δ[sin, cos] = −kω; Δ² = −k²ω².
+                coupling[(ic, ic)] += self.theta[j] - kw * kw;
+                coupling[(is, is)] += self.theta[j] - kw * kw;
+                coupling[(ic, is)] += cj * kw;
+                coupling[(is, ic)] -= cj * kw;
+            }
+        }
+        coupling
+    }
+
+    /// Adds `scale`·Ĉ, Ĉ = 2Δ + c_j on the modal coefficients, to `target` (rM square).
+    fn add_damping(&self, mut target: faer::MatMut<'_, f64>, scale: f64, omega: f64, h: usize) {
+        let m = 2 * h + 1;
+        for j in 0..self.dim() {
+            let cj = scale * (self.alpha + self.beta * self.theta[j]);
+            let base = j * m;
+            target[(base, base)] += cj;
+            for k in 1..=h {
+                let kw2 = scale * 2.0 * k as f64 * omega;
+                let (ic, is) = (base + cos_index(k), base + sin_index(k));
+                target[(ic, ic)] += cj;
+                target[(is, is)] += cj;
+                target[(ic, is)] += kw2;
+                target[(is, ic)] -= kw2;
+            }
+        }
+    }
+
+    /// The Hill matrix [[0, I], [−K̂, −Ĉ]] on (q̃, v), 2rM square.
+    fn hill_matrix(&self, stiffness: &Mat<f64>, omega: f64, h: usize) -> Mat<f64> {
+        let n = stiffness.nrows();
         let mut a = Mat::<f64>::zeros(2 * n, 2 * n);
         for i in 0..n {
             a[(i, n + i)] = 1.0;
         }
-        for j in 0..r {
-            let cj = self.alpha + self.beta * self.theta[j];
-            let base = j * m;
-            for k in 0..=h {
-                let kw = k as f64 * omega;
-                let stiff = self.theta[j] - kw * kw;
-                if k == 0 {
-                    a[(n + base, base)] = -stiff;
-                    a[(n + base, n + base)] = -cj;
-                    continue;
-                }
-                let (ic, is) = (base + cos_index(k), base + sin_index(k));
-                // −(Δ² + c_jΔ + θ_j) on q, −(2Δ + c_j) on v; Δ[cos, sin] = kω, Δ[sin, cos] = −kω.
-                a[(n + ic, ic)] = -stiff;
-                a[(n + is, is)] = -stiff;
-                a[(n + ic, is)] = -cj * kw;
-                a[(n + is, ic)] = cj * kw;
-                a[(n + ic, n + ic)] = -cj;
-                a[(n + is, n + is)] = -cj;
-                a[(n + ic, n + is)] = -2.0 * kw;
-                a[(n + is, n + ic)] = 2.0 * kw;
-            }
-        }
-        for row in 0..n {
-            for col in 0..n {
-                a[(n + row, col)] -= coupling[(row, col)];
-            }
-        }
+        a.as_mut()
+            .submatrix_mut(n, 0, n, n)
+            .copy_from(-stiffness.as_ref());
+        self.add_damping(a.as_mut().submatrix_mut(n, n, n, n), -1.0, omega, h);
         a
     }
 }
@@ -435,63 +456,43 @@ fn physical_exponents(a: &Mat<f64>, r: usize, h: usize) -> Result<Vec<c64>> {
     Ok(ranked.into_iter().take(2 * r).map(|(_, s)| s).collect())
 }
 
+/// The sampled contact law linearized about a state, on the nodes it ever closes.
+struct Linearized<'a> {
+    /// J₀ = I + Q D P (c R̃ − I) (node-major over `closed`, M per node).
+    j0: Mat<f64>,
+    c: f64,
+    closed: &'a [usize],
+    /// Q D P per contact node (M × M row-major; empty when never closed).
+    blocks: &'a [Vec<f64>],
+}
+
 impl HillModel {
-    /// The exponents nearest the `SHIFTS` (scaled by ω) by shift-invert Arnoldi on the Hill
-    /// matrix `a` = [[0, I], [−K̂, −Ĉ]]: (A − σI)⁻¹ through P(σ) = K̂ + σĈ + σ²I, whose LU is
-    /// rM square (Ĉ = 2Δ + c_j per mode, applied by its structure); of the converged Ritz
-    /// values those whose eigenvector lies within the inner half of the kept harmonics
-    /// (|κ| ≤ H/2: the truncation's edge copies are its artefacts).
-    fn rightmost_exponents(&self, a: &Mat<f64>, omega: f64, h: usize) -> Result<Vec<c64>> {
-        use faer::linalg::solvers::Solve;
-        let n = a.nrows() / 2;
+    /// The exponents nearest the real shift σ = `SHIFT`·ω by shift-invert Arnoldi on the Hill
+    /// matrix A = [[0, I], [−K̂, −Ĉ]]: (A − σI)⁻¹ through P(σ) = K̂ + σĈ + σ²I (`ShiftedSolve`);
+    /// of the converged Ritz values those whose eigenvector lies within the inner half of the
+    /// kept harmonics (|κ| ≤ H/2: the truncation's edge copies are its artefacts).
+    fn rightmost_exponents(&self, law: &Linearized, omega: f64, h: usize) -> Result<Vec<c64>> {
         let (m, r) = (2 * h + 1, self.dim());
-        // Ĉ b, by modes and harmonics: c_j b on each coefficient, ±2kω across (cos, sin).
-        let damp = |b: &[c64], out: &mut [c64]| {
-            for j in 0..r {
-                let cj = self.alpha + self.beta * self.theta[j];
-                let base = j * m;
-                out[base] = b[base] * cj;
-                for k in 1..=h {
-                    let (ic, is) = (base + cos_index(k), base + sin_index(k));
-                    let kw2 = 2.0 * k as f64 * omega;
-                    out[ic] = b[ic] * cj + b[is] * kw2;
-                    out[is] = b[is] * cj - b[ic] * kw2;
-                }
-            }
+        let n = r * m;
+        let sigma = SHIFT * omega;
+        let solve = ShiftedSolve::new(self, law, sigma, omega, h)?;
+        // (A − σ)(x, y) = (b1, b2): y = b1 + σx, P(σ) x = −b2 − (Ĉ + σ) b1.
+        let apply = |b: &[f64]| -> Vec<f64> {
+            let (b1, b2) = b.split_at(n);
+            let mut rhs: Vec<f64> = (0..n).map(|i| -b2[i] - sigma * b1[i]).collect();
+            self.sub_damping(b1, &mut rhs, omega, h);
+            let x = solve.apply(rhs);
+            let y: Vec<f64> = (0..n).map(|i| b1[i] + sigma * x[i]).collect();
+            [x, y].concat()
         };
+        let steps = (KRYLOV + 4 * r).min(2 * n);
         let mut found: Vec<c64> = Vec::new();
-        for (x, y) in SHIFTS {
-            let sigma = c64::new(x * omega, y * omega);
-            let p = Mat::<c64>::from_fn(n, n, |i, j| {
-                let diagonal = if i == j {
-                    sigma * sigma
-                } else {
-                    c64::new(0.0, 0.0)
-                };
-                c64::new(-a[(n + i, j)], 0.0) + sigma * (-a[(n + i, n + j)]) + diagonal
-            });
-            let lu = p.partial_piv_lu();
-            // (A − σ)(x, y) = (b1, b2): y = b1 + σx, P(σ) x = −b2 − (Ĉ + σ) b1.
-            let apply = |b: &[c64]| -> Vec<c64> {
-                let (b1, b2) = b.split_at(n);
-                let mut cb = vec![c64::new(0.0, 0.0); n];
-                damp(b1, &mut cb);
-                let rhs = Mat::<c64>::from_fn(n, 1, |i, _| -b2[i] - sigma * b1[i] - cb[i]);
-                let xs = lu.solve(&rhs);
-                let mut out = vec![c64::new(0.0, 0.0); 2 * n];
-                for i in 0..n {
-                    out[i] = xs[(i, 0)];
-                    out[n + i] = b1[i] + sigma * xs[(i, 0)];
-                }
-                out
-            };
-            for (theta, vector) in arnoldi(apply, 2 * n, KRYLOV.min(2 * n))? {
-                let s = sigma + c64::new(1.0, 0.0) / theta;
-                if kappa(&vector, r, m, h) <= (h as f64 / 2.0).max(1.0)
-                    && !found.iter().any(|f| (f - s).norm() <= 1e-8 * omega)
-                {
-                    found.push(s);
-                }
+        for (theta, vector) in arnoldi(apply, 2 * n, steps)? {
+            let s = c64::new(sigma, 0.0) + c64::new(1.0, 0.0) / theta;
+            if kappa(&vector, r, m, h) <= (h as f64 / 2.0).max(1.0)
+                && !found.iter().any(|f| (f - s).norm() <= 1e-8 * omega)
+            {
+                found.push(s);
             }
         }
         if found.is_empty() {
@@ -501,71 +502,225 @@ impl HillModel {
         }
         Ok(found)
     }
+
+    /// out −= Ĉ b by its structure: c_j on each coefficient, ±2kω across (cos, sin).
+    fn sub_damping(&self, b: &[f64], out: &mut [f64], omega: f64, h: usize) {
+        let m = 2 * h + 1;
+        for j in 0..self.dim() {
+            let cj = self.alpha + self.beta * self.theta[j];
+            let base = j * m;
+            out[base] -= cj * b[base];
+            for k in 1..=h {
+                let (ic, is) = (base + cos_index(k), base + sin_index(k));
+                let kw2 = 2.0 * k as f64 * omega;
+                out[ic] -= cj * b[ic] + kw2 * b[is];
+                out[is] -= cj * b[is] - kw2 * b[ic];
+            }
+        }
+    }
 }
 
-/// The converged Ritz pairs (θ, x) of `apply` from an Arnoldi factorization of `steps` steps
-/// (modified Gram–Schmidt, reorthogonalized); converged: |h_{k+1,k} y_k| ≤ 1e-8 |θ|.
-fn arnoldi(
-    apply: impl Fn(&[c64]) -> Vec<c64>,
-    n: usize,
-    steps: usize,
-) -> Result<Vec<(c64, Vec<c64>)>> {
-    let zero = c64::new(0.0, 0.0);
-    let norm = |v: &[c64]| v.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt();
-    let start: Vec<c64> = (0..n)
-        .map(|i| {
-            c64::new(
-                1.0 + ((i * 7919) % 97) as f64 / 97.0,
-                ((i * 104729) % 89) as f64 / 89.0,
-            )
-        })
-        .collect();
-    let s0 = norm(&start);
-    let mut basis: Vec<Vec<c64>> = vec![start.iter().map(|z| z / s0).collect()];
-    let mut hess = Mat::<c64>::zeros(steps + 1, steps);
-    let mut k = 0;
-    while k < steps {
-        let mut w = apply(&basis[k]);
-        for _ in 0..2 {
-            for (j, v) in basis.iter().enumerate() {
-                let dot: c64 = v.iter().zip(&w).map(|(a, b)| a.conj() * b).sum();
-                hess[(j, k)] += dot;
-                for (wi, vi) in w.iter_mut().zip(v) {
-                    *wi -= dot * vi;
+/// x = P(σ)⁻¹ b for P(σ) = K̂ + σĈ + σ²I = D(σ) + U J₀⁻¹ R, with D(σ) the modes' own
+/// operator (a 2 × 2 block per mode and harmonic), U = c Ẽᵀ (rM × n_a M) and R = Q D P Ẽ
+/// (n_a M × rM): by Woodbury, P⁻¹ = D⁻¹ − D⁻¹ U W⁻¹ R D⁻¹ with W = J₀ + R D⁻¹ U, whose
+/// LU is n_a M square (the closed nodes' coefficients) where P's would be rM square, and
+/// W = J₀ + c (Q D P)_a Σ_j e_aj e_bj D_j⁻¹ is assembled from the modal compliance at σ
+/// without forming J₀⁻¹ R. D is invertible for every real σ > 0 (each 2 × 2 block has
+/// determinant a² + b², b = (c_j + 2σ) kω ≠ 0, and θ_j + σc_j + σ² > 0 at k = 0).
+struct ShiftedSolve<'a> {
+    model: &'a HillModel,
+    law: &'a Linearized<'a>,
+    h: usize,
+    /// D⁻¹ per mode and harmonic: (p, q) with D⁻¹ = [[p, −q], [q, p]] on (cos, sin), p alone at
+    /// k = 0; mode-major, H + 1 per mode.
+    inverse: Vec<(f64, f64)>,
+    /// W's LU.
+    w: faer::linalg::solvers::PartialPivLu<f64>,
+}
+
+impl<'a> ShiftedSolve<'a> {
+    fn new(
+        model: &'a HillModel,
+        law: &'a Linearized<'a>,
+        sigma: f64,
+        omega: f64,
+        h: usize,
+    ) -> Result<ShiftedSolve<'a>> {
+        let (r, m) = (model.dim(), 2 * h + 1);
+        let mut inverse = Vec::with_capacity(r * (h + 1));
+        for j in 0..r {
+            let cj = model.alpha + model.beta * model.theta[j];
+            for k in 0..=h {
+                let kw = k as f64 * omega;
+                let a = model.theta[j] - kw * kw + sigma * cj + sigma * sigma;
+                let b = (cj + 2.0 * sigma) * kw;
+                let det = a * a + b * b;
+                inverse.push((a / det, b / det));
+            }
+        }
+        let (na, c) = (law.closed.len(), law.c);
+        let mut w = law.j0.clone();
+        for (ai, &a) in law.closed.iter().enumerate() {
+            let block = &law.blocks[a];
+            for (bi, &b) in law.closed.iter().enumerate() {
+                // G_ab = Σ_j e_aj e_bj D_j⁻¹, per harmonic (P, Q).
+                let mut g = vec![(0.0, 0.0); h + 1];
+                for j in 0..r {
+                    let ee = model.e[(a, j)] * model.e[(b, j)];
+                    for (gk, &(p, q)) in g.iter_mut().zip(&inverse[j * (h + 1)..]) {
+                        gk.0 += ee * p;
+                        gk.1 += ee * q;
+                    }
+                }
+                for row in 0..m {
+                    let at = |col: usize| block[row * m + col];
+                    let (ra, rb) = (ai * m + row, bi * m);
+                    w[(ra, rb)] += c * at(0) * g[0].0;
+                    for (k, &(p, q)) in g.iter().enumerate().skip(1) {
+                        let (ic, is) = (cos_index(k), sin_index(k));
+                        w[(ra, rb + ic)] += c * (at(ic) * p + at(is) * q);
+                        w[(ra, rb + is)] += c * (at(is) * p - at(ic) * q);
+                    }
                 }
             }
         }
-        let beta = norm(&w);
-        hess[(k + 1, k)] = c64::new(beta, 0.0);
+        debug_assert_eq!(w.nrows(), na * m);
+        Ok(ShiftedSolve {
+            model,
+            law,
+            h,
+            inverse,
+            w: w.partial_piv_lu(),
+        })
+    }
+
+    /// x ← D⁻¹ x.
+    fn modal_solve(&self, x: &mut [f64]) {
+        let (h, m) = (self.h, 2 * self.h + 1);
+        for j in 0..self.model.dim() {
+            let base = j * m;
+            let inv = &self.inverse[j * (h + 1)..(j + 1) * (h + 1)];
+            x[base] *= inv[0].0;
+            for (k, &(p, q)) in inv.iter().enumerate().skip(1) {
+                let (ic, is) = (base + cos_index(k), base + sin_index(k));
+                let (xc, xs) = (x[ic], x[is]);
+                x[ic] = p * xc - q * xs;
+                x[is] = q * xc + p * xs;
+            }
+        }
+    }
+
+    /// P(σ)⁻¹ b.
+    fn apply(&self, mut b: Vec<f64>) -> Vec<f64> {
+        use faer::linalg::solvers::Solve;
+        let (model, law) = (self.model, self.law);
+        let (r, m) = (model.dim(), 2 * self.h + 1);
+        self.modal_solve(&mut b);
+        if law.closed.is_empty() {
+            return b;
+        }
+        // t = R y: per closed node a, (Q D P)_a Σ_j e_aj y_j.
+        let mut t = Mat::<f64>::zeros(law.closed.len() * m, 1);
+        let mut u = vec![0.0; m];
+        for (ai, &a) in law.closed.iter().enumerate() {
+            u.iter_mut().for_each(|v| *v = 0.0);
+            for j in 0..r {
+                let e = model.e[(a, j)];
+                u.iter_mut()
+                    .zip(&b[j * m..(j + 1) * m])
+                    .for_each(|(ui, yi)| *ui += e * yi);
+            }
+            let block = &law.blocks[a];
+            for row in 0..m {
+                t[(ai * m + row, 0)] = (0..m).map(|col| block[row * m + col] * u[col]).sum();
+            }
+        }
+        let z = self.w.solve(&t);
+        // v = U z = c Ẽᵀ z, then x = y − D⁻¹ v.
+        let mut v = vec![0.0; r * m];
+        for (ai, &a) in law.closed.iter().enumerate() {
+            for j in 0..r {
+                let e = law.c * model.e[(a, j)];
+                for row in 0..m {
+                    v[j * m + row] += e * z[(ai * m + row, 0)];
+                }
+            }
+        }
+        self.modal_solve(&mut v);
+        b.iter_mut().zip(&v).for_each(|(bi, vi)| *bi -= vi);
+        b
+    }
+}
+
+/// The converged Ritz pairs (θ, x) of the real operator `apply` from an Arnoldi factorization
+/// of `steps` steps in real arithmetic (classical Gram–Schmidt, twice); complex Ritz values
+/// come in conjugate pairs; converged: |h_{k+1,k} y_k| ≤ 1e-8 |θ|.
+fn arnoldi(
+    apply: impl Fn(&[f64]) -> Vec<f64>,
+    n: usize,
+    steps: usize,
+) -> Result<Vec<(c64, Vec<c64>)>> {
+    use faer::linalg::matmul::matmul;
+    use faer::{Accum, Par};
+    let mut basis = Mat::<f64>::zeros(n, steps + 1);
+    let start: Vec<f64> = (0..n)
+        .map(|i| 1.0 + ((i * 7919) % 97) as f64 / 97.0 - ((i * 104729) % 89) as f64 / 89.0)
+        .collect();
+    let s0 = start.iter().map(|z| z * z).sum::<f64>().sqrt();
+    for (i, v) in start.iter().enumerate() {
+        basis[(i, 0)] = v / s0;
+    }
+    let mut hess = Mat::<f64>::zeros(steps + 1, steps);
+    let mut dots = Mat::<f64>::zeros(steps + 1, 1);
+    let mut k = 0;
+    while k < steps {
+        let current: Vec<f64> = basis.col(k).iter().copied().collect();
+        let mut w = Mat::<f64>::from_fn(n, 1, |i, _| 0.0 * i as f64);
+        for (i, v) in apply(&current).into_iter().enumerate() {
+            w[(i, 0)] = v;
+        }
+        let done = basis.as_ref().subcols(0, k + 1);
+        for _ in 0..2 {
+            let mut h = dots.as_mut().subrows_mut(0, k + 1);
+            matmul(
+                h.rb_mut(),
+                Accum::Replace,
+                done.transpose(),
+                w.as_ref(),
+                1.0,
+                Par::Seq,
+            );
+            matmul(w.as_mut(), Accum::Add, done, h.rb(), -1.0, Par::Seq);
+            for j in 0..=k {
+                hess[(j, k)] += h[(j, 0)];
+            }
+        }
+        let beta = w.col(0).norm_l2();
+        hess[(k + 1, k)] = beta;
         k += 1;
         if !beta.is_finite() {
             return Err(Error::Model("Hill's method: Arnoldi broke down".into()));
         }
-        if beta <= 1e-14 * hess[(k - 1, k - 1)].norm().max(1e-300) {
+        if beta <= 1e-14 * hess[(k - 1, k - 1)].abs().max(1e-300) {
             break;
         }
-        basis.push(w.iter().map(|z| z / beta).collect());
+        for i in 0..n {
+            basis[(i, k)] = w[(i, 0)] / beta;
+        }
     }
-    let small = Mat::<c64>::from_fn(k, k, |i, j| hess[(i, j)]);
-    let eig = small
-        .eigen()
-        .map_err(|e| Error::Model(format!("Hill's method: Ritz values failed ({e:?})")))?;
-    let (values, vectors) = (eig.S(), eig.U());
-    let tail = hess[(k, k - 1)].norm();
+    let (values, vectors) = crate::linalg::eigen_real(hess.as_ref().submatrix(0, 0, k, k))
+        .map_err(|e| Error::Model(format!("Hill's method: Ritz values: {e}")))?;
+    let tail = hess[(k, k - 1)].abs();
     let mut out = Vec::new();
-    for i in 0..k {
-        let theta = values[i];
+    for (i, &theta) in values.iter().enumerate() {
         let y = vectors.col(i);
         let ynorm = (0..k).map(|j| y[j].norm_sqr()).sum::<f64>().sqrt();
         if tail * y[k - 1].norm() > 1e-8 * theta.norm() * ynorm || theta.norm() == 0.0 {
             continue;
         }
-        let mut x = vec![zero; n];
-        for (j, v) in basis.iter().take(k).enumerate() {
-            for (xi, vi) in x.iter_mut().zip(v) {
-                *xi += y[j] * vi;
-            }
-        }
+        let x = (0..n)
+            .map(|q| (0..k).map(|j| y[j] * basis[(q, j)]).sum())
+            .collect();
         out.push((theta, x));
     }
     Ok(out)
