@@ -18,10 +18,12 @@
 //!   ((a_k, b_k) → (kω b_k, −kω a_k)); with δλ̃ = −L q̃, L = c J₀⁻¹ Q D P Ẽ and
 //!   J₀ = I + Q D P (c R̃ − I) on the nodes ever closed (the others keep δλ = 0):
 //!   s q̃ = v,  s v = −(2Δ + c_j) v − (Δ² + c_jΔ + θ_j) q̃ − Ẽᵀ L q̃ (a real 2rM matrix);
-//! - its 2rM eigenvalues are the r·2 physical exponents, each repeated at s + imω: the copy
-//!   kept is the one whose eigenvector is centred on harmonic 0 (the weighted harmonic index
-//!   κ = Σ k(|c₊ₖ|² − |c₋ₖ|²)/Σ|c|² closest to 0, c±ₖ the exponential coefficients), which is
-//!   the copy the truncation to H harmonics resolves best;
+//! - its 2rM eigenvalues are the r·2 physical exponents, each repeated at s + imω: the copies
+//!   kept are those whose eigenvector is centred on harmonic 0 (the weighted harmonic index
+//!   κ = Σ k(|c₊ₖ|² − |c₋ₖ|²)/Σ|c|² within `CENTRED` of 0, c±ₖ the exponential
+//!   coefficients), which the truncation to H harmonics resolves best;
+//! - P(σ) = K̂ + σĈ + σ²I = D(σ) + U J₀⁻¹ R, the Hill operator at a real shift, solved by
+//!   Woodbury through the closed nodes (`ShiftedSolve`);
 //! - multipliers μ = e^{sT}.
 //!
 //! The verdict belongs to the discrete model whose state is reported (the same H, N, c and
@@ -61,7 +63,9 @@ pub const DENSE: usize = 240;
 /// than any copy outside it.
 const SHIFT: f64 = 0.2;
 
-/// Krylov vectors, plus 4 per dynamic mode (the strip holds 2r exponents).
+/// Arnoldi steps, plus 4 per dynamic mode (the strip holds 2r exponents): on the coarse strip
+/// sweep 60 + 4r and 200 + 10r steps gave the dense eigenvalues' leading multiplier on all 28
+/// rows checked, 30 + 3r missed it on 11.
 const KRYLOV: usize = 60;
 
 /// The contact law of a state as Hill's method reads it: λ and g coefficients (node-major,
@@ -213,7 +217,7 @@ impl HillModel {
         };
         let exponents = if dense {
             let stiffness = self.stiffness(self.coupling(&law, h)?, omega, h);
-            physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h)?
+            physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h, omega)?
         } else {
             self.rightmost_exponents(&law, omega, h)?
         };
@@ -440,20 +444,39 @@ fn activity(law: &SampledLaw) -> (Vec<usize>, Vec<Vec<f64>>, usize) {
 }
 
 /// The 2r exponents whose eigenvectors centre on harmonic 0, from the Hill matrix `a`.
-fn physical_exponents(a: &Mat<f64>, r: usize, h: usize) -> Result<Vec<c64>> {
-    let eig = a
-        .eigen()
-        .map_err(|e| Error::Model(format!("Hill's method: eigenvalues failed ({e:?})")))?;
-    let (s, u) = (eig.S(), eig.U());
+fn physical_exponents(a: &Mat<f64>, r: usize, h: usize, omega: f64) -> Result<Vec<c64>> {
+    let (s, u) = crate::linalg::eigen_real(a.as_ref())
+        .map_err(|e| Error::Model(format!("Hill's method: {e}")))?;
     let m = 2 * h + 1;
-    let mut ranked: Vec<(f64, c64)> = (0..a.nrows())
+    let ranked: Vec<(f64, c64)> = (0..a.nrows())
         .map(|i| {
             let col: Vec<c64> = (0..a.nrows()).map(|q| u[(q, i)]).collect();
             (kappa(&col, r, m, h), s[i])
         })
         .collect();
-    ranked.sort_by(|x, y| x.0.total_cmp(&y.0));
-    Ok(ranked.into_iter().take(2 * r).map(|(_, s)| s).collect())
+    Ok(centred(ranked, omega))
+}
+
+/// The largest |κ| of a copy taken as centred. The copies s + ikω of one exponent have κ
+/// about κ₀ + k, so one of them lies within ½ of harmonic 0; near a period doubling two do
+/// (s and s − iω, |κ| ≈ ½ each, the same multiplier), and the truncation moves κ by a few
+/// hundredths. The copies further out are the truncation's less resolved ones: on the coarse
+/// strip sweep (H = 10) taking copies up to |κ| = H/2 made the leading multiplier depend on
+/// how many Arnoldi steps were run (0.85 with 112 steps, 0.71 with 330 at 1134 Hz), and
+/// taking the 2r smallest |κ| dropped the near-period-doubling pair whenever 2r other
+/// exponents had a smaller |κ| (0.71 at 1030 Hz where the same pair is 0.85 at H = 20 and
+/// 0.81 at H = 40).
+const CENTRED: f64 = 0.6;
+
+/// The exponents whose copy is centred (|κ| ≤ `CENTRED`), each once.
+fn centred(ranked: Vec<(f64, c64)>, omega: f64) -> Vec<c64> {
+    let mut kept: Vec<c64> = Vec::new();
+    for (k, s) in ranked {
+        if k <= CENTRED && !kept.iter().any(|t| (t - s).norm() <= 1e-8 * omega) {
+            kept.push(s);
+        }
+    }
+    kept
 }
 
 /// The sampled contact law linearized about a state, on the nodes it ever closes.
@@ -486,15 +509,14 @@ impl HillModel {
             [x, y].concat()
         };
         let steps = (KRYLOV + 4 * r).min(2 * n);
-        let mut found: Vec<c64> = Vec::new();
-        for (theta, vector) in arnoldi(apply, 2 * n, steps)? {
-            let s = c64::new(sigma, 0.0) + c64::new(1.0, 0.0) / theta;
-            if kappa(&vector, r, m, h) <= (h as f64 / 2.0).max(1.0)
-                && !found.iter().any(|f| (f - s).norm() <= 1e-8 * omega)
-            {
-                found.push(s);
-            }
-        }
+        let ranked: Vec<(f64, c64)> = arnoldi(apply, 2 * n, steps)?
+            .into_iter()
+            .map(|(theta, vector)| {
+                let s = c64::new(sigma, 0.0) + c64::new(1.0, 0.0) / theta;
+                (kappa(&vector, r, m, h), s)
+            })
+            .collect();
+        let found = centred(ranked, omega);
         if found.is_empty() {
             return Err(Error::Model(
                 "Hill's method: Arnoldi found no exponent near the imaginary axis".into(),
