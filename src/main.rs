@@ -10,6 +10,7 @@ use std::process::ExitCode;
 mod cli;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use cli::interrupt::Keeps;
 use hbcontact::config::load_pipeline;
 use hbcontact::output::staging::Replace;
 use hbcontact::pipeline::{self, RunOptions};
@@ -26,7 +27,8 @@ Exit codes:
   5    writing results failed
   6    a study finished but some of its points failed (their errors are in study.csv)
   130  interrupted (Ctrl-C, SIGTERM, SIGHUP; a sweep first stops after its current point
-       and writes the curve so far)";
+       and writes the curve so far, `transient` stops its march and writes the whole periods
+       marched, marked partial; the message names the stage and what was kept)";
 
 #[derive(Parser)]
 #[command(
@@ -103,7 +105,8 @@ enum Command {
     #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `output.directory`")))]
     Run(Common),
     /// March in time from rest to the periodic state (the cross-check) and write the results
-    /// to `<output.directory>-transient`, beside the harmonic-balance result.
+    /// to `<output.directory>-transient`, beside the harmonic-balance result. Ctrl-C stops the
+    /// march and writes the whole periods marched, marked partial (exit 130).
     #[command(mut_arg("out", |a| a.help("Write the results into DIR instead of `<output.directory>-transient`")))]
     Transient(Common),
     /// A frequency-response curve through the folds contact makes (the pipeline's `sweep`
@@ -272,11 +275,15 @@ fn main() -> ExitCode {
     // install the handler leaves the parent-death signal, which still ends gmsh with us.
     let _ = ctrlc::set_handler(|| {
         if hbcontact::sweep::request_stop() {
-            eprintln!("interrupted: the sweep stops after this point and writes the curve so far (again to quit at once)");
+            eprintln!("interrupted during the sweep: it stops after this point and writes the curve so far (again to quit at once)");
             return;
         }
-        hbcontact::mesh::gmsh::kill_running();
-        eprintln!("interrupted: gmsh stopped; no output written");
+        if hbcontact::transient::request_stop() {
+            eprintln!("interrupted during the `march` stage: the march stops now and writes the whole periods marched as a partial result (again to quit at once)");
+            return;
+        }
+        let gmsh = hbcontact::mesh::gmsh::kill_running();
+        eprintln!("{}", cli::interrupt::message(gmsh));
         std::process::exit(INTERRUPTED);
     });
     let result = match &cli.command {
@@ -322,27 +329,51 @@ enum Mode {
     Transient,
 }
 
-/// The reporter a subcommand uses: nothing with `--quiet`, bars or lines otherwise.
+/// The reporter a subcommand uses: nothing with `--quiet`, bars or lines otherwise; either
+/// way the stage under way is noted for the message of an interruption.
 fn reporter(quiet: bool) -> Box<dyn Reporter> {
-    if quiet {
+    let shown: Box<dyn Reporter> = if quiet {
         Box::new(Silent)
     } else {
         Box::new(cli::reporter::Cli::new())
-    }
+    };
+    Box::new(cli::interrupt::Tracking(shown))
 }
 
 fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
     let pipeline = load(&c.input)?;
-    let options = run_options(c);
+    let mut options = run_options(c);
     let reporter = reporter(c.input.quiet);
     let result = match mode {
-        Mode::Run => pipeline::run(&pipeline, &options, &*reporter)?,
-        Mode::Transient => pipeline::run_transient(&pipeline, &options, &*reporter)?,
+        Mode::Run => {
+            let out = pipeline::output_dir(&pipeline, &options);
+            cli::interrupt::keeps(Keeps::Folder(out));
+            pipeline::run(&pipeline, &options, &*reporter)?
+        }
+        Mode::Transient => {
+            let out = pipeline::transient_output_dir(&pipeline, &options);
+            cli::interrupt::keeps(Keeps::Folder(out));
+            options.keep_interrupted_march = true;
+            pipeline::run_transient(&pipeline, &options, &*reporter)?
+        }
     };
     if !c.input.quiet {
         cli::show_run(&result);
     }
-    Ok(())
+    // An interrupted march wrote what it marched: exit 130, saying where.
+    match result
+        .summary
+        .transient
+        .as_ref()
+        .and_then(|t| t.stopped.as_ref())
+    {
+        Some(stopped) => Err(Error::Interrupted(format!(
+            "{}; the partial result is in {} (summary.json: transient.stopped)",
+            stopped.reason,
+            result.dir.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// `hbcontact sweep [--resume]`: the folds, the end and what was written; a sweep that
@@ -350,6 +381,8 @@ fn run(c: &Common, mode: Mode) -> hbcontact::Result<()> {
 fn sweep(c: &Common, resume: bool) -> hbcontact::Result<()> {
     let pipeline = load(&c.input)?;
     let options = run_options(c);
+    let out = hbcontact::sweep::output_dir(&pipeline, &options);
+    cli::interrupt::keeps(Keeps::Folder(out));
     let reporter = reporter(c.input.quiet);
     let result = if resume {
         hbcontact::sweep::resume(&pipeline, &options, &*reporter)?
@@ -405,6 +438,8 @@ fn schema(which: SchemaKind) -> hbcontact::Result<()> {
 fn modes(c: &Common, count: usize) -> hbcontact::Result<()> {
     let pipeline = load(&c.input)?;
     let options = run_options(c);
+    let out = pipeline::modes::modes_output_dir(&pipeline, &options);
+    cli::interrupt::keeps(Keeps::Folder(out));
     let result = pipeline::modes(&pipeline, &options, count, &*reporter(c.input.quiet))?;
     if !c.input.quiet {
         cli::show_modes(&result);
@@ -462,6 +497,7 @@ fn study(a: &StudyArgs) -> hbcontact::Result<()> {
     if a.slurm {
         return slurm(a, &spec, &options);
     }
+    cli::interrupt::keeps(Keeps::Study(study::output_dir(&spec, &options)));
     let report = if a.merge {
         study::merge(&spec, &options)?
     } else {
@@ -601,6 +637,7 @@ fn accuracy(
         trust_geometry: c.trust_geometry,
         ..StudyOptions::default()
     };
+    cli::interrupt::keeps(Keeps::Study(out.clone()));
     let report = study::run(&spec, &options, &*reporter(c.quiet))?;
     if let Some(acc) = &report.accuracy {
         if !c.quiet {

@@ -8,6 +8,7 @@ macro_rules! outln {
     };
 }
 
+pub mod interrupt;
 pub mod reporter;
 pub mod study;
 

@@ -308,14 +308,17 @@ fn cache_key(request: &MeshRequest, contents: &[u8], version: &str) -> String {
 /// Process groups of the gmsh runs under way (their leaders' pids), for `kill_running`.
 static RUNNING: Mutex<Vec<i32>> = Mutex::new(Vec::new());
 
-/// Kill every gmsh run under way (its whole process group). For a SIGINT/SIGTERM handler of
-/// the program: gmsh runs in its own process group, so a terminal's Ctrl-C does not reach it.
-pub fn kill_running() {
-    if let Ok(running) = RUNNING.lock() {
-        for &pgid in running.iter() {
-            kill_group(pgid);
-        }
+/// Kill every gmsh run under way (its whole process group); true when there was one. For a
+/// SIGINT/SIGTERM handler of the program: gmsh runs in its own process group, so a
+/// terminal's Ctrl-C does not reach it.
+pub fn kill_running() -> bool {
+    let Ok(running) = RUNNING.lock() else {
+        return false;
+    };
+    for &pgid in running.iter() {
+        kill_group(pgid);
     }
+    !running.is_empty()
 }
 
 fn kill_group(pgid: i32) {

@@ -42,6 +42,10 @@ pub struct RunOptions {
     pub summary_only: bool,
     /// Who may replace an existing output folder (`--force`: move one not ours aside).
     pub replace: Replace,
+    /// `run_transient`: an interruption (`transient::request_stop`) stops the march and the
+    /// whole periods marched are written as a partial result (`transient.stopped` in the
+    /// summary). The command line's `transient` sets it; a study's points leave it off.
+    pub keep_interrupted_march: bool,
 }
 
 /// A finished run: where its files are and what it reports.
@@ -187,7 +191,9 @@ pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
 }
 
 /// `hbcontact transient`: explicit time marching from rest (or from the harmonic-balance
-/// state, `transient.start`) to the periodic state.
+/// state, `transient.start`) to the periodic state. With `keep_interrupted_march`, a march an
+/// interruption stops is written like a finished one, marked partial in the summary
+/// (`transient.stopped`), which the caller turns into exit code 130.
 pub fn run_transient(
     p: &Pipeline,
     options: &RunOptions,
@@ -211,7 +217,12 @@ pub fn run_transient(
             Some(end_state::read(&out, p, &mesh_info, free)?)
         }
     };
-    let (marching, result) = stages::march(p, &model, initial, &mut stages)?;
+    let (marching, result) = {
+        let _armed = options
+            .keep_interrupted_march
+            .then(crate::transient::StopOnInterrupt::arm);
+        stages::march(p, &model, initial, &mut stages)?
+    };
     let staged = StagedDir::create(&out, "transient", options.replace)?;
     let (mut summary, sampled) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);

@@ -399,6 +399,24 @@ pub struct TransientInfo {
     pub start: String,
     /// The relative perturbation of a harmonic-balance start (0 from rest).
     pub perturbation: f64,
+    /// Present when an interruption (Ctrl-C, SIGTERM, SIGHUP) stopped the march: the result
+    /// is partial (the command exits with 130). Absent when the march ran its course.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<MarchStopped>,
+}
+
+/// Why a march ended before it was periodic or had marched `transient.max_periods`.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct MarchStopped {
+    /// `interrupted` (the error class of exit code 130, as a sweep's `stopped.class`).
+    pub class: String,
+    /// Whole periods marched (`periods`): the end state and the periodicity are those of the
+    /// last of them.
+    pub periods: usize,
+    /// Steps marched into the period after them (of `steps_per_period`): the sampled period
+    /// (frames, histories, amplitudes) is the last period of time marched, which ends there.
+    pub steps_into_period: usize,
+    pub reason: String,
 }
 
 pub fn sizes(model: &Model) -> Sizes {
@@ -623,11 +641,14 @@ pub fn transient(
         }
     });
     let mut warnings = Vec::new();
-    if !result.converged {
-        warnings.push(format!(
+    let stopped = result.interrupted.map(|k| march_interrupted(p, result, k));
+    match &stopped {
+        Some(s) => warnings.push(format!("a partial result: {}", s.reason)),
+        None if !result.converged => warnings.push(format!(
             "not periodic after {} periods (change {:.3e} > {:.1e}); raise transient.max_periods or add damping",
             result.periods, result.periodicity_error, p.transient.periodic_tolerance
-        ));
+        )),
+        None => {}
     }
     let dof_amplitudes = result
         .probe_history
@@ -647,10 +668,33 @@ pub fn transient(
             periodicity_error: result.periodicity_error,
             start: p.transient.start.name().into(),
             perturbation: p.transient.perturbation,
+            stopped,
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
         max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(p, RunMode::Transient, mesh, model, None)
+    }
+}
+
+/// `transient.stopped` of a march an interruption stopped `steps` steps into the period after
+/// its last whole one.
+fn march_interrupted(p: &Pipeline, result: &TransientResult, steps: usize) -> MarchStopped {
+    let whole = match result.periods {
+        1 => "1 whole period".to_string(),
+        n => format!("{n} whole periods"),
+    };
+    let reason = format!(
+        "interrupted during the `march` stage after {whole} and {steps} of the {} steps of \
+         the next: the results are the last period of time marched, not a periodic state \
+         (change {:.3e} between the last two periods, transient.periodic_tolerance {:.1e}); \
+         `transient.start: previous` marches on from its end state",
+        result.steps_per_period, result.periodicity_error, p.transient.periodic_tolerance
+    );
+    MarchStopped {
+        class: "interrupted".into(),
+        periods: result.periods,
+        steps_into_period: steps,
+        reason,
     }
 }
 

@@ -169,6 +169,7 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
         summary_only: !point.full && !amplitudes,
         // The point's folder is the study's own (under its `points/`).
         replace: crate::output::staging::Replace::Owned,
+        keep_interrupted_march: false,
     };
     let probe = needs.probe.as_deref();
     let memory = needs.peak_memory.then(reset_peak_memory);

@@ -5,7 +5,7 @@
 //!
 //!   ξ = β ω_max / 2,   Δt = C (2/ω_max) (√(1 + ξ²) − ξ)   (≈ 2C / (β ω_max²) once ξ ≫ 1),
 //!   N = s ⌈T / (Δt s)⌉ steps per period,   N P steps at most,
-//!   bytes ≈ 8 [N (p + 1) + s (3n + c) + 12n + 2 nnz(K) + 3z² + cz + 2c²].
+//!   bytes ≈ 8 [N (p + 1) + s (3n + c) + 14n + 2 nnz(K) + 3z² + cz + 2c²].
 //!
 //! Glossary: ω_max the largest natural frequency of M⁻¹K (rad/s, power iteration, +5%);
 //! β the stiffness-proportional damping (`damping.beta`, s); C the Courant factor
@@ -13,7 +13,8 @@
 //! P the most periods marched (`transient.max_periods`, `stability.max_periods`); n the
 //! free dofs, c the contact rows, z the massless dofs, p the probe dofs. The N (p + 1)
 //! term is the last period's probe and contact-force histories, s (3n + c) its sampled
-//! states, the rest the march's state, K's product and the contact condensation.
+//! states, the rest the march's state (with the end state of its last whole period), K's
+//! product and the contact condensation.
 //!
 //! A march is refused (`Error::Input`, exit 2) when N > `MAX_STEPS_PER_PERIOD`,
 //! N P > `MAX_STEPS` or the bytes exceed half the memory the kernel reports available
@@ -129,7 +130,7 @@ impl Estimate {
         } = sizes;
         let words = steps_per_period * (f(p) + 1.0)
             + f(s) * (3.0 * f(n) + f(c))
-            + 12.0 * f(n)
+            + 14.0 * f(n)
             + 2.0 * f(k)
             + 3.0 * f(z) * f(z)
             + f(c) * f(z)

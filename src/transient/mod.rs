@@ -17,6 +17,8 @@
 pub mod budget;
 pub mod setup;
 
+use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
@@ -73,7 +75,13 @@ pub struct TransientSettings {
 pub struct TransientResult {
     pub dt: f64,
     pub steps_per_period: usize,
+    /// Whole periods marched.
     pub periods: usize,
+    /// `Some(k)` when an interruption (`request_stop`) ended the march k steps into the period
+    /// after the last whole one (0 ≤ k < `steps_per_period`): the samples are then the last
+    /// period of time marched (phase-indexed, so `times` still hold; ending k steps into that
+    /// period), the end state and the periodicity those of the last whole period.
+    pub interrupted: Option<usize>,
     pub converged: bool,
     pub periodicity_error: f64,
     /// Per period k = 1, 2, …: ‖x_k − x_{k−1}‖/‖x_k‖, x = (u, T u̇) at the period start (the
@@ -84,7 +92,7 @@ pub struct TransientResult {
     /// start differs from the marched orbit mostly in the velocities of the waves impacts
     /// send).
     pub departures: Vec<f64>,
-    /// The state at the end of the last period (u and the half-step velocity).
+    /// The state at the end of the last whole period (u and the half-step velocity).
     pub end_state: InitialState,
     /// Sample times (phases in [0, T)) of the last period.
     pub times: Vec<f64>,
@@ -604,9 +612,51 @@ fn state_of(period: f64, u: &[f64], v: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// Marches under way that keep their work on an interruption (`StopOnInterrupt`).
+static ARMED: AtomicUsize = AtomicUsize::new(0);
+/// An interruption asked them to stop.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+thread_local! {
+    /// This thread's march is one of them (a march runs on the thread that calls
+    /// `run_to_periodic`; marches on other threads, such as a study's, go on).
+    static ARMED_HERE: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Ask the march under way to stop at its next step and keep what it marched (the command
+/// line's Ctrl-C or SIGTERM during `hbcontact transient`). Returns false when no such march
+/// runs (`StopOnInterrupt`), or one was already asked: the caller then ends the process itself.
+pub fn request_stop() -> bool {
+    ARMED.load(Ordering::SeqCst) > 0 && !STOP.swap(true, Ordering::SeqCst)
+}
+
+/// While it lives, `request_stop` stops the marches this thread runs at their next step
+/// instead of letting the caller end the process, and `run_to_periodic` returns the whole
+/// periods marched so far (`TransientResult::interrupted`). Only `hbcontact transient` arms
+/// it: a study's or a stability check's march is not a result of its own to keep.
+pub struct StopOnInterrupt(());
+
+impl StopOnInterrupt {
+    pub fn arm() -> Self {
+        STOP.store(false, Ordering::SeqCst);
+        ARMED.fetch_add(1, Ordering::SeqCst);
+        ARMED_HERE.with(|a| a.set(true));
+        StopOnInterrupt(())
+    }
+}
+
+impl Drop for StopOnInterrupt {
+    fn drop(&mut self) {
+        ARMED_HERE.with(|a| a.set(false));
+        ARMED.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
 /// March `problem` period by period until the state at a period start changes by less than
 /// `settings.periodic_tolerance` from the last (not after the first period from rest), its
-/// `decided` rule stops it, or `settings.max_periods` are marched; the last period sampled.
+/// `decided` rule stops it, `settings.max_periods` are marched, or an interruption stops it
+/// (`StopOnInterrupt`: checked before every step; the whole periods so far are returned,
+/// `Error::Interrupted` when there is none); the last period sampled.
 pub fn run_to_periodic(
     problem: &TransientProblem,
     settings: &TransientSettings,
@@ -621,8 +671,21 @@ pub fn run_to_periodic(
     let mut record = LastPeriod::new(samples, steps, per_sample, nc, problem.probes.len());
     let mut watch = Periodicity::new(problem.period, &s.u, &s.v_half);
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
-    while periods < settings.max_periods {
+    // The state at the end of the last whole period (an interruption may come within one).
+    let mut end_state = InitialState {
+        displacement: s.u.clone(),
+        velocity: s.v_half.clone(),
+    };
+    let mut interrupted = None;
+    // One load per step (no measurable cost): within a step of the request.
+    let armed = ARMED_HERE.with(Cell::get);
+    let stop_requested = || armed && STOP.load(Ordering::Relaxed);
+    'periods: while periods < settings.max_periods {
         for step in 0..steps {
+            if stop_requested() {
+                interrupted = Some(step);
+                break 'periods;
+            }
             stepper.step(&mut s, periods * steps + step)?;
             let us = [&s.u_prev[..], &s.u, &s.u_next];
             record.record(step, dt, us, &s.contact.lambda, &problem.probes);
@@ -635,6 +698,8 @@ pub fn run_to_periodic(
                 settings.courant
             )));
         }
+        end_state.displacement.copy_from_slice(&s.u);
+        end_state.velocity.copy_from_slice(&s.v_half);
         change = watch.observe(&s.u, &s.v_half);
         let (done, of) = (periods as u64, Some(settings.max_periods as u64));
         reporter.progress("periods", done, of, &format!("change {change:.2e}"));
@@ -650,18 +715,22 @@ pub fn run_to_periodic(
             }
         }
     }
+    if let (Some(step), 0) = (interrupted, periods) {
+        return Err(Error::Interrupted(format!(
+            "interrupted in the first period of the march (step {step} of {steps}): no whole \
+             period marched to keep"
+        )));
+    }
     Ok(TransientResult {
         dt,
         steps_per_period: steps,
         periods,
+        interrupted,
         converged,
         periodicity_error: change,
         changes: watch.changes,
         departures: watch.departures,
-        end_state: InitialState {
-            displacement: s.u.clone(),
-            velocity: s.v_half.clone(),
-        },
+        end_state,
         times: (0..samples)
             .map(|i| i as f64 * problem.period / samples as f64)
             .collect(),
@@ -898,6 +967,76 @@ mod tests {
             }
             *yj = s;
         }
+    }
+
+    /// A march of the unit-mass oscillator of stiffness 4 driven by sin 2πt (period 1 s, 8
+    /// samples a period) for at most `periods` periods; an interruption is requested from the
+    /// load at the first step at or after `stop_at` seconds.
+    fn oscillator(periods: usize, stop_at: Option<f64>) -> Result<TransientResult> {
+        let stiffness = Csc::from_entries(1, 1, &[(0, 0, 4.0)]);
+        let force = move |t: f64, f: &mut [f64]| {
+            f[0] = (2.0 * std::f64::consts::PI * t).sin();
+            if stop_at.is_some_and(|s| t >= s) {
+                request_stop();
+            }
+        };
+        let problem = TransientProblem {
+            stiffness: &stiffness,
+            mass: &[1.0],
+            rayleigh: Some((0.1, 0.0)),
+            force: &force,
+            contact: None,
+            period: 1.0,
+            probes: vec![0],
+            initial: None,
+            decided: None,
+        };
+        let settings = TransientSettings {
+            courant: 0.5,
+            periodic_tolerance: 1e-30,
+            max_periods: periods,
+            samples_per_period: 8,
+        };
+        run_to_periodic(&problem, &settings, &crate::Silent)
+    }
+
+    /// TEST GOAL: an interruption half-way through the fourth period of an armed march
+    /// (`StopOnInterrupt`) returns the three whole periods: their count, periodicity history
+    /// and end state bit for bit those of a march of three periods, `interrupted` the steps
+    /// into the fourth; the samples and the probe's history are the last period of time
+    /// marched, phase by phase: those before the stop from the fourth period (as a march of
+    /// four has them), the rest from the third. One within the first period keeps nothing
+    /// (`Error::Interrupted`, exit 130); without `arm` the request is refused and the march
+    /// runs its course.
+    #[test]
+    fn an_interrupted_march_keeps_its_whole_periods_and_the_last_period_of_time() {
+        let (three, four) = (oscillator(3, None).unwrap(), oscillator(4, None).unwrap());
+        let armed = StopOnInterrupt::arm();
+        let stopped = oscillator(10, Some(3.5)).unwrap();
+        drop(armed);
+        let steps = stopped.steps_per_period;
+        let k = stopped.interrupted.expect("interrupted");
+        assert!(k > steps / 3 && k < steps, "{k} of {steps}");
+        assert_eq!((stopped.periods, &stopped.changes), (3, &three.changes));
+        assert_eq!(stopped.end_state.displacement, three.end_state.displacement);
+        assert_eq!(stopped.end_state.velocity, three.end_state.velocity);
+        let per_sample = steps / 8;
+        for j in 0..8 {
+            let from = if j * per_sample < k { &four } else { &three };
+            assert_eq!(stopped.displacement[j], from.displacement[j], "sample {j}");
+            assert_eq!(stopped.velocity[j], from.velocity[j], "sample {j}");
+        }
+        for (step, &u) in stopped.probe_history[0].iter().enumerate() {
+            let from = if step < k { &four } else { &three };
+            assert_eq!(u, from.probe_history[0][step], "step {step}");
+        }
+        let armed = StopOnInterrupt::arm();
+        let e = oscillator(10, Some(0.5)).err().expect("nothing to keep");
+        drop(armed);
+        assert_eq!(e.exit_code(), 130);
+        assert!(e.to_string().contains("first period"), "{e}");
+        let unarmed = oscillator(4, Some(0.5)).unwrap();
+        assert_eq!((unarmed.periods, unarmed.interrupted), (4, None));
     }
 
     /// TEST GOAL: the paired-row product is `sym_mul`, bit for bit (the same sums in the same
