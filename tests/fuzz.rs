@@ -838,11 +838,15 @@ fn json_edit() -> impl Strategy<Value = JsonEdit> {
     ]
 }
 
-/// The paths of sweep.json's nodes (as JSON pointers), the long multiplier and tangent lists
-/// each counting with their first three entries only, so edits spread over every field.
+/// The paths of sweep.json's nodes (as JSON pointers), the long multiplier, tangent and
+/// trail lists (and each point of the trail) counting with their first three entries only, so
+/// edits spread over every field.
 fn json_paths(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
     out.push(at.clone());
-    let long = at.ends_with("/multipliers") || at.ends_with("/tangent");
+    let long = at.ends_with("/multipliers")
+        || at.ends_with("/tangent")
+        || at.ends_with("/trail")
+        || at.contains("/trail/");
     match v {
         serde_json::Value::Object(m) => {
             for (k, child) in m {
@@ -985,26 +989,77 @@ proptest! {
 /// TEST GOAL: the three tampered sweep.json files of issue #46 are refused by
 /// `hbcontact sweep --resume` with exit 2 naming the file and the field: `resume.samples`
 /// = 10¹² (it drove the process to 23 GB), `resume.samples` = 0 (an index out of bounds
-/// panic) and `rows = []` (exit 0 claiming the sweep reached 1800 Hz); the seed itself
-/// resumes.
+/// panic) and `rows = []` (exit 0 claiming the sweep reached 1800 Hz); so is each part of
+/// the continuation's history a resume needs to be the uninterrupted sweep: a `largest` not
+/// the trail's, a `trail` without a point per row, a point of it of another ω, a frequency the
+/// reduced model learned at far outside the range, more of them than the curve can have
+/// taught it, and one, or a reduced frame, resumed with `sweep.reduced_frames: false`; the
+/// seed itself resumes.
 #[test]
 fn regression_tampered_sweep_json_fields_are_refused_naming_them() {
     let seed = std::fs::read_to_string(sweep_seed().join("sweep.json")).expect("the seed reads");
-    let cases: [(&str, serde_json::Value, &str); 3] = [
+    let tree: serde_json::Value = serde_json::from_str(&seed).unwrap();
+    let largest = tree["resume"]["largest"].as_f64().unwrap();
+    let mut trail = tree["resume"]["trail"].clone();
+    let width = trail[0].as_array().unwrap().len();
+    trail[0][width - 1] = serde_json::json!(trail[1][width - 1].as_f64().unwrap());
+    // (pointer, value, the field the refusal names, a `--set` of the resume)
+    let factored = "sweep.reduced_frames=false";
+    let cases: [(&str, serde_json::Value, &str, &str); 10] = [
         (
             "/resume/samples",
             serde_json::json!(1_000_000_000_000u64),
             "`resume.samples`",
+            "",
         ),
-        ("/resume/samples", serde_json::json!(0), "`resume.samples`"),
-        ("/rows", serde_json::json!([]), "`rows` is empty"),
+        (
+            "/resume/samples",
+            serde_json::json!(0),
+            "`resume.samples`",
+            "",
+        ),
+        ("/rows", serde_json::json!([]), "`rows` is empty", ""),
+        (
+            "/resume/largest",
+            serde_json::json!(2.0 * largest + 1.0),
+            "`resume.largest`",
+            "",
+        ),
+        ("/resume/trail", serde_json::json!([]), "`resume.trail`", ""),
+        ("/resume/trail", trail, "`resume.trail[0]`", ""),
+        (
+            "/resume/enriched_at",
+            serde_json::json!([1e300]),
+            "`resume.enriched_at[0]`",
+            "",
+        ),
+        (
+            "/resume/enriched_at",
+            serde_json::json!(vec![8000.0; 100_000]),
+            "`resume.enriched_at` lists more frequencies (100000)",
+            "",
+        ),
+        (
+            "/resume/enriched_at",
+            serde_json::json!([8000.0]),
+            "reduced model (0: sweep.reduced_frames is false)",
+            factored,
+        ),
+        (
+            "/resume/reduced_frame",
+            serde_json::json!(true),
+            "`resume.reduced_frame`",
+            factored,
+        ),
     ];
     let dir = scratch("sweep-regression");
-    for (pointer, value, field) in cases {
+    for (pointer, value, field, set) in cases {
         let mut tree: serde_json::Value = serde_json::from_str(&seed).unwrap();
         *tree.pointer_mut(pointer).unwrap() = value;
         sweep_case_dir(&dir, &serde_json::to_vec(&tree).unwrap());
         let dir_arg = dir.to_string_lossy().to_string();
+        let mut sets = vec!["sweep.max_points=7", "stability.check=false"];
+        sets.extend(Some(set).filter(|s| !s.is_empty()));
         let output = std::process::Command::new(env!("CARGO_BIN_EXE_hbcontact"))
             .args([
                 "sweep",
@@ -1012,12 +1067,7 @@ fn regression_tampered_sweep_json_fields_are_refused_naming_them() {
                 "--resume",
                 "--quiet",
             ])
-            .args([
-                "--set",
-                "sweep.max_points=7",
-                "--set",
-                "stability.check=false",
-            ])
+            .args(sets.iter().flat_map(|s| ["--set", s]))
             .args(["--out", &dir_arg])
             .current_dir(root())
             .output()

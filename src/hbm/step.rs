@@ -502,7 +502,8 @@ const STAGNATION: f64 = 0.5;
 pub struct KrylovHint(std::sync::Arc<std::sync::atomic::AtomicBool>);
 
 impl KrylovHint {
-    fn harmonic_first(&self) -> bool {
+    /// The next Krylov steps start with the harmonic blocks (else the node blocks).
+    pub fn harmonic_first(&self) -> bool {
         self.0.load(std::sync::atomic::Ordering::Relaxed)
     }
 

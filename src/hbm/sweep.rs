@@ -28,9 +28,13 @@
 //! by more than `max_change` (relative) rejects the step and halves Δs; an easy step (≤ 3
 //! iterations) grows it by 1.5, up to the maximum.
 //!
-//! Resume: a `ContinuationState` (index, ω, the next Δs, τ, λ, F, c, N) saved after any point
-//! continues the curve from that point as if it had not stopped: the point is re-solved at its
-//! ω by Newton from its own λ (so on its own branch), with the saved scaling and step.
+//! Resume: a `ContinuationState` saved after any point holds all the continuation carries from
+//! one point to the next (index, ω, the next Δs, τ, λ, F, c, N, the largest ‖λ‖, the trail,
+//! the Krylov hint, the frequencies the reduced model learned at and the kind of the point's
+//! frame), and continues the curve from that point as if it had not stopped: the model is
+//! built and taught again, the point's λ is taken as saved on a frame of the same kind (a
+//! Newton from it checks it solves there, on its own branch), and the points after it are the
+//! uninterrupted sweep's bit for bit.
 
 use std::time::Instant;
 
@@ -94,8 +98,9 @@ pub struct SweepSettings {
 }
 
 /// Where a continuation stands after a point: with the same settings, continuing from it
-/// gives the points the uninterrupted sweep would have given (the point is re-solved from its
-/// own multipliers, so it is found again on its own branch).
+/// gives the points the uninterrupted sweep would have given, bit for bit (the point's
+/// multipliers are taken as saved, on a frame of the kind they were solved on, so on their
+/// own branch; everything else a point hands the next is here too).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
 pub struct ContinuationState {
     /// The point's index on the curve.
@@ -113,6 +118,23 @@ pub struct ContinuationState {
     pub force_scale: f64,
     pub c: f64,
     pub samples: usize,
+    /// The largest ‖λ‖ along the curve up to this point (grazing is judged against it; 0
+    /// without contact).
+    pub largest: f64,
+    /// The point was solved on a frame of the reduced model (`sweep.reduced_frames`), not on
+    /// factorizations: the resumed point is taken on the same kind of frame.
+    pub reduced_frame: bool,
+    /// The ω [rad/s] of the exact frames the reduced model learned from so far
+    /// (`frames::ReducedModel::enrich_from`), in order: a resume builds the model again and
+    /// has it learn the same.
+    pub enriched_at: Vec<f64>,
+    /// The Krylov steps of the next Newton start with the harmonic blocks (`step::KrylovHint`).
+    pub harmonic_first: bool,
+    /// The points before this one in the scaled unknowns (λ/F, ω/Ω), in curve order: the
+    /// trail a retrace is checked against (empty without contact). `hbm::sweep` leaves it
+    /// empty in each point's state (`PointInfo::scaled` gives the points one by one); the
+    /// caller fills it where it saves the state.
+    pub trail: Vec<Vec<f64>>,
 }
 
 /// How one point's corrector ran.
@@ -152,6 +174,9 @@ pub struct PointInfo {
     pub seconds: f64,
     /// What continuing the sweep from this point needs.
     pub state: Option<ContinuationState>,
+    /// The point in the scaled unknowns (λ/F, ω/Ω) as the continuation's trail holds it
+    /// (empty without contact): `ContinuationState::trail` is these, point by point.
+    pub scaled: Vec<f64>,
 }
 
 /// A turning point of the curve.
@@ -269,12 +294,16 @@ struct Continuation<'a> {
     first: Option<(Vec<f64>, NewtonOutcome, Frame)>,
     /// The reduced model of Z_k(ω)⁻¹ frames come from, when the scene has one.
     model: Option<ReducedModel>,
+    /// `build_model` ran (after the first point; before it, for a resumed one).
+    model_built: bool,
+    /// The ω of the exact frames the model learned from (`ContinuationState::enriched_at`).
+    enriched_at: Vec<f64>,
     reduced: ReducedFrames,
 }
 
 impl<'a> Continuation<'a> {
     /// The cold first point (the single-frequency solve, knob checks included) fixes c and N
-    /// for the whole curve.
+    /// for the whole curve; a resumed one is taken as saved (`resume_at`).
     fn start(
         system: &'a mut System,
         op: &'a ContactOperator,
@@ -284,16 +313,7 @@ impl<'a> Continuation<'a> {
     ) -> Result<Self> {
         let omega = s.resume.as_ref().map_or(s.omega_start, |r| r.omega);
         system.omega = omega;
-        let mut timings = Timings::default();
-        let (linear, problem) = prepare(system, Some(op), hb, reporter, &mut timings)?;
-        let problem = problem.ok_or_else(|| Error::Model("internal: no reduced problem".into()))?;
-        let frame = Frame {
-            omega,
-            linear,
-            problem,
-            reduced: false,
-        };
-        let mut newton = NewtonSettings {
+        let newton = NewtonSettings {
             samples: 0,
             c: 0.0,
             tolerance: hb.tolerance,
@@ -306,45 +326,103 @@ impl<'a> Continuation<'a> {
             rise: 0,
             krylov_hint: Default::default(),
         };
-        let (first, force) = match &s.resume {
-            None => {
-                let first = super::solve_contact_timed(
-                    system,
-                    op,
-                    &frame.problem,
-                    hb,
-                    reporter,
-                    &mut timings,
-                )?;
-                let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
-                (newton.samples, newton.c) = (first.samples, first.c);
-                let force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);
-                ((first.multipliers, first.newton), force)
-            }
-            Some(r) => {
-                (newton.samples, newton.c) = (r.samples, r.c);
-                let o = resolve_saved(&frame, &newton, r, reporter)?;
-                ((o.multipliers.clone(), o), r.force_scale)
-            }
-        };
-        Ok(Continuation {
+        let mut c = Continuation {
             system,
             op,
             hb,
             s,
             reporter,
             newton,
-            force,
+            force: 0.0,
             span: (s.omega_end - s.omega_start).abs(),
             direction: (s.omega_end - s.omega_start).signum(),
-            timings,
-            factorizations: 1,
+            timings: Timings::default(),
+            factorizations: 0,
             largest: 0.0,
             jumped: None,
-            first: Some((first.0, first.1, frame)),
+            first: None,
             model: None,
+            model_built: false,
+            enriched_at: Vec::new(),
             reduced: ReducedFrames::default(),
-        })
+        };
+        match &s.resume {
+            None => c.cold_start(omega)?,
+            Some(r) => c.resume_at(r)?,
+        }
+        Ok(c)
+    }
+
+    /// The first point of a new curve: the single-frequency solve at ω on factorizations.
+    fn cold_start(&mut self, omega: f64) -> Result<()> {
+        let frame = self.exact_frame(omega)?;
+        let first = super::solve_contact_timed(
+            self.system,
+            self.op,
+            &frame.problem,
+            self.hb,
+            self.reporter,
+            &mut self.timings,
+        )?;
+        let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
+        (self.newton.samples, self.newton.c) = (first.samples, first.c);
+        self.force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);
+        self.first = Some((first.multipliers, first.newton, frame));
+        Ok(())
+    }
+
+    /// The saved point `r`, where the uninterrupted continuation stood after it: its scaling,
+    /// c, N and Krylov hint, the largest ‖λ‖ so far, the reduced model built and taught at the
+    /// saved frequencies as it was then, and the point's frame of the same kind (reduced or
+    /// factored) as the one it was solved on. Its multipliers solve that frame as they are
+    /// (checked by a Newton from them, which then takes no step), so the continuation goes on
+    /// from the very state it stopped in.
+    fn resume_at(&mut self, r: &ContinuationState) -> Result<()> {
+        (self.newton.samples, self.newton.c) = (r.samples, r.c);
+        self.newton.krylov_hint.set_harmonic_first(r.harmonic_first);
+        self.force = r.force_scale;
+        self.largest = r.largest;
+        self.build_model();
+        if self.model.is_none() && !r.enriched_at.is_empty() {
+            return Err(Error::Input(format!(
+                "the saved point (sweep.json's `resume.enriched_at`) at {:.6} Hz names \
+                 frequencies a reduced model learned at, and this scene's sweep builds none: \
+                 sweep again without --resume",
+                hz(r.omega)
+            )));
+        }
+        for &omega in &r.enriched_at {
+            let exact = self.exact_frame(omega)?;
+            self.enrich(&exact);
+        }
+        if r.reduced_frame && self.model.is_none() {
+            return Err(Error::Input(format!(
+                "the saved point (sweep.json's `resume`) at {:.6} Hz was solved on a frame of \
+                 the reduced model, which this scene does not build (`sweep.reduced_frames`, \
+                 the mesh or the contact set changed): sweep again without --resume",
+                hz(r.omega)
+            )));
+        }
+        let frame = self.frame_from(r.omega, r.reduced_frame)?;
+        let o = resolve_saved(&frame, &self.newton, r, self.reporter)?;
+        self.factorizations = 1;
+        self.first = Some((o.multipliers.clone(), o, frame));
+        Ok(())
+    }
+
+    /// Teach the reduced model the solves of the exact frame `exact` (`frames::enrich_from`),
+    /// noting its ω for a resume; a model that cannot learn them is dropped.
+    fn enrich(&mut self, exact: &Frame) {
+        let Some(model) = self.model.as_mut() else {
+            return;
+        };
+        let clock = Instant::now();
+        self.enriched_at.push(exact.omega);
+        let enriched = model.enrich_from(self.system, &self.op.b_free, &exact.linear.factors);
+        if enriched.is_err() {
+            self.model = None;
+        }
+        self.timings.reduce += clock.elapsed().as_secs_f64();
     }
 
     /// The frame at ω: from the reduced model when there is one, else one set of
@@ -389,11 +467,11 @@ impl<'a> Continuation<'a> {
     /// shifts well below the number of free dofs (few contact nodes). Built after the first
     /// point, so a model that cannot be built only costs the sweep its speed.
     fn build_model(&mut self) {
-        let n = self.system.free_count();
-        let columns = self.op.nodes() + 2 * self.system.inputs.len().max(1);
+        if std::mem::replace(&mut self.model_built, true) {
+            return;
+        }
         let frequencies = self.s.model_frequencies;
-        let shifts = 1 + frequencies * self.hb.harmonics;
-        if frequencies == 0 || columns * shifts > n / 2 {
+        if !reduced_model_pays(self.system, self.op.nodes(), self.hb.harmonics, frequencies) {
             return;
         }
         let clock = Instant::now();
@@ -426,14 +504,7 @@ impl<'a> Continuation<'a> {
         }
         self.reduced.replaced += 1;
         let exact = self.exact_frame(frame.omega).map_err(|e| e.to_string())?;
-        if let Some(model) = self.model.as_mut() {
-            let clock = Instant::now();
-            let enriched = model.enrich_from(self.system, &self.op.b_free, &exact.linear.factors);
-            if enriched.is_err() {
-                self.model = None;
-            }
-            self.timings.reduce += clock.elapsed().as_secs_f64();
-        }
+        self.enrich(&exact);
         let o = super::reduced::newton(&exact.problem, &self.newton, &next.x, self.reporter);
         if !o.converged {
             return Err(format!("the exact frame of a reduced point: {}", o.reason));
@@ -462,6 +533,14 @@ impl<'a> Continuation<'a> {
             tangent,
         };
         let mut outcome = SweepOutcome::default();
+        // A resumed point brings the largest ‖λ‖ before it and its trail.
+        self.largest = self.largest.max(norm(&point.x));
+        let mut trail = Trail::default();
+        for y in self.s.resume.iter().flat_map(|r| &r.trail) {
+            trail.push(y.clone());
+        }
+        let y = self.scaled(&point);
+        trail.push(y.clone());
         let info = PointInfo {
             index: start,
             omega: frame.omega,
@@ -471,12 +550,10 @@ impl<'a> Continuation<'a> {
             step: 0.0,
             tangent_omega: point.tangent_omega(),
             seconds: clock.elapsed().as_secs_f64(),
-            state: Some(self.state(&point, ds, start)),
+            state: Some(self.state(&point, ds, start, frame.reduced)),
+            scaled: y,
         };
-        self.largest = norm(&point.x);
         self.build_model();
-        let mut trail = Trail::default();
-        trail.push(self.scaled(&point));
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
         let mut index = start + 1;
         while index < self.s.max_points {
@@ -491,12 +568,12 @@ impl<'a> Continuation<'a> {
                 }
             };
             let y = self.scaled(&next);
-            if let Some(j) = trail.retraced(&y, info.step).map(|j| j + start) {
+            if let Some(j) = trail.retraced(&y, info.step) {
                 let key = self.system.basis.refine_key();
                 outcome.stopped = Some(retrace_reason(&point, index - 1, j, key));
                 break;
             }
-            trail.push(y);
+            trail.push(y.clone());
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }
@@ -509,7 +586,8 @@ impl<'a> Continuation<'a> {
                 reason: String::new(),
             };
             self.largest = self.largest.max(norm(&next.x));
-            info.state = Some(self.state(&next, ds, index));
+            info.state = Some(self.state(&next, ds, index, frame.reduced));
+            info.scaled = y;
             self.emit(&info, &next.x, frame, newton, on_point)?;
             let status = format!("{:.3} Hz", hz(next.omega));
             self.reporter.progress("sweep", index as u64, None, &status);
@@ -551,6 +629,7 @@ impl<'a> Continuation<'a> {
                         tangent_omega: next.tangent_omega(),
                         seconds: clock.elapsed().as_secs_f64(),
                         state: None,
+                        scaled: Vec::new(),
                     };
                     if iterations <= 3 {
                         *ds = (1.5 * *ds).min(self.s.max_step);
@@ -587,8 +666,9 @@ impl<'a> Continuation<'a> {
         x.chain([p.omega / self.span]).collect()
     }
 
-    /// What continuing from `p` (point `index`, next step `ds`) needs.
-    fn state(&self, p: &Point, ds: f64, index: usize) -> ContinuationState {
+    /// What continuing from `p` (point `index`, next step `ds`, solved on a `reduced` frame or
+    /// not) needs, but its trail (`ContinuationState::trail`).
+    fn state(&self, p: &Point, ds: f64, index: usize, reduced: bool) -> ContinuationState {
         ContinuationState {
             index,
             omega: p.omega,
@@ -598,6 +678,11 @@ impl<'a> Continuation<'a> {
             force_scale: self.force,
             c: self.newton.c,
             samples: self.newton.samples,
+            largest: self.largest,
+            reduced_frame: reduced,
+            enriched_at: self.enriched_at.clone(),
+            harmonic_first: self.newton.krylov_hint.harmonic_first(),
+            trail: Vec::new(),
         }
     }
 
@@ -738,6 +823,7 @@ impl<'a> Continuation<'a> {
             tangent_omega: point.tangent_omega(),
             seconds: clock.elapsed().as_secs_f64(),
             state: None,
+            scaled: Vec::new(),
         };
         Some((point, frame, info))
     }
@@ -1009,9 +1095,24 @@ impl<'a> Continuation<'a> {
     }
 }
 
-/// The saved point re-solved on its frame by Newton from its own multipliers (which
-/// already solve it: no iteration when nothing changed). One that does not solve again
-/// belongs to another scene, or was edited: bad input.
+/// Whether a sweep of `system` with `nodes` contact nodes at H = `harmonics` builds a reduced
+/// model of its frames with shifts at `frequencies` frequencies (0: none asked): where its
+/// start block times the shifts stays below half the free dofs.
+pub fn reduced_model_pays(
+    system: &System,
+    nodes: usize,
+    harmonics: usize,
+    frequencies: usize,
+) -> bool {
+    let n = system.free_count();
+    let columns = nodes + 2 * system.inputs.len().max(1);
+    let shifts = 1 + frequencies * harmonics;
+    frequencies > 0 && columns * shifts <= n / 2
+}
+
+/// The saved point checked on its frame by Newton from its own multipliers, which solve it
+/// (no iteration, the multipliers unchanged, on the frame they were solved on). One that does
+/// not solve again belongs to another scene, or was edited: bad input.
 fn resolve_saved(
     frame: &Frame,
     newton: &NewtonSettings,
@@ -1041,6 +1142,7 @@ fn info_stub() -> PointInfo {
         tangent_omega: 0.0,
         seconds: 0.0,
         state: None,
+        scaled: Vec::new(),
     }
 }
 
@@ -1219,6 +1321,11 @@ fn linear_sweep(
         force_scale: 0.0,
         c: 0.0,
         samples: 0,
+        largest: 0.0,
+        reduced_frame: false,
+        enriched_at: Vec::new(),
+        harmonic_first: false,
+        trail: Vec::new(),
     };
     let mut current = solve_at(system, omega, &mut outcome.timings)?;
     let mut info = PointInfo {

@@ -149,9 +149,11 @@ pub struct SweepSummary {
     /// The rows each `--resume` continued from (empty: swept in one go).
     pub resumed_from: Vec<usize>,
     /// The continuation's state at the last row: what `hbcontact sweep --resume` continues
-    /// from (index, ω [rad/s], the next step, the unit direction τ in the scaled unknowns
-    /// (its last entry τ_ω < 0 on a branch running back), the multipliers, the scaling F and
-    /// the c and N of the curve).
+    /// from, as the uninterrupted sweep would have (index, ω [rad/s], the next step, the unit
+    /// direction τ in the scaled unknowns (its last entry τ_ω < 0 on a branch running back),
+    /// the multipliers, the scaling F, the c and N of the curve, the largest ‖λ‖, the
+    /// reduced model's lessons and the kind of the point's frame, the Krylov hint, and the
+    /// trail of the points before it).
     pub resume: Option<ContinuationState>,
     /// Wall time [s] of this invocation: mesh, assemble, the continuation (factorizations,
     /// each point's outputs and frames included), points (the full outputs), write, plots.
@@ -345,7 +347,7 @@ fn summarize(
         frames: writer.frame_rows(),
         written,
         resumed_from: resume::resumed_from(saved),
-        resume: writer.last_state.clone(),
+        resume: writer.resume_state(),
         rows: std::mem::take(&mut writer.rows),
         stage_seconds: Default::default(),
         solver_seconds: ended.timings,

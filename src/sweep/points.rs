@@ -105,7 +105,10 @@ pub struct Writer<'a> {
     /// the point folders' summaries.
     pub verdicts: Vec<(usize, Stability)>,
     frames: Vec<usize>,
-    pub last_state: Option<ContinuationState>,
+    last_state: Option<ContinuationState>,
+    /// Every point so far in the continuation's scaled unknowns (`PointInfo::scaled`), the
+    /// saved sweep's first: the trail `resume_state` saves.
+    trail: Vec<Vec<f64>>,
     /// The resumed point (re-solved, its row kept from before).
     resumed_at: Option<usize>,
     seen: usize,
@@ -143,6 +146,9 @@ impl<'a> Writer<'a> {
             near,
             rows,
             frames: saved.map_or(Vec::new(), |s| s.frames.clone()),
+            trail: saved
+                .and_then(|s| s.resume.as_ref())
+                .map_or(Vec::new(), |r| r.trail.clone()),
             last_state: saved.and_then(|s| s.resume.clone()),
             resumed_at: saved.and_then(|s| s.resume.as_ref().map(|r| r.index)),
             seen: 0,
@@ -185,8 +191,19 @@ impl<'a> Writer<'a> {
             }
         }
         self.previous = Some((info.index, info.tangent_omega, solution.clone()));
+        if !info.scaled.is_empty() {
+            self.trail.push(info.scaled.clone());
+        }
         self.last_state = info.state.clone();
         Ok(())
+    }
+
+    /// What `--resume` continues from: the continuation's state after the last point, with
+    /// the trail of the points before it.
+    pub fn resume_state(&self) -> Option<ContinuationState> {
+        let mut state = self.last_state.clone()?;
+        state.trail = self.trail[..state.index.min(self.trail.len())].to_vec();
+        Some(state)
     }
 
     /// `frames/point_XXXX.vtu`: u(t = 0), the first-harmonic amplitude, the frequency.

@@ -1,12 +1,17 @@
 //! `hbcontact sweep --resume`: continue a sweep saved in its output directory from its last
 //! point. sweep.json keeps what that needs (`SweepSummary::resume`, a
-//! `hbm::sweep::ContinuationState`): the point's index and ω, the step the next point is
-//! tried with, the unit direction τ in the scaled unknowns (λ/F, ω/Ω), whose sign of τ_ω says
-//! whether the curve was running forward or back, the multipliers λ, and the scaling F with
-//! the c and N the first point fixed. The point is re-solved at its ω by Newton from its own
-//! λ (a cold solve could land on another branch where the curve is multi-valued), and the
-//! continuation goes on with the same scaling and step, so the points after it are those of
-//! an uninterrupted sweep. Rows, frames and point folders from before are kept.
+//! `hbm::sweep::ContinuationState`): everything the continuation carries from one point to
+//! the next, so that the points after it are those of the uninterrupted sweep bit for bit:
+//! the point's index and ω, the step the next point is tried with, the unit direction τ in
+//! the scaled unknowns (λ/F, ω/Ω), whose sign of τ_ω says whether the curve was running
+//! forward or back, the multipliers λ, the scaling F with the c and N the first point fixed,
+//! the largest ‖λ‖ so far (a grazing corner is judged against it), the frequencies at which
+//! the reduced model of the frames learned from exact ones and whether the point's own frame
+//! was reduced (the model is built again and taught the same, and the point is taken on the
+//! same kind of frame), the Krylov hint of the Newton, and the trail of the points before it
+//! (a retrace is checked against it). The saved λ is checked to solve its frame (a Newton
+//! from it takes no step; a cold solve could land on another branch where the curve is
+//! multi-valued). Rows, frames and point folders from before are kept.
 //!
 //! sweep.json is read back like user input (a file anyone may edit): at most
 //! `MAX_FILE_BYTES`, and every field checked before it sizes or steers anything (`check_rows`,
@@ -22,6 +27,12 @@
 //!   positive, and N = N₀ 2^k (N₀ the pipeline's samples, k ≤ `MAX_DOUBLINGS`, the doublings
 //!   the first point's knob check may make); without contact: τ = [±1], no multipliers,
 //!   c = F = N = 0;
+//! - the history (`check_history`), with contact: a trail of one point per row before the last,
+//!   each of one entry per multiplier plus ω/Ω, finite, its ω that row's (relative 1e-9); the
+//!   largest ‖λ‖ the largest of the trail's and the point's (relative 1e-9); at most
+//!   `max_enrichments` frequencies the model learned at, each finite and within the range
+//!   widened by its span on either side, and none, nor a reduced frame, with
+//!   `sweep.reduced_frames: false`; without contact: none of these (largest 0);
 //! - folds, frames, written points and earlier resumes: rows that exist, in order.
 
 use std::path::Path;
@@ -91,9 +102,10 @@ fn shell_word(word: &str) -> String {
     }
 }
 
-/// The largest sweep.json read back: 64 MiB holds a sweep of `MAX_SWEEP_POINTS` rows and
-/// the multipliers of thousands of contact nodes at a thousand harmonics.
-pub const MAX_FILE_BYTES: u64 = 64 << 20;
+/// The largest sweep.json read back (1 GiB, parsed into about half that): the trail holds
+/// every point's multipliers, e.g. 21 MB for 500 points of 100 contact nodes at H = 10 (the
+/// shipped strip sweep: 0.9 MB for 148 points of 9 nodes).
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
 
 fn refuse(message: String) -> Error {
     Error::Input(format!(
@@ -134,7 +146,7 @@ fn read_bounded(path: &Path) -> Result<String> {
         .map_err(cannot)?;
     if text.len() as u64 > MAX_FILE_BYTES {
         return Err(refuse(format!(
-            "{} is larger than {} MiB, more than any sweep writes",
+            "{} is larger than {} MiB, more than a resume reads",
             path.display(),
             MAX_FILE_BYTES >> 20
         )));
@@ -162,6 +174,7 @@ pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
     };
     check_rows(&path, &saved.rows)?;
     check_continuation(&path, &saved, state)?;
+    check_history(&path, &saved, state, spec)?;
     check_lists(&path, &saved)?;
     let saved_points = state.index + 1;
     if spec.max_points <= saved_points {
@@ -292,6 +305,121 @@ fn check_continuation(path: &Path, saved: &Saved, state: &ContinuationState) -> 
     Ok(())
 }
 
+/// The most frequencies a curve of `points` points can have taught the reduced model: one per
+/// attempt of each point verified on a reduced frame, and a point tries at most every step
+/// from `sweep.max_step` halved down to `min_step`, then two grazing ones.
+pub fn max_enrichments(points: usize, spec: &SweepSpec) -> usize {
+    let halvings = (spec.max_step / spec.min_step).log2().ceil().max(0.0);
+    let attempts = if halvings.is_finite() {
+        halvings as usize + 3
+    } else {
+        3
+    };
+    points.saturating_mul(attempts)
+}
+
+/// The history the continuation carries (trail, largest ‖λ‖, the reduced model's lessons,
+/// the frame's kind, `check_history` in the module's header) against the rows and the state.
+fn check_history(
+    path: &Path,
+    saved: &Saved,
+    state: &ContinuationState,
+    spec: &SweepSpec,
+) -> Result<()> {
+    if state.multipliers.is_empty() {
+        let none = state.trail.is_empty()
+            && state.enriched_at.is_empty()
+            && !state.reduced_frame
+            && state.largest == 0.0;
+        return require(none, path, "resume", || {
+            "holds a contact history (trail, enriched_at, reduced_frame, largest) for a curve without multipliers".into()
+        });
+    }
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let span = (two_pi * spec.to_hz - two_pi * spec.from_hz).abs();
+    let t = &state.trail;
+    require(t.len() == state.index, path, "resume.trail", || {
+        format!(
+            "has {} points, not one per row before the last ({})",
+            t.len(),
+            state.index
+        )
+    })?;
+    let width = state.multipliers.len() + 1;
+    let mut largest = norm(&state.multipliers);
+    for (i, (y, row)) in t.iter().zip(&saved.rows).enumerate() {
+        let field = format!("resume.trail[{i}]");
+        require(y.len() == width, path, &field, || {
+            format!(
+                "has {} entries, not one per multiplier plus ω/Ω ({width})",
+                y.len()
+            )
+        })?;
+        require(y.iter().all(|v| v.is_finite()), path, &field, || {
+            "holds a non-finite value".into()
+        })?;
+        let omega = two_pi * row.frequency_hz;
+        let same = (y[width - 1] * span - omega).abs() <= 1e-9 * omega;
+        require(same, path, &field, || {
+            format!(
+                "ends in ω/Ω = {}, not row {i}'s {} Hz over the span",
+                y[width - 1],
+                row.frequency_hz
+            )
+        })?;
+        largest = largest.max(state.force_scale * norm(&y[..width - 1]));
+    }
+    let close = (state.largest - largest).abs() <= 1e-9 * largest;
+    require(
+        state.largest.is_finite() && close,
+        path,
+        "resume.largest",
+        || {
+            format!(
+                "= {} is not the largest ‖λ‖ of the trail and the point ({largest})",
+                state.largest
+            )
+        },
+    )?;
+    let e = &state.enriched_at;
+    let most = if spec.reduced_frames {
+        max_enrichments(state.index + 1, spec)
+    } else {
+        0
+    };
+    require(e.len() <= most, path, "resume.enriched_at", || {
+        format!(
+            "lists more frequencies ({}) than a curve of {} points can teach the reduced model ({most}{})",
+            e.len(),
+            state.index + 1,
+            if spec.reduced_frames { "" } else { ": sweep.reduced_frames is false" }
+        )
+    })?;
+    let (lo, hi) = (
+        two_pi * spec.from_hz.min(spec.to_hz),
+        two_pi * spec.from_hz.max(spec.to_hz),
+    );
+    for (i, &w) in e.iter().enumerate() {
+        let inside = w.is_finite() && w > 0.0 && w >= lo - span && w <= hi + span;
+        require(inside, path, &format!("resume.enriched_at[{i}]"), || {
+            format!("= {w} rad/s lies outside the sweep's range widened by its span")
+        })?;
+    }
+    require(
+        !state.reduced_frame || spec.reduced_frames,
+        path,
+        "resume.reduced_frame",
+        || {
+            "is true but sweep.reduced_frames is false: resume with the same sweep.reduced_frames"
+                .into()
+        },
+    )
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
 fn check_tangent(path: &Path, state: &ContinuationState, tangent_frequency: f64) -> Result<()> {
     let t = &state.tangent;
     require(
@@ -376,7 +504,10 @@ pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Re
     }
     let path = out.join("sweep.json");
     match (&saved.resume, model.contact.is_some()) {
-        (Some(state), true) => check_contact_scalars(&path, state, p),
+        (Some(state), true) => {
+            check_contact_scalars(&path, state, p)?;
+            check_reduced_model(&path, state, model, p, h)
+        }
         (Some(state), false) => {
             let linear = state.tangent.len() == 1 && state.c == 0.0 && state.force_scale == 0.0;
             require(linear && state.samples == 0, &path, "resume", || {
@@ -385,6 +516,37 @@ pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Re
         }
         (None, _) => Ok(()),
     }
+}
+
+/// A reduced frame or lessons of a reduced model only where this scene's sweep builds one
+/// (`hbm::sweep::reduced_model_pays`).
+fn check_reduced_model(
+    path: &Path,
+    state: &ContinuationState,
+    model: &Model,
+    p: &Pipeline,
+    harmonics: usize,
+) -> Result<()> {
+    let asked = p.sweep.as_ref().is_some_and(|s| s.reduced_frames);
+    let frequencies = if asked {
+        crate::hbm::frames::SHIFTS_PER_HARMONIC
+    } else {
+        0
+    };
+    let nodes = model.contact.as_ref().map_or(0, |c| c.operator.nodes());
+    if crate::hbm::sweep::reduced_model_pays(&model.system, nodes, harmonics, frequencies) {
+        return Ok(());
+    }
+    let why = "but this scene's sweep builds no reduced model of its frames";
+    require(!state.reduced_frame, path, "resume.reduced_frame", || {
+        format!("is true {why}")
+    })?;
+    require(
+        state.enriched_at.is_empty(),
+        path,
+        "resume.enriched_at",
+        || format!("names frequencies the reduced model learned at {why}"),
+    )
 }
 
 /// c and F finite and positive; N one the first point's knob check can reach from the
