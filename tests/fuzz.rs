@@ -7,6 +7,10 @@
 //! count the file claims. A mutated `sweep.json` (from a real sweep stopped at its point
 //! budget) is resumed, in process, by `hbcontact sweep --resume`: it continues or is refused
 //! with exit class 2 naming the file or its saved point, and no allocation exceeds 1 GiB.
+//! A study's records (from a small accuracy study): a mutated `point.json` or an accuracy
+//! rung's `amplitudes.vtu` is read back as `study --merge` reads it: the table and the errors
+//! are built from values a run writes, or it is refused with exit class 2 naming the file and
+//! the fix, holding at most a small multiple of the file's size.
 //!
 //! `make test` runs 256 cases per target (proptest's default); the long run is
 //! `PROPTEST_CASES=100000 cargo test --release --test fuzz`. Failing inputs proptest finds are
@@ -1087,6 +1091,227 @@ fn regression_tampered_sweep_json_fields_are_refused_naming_them() {
     };
     let resumed = hbcontact::sweep::resume(&sweep_pipeline(7), &options, &hbcontact::Silent);
     assert_eq!(resumed.map(|r| r.summary.rows.len()).ok(), Some(7));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Study records read back: point.json and an accuracy rung's amplitudes.vtu.
+
+/// The seed study: an accuracy study of strip_wall (coarse) over H = 2, 4, run once per test
+/// process: two points, each with its point.json and amplitudes.vtu.
+struct StudySeed {
+    study: Study,
+    out: PathBuf,
+    points: Vec<hbcontact::study::plan::Point>,
+}
+
+fn study_seed() -> &'static StudySeed {
+    static SEED: std::sync::OnceLock<StudySeed> = std::sync::OnceLock::new();
+    SEED.get_or_init(|| {
+        let dir = root().join(format!(
+            "output/test-fuzz/study-seed-{}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("seed directory");
+        let path = dir.join("study.yaml");
+        let text = format!(
+            "name: seed\npipeline: {}\nset: {{geometry.parameters.lc: 0.005}}\naccuracy:\n  ladders:\n    - {{key: harmonic_balance.harmonics, values: [2, 4]}}\n",
+            root().join("pipelines/strip_wall.yaml").display()
+        );
+        std::fs::write(&path, &text).expect("seed study");
+        let study = parse_study(&path, &text, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let out = dir.join("out");
+        let options = hbcontact::study::StudyOptions {
+            out: Some(out.clone()),
+            ..Default::default()
+        };
+        hbcontact::study::run(&study, &options, &hbcontact::Silent)
+            .and_then(|r| r.complete())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let points = plan(&study).unwrap_or_else(|e| panic!("{e}"));
+        StudySeed { study, out, points }
+    })
+}
+
+/// A copy of the seed study's point folders under `to` (replacing it), with `file` of point
+/// `point` replaced by `bytes`.
+fn study_case_dir(to: &Path, point: usize, file: &str, bytes: &[u8]) {
+    let seed = study_seed();
+    let _ = std::fs::remove_dir_all(to);
+    for p in &seed.points {
+        let (from, into) = (
+            seed.out.join("points").join(&p.key),
+            to.join("points").join(&p.key),
+        );
+        std::fs::create_dir_all(&into).expect("scratch directory");
+        for name in ["point.json", "amplitudes.vtu"] {
+            std::fs::copy(from.join(name), into.join(name)).expect("scratch copy");
+        }
+    }
+    let path = to.join("points").join(&seed.points[point].key).join(file);
+    std::fs::write(path, bytes).expect("scratch write");
+}
+
+/// The seed's `file` of point `point`.
+fn study_seed_file(point: usize, file: &str) -> Vec<u8> {
+    let seed = study_seed();
+    std::fs::read(
+        seed.out
+            .join("points")
+            .join(&seed.points[point].key)
+            .join(file),
+    )
+    .expect("the seed reads")
+}
+
+/// Read the study in `out` back as a merge does (its rows from the records, then the
+/// accuracy rungs and their errors from the amplitudes), holding at most `allowance` bytes:
+/// either every record holds what a run writes (status ok or failed, outputs finite within
+/// ±1e100) and every error is ≥ 0 (infinite against a reference value of 0) or NaN, or the
+/// error is exit class 2 naming `file`
+/// and the fix, and short.
+fn records_case(
+    out: &Path,
+    file: &str,
+    allowance: usize,
+) -> std::result::Result<(), TestCaseError> {
+    let seed = study_seed();
+    let spec = seed.study.accuracy.as_ref().expect("an accuracy study");
+    let (result, held) = measure(|| {
+        hbcontact::study::table::rows(out, &seed.points).and_then(|rows| {
+            let report = hbcontact::study::accuracy::evaluate(spec, &rows, out)?;
+            let csv = hbcontact::study::table::csv(&seed.study, &rows);
+            Ok((rows, report, csv))
+        })
+    });
+    prop_assert!(held <= allowance, "reading held {} bytes", held);
+    match result {
+        Ok((rows, report, _)) => {
+            for row in &rows {
+                let r = row.record.as_ref().expect("every seed point has a record");
+                prop_assert!(r.status == "ok" || r.status == "failed", "{}", r.status);
+                for v in r.outputs.values().flatten() {
+                    prop_assert!(v.is_finite() && v.abs() <= 1e100, "{}", v);
+                }
+            }
+            for rung in &report.rungs {
+                prop_assert!(
+                    rung.errors.iter().all(|e| e.is_nan() || *e >= 0.0),
+                    "{:?}",
+                    rung.errors
+                );
+            }
+            Ok(())
+        }
+        Err(e) => {
+            let text = e.to_string();
+            prop_assert_eq!(e.exit_code(), 2, "bad input is exit class 2: {}", text);
+            prop_assert!(text.contains(file), "the error names {}: {}", file, text);
+            prop_assert!(
+                text.contains("delete the folder"),
+                "the error says the fix: {}",
+                text
+            );
+            prop_assert!(
+                text.chars().count() <= 5000,
+                "a short error: {}",
+                text.len()
+            );
+            Ok(())
+        }
+    }
+}
+
+/// One mutation of amplitudes.vtu: a number of an XML attribute replaced (the point count,
+/// a component count), or a byte-level edit as for `.msh` files.
+#[derive(Clone, Debug)]
+enum VtuEdit {
+    Attribute(Index, String),
+    Bytes(MshEdit),
+}
+
+fn vtu_edit() -> impl Strategy<Value = VtuEdit> {
+    prop_oneof![
+        2 => (any::<Index>(), token()).prop_map(|(i, t)| VtuEdit::Attribute(i, t)),
+        3 => msh_edit().prop_map(VtuEdit::Bytes),
+    ]
+}
+
+fn edit_vtu(bytes: &mut Vec<u8>, e: &VtuEdit) {
+    match e {
+        VtuEdit::Attribute(at, t) => {
+            // The values of `Name="value"` attributes whose value is a number.
+            let text = String::from_utf8_lossy(bytes).into_owned();
+            let numbers: Vec<(usize, usize)> = text
+                .match_indices("=\"")
+                .filter_map(|(i, _)| {
+                    let start = i + 2;
+                    let len = text[start..].find('"')?;
+                    let v = &text[start..start + len];
+                    v.parse::<f64>().is_ok().then_some((start, start + len))
+                })
+                .collect();
+            if !numbers.is_empty() {
+                let (s, end) = numbers[at.index(numbers.len())];
+                bytes.splice(s..end, t.bytes());
+            }
+        }
+        VtuEdit::Bytes(b) => edit_msh(bytes, b),
+    }
+}
+
+proptest! {
+    #![proptest_config(config())]
+    /// TEST GOAL: a mutated point.json (numbers zeroed, negated, scaled, made tiny, huge or
+    /// 10¹²; values made null, text, lists or maps; keys deleted; lists shortened or swapped;
+    /// truncated; bytes flipped), read back as `study --merge` reads it, never panics and holds
+    /// at most 64 times its size plus 1 MiB: the table is built from records holding what a
+    /// run writes, or the error is exit class 2 naming point.json and the fix.
+    #[test]
+    fn mutated_point_records_read_or_are_refused_naming_the_file(
+        point in 0..2usize,
+        edits in prop::collection::vec(json_edit(), 1..4),
+    ) {
+        let seed = String::from_utf8(study_seed_file(point, "point.json")).expect("text");
+        let bytes = mutate_json(&seed, &edits);
+        let dir = scratch("point-record-case");
+        study_case_dir(&dir, point, "point.json", &bytes);
+        records_case(&dir, "point.json", 64 * bytes.len() + (1 << 20))?;
+    }
+
+    /// TEST GOAL: a mutated amplitudes.vtu of an accuracy rung or of its reference (attribute
+    /// numbers such as the point count replaced by 0, −1, huge values, NaN or Inf; truncated;
+    /// bytes flipped, inserted or deleted) never panics (a field shorter than the nodes
+    /// indexed out of bounds) and never holds more than 64 times the file's size plus 1 MiB:
+    /// the errors are computed, or the error is exit class 2 naming amplitudes.vtu and the fix.
+    #[test]
+    fn mutated_amplitudes_read_or_are_refused_naming_the_file(
+        point in 0..2usize,
+        edits in prop::collection::vec(vtu_edit(), 1..4),
+    ) {
+        let mut bytes = study_seed_file(point, "amplitudes.vtu");
+        for e in &edits {
+            edit_vtu(&mut bytes, e);
+        }
+        let dir = scratch("amplitudes-case");
+        study_case_dir(&dir, point, "amplitudes.vtu", &bytes);
+        records_case(&dir, "amplitudes.vtu", 64 * bytes.len() + (1 << 20))?;
+    }
+}
+
+/// TEST GOAL: the study seed reads back unmutated (its two rungs ok, the coarse one with a
+/// displacement L2 error), so the mutations start from real records.
+#[test]
+fn study_seed_reads_back_unmutated() {
+    let seed = study_seed();
+    let dir = scratch("study-seed-case");
+    study_case_dir(&dir, 0, "point.json", &study_seed_file(0, "point.json"));
+    let rows = hbcontact::study::table::rows(&dir, &seed.points).unwrap_or_else(|e| panic!("{e}"));
+    assert!(rows.iter().all(|r| r.status() == "ok"));
+    let spec = seed.study.accuracy.as_ref().unwrap();
+    let report =
+        hbcontact::study::accuracy::evaluate(spec, &rows, &dir).unwrap_or_else(|e| panic!("{e}"));
+    assert!(report.rungs[0].l2_nodes > 0, "{:?}", report.rungs[0]);
 }
 
 // ---------------------------------------------------------------------------------------------

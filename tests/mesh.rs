@@ -548,6 +548,53 @@ fn a_tampered_cached_mesh_is_detected_and_remeshed_with_the_untampered_result() 
     );
 }
 
+/// TEST GOAL: a cached mesh larger than 1 kB per element `geometry.max_elements` allows is
+/// not read whole, even with a checksum that matches it: the run warns that it is too large,
+/// meshes again and gives the untampered result.
+#[test]
+fn an_oversized_cached_mesh_is_not_read_and_is_remeshed() {
+    let tag = "cache-oversized";
+    let _ = std::fs::remove_dir_all(common::root().join(format!("output/test-runs/{tag}")));
+    let limit = ["--set", "geometry.max_elements=5000"];
+    let run = || {
+        let out = format!("output/test-runs/{tag}/quickstart");
+        let mut args = vec!["run", "pipelines/quickstart.yaml", "--out", &out];
+        args.extend(limit);
+        let o = hbcontact(&args);
+        let probes = std::fs::read_to_string(common::root().join(&out).join("probes.csv"))
+            .unwrap_or_default();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+            probes,
+        )
+    };
+    let (code, err, reference) = run();
+    assert_eq!(code, Some(0), "{err}");
+    let msh = cached_mesh(tag);
+    let mut bytes = std::fs::read(&msh).unwrap();
+    bytes.extend(b"$Comments\n");
+    bytes.extend(std::iter::repeat_n(b'x', 6 << 20));
+    bytes.extend(b"\n$EndComments\n");
+    std::fs::write(&msh, &bytes).unwrap();
+    let digest: String = {
+        use sha2::Digest;
+        sha2::Sha256::digest(&bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    std::fs::write(format!("{}.sha256", msh.display()), digest).unwrap();
+    let (code, err, again) = run();
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("is larger than 5120000 bytes") && err.contains("meshing again"),
+        "{err}"
+    );
+    assert!(!reference.is_empty());
+    assert_eq!(again, reference);
+}
+
 /// TEST GOAL: a truncated cached mesh does not stop the run: it fails its checksum, is meshed
 /// again with a warning, and the run succeeds with the untampered result; so does a cached mesh
 /// whose checksum is missing, and one that matches its checksum but does not parse.

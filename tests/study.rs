@@ -1076,3 +1076,145 @@ fn study_csv_writes_integers_as_integers() {
     assert_eq!(csv_number(1e20), "1e20");
     assert_eq!(csv_number(f64::NAN), "");
 }
+
+/// The keys of a finished study's points, in table order (from its manifest).
+fn point_keys(out: &Path) -> Vec<String> {
+    let m = common::read_json(&out.join("manifest.json"));
+    m["point_keys"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k.as_str().unwrap().to_string())
+        .collect()
+}
+
+/// TEST GOAL: a point record (points/<key>/point.json) read back is validated like user
+/// input: a record tampered with as issue #46 found (`probe_first_harmonic = 1e308` and
+/// `status: "weird"`, which went into study.csv), a record of another point (its key), an
+/// unknown exit class, an output of the wrong range, or a file larger than any record makes
+/// both `study` and `study --merge` fail with exit 2 naming the file, the field and the fix
+/// (delete the point's folder), and write no table; restoring the record lets the merge
+/// publish the table again.
+#[test]
+fn tampered_point_records_are_refused_naming_the_file_and_field() {
+    let dir = common::temp_out("study-tampered-records");
+    let study = two_point_study(&dir, None);
+    let out = dir.join("out");
+    run_study(&study, &out);
+    let key = point_keys(&out)[1].clone();
+    let record_path = out.join("points").join(&key).join("point.json");
+    let original = std::fs::read_to_string(&record_path).unwrap();
+    let record: serde_json::Value = serde_json::from_str(&original).unwrap();
+    let edited = |pointer: &str, value: serde_json::Value| {
+        let mut r = record.clone();
+        *r.pointer_mut(pointer)
+            .unwrap_or_else(|| panic!("{pointer}")) = value;
+        serde_json::to_string_pretty(&r).unwrap()
+    };
+    let failed = {
+        let mut r = record.clone();
+        r["status"] = "failed".into();
+        r["exit_class"] = "mystery".into();
+        r["exit_code"] = 2.into();
+        r["error"] = "oops".into();
+        serde_json::to_string_pretty(&r).unwrap()
+    };
+    let cases: Vec<(&str, String, &str)> = vec![
+        (
+            "1e308",
+            edited("/outputs/probe_first_harmonic", serde_json::json!(1e308)),
+            "`outputs.probe_first_harmonic` = 1e308",
+        ),
+        (
+            "weird status",
+            edited("/status", "weird".into()),
+            "`status` is \"weird\"",
+        ),
+        (
+            "another key",
+            edited("/key", "0123456789abcdef".into()),
+            "`key` is \"0123456789abcdef\"",
+        ),
+        ("unknown exit class", failed, "`exit_class` is \"mystery\""),
+        (
+            "contact fraction",
+            edited("/outputs/contact_fraction", serde_json::json!(1.5)),
+            "`outputs.contact_fraction` = 1.5e0 is not in [0, 1]",
+        ),
+        (
+            "huge file",
+            format!("{}{}", original, " ".repeat(2 << 20)),
+            "larger than 1 MiB",
+        ),
+    ];
+    let s = study.to_str().unwrap();
+    let o_s = out.to_str().unwrap();
+    for (name, text, field) in cases {
+        std::fs::write(&record_path, &text).unwrap();
+        for extra in [None, Some("--merge")] {
+            let mut args = vec!["study", s, "-q", "--out", o_s];
+            args.extend(extra);
+            let o = run(&args);
+            let e = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{name} {extra:?}: {e}");
+            assert!(
+                e.contains(&format!("{key}/point.json")) && e.contains(field),
+                "{name} {extra:?}: the error names the file and the field: {e}"
+            );
+            assert!(
+                e.contains(&format!(
+                    "delete the folder {}",
+                    out.join("points").join(&key).display()
+                )),
+                "{name} {extra:?}: the error says the fix: {e}"
+            );
+            assert!(!out.join("study.csv").exists(), "{name}: no table");
+        }
+    }
+    std::fs::write(&record_path, &original).unwrap();
+    run_ok(&["study", s, "-q", "--merge", "--out", o_s]);
+    let rows = table_without_times(&out.join("study.csv"));
+    assert_eq!(column(&rows, "status"), ["ok", "ok"]);
+}
+
+/// TEST GOAL: a point record cut short (its JSON unfinished, as a copy that did not finish
+/// leaves it; issue #46 found it silently counted missing) is not trusted: `study` says on
+/// stderr that the file is cut short and that it runs the point again, then runs exactly
+/// that point (the others are skipped) and exits 0; `study --merge`, which runs nothing,
+/// refuses it with exit 2 naming the file and saying how to recompute it.
+#[test]
+fn a_cut_short_point_record_is_run_again_by_a_study_and_refused_by_a_merge() {
+    let dir = common::temp_out("study-cut-short-record");
+    let study = two_point_study(&dir, None);
+    let out = dir.join("out");
+    run_study(&study, &out);
+    let key = point_keys(&out)[0].clone();
+    let record_path = out.join("points").join(&key).join("point.json");
+    let original = std::fs::read(&record_path).unwrap();
+    std::fs::write(&record_path, &original[..original.len() / 2]).unwrap();
+    let (s, o_s) = (study.to_str().unwrap(), out.to_str().unwrap());
+    let merged = run(&["study", s, "-q", "--merge", "--out", o_s]);
+    let e = stderr(&merged);
+    assert_eq!(merged.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains(&format!("{key}/point.json is cut short")) && e.contains("without --merge"),
+        "{e}"
+    );
+    let o = run_ok(&["study", s, "--out", o_s]);
+    let e = stderr(&o);
+    assert!(
+        e.contains(&format!("{key}/point.json is cut short"))
+            && e.contains("running the point again"),
+        "{e}"
+    );
+    let m = common::read_json(&out.join("manifest.json"));
+    assert_eq!(
+        (
+            m["execution"]["ran"].as_u64(),
+            m["execution"]["skipped"].as_u64()
+        ),
+        (Some(1), Some(1))
+    );
+    let record = common::read_json(&record_path);
+    assert_eq!(record["status"], "ok");
+}

@@ -176,6 +176,19 @@ static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 /// The file in a mesh cache that remembers `gmsh --version` across processes.
 const VERSIONS_FILE: &str = "gmsh-versions.txt";
 
+/// The largest `VERSIONS_FILE` read back [bytes]: a line per gmsh installation, each a few
+/// hundred bytes.
+const VERSIONS_FILE_BYTES: u64 = 64 << 10;
+
+/// The contents of `path` when it holds at most `max` bytes (None: missing, unreadable or
+/// larger): files of the cache are read back without trusting their size.
+fn read_at_most(path: &Path, max: u64) -> Option<Vec<u8>> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut bytes = Vec::new();
+    file.take(max + 1).read_to_end(&mut bytes).ok()?;
+    (bytes.len() as u64 <= max).then_some(bytes)
+}
+
 /// `gmsh --version`, remembered per command: in this process (asked once even when threads
 /// mesh at once: the lock is held while gmsh answers) and, with a `cache_dir`, on disk for the
 /// next processes (`remembered_version`).
@@ -209,7 +222,11 @@ fn remembered_version(
         return ask();
     };
     let path = dir.join(VERSIONS_FILE);
-    let known = std::fs::read_to_string(&path).unwrap_or_default();
+    // Read back like user input: a file beyond `VERSIONS_FILE_BYTES` or not text is
+    // forgotten (and written anew below).
+    let known = read_at_most(&path, VERSIONS_FILE_BYTES)
+        .and_then(|b| String::from_utf8(b).ok())
+        .unwrap_or_default();
     let mut lines: Vec<&str> = known.lines().collect();
     let stamp = format!("{paths}\t{states}\t");
     if let Some(v) = lines.iter().find_map(|l| l.strip_prefix(&stamp)) {
@@ -978,13 +995,24 @@ fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
-/// Whether a cached mesh is the one gmsh wrote: its SHA-256 equals the one stored beside it.
-/// The error says why not (for the warning).
-fn verify_cached(msh: &Path) -> std::result::Result<(), String> {
-    let stored = std::fs::read_to_string(checksum_path(msh))
-        .map_err(|_| "has no checksum (written by an older hbcontact, or damaged)".to_string())?;
-    let bytes = std::fs::read(msh).map_err(|e| format!("cannot be read ({e})"))?;
-    if stored.trim() == sha256_hex(&bytes) {
+/// The largest cached mesh read back, per element `geometry.max_elements` allows [bytes]: an
+/// element of a second-order mesh, with its share of nodes, takes about 200 bytes in MSH 4.1.
+const CACHED_BYTES_PER_ELEMENT: u64 = 1024;
+
+/// Whether a cached mesh is the one gmsh wrote: at most `CACHED_BYTES_PER_ELEMENT` per
+/// element `max_elements` allows, and its SHA-256 equals the one stored beside it (a
+/// 64-digit line). The error says why not (for the warning).
+fn verify_cached(msh: &Path, max_elements: u64) -> std::result::Result<(), String> {
+    let stored = read_at_most(&checksum_path(msh), 1024)
+        .map(|b| String::from_utf8_lossy(&b).trim().to_string())
+        .ok_or_else(|| "has no checksum (written by an older hbcontact, or damaged)".to_string())?;
+    let max = max_elements
+        .saturating_mul(CACHED_BYTES_PER_ELEMENT)
+        .max(1 << 20);
+    let bytes = read_at_most(msh, max).ok_or_else(|| {
+        format!("cannot be read or is larger than {max} bytes, more than geometry.max_elements = {max_elements} elements take")
+    })?;
+    if stored == sha256_hex(&bytes) {
         Ok(())
     } else {
         Err("does not match its checksum (changed or damaged since gmsh wrote it)".into())
@@ -1095,7 +1123,7 @@ pub fn mesh_geometry_with(
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
     let _lock = lock_entry(&msh)?;
     if msh.is_file() {
-        match verify_cached(&msh) {
+        match verify_cached(&msh, limits.max_elements) {
             Ok(()) => {
                 return Ok(MeshedGeometry {
                     msh,

@@ -159,7 +159,7 @@ fn relative(v: f64, reference: f64) -> f64 {
 
 /// The rungs with their errors, from the study's rows and the rungs' amplitudes under `out`
 /// (ladders in order, then the transient reference if there is one).
-pub fn evaluate(spec: &Accuracy, rows: &[Row], out: &Path) -> AccuracyReport {
+pub fn evaluate(spec: &Accuracy, rows: &[Row], out: &Path) -> crate::Result<AccuracyReport> {
     let transient = rows
         .iter()
         .find(|r| r.point.mode == Mode::Transient)
@@ -192,7 +192,7 @@ pub fn evaluate(spec: &Accuracy, rows: &[Row], out: &Path) -> AccuracyReport {
             }
         }
         if spec.reference == Reference::Finest {
-            displacement_errors(&mut ladder_rungs);
+            displacement_errors(&mut ladder_rungs)?;
         }
         rungs.extend(ladder_rungs);
     }
@@ -202,30 +202,30 @@ pub fn evaluate(spec: &Accuracy, rows: &[Row], out: &Path) -> AccuracyReport {
         t.errors[L2] = f64::NAN;
         rungs.push(t);
     }
-    AccuracyReport {
+    Ok(AccuracyReport {
         reference: spec.reference,
         rungs,
-    }
+    })
 }
 
 /// Each rung's displacement L2 error against its ladder's reference rung (the one marked
 /// `is_reference`), from their `amplitudes.vtu`.
-fn displacement_errors(rungs: &mut [Rung]) {
-    let Some(reference) = rungs
-        .iter()
-        .find(|r| r.is_reference && r.status == "ok")
-        .and_then(|r| read_amplitudes(&r.dir.join("amplitudes.vtu")))
-    else {
-        return;
+fn displacement_errors(rungs: &mut [Rung]) -> crate::Result<()> {
+    let reference = match rungs.iter().find(|r| r.is_reference && r.status == "ok") {
+        Some(r) => read_amplitudes(&r.dir.join("amplitudes.vtu"))?,
+        None => None,
+    };
+    let Some(reference) = reference else {
+        return Ok(());
     };
     for r in rungs.iter_mut().filter(|r| r.status == "ok") {
-        if let Some((e, nodes)) =
-            read_amplitudes(&r.dir.join("amplitudes.vtu")).and_then(|a| relative_l2(&a, &reference))
-        {
+        let amplitudes = read_amplitudes(&r.dir.join("amplitudes.vtu"))?;
+        if let Some((e, nodes)) = amplitudes.and_then(|a| relative_l2(&a, &reference)) {
             r.errors[L2] = e;
             r.l2_nodes = nodes;
         }
     }
+    Ok(())
 }
 
 /// Wall times within this factor of the fastest are taken as equal: on a shared machine two

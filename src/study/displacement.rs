@@ -21,26 +21,93 @@ pub struct Amplitudes {
     pub fields: BTreeMap<String, Vec<f64>>,
 }
 
-/// Read `amplitudes.vtu` (None when missing or unreadable).
-pub fn read_amplitudes(path: &Path) -> Option<Amplitudes> {
-    let vtk = Vtk::import(path).ok()?;
+/// The largest `amplitudes.vtu` read back [bytes]: 3 values per node of each of 2H + 1
+/// fields, in base64 binary, is about 100 MB for 100 000 nodes at H = 20.
+pub const MAX_AMPLITUDES_BYTES: u64 = 1 << 30;
+
+/// Read `amplitudes.vtu` like user input (a file anyone may edit): None when it is missing;
+/// an error (exit 2) naming the file, with the fix, when it is larger than
+/// `MAX_AMPLITUDES_BYTES`, does not read as an unstructured grid, or its points or fields
+/// are not finite with 3 values per node, or none is an amplitude field.
+pub fn read_amplitudes(path: &Path) -> crate::Result<Option<Amplitudes>> {
+    let bad = |why: String| {
+        let dir = path.parent().unwrap_or(path);
+        crate::Error::Input(format!(
+            "{} {why}: it was not written by this study's run or was changed since; delete the folder {} to run the rung again",
+            path.display(),
+            dir.display()
+        ))
+    };
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(crate::Error::io(path, e)),
+        Ok(m) if m.len() > MAX_AMPLITUDES_BYTES => {
+            return Err(bad(format!(
+                "is larger than {} MiB, more than any rung writes",
+                MAX_AMPLITUDES_BYTES >> 20
+            )))
+        }
+        Ok(_) => {}
+    }
+    // The VTK reader is a dependency: a malformed file it cannot handle is refused, not a
+    // crash of the study.
+    let imported = std::panic::catch_unwind(|| Vtk::import(path))
+        .map_err(|_| bad("does not read as VTK XML (the reader failed on it)".into()))?;
+    let vtk = imported.map_err(|e| {
+        bad(format!(
+            "does not read as VTK XML ({})",
+            crate::error::excerpt(&e.to_string())
+        ))
+    })?;
     let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
-        return None;
+        return Err(bad("is not an unstructured grid".into()));
     };
     let piece = pieces
         .into_iter()
-        .next()?
+        .next()
+        .ok_or_else(|| bad("holds no piece".into()))?
         .into_loaded_piece_data(None)
-        .ok()?;
-    let points: Vec<f64> = piece.points.cast_into()?;
-    let nodes = points.chunks(3).map(|p| [p[0], p[1]]).collect();
+        .map_err(|e| {
+            bad(format!(
+                "has a piece that does not load ({})",
+                crate::error::excerpt(&e.to_string())
+            ))
+        })?;
+    let points: Vec<f64> = piece
+        .points
+        .cast_into()
+        .ok_or_else(|| bad("has points that are not numbers".into()))?;
+    if !points.len().is_multiple_of(3) || points.iter().any(|v| !v.is_finite()) {
+        return Err(bad(format!(
+            "has {} point coordinates, not finite (x, y, z) triples",
+            points.len()
+        )));
+    }
+    let nodes: Vec<[f64; 2]> = points.chunks(3).map(|p| [p[0], p[1]]).collect();
     let mut fields = BTreeMap::new();
     for attribute in piece.data.point {
         if let Attribute::DataArray(a) = attribute {
-            fields.insert(a.name.clone(), a.data.cast_into::<f64>()?);
+            let name = crate::error::excerpt(&a.name);
+            let values: Vec<f64> = a
+                .data
+                .cast_into()
+                .ok_or_else(|| bad(format!("field `{name}` is not numbers")))?;
+            if values.len() != 3 * nodes.len() || values.iter().any(|v| !v.is_finite()) {
+                return Err(bad(format!(
+                    "field `{name}` has {} values, not finite 3 per node of its {} nodes",
+                    values.len(),
+                    nodes.len()
+                )));
+            }
+            fields.insert(a.name.clone(), values);
         }
     }
-    Some(Amplitudes { nodes, fields })
+    if !fields.keys().any(|name| weight(name).is_some()) {
+        return Err(bad(
+            "has no amplitude field (`static` or `harmonic_K_cos`, `harmonic_K_sin`) with 3 values per node".into(),
+        ));
+    }
+    Ok(Some(Amplitudes { nodes, fields }))
 }
 
 /// The Parseval weight of a field: 1 for the static part, ½ for a harmonic's cos or sin.
@@ -106,4 +173,67 @@ pub fn relative_l2(rung: &Amplitudes, reference: &Amplitudes) -> Option<(f64, us
         }
     }
     (!pairs.is_empty() && norm > 0.0).then(|| ((difference / norm).sqrt(), pairs.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An ASCII `amplitudes.vtu` of two nodes with one field, `static`, holding `values`.
+    fn write_vtu(name: &str, values: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "hbcontact-amplitudes-{}",
+            crate::files::unique_tag()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        let text = format!(
+            r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">
+<UnstructuredGrid><Piece NumberOfPoints="2" NumberOfCells="1">
+<PointData><DataArray type="Float64" Name="static" NumberOfComponents="3" format="ascii">{values}</DataArray></PointData>
+<Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0</DataArray></Points>
+<Cells><DataArray type="UInt64" Name="connectivity" format="ascii">0 1</DataArray>
+<DataArray type="UInt64" Name="offsets" format="ascii">2</DataArray>
+<DataArray type="UInt8" Name="types" format="ascii">3</DataArray></Cells>
+</Piece></UnstructuredGrid></VTKFile>
+"#
+        );
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    /// TEST GOAL: amplitudes.vtu is read back like user input: a well-formed file reads; a
+    /// missing one is None; a field with fewer values than 3 per node (dropped by the VTK
+    /// reader, leaving no amplitude field) or a NaN value is an error of exit class 2 naming the
+    /// file, the field and the fix.
+    #[test]
+    fn amplitude_files_are_validated_before_the_l2_error_indexes_them() {
+        let good = write_vtu("amplitudes.vtu", "1 2 0 3 4 0");
+        let a = read_amplitudes(&good).unwrap().unwrap();
+        assert_eq!(a.nodes, [[0.0, 0.0], [1.0, 0.0]]);
+        assert_eq!(a.fields["static"], [1.0, 2.0, 0.0, 3.0, 4.0, 0.0]);
+        assert!(relative_l2(&a, &a).is_some_and(|(e, n)| e == 0.0 && n == 2));
+        assert!(read_amplitudes(&good.with_file_name("none.vtu"))
+            .unwrap()
+            .is_none());
+        for (values, why) in [
+            ("1 2 0", "has no amplitude field"),
+            ("1 2 0 nan 4 0", "field `static` has 6 values"),
+        ] {
+            let bad = write_vtu("amplitudes.vtu", values);
+            let e = match read_amplitudes(&bad) {
+                Err(e) => e,
+                Ok(a) => panic!("{values}: read {:?}", a.map(|a| a.fields)),
+            };
+            assert_eq!(e.exit_code(), 2);
+            let text = e.to_string();
+            assert!(
+                text.contains(&bad.display().to_string())
+                    && text.contains(why)
+                    && text.contains("delete the folder"),
+                "{text}"
+            );
+        }
+    }
 }

@@ -11,6 +11,15 @@
 //! `point.json` says ok (for the same probe, in full if full is wanted, and with what `Needs`
 //! asks) is done and skipped.
 //!
+//! point.json is read back like user input (a file anyone may edit, or a shard copied from
+//! elsewhere): at most `MAX_RECORD_BYTES`, then every field checked before it counts
+//! (`check_record`: the folder's key and mode, status `ok` or `failed` with a known exit
+//! class and its code, known outputs with finite values within ±`MAX_OUTPUT_MAGNITUDE` in
+//! their ranges, a finite time). A record that fails a check is an error (exit 2) naming the
+//! file and the field, with the fix: delete the point's folder to run it again. A record
+//! whose JSON ends early (a copy or a write that did not finish) is not trusted either: a run
+//! says so and runs the point again, a merge (which runs nothing) refuses it.
+//!
 //! Beyond the summary (`Needs`): natural frequencies (after the run, from the same mesh and
 //! model: `pipeline::modes::natural_modes`, K and M of the free dofs, the contact open); the
 //! peak resident memory (Linux: writing "5" to /proc/self/clear_refs resets VmHWM, the peak
@@ -76,11 +85,268 @@ impl PointRecord {
     }
 }
 
-/// The point's record, if it has one that reads.
-pub fn read_record(out: &Path, key: &str) -> Option<PointRecord> {
-    let path = point_dir(out, key).join("point.json");
-    let text = std::fs::read_to_string(path).ok()?;
-    serde_json::from_str(&text).ok()
+/// The largest point.json read back [bytes]: a record holds a few dozen outputs, an error
+/// message (cut to a few thousand characters) and the run's warnings, a few kB in all.
+pub const MAX_RECORD_BYTES: u64 = 1 << 20;
+
+/// The largest magnitude an output of a record may have: no run in any unit system comes
+/// near it, and squares and differences of values below it stay finite in the plots and the
+/// accuracy errors (a tampered 1e308 does not).
+pub const MAX_OUTPUT_MAGNITUDE: f64 = 1e100;
+
+/// The exit classes a failed point's record may name, with their exit codes
+/// (`Error::class`, `Error::exit_code`).
+const EXIT_CLASSES: [(&str, u8); 7] = [
+    ("bad_input", 2),
+    ("model", 3),
+    ("not_converged", 4),
+    ("io", 5),
+    ("study_incomplete", 6),
+    ("interrupted", 130),
+    ("internal", 1),
+];
+
+/// What a point's folder holds.
+#[derive(Clone, Debug)]
+pub enum Recorded {
+    /// No point.json: the point has not run (here, or in its shard).
+    Missing,
+    /// A point.json that ends before its JSON does (a copy or a write that did not finish):
+    /// the message names the file; the point is to be run again.
+    CutShort(String),
+    /// A record that reads and holds what a run writes.
+    Valid(PointRecord),
+}
+
+/// The point's `point.json`, read back like user input: at most `MAX_RECORD_BYTES`, then
+/// every field checked (`check_record`). Missing and cut-short files are told apart from
+/// the rest; any other fault is an error (exit 2) naming the file and the field, with the
+/// fix (delete the point's folder to run it again).
+pub fn read_record(out: &Path, point: &Point) -> Result<Recorded> {
+    use std::io::Read as _;
+    let dir = point_dir(out, &point.key);
+    let path = dir.join("point.json");
+    let file = match std::fs::File::open(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Recorded::Missing),
+        Err(e) => return Err(Error::io(&path, e)),
+        Ok(f) => f,
+    };
+    let mut bytes = Vec::new();
+    file.take(MAX_RECORD_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(&path, e))?;
+    if bytes.len() as u64 > MAX_RECORD_BYTES {
+        return Err(bad_record(
+            &path,
+            format!(
+                " is larger than {} MiB, more than any point writes",
+                MAX_RECORD_BYTES >> 20
+            ),
+        ));
+    }
+    let value: serde_json::Value = match serde_json::from_slice(&bytes) {
+        Ok(v) => v,
+        Err(e) if e.classify() == serde_json::error::Category::Eof => {
+            return Ok(Recorded::CutShort(format!(
+                "{} is cut short ({} bytes, its JSON unfinished: a copy or a write that did not finish)",
+                path.display(),
+                bytes.len()
+            )))
+        }
+        Err(e) => {
+            return Err(bad_record(
+                &path,
+                format!(" is not JSON ({})", crate::error::shorten_quoted(&e.to_string())),
+            ))
+        }
+    };
+    let record = parse_record(&value).map_err(|(field, why)| bad_field(&path, &field, why))?;
+    check_record(&record, point).map_err(|(field, why)| bad_field(&path, &field, why))?;
+    Ok(Recorded::Valid(record))
+}
+
+/// The refusal of the record at `path` (`why` follows its name: " is …" or ": `field` …"),
+/// with the fix.
+fn bad_record(path: &Path, why: String) -> Error {
+    let dir = path.parent().unwrap_or(path);
+    Error::Input(format!(
+        "{}{why}: it was not written by this study's run or was changed since; delete the folder {} to run the point again",
+        path.display(),
+        dir.display()
+    ))
+}
+
+fn bad_field(path: &Path, field: &str, why: String) -> Error {
+    bad_record(path, format!(": `{}` {why}", crate::error::excerpt(field)))
+}
+
+/// A field fault: the field's name and what is wrong with it.
+type FieldFault = (String, String);
+
+/// The record's fields, each from its own JSON value (so a fault names its field). Fields a
+/// run does not write are ignored.
+fn parse_record(value: &serde_json::Value) -> std::result::Result<PointRecord, FieldFault> {
+    use serde::de::DeserializeOwned;
+    let Some(object) = value.as_object() else {
+        return Err(("(top level)".into(), "is not a JSON object".into()));
+    };
+    fn take<T: DeserializeOwned>(
+        object: &serde_json::Map<String, serde_json::Value>,
+        name: &str,
+        default: Option<T>,
+    ) -> std::result::Result<T, FieldFault> {
+        match (object.get(name), default) {
+            (None, Some(d)) => Ok(d),
+            (None, None) => Err((name.into(), "is missing".into())),
+            (Some(v), _) => serde_json::from_value(v.clone()).map_err(|e| {
+                let shown = crate::error::excerpt(&v.to_string());
+                (
+                    name.to_string(),
+                    format!(
+                        "= {shown} does not read ({})",
+                        crate::error::shorten_quoted(&e.to_string())
+                    ),
+                )
+            }),
+        }
+    }
+    Ok(PointRecord {
+        key: take(object, "key", None)?,
+        mode: take(object, "mode", None)?,
+        status: take(object, "status", None)?,
+        exit_class: take(object, "exit_class", Some(None))?,
+        exit_code: take(object, "exit_code", Some(None))?,
+        error: take(object, "error", Some(None))?,
+        probe: take(object, "probe", Some(None))?,
+        outputs: take(object, "outputs", None)?,
+        full: take(object, "full", None)?,
+        amplitudes: take(object, "amplitudes", Some(false))?,
+        seconds: take(object, "seconds", None)?,
+        warnings: take(object, "warnings", None)?,
+    })
+}
+
+/// A record as `run_point` writes it for `point`: its key and mode; status `ok` (no exit
+/// class, code or error) or `failed` (a known exit class, its code, an error message); every
+/// output a known name with a finite value within ±`MAX_OUTPUT_MAGNITUDE` (or null) in the
+/// output's range (amplitudes, times, frequencies, stresses and the multiplier ≥ 0, the
+/// contact fraction in [0, 1], counts whole, `stable` 0 or 1); a finite, non-negative time.
+pub fn check_record(r: &PointRecord, point: &Point) -> std::result::Result<(), FieldFault> {
+    let fault = |field: &str, why: String| Err((field.to_string(), why));
+    if r.key != point.key {
+        return fault(
+            "key",
+            format!(
+                "is \"{}\", not the key of the point whose folder holds it ({})",
+                crate::error::excerpt(&r.key),
+                point.key
+            ),
+        );
+    }
+    if r.mode != point.mode {
+        return fault(
+            "mode",
+            format!("is {:?}, not the point's {:?}", r.mode, point.mode),
+        );
+    }
+    match r.status.as_str() {
+        "ok" => {
+            if r.exit_class.is_some() || r.exit_code.is_some() || r.error.is_some() {
+                return fault(
+                    "status",
+                    "is \"ok\" but the record holds an exit class, exit code or error".into(),
+                );
+            }
+        }
+        "failed" => {
+            let class = r.exit_class.as_deref().unwrap_or("");
+            let Some((_, code)) = EXIT_CLASSES.iter().find(|(c, _)| *c == class) else {
+                let known: Vec<&str> = EXIT_CLASSES.iter().map(|(c, _)| *c).collect();
+                return fault(
+                    "exit_class",
+                    format!(
+                        "is \"{}\", not one of {}",
+                        crate::error::excerpt(class),
+                        known.join(", ")
+                    ),
+                );
+            };
+            if r.exit_code != Some(*code) {
+                return fault(
+                    "exit_code",
+                    format!(
+                        "is {:?}, not {code}, the code of exit class {class}",
+                        r.exit_code
+                    ),
+                );
+            }
+            if r.error.is_none() {
+                return fault("error", "is missing from a failed point's record".into());
+            }
+        }
+        other => {
+            return fault(
+                "status",
+                format!(
+                    "is \"{}\", not \"ok\" or \"failed\"",
+                    crate::error::excerpt(other)
+                ),
+            )
+        }
+    }
+    for (name, value) in &r.outputs {
+        let field = format!("outputs.{name}");
+        let output = match Output::parse(name) {
+            Ok(o) => o,
+            Err(_) => return fault(&field, "is not an output a study knows".into()),
+        };
+        let Some(v) = *value else { continue };
+        if let Err(why) = check_output(&output, v) {
+            return fault(&field, format!("= {v:e} {why}"));
+        }
+    }
+    if !(r.seconds.is_finite() && r.seconds >= 0.0 && r.seconds <= MAX_OUTPUT_MAGNITUDE) {
+        return fault("seconds", format!("= {:e} is not a time", r.seconds));
+    }
+    Ok(())
+}
+
+/// `v` within ±`MAX_OUTPUT_MAGNITUDE` and in the range of output `o`; else why not.
+fn check_output(o: &Output, v: f64) -> std::result::Result<(), String> {
+    /// Times are differences of sums of stage times: they may round a hair below zero.
+    const TIME_ROUNDING: f64 = 1e-9;
+    if !v.is_finite() || v.abs() > MAX_OUTPUT_MAGNITUDE {
+        return Err(format!(
+            "is beyond ±{MAX_OUTPUT_MAGNITUDE:e}, not a value a run writes"
+        ));
+    }
+    let whole = v.fract() == 0.0;
+    match o {
+        Output::ContactFraction if !(0.0..=1.0).contains(&v) => Err("is not in [0, 1]".into()),
+        Output::Stable if v != 0.0 && v != 1.0 => Err("is not 0 or 1".into()),
+        Output::NewtonIterations | Output::FreeDofs if !(whole && v >= 0.0) => {
+            Err("is not a whole number ≥ 0".into())
+        }
+        Output::WallTime | Output::SolveTime if v < -TIME_ROUNDING => {
+            Err("is a negative time".into())
+        }
+        Output::ProbeFirstHarmonic
+        | Output::ProbeFirstHarmonicX
+        | Output::ProbeFirstHarmonicY
+        | Output::ProbeHarmonic(_)
+        | Output::ProbePeakToPeak
+        | Output::ProbePeakToPeakX
+        | Output::ProbePeakToPeakY
+        | Output::MaxVonMises
+        | Output::NaturalFrequency(_)
+        | Output::PeakMemory
+        | Output::Multiplier
+            if v < 0.0 =>
+        {
+            Err("is negative, and this output is not".into())
+        }
+        _ => Ok(()),
+    }
 }
 
 /// What the points are asked for beyond their summary.
@@ -100,19 +366,25 @@ pub struct Needs {
 }
 
 /// Whether a point is done: an ok record for this probe, in full when wanted, with what
-/// `needs` asks.
-pub fn is_done(out: &Path, point: &Point, needs: &Needs) -> bool {
-    let has = |r: &PointRecord, name: String| r.outputs.contains_key(&name);
-    read_record(out, &point.key).is_some_and(|r| {
-        r.ok()
-            && r.key == point.key
-            && r.probe == needs.probe
-            && (r.full || !point.full)
-            && (1..=needs.modes).all(|k| has(&r, Output::NaturalFrequency(k).name()))
-            && (!needs.peak_memory || has(&r, Output::PeakMemory.name()))
-            && (!needs.stability || has(&r, Output::Stable.name()))
-            && (r.amplitudes || !needs.amplitudes || point.mode == Mode::Transient)
-    })
+/// `needs` asks. A record cut short is not (the point runs again, and `reporter` is told);
+/// a record that does not check is an error (`read_record`).
+pub fn is_done(out: &Path, point: &Point, needs: &Needs, reporter: &dyn Reporter) -> Result<bool> {
+    let r = match read_record(out, point)? {
+        Recorded::Missing => return Ok(false),
+        Recorded::CutShort(what) => {
+            reporter.warning(&format!("{what}: running the point again"));
+            return Ok(false);
+        }
+        Recorded::Valid(r) => r,
+    };
+    let has = |name: String| r.outputs.contains_key(&name);
+    Ok(r.ok()
+        && r.probe == needs.probe
+        && (r.full || !point.full)
+        && (1..=needs.modes).all(|k| has(Output::NaturalFrequency(k).name()))
+        && (!needs.peak_memory || has(Output::PeakMemory.name()))
+        && (!needs.stability || has(Output::Stable.name()))
+        && (r.amplitudes || !needs.amplitudes || point.mode == Mode::Transient))
 }
 
 /// Every output of the catalogue for this summary (probe harmonics up to those computed).
@@ -154,7 +426,9 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
         .iter()
         .map(|o| {
             let v = o.value(s, probe);
-            (o.name(), v.is_finite().then_some(v))
+            // What a record may hold (`check_output`): finite, within the magnitude bound.
+            let kept = v.is_finite() && v.abs() <= MAX_OUTPUT_MAGNITUDE;
+            (o.name(), kept.then_some(v))
         })
         .collect()
 }
@@ -346,11 +620,12 @@ pub fn execute(
     threads: usize,
     reporter: &dyn Reporter,
 ) -> Result<Execution> {
-    let todo: Vec<&Point> = points
-        .iter()
-        .copied()
-        .filter(|p| !is_done(out, p, needs))
-        .collect();
+    let mut todo: Vec<&Point> = Vec::new();
+    for &p in points {
+        if !is_done(out, p, needs, reporter)? {
+            todo.push(p);
+        }
+    }
     let mut execution = Execution {
         skipped: points.len() - todo.len(),
         ran: todo.len(),

@@ -194,11 +194,11 @@ fn finish(
     points: &[plan::Point],
     execution: Option<Execution>,
 ) -> Result<StudyReport> {
-    let rows = table::rows(&out, points);
+    let rows = table::rows(&out, points)?;
     let (ok, failed, missing) = table::counts(&rows);
     let (table, accuracy) = match &study.accuracy {
         Some(spec) => {
-            let report = accuracy::evaluate(spec, &rows, &out);
+            let report = accuracy::evaluate(spec, &rows, &out)?;
             let path = accuracy::publish(study, &out, &report, execution.as_ref())?;
             (path, Some(report))
         }

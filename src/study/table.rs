@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::execute::{read_record, results_files, Execution, PointRecord};
+use super::execute::{read_record, results_files, Execution, PointRecord, Recorded};
 use super::outputs::Output;
 use super::plan::Point;
 use super::spec::{Design, Parameter, Study, Value};
@@ -51,13 +51,27 @@ pub fn warnings_field(warnings: &[String]) -> String {
     csv_field(&warnings.join(" | "))
 }
 
-/// The rows of every point, from their records.
-pub fn rows(out: &Path, points: &[Point]) -> Vec<Row> {
+/// The rows of every point, from their records (`read_record`): a point without one is
+/// missing; a record cut short, or one that does not check, is an error naming it (a merge
+/// runs nothing, so it cannot run the point again).
+pub fn rows(out: &Path, points: &[Point]) -> Result<Vec<Row>> {
     points
         .iter()
-        .map(|p| Row {
-            point: p.clone(),
-            record: read_record(out, &p.key).filter(|r| r.key == p.key),
+        .map(|p| {
+            let record = match read_record(out, p)? {
+                Recorded::Missing => None,
+                Recorded::CutShort(what) => {
+                    return Err(Error::Input(format!(
+                        "{what}: run the study again without --merge (or the shard holding the point), which runs the point again, or delete the folder {}",
+                        super::plan::point_dir(out, &p.key).display()
+                    )))
+                }
+                Recorded::Valid(r) => Some(r),
+            };
+            Ok(Row {
+                point: p.clone(),
+                record,
+            })
         })
         .collect()
 }
