@@ -39,8 +39,8 @@ pub enum Error {
         source: Box<Error>,
     },
 
-    /// Writing results failed.
-    #[error("{path}: {source}")]
+    /// Writing results failed (a full disk says so: `describe_io`).
+    #[error("{}", describe_io(path, source))]
     Io {
         path: PathBuf,
         #[source]
@@ -62,6 +62,27 @@ pub enum Error {
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// Whether an I/O error means the disk (or the user's quota on it) is full: ENOSPC
+/// (`StorageFull`) or EDQUOT (`QuotaExceeded`).
+pub fn is_disk_full(e: &std::io::Error) -> bool {
+    use std::io::ErrorKind;
+    matches!(e.kind(), ErrorKind::StorageFull | ErrorKind::QuotaExceeded)
+        || matches!(e.raw_os_error(), Some(libc::ENOSPC | libc::EDQUOT))
+}
+
+/// `path: error`, or for a full disk what happened and what to do: free space on the disk
+/// that holds `path`, or write elsewhere.
+pub fn describe_io(path: &std::path::Path, e: &std::io::Error) -> String {
+    if is_disk_full(e) {
+        format!(
+            "{}: the disk is full ({e}): nothing more can be written there; free space on the disk that holds it (or your quota there), or write the results to another disk (--out or output.directory)",
+            path.display()
+        )
+    } else {
+        format!("{}: {e}", path.display())
+    }
+}
 
 impl Error {
     /// The error with the pipeline and stage it came from (an error that already names the
@@ -168,5 +189,41 @@ pub fn shorten_quoted(message: &str) -> String {
         format!("{head}… (message cut, {n} characters)")
     } else {
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: a write that fails because the disk is full (ENOSPC, as a raw OS error or as
+    /// `StorageFull`, or EDQUOT) says the disk is full, names the path and says what to do,
+    /// with exit code 5; any other I/O error reads as before, `path: error`.
+    #[test]
+    fn a_full_disk_says_so_naming_the_path() {
+        let path = std::path::Path::new("out/run/frames/frame_0003.vtu");
+        for e in [
+            std::io::Error::from_raw_os_error(libc::ENOSPC),
+            std::io::Error::from_raw_os_error(libc::EDQUOT),
+            std::io::Error::new(std::io::ErrorKind::StorageFull, "no room"),
+        ] {
+            let error = Error::io(path, e);
+            let text = error.to_string();
+            assert!(
+                text.starts_with("out/run/frames/frame_0003.vtu: the disk is full (")
+                    && text.contains("free space on the disk that holds it")
+                    && text.contains("--out"),
+                "{text}"
+            );
+            assert_eq!(error.exit_code(), 5);
+        }
+        let other = Error::io(path, std::io::Error::from_raw_os_error(libc::EACCES));
+        assert_eq!(
+            other.to_string(),
+            format!(
+                "out/run/frames/frame_0003.vtu: {}",
+                std::io::Error::from_raw_os_error(libc::EACCES)
+            )
+        );
     }
 }

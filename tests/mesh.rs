@@ -469,6 +469,141 @@ fn a_gmsh_killed_by_a_signal_is_reported_with_the_likely_cause() {
     );
 }
 
+/// A native-style gmsh (`fake-gmsh.sh` in `dir`, one command per step) that appends each
+/// step's soft and hard address-space limits (`ulimit -v`, `ulimit -H -v`, kB) and its
+/// arguments to `limits.log`, then runs `final_mesh` for the mesh itself (no `-clscale`) and
+/// the venv's gmsh for every other step.
+fn limit_logging_gmsh(dir: &std::path::Path, final_mesh: &str) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let fake = dir.join("fake-gmsh.sh");
+    let venv = common::root().join(".venv/bin");
+    let real = format!(
+        "{} {}",
+        venv.join("python").display(),
+        venv.join("gmsh").display()
+    );
+    common::write_executable(
+        &fake,
+        &format!(
+            "#!/bin/sh\necho \"$(ulimit -v) $(ulimit -H -v) $*\" >> {log}\ncase \" $* \" in\n  *\" -2 \"*\" -clscale \"*) exec {real} \"$@\" ;;\n  *\" -2 \"*) {final_mesh} ;;\n  *) exec {real} \"$@\" ;;\nesac\n",
+            log = dir.join("limits.log").display(),
+        ),
+    );
+    fake
+}
+
+/// The limit in kB a step ran under, as `ulimit -v` prints it.
+fn kb(limit: hbcontact::mesh::gmsh::MemoryLimit) -> u64 {
+    limit.bytes() / 1024
+}
+
+/// TEST GOAL: gmsh runs under an address-space limit (setrlimit on the child) derived from
+/// the element estimate: `--version`, reading the geometry and the estimate's trial meshes
+/// run under the limit for 40 000 elements (1 GiB + 8 kB per element), and the mesh under
+/// the limit for its estimate, which for the quickstart at 0.6 mm (about 60 000 elements) is
+/// within a factor of two of the elements gmsh then makes.
+#[test]
+fn every_gmsh_step_runs_under_a_memory_limit_derived_from_the_element_estimate() {
+    use hbcontact::mesh::gmsh::{MemoryLimit, ESTIMATE_ELEMENTS, GMSH_BYTES_PER_ELEMENT};
+    let dir = common::temp_out("gmsh-memory-limits");
+    let venv = common::root().join(".venv/bin");
+    let real = format!(
+        "exec {} {} \"$@\"",
+        venv.join("python").display(),
+        venv.join("gmsh").display()
+    );
+    let fake = limit_logging_gmsh(&dir, &real);
+    let mut r = request("quickstart.geo", 1);
+    r.mesh_size = Some(0.0006);
+    r.gmsh = Some(fake);
+    let msh = mesh_geometry(&r, &dir.join("cache")).unwrap_or_else(|e| panic!("{e}"));
+    let elements = read_msh(&msh.msh).unwrap().cells.len() as f64;
+    let log = std::fs::read_to_string(dir.join("limits.log")).unwrap();
+    let steps: Vec<(u64, u64, &str)> = log
+        .lines()
+        .map(|l| {
+            let mut w = l.splitn(3, ' ');
+            let soft = w.next().unwrap().parse().unwrap_or_else(|_| panic!("{l}"));
+            let hard = w.next().unwrap().parse().unwrap_or_else(|_| panic!("{l}"));
+            (soft, hard, w.next().unwrap_or(""))
+        })
+        .collect();
+    let (mesh, before): (Vec<_>, Vec<_>) = steps
+        .iter()
+        .partition(|(_, _, args)| args.contains(" -2 ") && !args.contains("-clscale"));
+    assert_eq!(mesh.len(), 1, "{log}");
+    assert!(before.len() >= 3, "--version, -0 and a trial mesh: {log}");
+    for (soft, hard, args) in &before {
+        assert_eq!(
+            (*soft, *hard),
+            (kb(MemoryLimit::READING), kb(MemoryLimit::READING)),
+            "{args}"
+        );
+    }
+    let (soft, hard, _) = mesh[0];
+    assert_eq!(soft, hard, "{log}");
+    // The base (with any threads a user's OMP_NUM_THREADS adds) is the reading limit's.
+    let base = MemoryLimit::READING.bytes() - ESTIMATE_ELEMENTS as u64 * GMSH_BYTES_PER_ELEMENT;
+    let allowed = (soft * 1024 - base) as f64 / GMSH_BYTES_PER_ELEMENT as f64;
+    assert!(
+        allowed > 40_000.0 && allowed / elements < 2.0 && elements / allowed < 2.0,
+        "the mesh's limit allows {allowed:.0} elements; gmsh made {elements}: {log}"
+    );
+    assert_eq!(soft, kb(MemoryLimit::for_estimate(allowed)), "{log}");
+}
+
+/// TEST GOAL: a gmsh whose mesh step needs more memory than its limit (here a step that
+/// allocates 64 MB past the `ulimit -v` it runs under, and so fails only because the limit
+/// is in force) stops with exit class 2 and an error saying gmsh exceeded its memory limit
+/// of X GB derived from the element estimate, and what to change.
+#[test]
+fn gmsh_beyond_its_memory_limit_is_told_the_limit_and_what_to_change() {
+    let dir = common::temp_out("gmsh-memory-exceeded");
+    let python = common::root().join(".venv/bin/python");
+    let hog = format!(
+        "exec {} -c \"import resource; n = resource.getrlimit(resource.RLIMIT_AS)[0]; bytearray(n + (64 << 20))\"",
+        python.display()
+    );
+    let fake = limit_logging_gmsh(&dir, &hog);
+    let mut r = request("quickstart.geo", 1);
+    r.gmsh = Some(fake);
+    let e = mesh_geometry(&r, &dir.join("cache")).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    let limit = hbcontact::mesh::gmsh::MemoryLimit::READING.bytes() as f64 / 1e9;
+    let e = e.to_string();
+    assert!(
+        e.contains(&format!(
+            "gmsh exceeded its memory limit of {limit:.2} GB derived from the element estimate"
+        )) && e.contains("geometry.mesh_size")
+            && e.contains("MemoryError"),
+        "{e}"
+    );
+}
+
+/// TEST GOAL: `geometry.parameters.r = 1e29` on the quickstart (gmsh took 2.3 GB in 20 s
+/// reading it) stops at gmsh's memory limit for reading the geometry and estimating: `check`
+/// exits 2 saying gmsh exceeded its memory limit of X GB, naming the parameter's value and
+/// what to check.
+#[test]
+fn an_out_of_scale_geometry_stops_at_gmsh_s_memory_limit() {
+    let o = hbcontact(&[
+        "check",
+        "pipelines/quickstart.yaml",
+        "--set",
+        "geometry.parameters.r=1e29",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    let limit = hbcontact::mesh::gmsh::MemoryLimit::READING.bytes() as f64 / 1e9;
+    assert!(
+        e.contains(&format!(
+            "gmsh exceeded its memory limit of {limit:.2} GB while reading the geometry"
+        )) && e.contains("r = 1e29")
+            && e.contains("geometry.parameters"),
+        "{e}"
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // The verified mesh cache.
 

@@ -5,6 +5,16 @@
 //! time limit, its whole group is killed on timeout, and it dies with hbcontact (a parent-death
 //! signal; `kill_running` for SIGINT/SIGTERM handlers).
 //!
+//! gmsh's memory is bounded too (`MemoryLimit`, its address space by setrlimit(RLIMIT_AS) in
+//! the child before exec): B + b·n bytes for n elements, B = `GMSH_BASE_BYTES` (the program
+//! and its libraries: the pip wheel's Python session peaks at 0.21 GB before any element) and
+//! b = `GMSH_BYTES_PER_ELEMENT` (measured: 0.74 kB of address space per element from 2 000 to
+//! 560 000 elements, first or second order; b is 8 kB, room for an estimate a few times low).
+//! Reading the geometry and estimating run under the limit for `ESTIMATE_ELEMENTS` (the trial
+//! meshes aim at `TRIAL_ELEMENTS`); the mesh runs under the limit for its estimate. A geometry
+//! out of scale (`r = 1e29` in the quickstart took gmsh to 2.3 GB in 20 s reading it) stops at
+//! the limit, and the error says so (`out_of_memory`).
+//!
 //! One gmsh process per geometry: the pip wheel's gmsh (a Python script) is not run as a
 //! command per step but as one session (`SESSION_DRIVER`, its Python API): started with the
 //! mesh's command line, it opens the geometry once and answers `unroll`, `mesh SCALE PATH` on
@@ -29,6 +39,63 @@ use crate::{Error, Result, Silent};
 pub const DEFAULT_MAX_ELEMENTS: u64 = 2_000_000;
 /// The default of `geometry.gmsh_timeout`, in seconds.
 pub const DEFAULT_GMSH_TIMEOUT: f64 = 600.0;
+
+/// The address space gmsh may take before its first element [bytes] (`MemoryLimit`).
+pub const GMSH_BASE_BYTES: u64 = 1 << 30;
+/// The address space gmsh may take per element [bytes] (`MemoryLimit`).
+pub const GMSH_BYTES_PER_ELEMENT: u64 = 8 << 10;
+/// The elements the memory limit allows while gmsh reads the geometry and makes the
+/// estimate's trial meshes: ten times what a trial mesh aims at.
+pub const ESTIMATE_ELEMENTS: f64 = 10.0 * TRIAL_ELEMENTS;
+/// The address space one more thread of gmsh may reserve (its stack and a malloc arena)
+/// [bytes], for a user's `OMP_NUM_THREADS` above 1.
+const GMSH_BYTES_PER_THREAD: u64 = 128 << 20;
+
+/// The memory gmsh may use (its address space, `RLIMIT_AS`): `GMSH_BASE_BYTES` plus
+/// `GMSH_BYTES_PER_ELEMENT` per element of `elements` (and `GMSH_BYTES_PER_THREAD` per
+/// thread a user's `OMP_NUM_THREADS` adds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MemoryLimit {
+    /// The elements the limit is for.
+    pub elements: f64,
+    /// Whether `elements` is the mesh's estimate (else the allowance for reading the geometry
+    /// and estimating, `ESTIMATE_ELEMENTS`).
+    pub from_estimate: bool,
+}
+
+impl MemoryLimit {
+    /// The limit while gmsh reads the geometry and estimates its elements.
+    pub const READING: MemoryLimit = MemoryLimit {
+        elements: ESTIMATE_ELEMENTS,
+        from_estimate: false,
+    };
+
+    /// The limit for a mesh estimated at `estimate` elements (never below `READING`'s).
+    pub fn for_estimate(estimate: f64) -> MemoryLimit {
+        MemoryLimit {
+            elements: estimate.max(ESTIMATE_ELEMENTS),
+            from_estimate: true,
+        }
+    }
+
+    /// The limit in bytes.
+    pub fn bytes(&self) -> u64 {
+        let threads = std::env::var("OMP_NUM_THREADS")
+            .ok()
+            .and_then(|t| t.trim().parse::<u64>().ok())
+            .unwrap_or(1)
+            .clamp(1, 1024);
+        let elements = (self.elements.max(0.0) as u64).saturating_mul(GMSH_BYTES_PER_ELEMENT);
+        GMSH_BASE_BYTES
+            .saturating_add((threads - 1) * GMSH_BYTES_PER_THREAD)
+            .saturating_add(elements)
+    }
+
+    /// `1.34 GB`.
+    fn shown(&self) -> String {
+        format!("{:.2} GB", self.bytes() as f64 / 1e9)
+    }
+}
 
 /// Bounds on one meshing.
 #[derive(Clone, Copy, Debug)]
@@ -288,7 +355,13 @@ fn ask_version(cmd: &GmshCommand) -> Result<String> {
     let key = cmd.describe();
     let mut c = cmd.command();
     c.arg("--version");
-    let out = run_gmsh(c, &key, Duration::from_secs(60), &Silent)?;
+    let out = run_gmsh(
+        c,
+        &key,
+        Duration::from_secs(60),
+        MemoryLimit::READING,
+        &Silent,
+    )?;
     let text = format!("{}{}", out.stdout, out.stderr);
     let version = text
         .lines()
@@ -369,6 +442,8 @@ pub struct GmshOutput {
     pub status: std::process::ExitStatus,
     pub stdout: String,
     pub stderr: String,
+    /// The memory limit gmsh ran under at its end.
+    pub memory: MemoryLimit,
 }
 
 /// How a gmsh exit status reads: "exited with code 1", or killed by a signal with the likely
@@ -385,15 +460,29 @@ fn describe_status(status: &std::process::ExitStatus) -> String {
 }
 
 /// Run gmsh to its end, bounded: in its own process group (so that killing the group takes
-/// any child it starts along), killed with its group after `timeout`, and dying with this
-/// process; each stdout line goes to the reporter as progress of the task "gmsh".
+/// any child it starts along), killed with its group after `timeout`, its memory limited to
+/// `memory`, and dying with this process; each stdout line goes to the reporter as progress of
+/// the task "gmsh".
 pub fn run_gmsh(
     c: Command,
     what: &str,
     timeout: Duration,
+    memory: MemoryLimit,
     reporter: &dyn Reporter,
 ) -> Result<GmshOutput> {
-    converse(c, what, timeout, reporter, false, |_| Ok(())).map(|(output, _)| output)
+    let limits = SpawnLimits {
+        memory,
+        most: memory,
+    };
+    converse(c, what, timeout, limits, reporter, false, |_| Ok(())).map(|(output, _)| output)
+}
+
+/// The memory limits a gmsh process starts with: `memory` (the soft limit, in force) and
+/// `most` (the hard limit, up to which a session raises its own soft limit for the mesh).
+#[derive(Clone, Copy, Debug)]
+struct SpawnLimits {
+    memory: MemoryLimit,
+    most: MemoryLimit,
 }
 
 /// Why a conversation with a gmsh session stopped early.
@@ -411,6 +500,8 @@ struct Conversation<'a> {
     deadline: Instant,
     timeout: Duration,
     what: &'a str,
+    /// The memory limit in force (the last one the session was told).
+    memory: MemoryLimit,
 }
 
 impl Conversation<'_> {
@@ -458,15 +549,16 @@ fn converse<T>(
     c: Command,
     what: &str,
     timeout: Duration,
+    limits: SpawnLimits,
     reporter: &dyn Reporter,
     interactive: bool,
     talk: impl FnOnce(&mut Conversation) -> std::result::Result<T, Stop>,
 ) -> Result<(GmshOutput, std::result::Result<T, Stop>)> {
-    let (mut child, mut guard) = spawn_bounded(c, what, interactive)?;
+    let (mut child, mut guard) = spawn_bounded(c, what, interactive, limits)?;
     let pgid = guard.pgid;
     let (stdin, stdout, stderr) = (child.stdin.take(), child.stdout.take(), child.stderr.take());
     let start = Instant::now();
-    let (status, talked, out_text, err_text) = std::thread::scope(|scope| {
+    let (status, talked, out_text, err_text, memory) = std::thread::scope(|scope| {
         let (sender, lines) = mpsc::channel();
         let out_reader = scope.spawn(move || read_stdout(stdout, reporter, sender));
         let err_reader = scope.spawn(move || {
@@ -482,8 +574,10 @@ fn converse<T>(
             deadline: start + timeout,
             timeout,
             what,
+            memory: limits.memory,
         };
         let talked = talk(&mut conversation);
+        let memory = conversation.memory;
         // Closing stdin ends a session; gmsh failing on its own ends by itself.
         drop(conversation);
         if let Err(Stop::Error(_)) = talked {
@@ -496,7 +590,7 @@ fn converse<T>(
         }
         let out_text = out_reader.join().unwrap_or_default();
         let err_text = err_reader.join().unwrap_or_default();
-        (status, talked, out_text, err_text)
+        (status, talked, out_text, err_text, memory)
     });
     reporter.task_done("gmsh");
     let status = status?;
@@ -506,17 +600,25 @@ fn converse<T>(
         status,
         stdout: out_text,
         stderr: err_text,
+        memory,
     };
     Ok((output, talked))
 }
 
 /// Start gmsh in its own process group, dying with this process (a parent-death signal), its
-/// stdout and stderr piped (and stdin when `interactive`), registered for `kill_running`.
+/// address space limited (`limits`: soft and hard RLIMIT_AS), its stdout and stderr piped (and
+/// stdin when `interactive`), registered for `kill_running`.
 fn spawn_bounded(
     mut c: Command,
     what: &str,
     interactive: bool,
+    limits: SpawnLimits,
 ) -> Result<(std::process::Child, RunningGuard)> {
+    let soft = limits.memory.bytes();
+    let address_space = libc::rlimit {
+        rlim_cur: soft as libc::rlim_t,
+        rlim_max: limits.most.bytes().max(soft) as libc::rlim_t,
+    };
     // SAFETY: getpid has no preconditions.
     let me = unsafe { libc::getpid() };
     c.process_group(0)
@@ -535,12 +637,29 @@ fn spawn_bounded(
         c.env("OMP_NUM_THREADS", "1");
     }
     // SAFETY: the closure runs in the forked child before exec and calls only the
-    // async-signal-safe system calls prctl and getppid, allocating nothing. PR_SET_PDEATHSIG
-    // is the only way to make gmsh die when hbcontact is killed by a signal it cannot catch
-    // (SIGKILL, the OOM killer), where no handler of ours can run.
+    // async-signal-safe system calls prctl, setrlimit and getppid, allocating nothing (the
+    // rlimit is built before the fork). PR_SET_PDEATHSIG is the only way to make gmsh die
+    // when hbcontact is killed by a signal it cannot catch (SIGKILL, the OOM killer), where
+    // no handler of ours can run; RLIMIT_AS makes an allocation beyond the limit fail in
+    // gmsh instead of taking the machine's memory.
     unsafe {
         c.pre_exec(move || {
             if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL as libc::c_ulong) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // Within the hard limit hbcontact itself runs under (raising it would fail).
+            let mut limit = address_space;
+            let mut current = libc::rlimit {
+                rlim_cur: 0,
+                rlim_max: 0,
+            };
+            if libc::getrlimit(libc::RLIMIT_AS, &mut current) == 0
+                && current.rlim_max != libc::RLIM_INFINITY
+            {
+                limit.rlim_max = limit.rlim_max.min(current.rlim_max);
+                limit.rlim_cur = limit.rlim_cur.min(current.rlim_max);
+            }
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
                 return Err(std::io::Error::last_os_error());
             }
             // The parent may have died before prctl took effect.
@@ -655,6 +774,27 @@ fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Error {
     } else {
         errors.join("\n")
     };
+    if out_of_memory(o) {
+        // Keep what gmsh said beyond the bare "Error :" of a failed allocation.
+        let said: Vec<&str> = shown
+            .lines()
+            .filter(|l| {
+                l.trim_end()
+                    .strip_prefix("Error")
+                    .is_none_or(|r| r.trim() != ":")
+            })
+            .collect();
+        let said = if said.is_empty() {
+            String::new()
+        } else {
+            format!("\n{}", said.join("\n"))
+        };
+        return Error::Gmsh(format!(
+            "meshing {} failed: {}{said}",
+            request.geo.display(),
+            memory_exceeded(request, &o.memory)
+        ));
+    }
     if !o.status.success() {
         if !shown.is_empty() {
             shown.push('\n');
@@ -669,16 +809,81 @@ fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Error {
     ))
 }
 
-/// Run one gmsh command to its end and check that it wrote `out` without an error.
+/// Whether a failed gmsh ran out of the memory its limit allows: an allocation failed (C++
+/// `std::bad_alloc`, Python's `MemoryError`, "Cannot allocate memory"), the session caught an
+/// exception gmsh logged no error for (what `bad_alloc` through gmsh's API looks like:
+/// "Error : " and nothing after it), or gmsh died of SIGABRT, SIGSEGV or SIGBUS (an
+/// allocation failure it did not catch).
+fn out_of_memory(o: &GmshOutput) -> bool {
+    let text = format!("{}{}", o.stdout, o.stderr);
+    let failed = !o.status.success() || text.contains("Error");
+    let allocation = [
+        "bad_alloc",
+        "MemoryError",
+        "Cannot allocate memory",
+        "out of memory",
+    ]
+    .iter()
+    .any(|w| text.contains(w));
+    let silent_exception = text.lines().any(|l| {
+        l.trim_end()
+            .strip_prefix("Error")
+            .is_some_and(|r| r.trim() == ":")
+    });
+    let crashed = matches!(
+        o.status.signal(),
+        Some(libc::SIGABRT | libc::SIGSEGV | libc::SIGBUS)
+    );
+    failed && (allocation || silent_exception || crashed)
+}
+
+/// The message of a gmsh stopped by its memory limit: the limit, what it was derived from,
+/// and what to change.
+fn memory_exceeded(request: &MeshRequest, memory: &MemoryLimit) -> String {
+    let per_element = GMSH_BYTES_PER_ELEMENT >> 10;
+    let base = GMSH_BASE_BYTES as f64 / 1e9;
+    if memory.from_estimate {
+        format!(
+            "gmsh exceeded its memory limit of {} derived from the element estimate ({:.2e} elements × {per_element} kB + {base:.2} GB): the mesh needs far more than its estimate, as when size fields refine far below the sizes the .geo names; make the smallest sizes coarser (a larger geometry.mesh_size, or the .geo's size parameters{}) or name them in the .geo, where the estimate sees them",
+            memory.shown(),
+            memory.elements,
+            parameters_named(request)
+        )
+    } else {
+        format!(
+            "gmsh exceeded its memory limit of {} while reading the geometry and making the element estimate's trial meshes (derived from an element count as for the mesh: {:.0} elements, ten times a trial mesh, × {per_element} kB + {base:.2} GB): a geometry that costs this much before it is meshed is out of scale, e.g. a length of 1e29 beside sizes of millimetres; check geometry.parameters{} and the .geo's lengths and sizes",
+            memory.shown(),
+            memory.elements,
+            parameters_named(request)
+        )
+    }
+}
+
+/// ` (now a = 1e0, b = 2e0)`, the request's geometry parameters, or nothing.
+fn parameters_named(request: &MeshRequest) -> String {
+    if request.parameters.is_empty() {
+        return String::new();
+    }
+    let list: Vec<String> = request
+        .parameters
+        .iter()
+        .map(|(k, v)| format!("{} = {v:e}", crate::error::excerpt(k)))
+        .collect();
+    format!(" (now {})", list.join(", "))
+}
+
+/// Run one gmsh command to its end under the memory limit `memory` and check that it wrote
+/// `out` without an error.
 fn run_checked(
     c: Command,
     cmd: &GmshCommand,
     request: &MeshRequest,
     out: &Path,
     limits: &MeshLimits,
+    memory: MemoryLimit,
     reporter: &dyn Reporter,
 ) -> Result<()> {
-    let result = run_gmsh(c, &cmd.describe(), limits.timeout, reporter).and_then(|o| {
+    let result = run_gmsh(c, &cmd.describe(), limits.timeout, memory, reporter).and_then(|o| {
         let errors = format!("{}{}", o.stdout, o.stderr).contains("Error");
         if o.status.success() && !errors && out.is_file() {
             Ok(())
@@ -692,19 +897,23 @@ fn run_checked(
     result
 }
 
-/// The two steps the estimate and the mesh take from gmsh.
+/// The steps the estimate and the mesh take from gmsh.
 trait GmshSteps {
     /// Write the unrolled geometry (what gmsh `-0` writes) to `path`.
     fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop>;
     /// Mesh in 2-D with every size scaled by `scale` into `path`.
     fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop>;
+    /// Run the next steps under the memory limit `memory` (it starts as
+    /// `MemoryLimit::READING`).
+    fn limit_memory(&mut self, memory: MemoryLimit) -> std::result::Result<(), Stop>;
 }
 
-/// A native gmsh: one command per step.
+/// A native gmsh: one command per step, each started under the limit in force.
 struct Commands<'a> {
     cmd: &'a GmshCommand,
     request: &'a MeshRequest,
     limits: &'a MeshLimits,
+    memory: MemoryLimit,
     reporter: &'a dyn Reporter,
 }
 
@@ -714,14 +923,36 @@ impl GmshSteps for Commands<'_> {
         c.arg(&self.request.geo).arg("-0");
         c.args(parameter_args(self.request));
         c.args(["-nopopup", "-o"]).arg(path);
-        run_checked(c, self.cmd, self.request, path, self.limits, self.reporter)
-            .map_err(Stop::Error)
+        let (request, limits) = (self.request, self.limits);
+        run_checked(
+            c,
+            self.cmd,
+            request,
+            path,
+            limits,
+            self.memory,
+            self.reporter,
+        )
+        .map_err(Stop::Error)
     }
     fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop> {
         let mut c = self.cmd.command();
         c.args(mesh_args(self.request, path, scale));
-        run_checked(c, self.cmd, self.request, path, self.limits, self.reporter)
-            .map_err(Stop::Error)
+        let (request, limits) = (self.request, self.limits);
+        run_checked(
+            c,
+            self.cmd,
+            request,
+            path,
+            limits,
+            self.memory,
+            self.reporter,
+        )
+        .map_err(Stop::Error)
+    }
+    fn limit_memory(&mut self, memory: MemoryLimit) -> std::result::Result<(), Stop> {
+        self.memory = memory;
+        Ok(())
     }
 }
 
@@ -735,15 +966,22 @@ impl GmshSteps for Session<'_, '_> {
     fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop> {
         self.0.ask(&format!("mesh {scale:e} {}", path.display()))
     }
+    fn limit_memory(&mut self, memory: MemoryLimit) -> std::result::Result<(), Stop> {
+        self.0.ask(&format!("limit {}", memory.bytes()))?;
+        self.0.memory = memory;
+        Ok(())
+    }
 }
 
 /// The Python program of a gmsh session, run by the venv's python with the gmsh command line
 /// of the mesh (`mesh_args`): it drops `-2` and `-o OUT`, initializes gmsh's API with the
 /// other options (exactly as the gmsh command line sets them), opens the geometry, and
 /// answers `hbcontact:ok` (or prints the error and `hbcontact:failed`) to each line on stdin:
-/// `unroll PATH` (gmsh `-0`), `mesh SCALE PATH` (`-2 -clscale SCALE -o PATH`). End of input
+/// `unroll PATH` (gmsh `-0`), `mesh SCALE PATH` (`-2 -clscale SCALE -o PATH`), `limit BYTES`
+/// (its address space from then on, within the hard limit it started with). End of input
 /// ends it. Its meshes are byte for byte the command line's.
 const SESSION_DRIVER: &str = r#"
+import resource
 import sys
 import gmsh
 args = sys.argv[1:]
@@ -769,6 +1007,12 @@ try:
             gmsh.model.mesh.clear()
             gmsh.model.mesh.generate(2)
             gmsh.write(path)
+        elif word == "limit":
+            hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+            soft = int(rest)
+            if hard != resource.RLIM_INFINITY:
+                soft = min(soft, hard)
+            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
         else:
             break
         answer("ok")
@@ -811,6 +1055,7 @@ fn with_gmsh<T>(
             cmd,
             request,
             limits,
+            memory: MemoryLimit::READING,
             reporter,
         };
         return steps(&mut commands).map_err(|stop| match stop {
@@ -819,10 +1064,24 @@ fn with_gmsh<T>(
         });
     };
     let what = cmd.describe();
-    let (output, talked) = converse(c, &what, limits.timeout, reporter, true, |conversation| {
-        conversation.ask("")?;
-        steps(&mut Session(conversation))
-    })?;
+    // The session starts under the reading limit; the most it may raise it to is the limit
+    // of the largest mesh `max_elements` allows.
+    let spawn = SpawnLimits {
+        memory: MemoryLimit::READING,
+        most: MemoryLimit::for_estimate(limits.max_elements as f64),
+    };
+    let (output, talked) = converse(
+        c,
+        &what,
+        limits.timeout,
+        spawn,
+        reporter,
+        true,
+        |conversation| {
+            conversation.ask("")?;
+            steps(&mut Session(conversation))
+        },
+    )?;
     match talked {
         Ok(t) if output.status.success() => Ok(t),
         Ok(_) | Err(Stop::Gmsh) => Err(failure(request, &output, out)),
@@ -1148,6 +1407,7 @@ pub fn mesh_geometry_with(
         if estimate > limits.max_elements as f64 {
             return Err(Stop::Error(too_many_elements(request, limits, estimate)));
         }
+        steps.limit_memory(MemoryLimit::for_estimate(estimate))?;
         steps.mesh(1.0, &tmp)
     });
     if let Err(e) = meshed {
