@@ -179,7 +179,10 @@ fn hill_dense_and_arnoldi_keep_the_same_copies_near_a_period_doubling() {
     });
     // The same multiplier or its conjugate (either member of the pair may lead).
     assert!(
-        (dense - arnoldi).norm().min((dense - arnoldi.conj()).norm()) < 1e-6 * dense.norm(),
+        (dense - arnoldi)
+            .norm()
+            .min((dense - arnoldi.conj()).norm())
+            < 1e-6 * dense.norm(),
         "dense {dense} against Arnoldi {arnoldi}"
     );
     let degrees = dense.im.atan2(dense.re).abs().to_degrees();
