@@ -15,6 +15,17 @@ pub fn unique_tag() -> String {
     format!("{}-{n}", std::process::id())
 }
 
+/// The text of `path` when it holds at most `limit` bytes (None beyond: refused before more
+/// than `limit` + 1 bytes are read), for files read back that a user may have replaced.
+pub fn read_capped(path: &Path, limit: u64) -> std::io::Result<Option<String>> {
+    use std::io::Read;
+    let mut text = String::new();
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_string(&mut text)?;
+    Ok((text.len() as u64 <= limit).then_some(text))
+}
+
 /// A temporary name beside `path`, unique to this process and call, with `path`'s extension
 /// kept last (gmsh picks its output format by it): `mesh.msh` → `mesh.tmp-<pid>-<n>.msh`.
 pub fn temp_beside(path: &Path) -> PathBuf {

@@ -1330,6 +1330,21 @@ fn strip_run_ends_with_a_headline_and_compare_reports_differences_consistent_wit
         stderr.contains("give the `hbcontact run` directory first"),
         "{stderr}"
     );
+    // A tampered table of either side is refused naming the file and line (issue #46).
+    let probes = std::path::Path::new(tm_dir).join("probes.csv");
+    let text = std::fs::read_to_string(&probes).unwrap();
+    let columns = text.lines().next().unwrap().split(',').count();
+    let lines = text.lines().count();
+    let tampered = format!("{text}{}\n", vec!["NaN"; columns].join(","));
+    std::fs::write(&probes, tampered).unwrap();
+    let o = common::hbcontact(&["compare", hb.to_str().unwrap(), tm_dir]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    let at = format!("probes.csv: line {}", lines + 1);
+    assert!(
+        stderr.contains(&at) && stderr.contains("not a finite number"),
+        "{stderr}"
+    );
     let o = common::hbcontact(&["modes", "pipelines/cantilever.yaml", "--count", "0"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");

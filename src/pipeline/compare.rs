@@ -226,14 +226,29 @@ fn differing(hb: &ResultDir, tm: &ResultDir, keys: &[&str]) -> Vec<String> {
         .collect()
 }
 
+/// The largest summary.json and CSV `compare` reads (a summary is kilobytes; a transient's
+/// contact_steps.csv holds one line per time step, 100 bytes a line).
+const MAX_SUMMARY_BYTES: u64 = 64 << 20;
+const MAX_TABLE_BYTES: u64 = 1 << 30;
+
+/// The text of `path`, or bad input naming it when it cannot be read or exceeds `limit`.
+fn read_text(path: &Path, limit: u64, what: impl Fn() -> String) -> Result<String> {
+    crate::files::read_capped(path, limit)
+        .map_err(|e| Error::Input(format!("{}: {e}: {}", path.display(), what())))?
+        .ok_or_else(|| {
+            Error::Input(format!(
+                "{}: larger than {} MiB, more than hbcontact writes: {}",
+                path.display(),
+                limit >> 20,
+                what()
+            ))
+        })
+}
+
 fn read_dir(dir: &Path, mode: &str, producer: &str) -> Result<ResultDir> {
     let path = dir.join("summary.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        Error::Input(format!(
-            "{}: {e}: is {} a result directory of `{producer}`?",
-            path.display(),
-            dir.display()
-        ))
+    let text = read_text(&path, MAX_SUMMARY_BYTES, || {
+        format!("is {} a result directory of `{producer}`?", dir.display())
     })?;
     let summary: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| Error::Input(format!("{}: not JSON ({e})", path.display())))?;
@@ -249,9 +264,21 @@ fn read_dir(dir: &Path, mode: &str, producer: &str) -> Result<ResultDir> {
         let p = dir.join(name);
         p.exists().then(|| read_csv(&p)).transpose()
     };
+    let probes_path = dir.join("probes.csv");
+    let probes = read_csv(&probes_path)?;
+    if probes
+        .values()
+        .next()
+        .is_none_or(|column| column.is_empty())
+    {
+        return Err(Error::Input(format!(
+            "{}: no rows: run `{producer}` again to write it",
+            probes_path.display()
+        )));
+    }
     Ok(ResultDir {
         dir: dir.to_path_buf(),
-        probes: read_csv(&dir.join("probes.csv"))?,
+        probes,
         contact: optional("contact.csv")?,
         steps: optional("contact_steps.csv")?,
         summary,
@@ -273,10 +300,11 @@ fn number(r: &ResultDir, keys: &[&str]) -> Result<f64> {
     })
 }
 
-/// Read a CSV of numbers with a header line.
+/// Read a CSV of finite numbers with a header line.
 fn read_csv(path: &Path) -> Result<Table> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+    let text = read_text(path, MAX_TABLE_BYTES, || {
+        "give two hbcontact result directories".into()
+    })?;
     let mut lines = text.lines();
     let header: Vec<String> = lines
         .next()
@@ -297,14 +325,18 @@ fn read_csv(path: &Path) -> Result<Table> {
             )));
         }
         for (col, f) in columns.iter_mut().zip(fields) {
-            col.push(f.trim().parse().map_err(|_| {
-                Error::Input(format!(
-                    "{}: line {}: `{}` is not a number",
-                    path.display(),
-                    row + 2,
-                    crate::error::excerpt(f)
-                ))
-            })?);
+            match f.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() => col.push(v),
+                _ => {
+                    return Err(Error::Input(format!(
+                        "{}: line {}: `{}` is not a finite number: the file was not written \
+                         by hbcontact or was changed since",
+                        path.display(),
+                        row + 2,
+                        crate::error::excerpt(f)
+                    )))
+                }
+            }
         }
     }
     Ok(header.into_iter().zip(columns).collect())
@@ -523,4 +555,51 @@ pub fn compare_schema() -> serde_json::Value {
         .into_generator()
         .into_root_schema_for::<Comparison>();
     serde_json::Value::from(schema)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn temp(name: &str, text: &str) -> std::path::PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("hbcontact-compare-{}", crate::files::unique_tag()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_table_with_a_non_finite_value_is_refused_naming_the_file_and_line() {
+        for bad in ["NaN", "inf", "-inf", "1e400", "x"] {
+            let path = temp("probes.csv", &format!("time,u_x\n0,1\n1,{bad}\n"));
+            let err = read_csv(&path).unwrap_err().to_string();
+            let _ = std::fs::remove_dir_all(path.parent().unwrap());
+            assert!(
+                err.contains("probes.csv: line 3") && err.contains("not a finite number"),
+                "{bad}: {err}"
+            );
+        }
+    }
+
+    proptest! {
+        /// Whatever a tampered CSV holds, reading it gives finite columns of equal length or
+        /// an error naming the file: never a panic.
+        #[test]
+        fn mutated_tables_read_or_are_refused_naming_the_file(text in "[-0-9a-z.,e\n ]{0,200}") {
+            let path = temp("contact.csv", &text);
+            let read = read_csv(&path);
+            let _ = std::fs::remove_dir_all(path.parent().unwrap());
+            match read {
+                Ok(table) => {
+                    let lengths: Vec<usize> = table.values().map(Vec::len).collect();
+                    prop_assert!(lengths.windows(2).all(|w| w[0] == w[1]));
+                    prop_assert!(table.values().flatten().all(|v| v.is_finite()));
+                }
+                Err(e) => prop_assert!(e.to_string().contains("contact.csv"), "{e}"),
+            }
+        }
+    }
 }

@@ -132,26 +132,21 @@ fn require(ok: bool, path: &Path, field: &str, why: impl FnOnce() -> String) -> 
 
 /// The text of `path`, refused beyond `MAX_FILE_BYTES` before it is read.
 fn read_bounded(path: &Path) -> Result<String> {
-    use std::io::Read;
     let cannot = |e: std::io::Error| {
         refuse(format!(
             "cannot read {} ({e}): there is no sweep to continue",
             path.display()
         ))
     };
-    let file = std::fs::File::open(path).map_err(cannot)?;
-    let mut text = String::new();
-    file.take(MAX_FILE_BYTES + 1)
-        .read_to_string(&mut text)
-        .map_err(cannot)?;
-    if text.len() as u64 > MAX_FILE_BYTES {
-        return Err(refuse(format!(
-            "{} is larger than {} MiB, more than a resume reads",
-            path.display(),
-            MAX_FILE_BYTES >> 20
-        )));
-    }
-    Ok(text)
+    crate::files::read_capped(path, MAX_FILE_BYTES)
+        .map_err(cannot)?
+        .ok_or_else(|| {
+            refuse(format!(
+                "{} is larger than {} MiB, more than a resume reads",
+                path.display(),
+                MAX_FILE_BYTES >> 20
+            ))
+        })
 }
 
 /// The sweep saved in `out`, checked against the pipeline's `sweep` block: the same range
