@@ -697,7 +697,7 @@ fn arnoldi(
     let mut k = 0;
     while k < steps {
         let current: Vec<f64> = basis.col(k).iter().copied().collect();
-        let mut w = Mat::<f64>::from_fn(n, 1, |i, _| 0.0 * i as f64);
+        let mut w = Mat::<f64>::zeros(n, 1);
         for (i, v) in apply(&current).into_iter().enumerate() {
             w[(i, 0)] = v;
         }

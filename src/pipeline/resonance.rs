@@ -13,7 +13,7 @@
 //!   to resonance alone);
 //! - A = 1/√((1 − r²)² + (2ζ_n r)²) the single-mode magnification over the static response.
 //!
-//! Cost: one shift-invert subspace iteration per load-excited harmonic, shifted to (kω)² so it
+//! Cost: one shift-invert block Lanczos per load-excited harmonic, shifted to (kω)² so it
 //! converges first to the modes nearest kω: one real factorization of K − (kω)²M (reusing the
 //! symbolic analysis the harmonic balance made of K's pattern) and a few dozen solves. Contact scenes compute every harmonic up to H, but only the load-excited ones
 //! are checked: the others are driven by the contact forces, whose contact-closed dynamics
