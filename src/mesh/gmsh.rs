@@ -917,38 +917,34 @@ struct Commands<'a> {
     reporter: &'a dyn Reporter,
 }
 
+impl Commands<'_> {
+    /// Run one gmsh step `c` writing `path`, under this run's limits and memory bound.
+    fn run(&self, c: Command, path: &Path) -> std::result::Result<(), Stop> {
+        run_checked(
+            c,
+            self.cmd,
+            self.request,
+            path,
+            self.limits,
+            self.memory,
+            self.reporter,
+        )
+        .map_err(Stop::Error)
+    }
+}
+
 impl GmshSteps for Commands<'_> {
     fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop> {
         let mut c = self.cmd.command();
         c.arg(&self.request.geo).arg("-0");
         c.args(parameter_args(self.request));
         c.args(["-nopopup", "-o"]).arg(path);
-        let (request, limits) = (self.request, self.limits);
-        run_checked(
-            c,
-            self.cmd,
-            request,
-            path,
-            limits,
-            self.memory,
-            self.reporter,
-        )
-        .map_err(Stop::Error)
+        self.run(c, path)
     }
     fn mesh(&mut self, scale: f64, path: &Path) -> std::result::Result<(), Stop> {
         let mut c = self.cmd.command();
         c.args(mesh_args(self.request, path, scale));
-        let (request, limits) = (self.request, self.limits);
-        run_checked(
-            c,
-            self.cmd,
-            request,
-            path,
-            limits,
-            self.memory,
-            self.reporter,
-        )
-        .map_err(Stop::Error)
+        self.run(c, path)
     }
     fn limit_memory(&mut self, memory: MemoryLimit) -> std::result::Result<(), Stop> {
         self.memory = memory;
