@@ -245,3 +245,119 @@ fn hill_verdict_changes_at_the_folds_of_the_strip_sweep() {
         );
     }
 }
+
+/// The text boxes of an SVG's labels drawn from their left end (`text-anchor="start"`, the
+/// mark labels): (left, top, right, bottom), 0.6 em per character.
+fn start_anchored_labels(svg: &str) -> Vec<(String, [f64; 4])> {
+    let mut out = Vec::new();
+    for piece in svg.split("<text ").skip(1) {
+        let (attrs, rest) = piece.split_once('>').unwrap_or((piece, ""));
+        if !attrs.contains("text-anchor=\"start\"") {
+            continue;
+        }
+        let attr = |name: &str| -> f64 {
+            let key = format!("{name}=\"");
+            attrs
+                .split(&key)
+                .nth(1)
+                .and_then(|v| v.split('"').next())
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(f64::NAN)
+        };
+        let text = rest
+            .split("</text>")
+            .next()
+            .unwrap_or("")
+            .trim()
+            .to_string();
+        let (x, y, size) = (attr("x"), attr("y"), attr("font-size"));
+        let width = 0.6 * size * text.chars().count() as f64;
+        out.push((text, [x, y, x + width, y + size]));
+    }
+    out
+}
+
+/// TEST GOAL: along the coarse strip sweep (H = 10, every point judged by Hill's method) the
+/// verdict changes only at a located fold or at a bifurcation listed in sweep.json, each
+/// located between its two rows and classified by its leading multiplier: a real multiplier
+/// through +1 only where the curve turns (the folds, and kinks of the sampled law), period
+/// doublings at arg μ = 180°, Neimark–Sacker pairs off the real axis with their second
+/// frequency |arg μ|/(2π)·f. sweep.csv carries each row's argument and crossing, and the
+/// plot's labels do not overlap.
+#[test]
+fn strip_sweep_verdict_changes_only_at_located_folds_and_classified_bifurcations() {
+    let p = common::scene("strip_sweep", &["geometry.parameters.lc=0.025"]);
+    let out = common::temp_out("hill-bifurcations");
+    let options = hbcontact::pipeline::RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    let s = hbcontact::sweep::run(&p, &options, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .summary;
+    let json = common::read_json(&out.join("sweep.json"));
+    let listed = json["bifurcations"].as_array().expect("bifurcations").len();
+    assert_eq!(listed, s.bifurcations.len());
+    assert!(
+        !s.bifurcations.is_empty(),
+        "the strip's upper branch has some"
+    );
+    let decided: Vec<_> = s.rows.iter().filter(|r| r.stable.is_some()).collect();
+    assert!(
+        decided.len() * 10 >= s.rows.len() * 9,
+        "nearly every row judged"
+    );
+    let mut away_from_folds = 0;
+    for w in decided.windows(2).filter(|w| w[0].stable != w[1].stable) {
+        let (a, b) = (w[0].index, w[1].index);
+        let at_fold = s.folds.iter().any(|f| a <= f.after && f.after <= b);
+        let listed = s.bifurcations.iter().any(|x| x.between == [a, b]);
+        assert!(
+            at_fold ^ listed,
+            "rows {a}–{b}: fold {at_fold}, listed {listed}"
+        );
+        away_from_folds += usize::from(!at_fold);
+    }
+    assert_eq!(away_from_folds, s.bifurcations.len());
+    for x in &s.bifurcations {
+        let row = |i: usize| s.rows.iter().find(|r| r.index == i).expect("row");
+        let (fa, fb) = (
+            row(x.between[0]).frequency_hz,
+            row(x.between[1]).frequency_hz,
+        );
+        assert!(
+            x.frequency_hz >= fa.min(fb) && x.frequency_hz <= fa.max(fb),
+            "{x:?}"
+        );
+        assert!(x.multiplier > 1.0, "{x:?}");
+        use hbcontact::sweep::bifurcations::BifurcationKind as K;
+        match x.kind {
+            K::PeriodDoubling => assert!((x.argument_deg - 180.0).abs() < 0.1, "{x:?}"),
+            K::NeimarkSacker => {
+                assert!(x.argument_deg > 0.05 && x.argument_deg < 179.95, "{x:?}");
+                let second = x.argument_deg / 360.0 * x.frequency_hz;
+                let given = x.new_frequency_hz.expect("its frequency");
+                assert!((given - second).abs() < 1e-9 * second, "{x:?}");
+            }
+            K::BranchPoint => panic!("a real +1 crossing where the curve does not turn: {x:?}"),
+            K::Kink | K::Grazing | K::Unclassified => {}
+        }
+    }
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).expect("sweep.csv");
+    let header = csv.lines().next().unwrap_or("");
+    assert!(
+        header.contains(",stable,multiplier,argument_deg,crossing,"),
+        "{header}"
+    );
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).expect("sweep.svg");
+    let labels = start_anchored_labels(&svg);
+    assert!(labels
+        .iter()
+        .any(|(t, _)| t.starts_with("NS ") || t.starts_with("PD ")));
+    for (i, (t, a)) in labels.iter().enumerate() {
+        for (u, b) in &labels[i + 1..] {
+            let overlap = a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+            assert!(!overlap, "'{t}' {a:?} overlaps '{u}' {b:?}");
+        }
+    }
+}

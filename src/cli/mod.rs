@@ -54,6 +54,7 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
             f.amplitude
         );
     }
+    show_bifurcations(&s.bifurcations);
     match &s.stopped {
         Some(stop) => outln!(
             "  stopped at {:.4} Hz (point {}, {}): {}",
@@ -84,6 +85,39 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         s.frames.len(),
         s.written.len()
     );
+}
+
+/// The bifurcations of a sweep, one line each; the kinks in one line.
+fn show_bifurcations(list: &[hbcontact::sweep::bifurcations::BifurcationReport]) {
+    use hbcontact::sweep::bifurcations::BifurcationKind;
+    let (kinks, others): (Vec<_>, Vec<_>) =
+        list.iter().partition(|b| b.kind == BifurcationKind::Kink);
+    for b in others {
+        let motion = b
+            .new_frequency_hz
+            .map_or(String::new(), |f| format!(", a motion at {f:.4} Hz"));
+        outln!(
+            "  {} at {:.4} Hz (between points {} and {}): stability {}, |μ| = {:.4} at {:.1}°{motion}",
+            b.kind.describe(),
+            b.frequency_hz,
+            b.between[0],
+            b.between[1],
+            if b.loses { "lost" } else { "regained" },
+            b.multiplier,
+            b.argument_deg
+        );
+    }
+    if !kinks.is_empty() {
+        let at: Vec<String> = kinks
+            .iter()
+            .map(|b| format!("{:.2}", b.frequency_hz))
+            .collect();
+        outln!(
+            "  {} changes of stability where the curve turns within a step (kinks of the sampled contact law) at {} Hz",
+            kinks.len(),
+            at.join(", ")
+        );
+    }
 }
 
 pub fn show_run(result: &RunResult) {

@@ -55,7 +55,9 @@ const REAL: f64 = 1e-3;
 pub type Segment = (Vec<usize>, f64);
 
 /// How the leading multiplier leaves (or would leave) the unit circle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, schemars::JsonSchema)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Crossing {
     /// Real, through +1: a fold of the branch.

@@ -107,11 +107,23 @@ pub struct Series {
     pub colour: Option<usize>,
 }
 
-/// A marked point: a black triangle with its label beside it.
+/// A marked point: a black glyph with its label beside it.
 #[derive(Clone, Debug)]
 pub struct Mark {
     pub label: String,
     pub point: (f64, f64),
+    pub shape: Shape,
+}
+
+/// The glyph of a mark (folds and the kinds of bifurcation each have one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shape {
+    Triangle,
+    Disc,
+    Square,
+    Cross,
+    Ring,
+    Diamond,
 }
 
 /// A 2-D plot of labelled series; the legend sits inside the frame.
@@ -151,11 +163,17 @@ impl Figure {
         self
     }
 
-    /// A labelled marker at `point`.
-    pub fn mark(mut self, label: impl Into<String>, point: (f64, f64)) -> Self {
+    /// A labelled triangle at `point`.
+    pub fn mark(self, label: impl Into<String>, point: (f64, f64)) -> Self {
+        self.mark_as(label, point, Shape::Triangle)
+    }
+
+    /// A labelled marker of `shape` at `point`.
+    pub fn mark_as(mut self, label: impl Into<String>, point: (f64, f64), shape: Shape) -> Self {
         self.marks.push(Mark {
             label: label.into(),
             point,
+            shape,
         });
         self
     }
@@ -328,8 +346,8 @@ impl Figure {
         Ok(())
     }
 
-    /// The marks: a black triangle on the point, its label above it, to the right of it in
-    /// the left 60% of the frame and to the left of it beyond (so it stays inside).
+    /// The marks: a black glyph on the point, its label placed where it overlaps no label
+    /// placed before it and stays inside the frame (`label_box`).
     fn draw_marks<X, Y>(
         &self,
         chart: &mut ChartContext<SVGBackend, Cartesian2d<X, Y>>,
@@ -339,20 +357,31 @@ impl Figure {
         Y: Ranged<ValueType = f64>,
     {
         let log_ok = |v: f64, log: bool| v.is_finite() && (!log || v > 0.0);
-        let scale = |v: f64| if self.x.log { v.log10() } else { v };
-        let (lo, hi) = self.ranges().0;
-        for m in &self.marks {
-            let (x, y) = m.point;
-            if !(log_ok(x, self.x.log) && log_ok(y, self.y.log)) {
-                continue;
-            }
-            let u = (scale(x) - scale(lo)) / (scale(hi) - scale(lo));
-            // About 7 pixels per character at 12 px.
-            let width = 7 * m.label.chars().count() as i32;
-            let dx = if u > 0.6 { -8 - width } else { 8 };
+        let area = chart.plotting_area().get_pixel_range();
+        let frame = ((area.0.start, area.1.start), (area.0.end, area.1.end));
+        let shown: Vec<&Mark> = self
+            .marks
+            .iter()
+            .filter(|m| log_ok(m.point.0, self.x.log) && log_ok(m.point.1, self.y.log))
+            .collect();
+        // The glyphs first, so no label covers one.
+        let mut placed: Vec<LabelBox> = shown
+            .iter()
+            .map(|m| {
+                let (x, y) = chart.backend_coord(&m.point);
+                (x - GLYPH, y - GLYPH, x + GLYPH, y + GLYPH)
+            })
+            .collect();
+        for m in shown {
+            let at = chart.backend_coord(&m.point);
+            let (dx, dy) = if m.label.is_empty() {
+                (0, 0)
+            } else {
+                label_box(at, m.label.chars().count(), frame, &mut placed)
+            };
             let glyph = EmptyElement::at(m.point)
-                + TriangleMarker::new((0, 0), 6, BLACK.filled())
-                + Text::new(m.label.clone(), (dx, -18), ("sans-serif", 12));
+                + glyph(m.shape)
+                + Text::new(m.label.clone(), (dx, dy), ("sans-serif", 12));
             chart
                 .draw_series(std::iter::once(glyph))
                 .map_err(plot_error)?;
@@ -391,6 +420,67 @@ impl Figure {
             .into_iter()
             .min_by_key(|&(_, right, top)| all.iter().filter(|p| inside(p, right, top)).count())
             .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
+    }
+}
+
+/// A label's pixel box: (left, top, right, bottom).
+type LabelBox = (i32, i32, i32, i32);
+
+/// About 7 pixels per character and 14 per line at 12 px; a glyph reaches 7 from its centre.
+const CHAR_WIDTH: i32 = 7;
+const GLYPH: i32 = 7;
+const LINE_HEIGHT: i32 = 14;
+
+/// Where a label of `chars` characters goes beside the mark at pixel `at`: the first of the
+/// offsets above, below and further out, right then left, whose box stays inside `frame`
+/// and overlaps no box in `placed` (the first offset inside the frame if every one does);
+/// its box is added to `placed`. Returns the offset of the label's top-left corner.
+fn label_box(
+    at: (i32, i32),
+    chars: usize,
+    frame: ((i32, i32), (i32, i32)),
+    placed: &mut Vec<LabelBox>,
+) -> (i32, i32) {
+    let width = CHAR_WIDTH * chars as i32;
+    let boxed = |(dx, dy): (i32, i32)| {
+        (
+            at.0 + dx,
+            at.1 + dy,
+            at.0 + dx + width,
+            at.1 + dy + LINE_HEIGHT,
+        )
+    };
+    let inside = |b: &LabelBox| {
+        b.0 >= frame.0 .0 && b.1 >= frame.0 .1 && b.2 <= frame.1 .0 && b.3 <= frame.1 .1
+    };
+    let overlaps = |b: &LabelBox, o: &LabelBox| b.0 < o.2 && o.0 < b.2 && b.1 < o.3 && o.1 < b.3;
+    let candidates: Vec<(i32, i32)> = (0..8)
+        .flat_map(|k| {
+            let dy = [-22, 8][k % 2] + (k / 2) as i32 * [-16, 16][k % 2];
+            [(8, dy), (-8 - width, dy)]
+        })
+        .collect();
+    let fits = candidates.iter().copied().filter(|&c| inside(&boxed(c)));
+    let chosen = fits
+        .clone()
+        .find(|&c| placed.iter().all(|o| !overlaps(&boxed(c), o)))
+        .or_else(|| fits.clone().next())
+        .unwrap_or(candidates[0]);
+    placed.push(boxed(chosen));
+    chosen
+}
+
+/// The black glyph of a mark's shape, about 12 pixels across.
+fn glyph<DB: DrawingBackend>(shape: Shape) -> DynElement<'static, DB, (i32, i32)> {
+    match shape {
+        Shape::Triangle => TriangleMarker::new((0, 0), 6, BLACK.filled()).into_dyn(),
+        Shape::Disc => Circle::new((0, 0), 5, BLACK.filled()).into_dyn(),
+        Shape::Ring => Circle::new((0, 0), 5, BLACK.stroke_width(2)).into_dyn(),
+        Shape::Square => Rectangle::new([(-5, -5), (5, 5)], BLACK.filled()).into_dyn(),
+        Shape::Cross => Cross::new((0, 0), 5, BLACK.stroke_width(2)).into_dyn(),
+        Shape::Diamond => {
+            Polygon::new(vec![(0, -6), (6, 0), (0, 6), (-6, 0)], BLACK.filled()).into_dyn()
+        }
     }
 }
 
@@ -560,4 +650,35 @@ fn save_both(stem: &Path, svg: &str) -> Result<()> {
     std::fs::write(&svg_path, svg).map_err(|e| Error::io(&svg_path, e))?;
     let png_path = with_extension(stem, "png");
     std::fs::write(&png_path, svg_to_png(svg)?).map_err(|e| Error::io(&png_path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: labels of marks crowded on one spot are placed in boxes that overlap
+    /// neither each other nor any glyph, inside the frame, while there is room.
+    #[test]
+    fn crowded_mark_labels_get_boxes_that_overlap_nothing_inside_the_frame() {
+        let frame = ((0, 0), (720, 480));
+        let marks = [(300, 200), (305, 204), (310, 198), (302, 210), (298, 190)];
+        let mut placed: Vec<LabelBox> = marks
+            .iter()
+            .map(|&(x, y)| (x - GLYPH, y - GLYPH, x + GLYPH, y + GLYPH))
+            .collect();
+        for &at in &marks {
+            label_box(at, 14, frame, &mut placed);
+        }
+        let overlaps =
+            |b: &LabelBox, o: &LabelBox| b.0 < o.2 && o.0 < b.2 && b.1 < o.3 && o.1 < b.3;
+        for (i, a) in placed.iter().enumerate() {
+            assert!(a.0 >= 0 && a.1 >= 0 && a.2 <= 720 && a.3 <= 480, "{a:?}");
+            for b in &placed[i + 1..] {
+                // Glyphs of marks this close may overlap each other, never a label.
+                let glyphs =
+                    i < marks.len() && placed.iter().position(|p| p == b) < Some(marks.len());
+                assert!(glyphs || !overlaps(a, b), "{a:?} overlaps {b:?}");
+            }
+        }
+    }
 }

@@ -16,6 +16,7 @@
 //! produces at that frequency (`study::outputs` names them), so a sweep point and a run agree
 //! by construction.
 
+pub mod bifurcations;
 mod plot;
 mod points;
 mod resume;
@@ -31,10 +32,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Pipeline, StabilityMethod, SweepSpec};
 use crate::hbm::basis::TimeBasis;
+use crate::hbm::floquet::{self, Crossing};
 use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
-use crate::hbm::{floquet, ContactSolution};
+use crate::hbm::ContactSolution;
 use crate::mesh::Mesh2d;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
@@ -46,6 +48,7 @@ use crate::progress::{Reporter, Silent};
 use crate::study::outputs::Output;
 use crate::study::table::csv_number;
 use crate::{Error, Result};
+use bifurcations::BifurcationReport;
 
 pub use points::WrittenPoint;
 
@@ -79,6 +82,13 @@ pub struct SweepRow {
     /// The estimated largest Floquet multiplier modulus (`pipeline::stability`), where the
     /// point was checked by marching.
     pub multiplier: Option<f64>,
+    /// Floquet: the largest multiplier's argument [rad], in [0, π].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub argument: Option<f64>,
+    /// Floquet: how the largest multiplier crosses (unstable) or would cross (stable) the
+    /// unit circle.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crossing: Option<Crossing>,
     /// Spline basis with contact: the share of the contact nodes' vibration in the basis'
     /// underdamped discrete frequencies (`hbm::knobs::underdamped_share`; the summary warns
     /// over the rows above `UNDERDAMPED_TOLERANCE`).
@@ -137,6 +147,10 @@ pub struct SweepSummary {
     /// Column names of `values` in the rows.
     pub columns: Vec<String>,
     pub folds: Vec<FoldReport>,
+    /// Where the states change stability other than at a fold, and how
+    /// (`sweep::bifurcations`): period doublings, Neimark–Sacker bifurcations, branch points
+    /// and grazings, each located between two judged rows.
+    pub bifurcations: Vec<BifurcationReport>,
     /// Why the curve stops short of `to_hz` (`None`: it reached it).
     pub stopped: Option<Stopped>,
     /// What the mesh and model checks found (as `run` reports them).
@@ -341,6 +355,7 @@ fn summarize(
         basis: basis.describe(),
         points: writer.rows.len(),
         columns: outputs().iter().map(Output::name).collect(),
+        bifurcations: bifurcations::locate(&writer.rows, &folds),
         folds,
         stopped,
         warnings: ended.warnings,
@@ -639,6 +654,8 @@ fn record(writer: &mut points::Writer, i: usize, verdict: Stability) {
     if let Some(row) = writer.rows.iter_mut().find(|r| r.index == i) {
         row.stable = verdict.stable();
         row.multiplier = verdict.multiplier;
+        row.argument = verdict.argument;
+        row.crossing = verdict.crossing;
     }
     writer.verdicts.retain(|(j, _)| *j != i);
     writer.verdicts.push((i, verdict));
@@ -727,6 +744,8 @@ fn row(
         seconds: info.seconds,
         stable: None,
         multiplier: None,
+        argument: None,
+        crossing: None,
         underdamped_share: solution
             .contact
             .as_ref()
@@ -773,7 +792,7 @@ fn underdamped_rows(rows: &[SweepRow], basis: &TimeBasis) -> Option<String> {
 /// sweep.csv: frequency, the outputs, then how each point was found.
 pub fn csv(s: &SweepSummary) -> String {
     let mut text = format!(
-        "index,frequency_hz,{},stable,multiplier,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
+        "index,frequency_hz,{},stable,multiplier,argument_deg,crossing,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
         s.columns.join(",")
     );
     for r in &s.rows {
@@ -784,8 +803,16 @@ pub fn csv(s: &SweepSummary) -> String {
             .unwrap_or_default();
         let stable = r.stable.map_or(String::new(), |s| s.to_string());
         let multiplier = r.multiplier.map_or(String::new(), csv_number);
+        let argument = r
+            .argument
+            .map_or(String::new(), |a| csv_number(a.to_degrees()));
+        let crossing = r
+            .crossing
+            .and_then(|c| serde_json::to_value(c).ok())
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
         text.push_str(&format!(
-            "{},{},{},{stable},{multiplier},{corrector},{},{},{},{},{}\n",
+            "{},{},{},{stable},{multiplier},{argument},{crossing},{corrector},{},{},{},{},{}\n",
             r.index,
             csv_number(r.frequency_hz),
             values.join(","),
@@ -822,6 +849,8 @@ mod tests {
             seconds: 0.0,
             stable: None,
             multiplier: None,
+            argument: None,
+            crossing: None,
             underdamped_share: share,
         }
     }

@@ -6,12 +6,17 @@
 //! Both follow the rows in curve order (through the folds, so f runs back on a branch):
 //! solid where the point is stable or unchecked (`stable` None), dashed where it is unstable
 //! (a dashed piece starts at the last stable point, so the curve has no gap). Every fold is a
-//! black triangle labelled `fold K: f Hz` on the curve.
+//! black triangle labelled `fold K: f Hz` on the curve; every bifurcation
+//! (`sweep::bifurcations`) a glyph of its kind where it was located, labelled `PD f Hz`
+//! (period doubling, disc), `NS f Hz` (Neimark–Sacker, square), `BP f Hz` (branch point,
+//! diamond), `G f Hz` (grazing, ring), `S f Hz` (judged by marching, ring), kinks an unlabelled
+//! cross. Labels are placed where they overlap no other (`output::plot`).
 
 use std::path::Path;
 
+use super::bifurcations::{BifurcationKind, BifurcationReport};
 use super::{FoldReport, SweepRow, SweepSummary};
-use crate::output::plot::{Axis, Figure, Style};
+use crate::output::plot::{Axis, Figure, Shape, Style};
 use crate::Result;
 
 /// Draw `sweep` and, with a contact force column holding values, `sweep_force` into `dir`.
@@ -37,7 +42,8 @@ pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
             continue;
         }
         let title = format!("{}: {title} ({})", s.name, s.resolution());
-        response_figure(&title, y_label, &s.rows, c, &s.folds).save(&dir.join(stem))?;
+        let figure = response_figure(&title, y_label, &s.rows, c, &s.folds);
+        with_bifurcations(figure, &s.rows, c, &s.bifurcations).save(&dir.join(stem))?;
     }
     Ok(())
 }
@@ -75,6 +81,42 @@ fn response_figure(
             let label = format!("fold {}: {:.1} Hz", k + 1, r.frequency_hz);
             fig = fig.mark(label, (r.frequency_hz, r.values[c]));
         }
+    }
+    fig
+}
+
+/// The bifurcations marked on column `c`'s curve, at their located frequency (the column
+/// interpolated between their two rows).
+fn with_bifurcations(
+    mut fig: Figure,
+    rows: &[SweepRow],
+    c: usize,
+    bifurcations: &[BifurcationReport],
+) -> Figure {
+    for b in bifurcations {
+        let row = |i: usize| rows.iter().find(|r| r.index == i);
+        let (Some(a), Some(z)) = (row(b.between[0]), row(b.between[1])) else {
+            continue;
+        };
+        let span = z.frequency_hz - a.frequency_hz;
+        let t = if span.abs() > 0.0 {
+            (b.frequency_hz - a.frequency_hz) / span
+        } else {
+            0.5
+        };
+        let y = a.values[c] + t * (z.values[c] - a.values[c]);
+        let shape = match b.kind {
+            BifurcationKind::PeriodDoubling => Shape::Disc,
+            BifurcationKind::NeimarkSacker => Shape::Square,
+            BifurcationKind::BranchPoint => Shape::Diamond,
+            BifurcationKind::Grazing | BifurcationKind::Unclassified => Shape::Ring,
+            BifurcationKind::Kink => Shape::Cross,
+        };
+        let label = match b.kind {
+            BifurcationKind::Kink => String::new(),
+            k => format!("{} {:.1} Hz", k.tag(), b.frequency_hz),
+        };
+        fig = fig.mark_as(label, (b.frequency_hz, y), shape);
     }
     fig
 }
@@ -119,6 +161,8 @@ mod tests {
             seconds: 0.0,
             stable,
             multiplier: None,
+            argument: None,
+            crossing: None,
             underdamped_share: None,
         }
     }

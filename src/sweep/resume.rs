@@ -247,7 +247,7 @@ fn check_rows(path: &Path, rows: &[SweepRow]) -> Result<()> {
             || "holds an infinity".into(),
         )?;
         let numbers = [r.step, r.tangent_frequency, r.seconds];
-        let optional = [r.multiplier, r.underdamped_share];
+        let optional = [r.multiplier, r.argument, r.underdamped_share];
         let finite = numbers
             .iter()
             .chain(optional.iter().flatten())
