@@ -34,6 +34,7 @@ bench: venv build
 	$(CARGO) bench --bench sweep
 	$(CARGO) bench --bench goals
 	$(CARGO) bench --bench spline
+	$(CARGO) bench --bench scenes
 
 lint:
 	$(CARGO) fmt --check

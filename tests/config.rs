@@ -1007,7 +1007,7 @@ fn huge_or_deeply_nested_yaml_is_refused_before_parsing() {
             );
         }
     }
-    for dir in ["pipelines", "pipelines/hard", "studies"] {
+    for dir in ["pipelines", "pipelines/hard", "pipelines/scenes", "studies"] {
         for entry in std::fs::read_dir(root().join(dir)).unwrap() {
             let path = entry.unwrap().path();
             if path.extension().is_some_and(|e| e == "yaml") {

@@ -100,11 +100,11 @@ fn mentions_of_refused_statements_pass() {
     assert!(stdout.contains("gmsh: "), "{stdout}");
 }
 
-/// TEST GOAL: every shipped geometry (geometries/*.geo and the test geometries) passes the
-/// scan.
+/// TEST GOAL: every shipped geometry (geometries/*.geo, geometries/scenes/*.geo and the test
+/// geometries) passes the scan.
 #[test]
 fn the_shipped_geometries_pass_the_scan() {
-    for dir in ["geometries", "tests/data"] {
+    for dir in ["geometries", "geometries/scenes", "tests/data"] {
         for entry in std::fs::read_dir(common::root().join(dir)).unwrap() {
             let path = entry.unwrap().path();
             if path.extension().is_some_and(|e| e == "geo") {

@@ -1,0 +1,95 @@
+//! The user scenes of `pipelines/scenes/` (issue #45), each swept once as shipped (stability
+//! check included): per scene its H, the points, folds, Newton iterations of the correctors
+//! (summed over the rows), sets of factorizations, the points re-solved on factored frames
+//! after the reduced model's check failed, the wall time of the sweep, and where and why it
+//! stopped if it did. A failing scene is a row, not the end of the bench.
+//!
+//! `cargo bench --bench scenes [-- NAME ...]` (default: every scene).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use hbcontact::config::load_pipeline;
+use hbcontact::pipeline::RunOptions;
+use hbcontact::Silent;
+
+const SCENES: [&str; 10] = [
+    "cantilever_stop",
+    "cantilever_stop_p2",
+    "clamped_stops",
+    "clamped_stops_p2",
+    "blade_mode1",
+    "blade_mode2",
+    "vibro_impact_bar",
+    "vibro_impact_bar_p2",
+    "preloaded_rod",
+    "strip_light",
+];
+
+fn main() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let asked: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    println!(
+        "{:<20} {:>3} {:>11} {:>6} {:>5} {:>7} {:>6} {:>9} {:>8}  stopped",
+        "scene", "H", "range [Hz]", "points", "folds", "newton", "factor", "re-solves", "time [s]"
+    );
+    for name in SCENES {
+        if !asked.is_empty() && !asked.iter().any(|a| a == name) {
+            continue;
+        }
+        let path = root.join("pipelines/scenes").join(format!("{name}.yaml"));
+        let p = match load_pipeline(&path, &[]) {
+            Ok(p) => p,
+            Err(e) => {
+                println!("{name:<20} {e}");
+                continue;
+            }
+        };
+        let options = RunOptions {
+            out: Some(root.join("output/bench-scenes").join(name)),
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let s = match hbcontact::sweep::run(&p, &options, &Silent) {
+            Ok(r) => r.summary,
+            Err(e) => {
+                println!("{name:<20} {e}");
+                continue;
+            }
+        };
+        let wall = t.elapsed().as_secs_f64();
+        let newton: usize = s.rows.iter().map(|r| r.newton_iterations).sum();
+        let factor: usize = s.rows.iter().map(|r| r.factorizations).sum();
+        let stopped = s
+            .stopped
+            .as_ref()
+            .map_or("reached the end".to_string(), |x| {
+                format!(
+                    "at {:.2} Hz ({}): {}",
+                    x.frequency_hz,
+                    x.class,
+                    short(&x.reason)
+                )
+            });
+        println!(
+            "{name:<20} {:>3} {:>11} {:>6} {:>5} {newton:>7} {factor:>6} {:>9} {wall:>8.1}  {stopped}",
+            s.harmonics,
+            format!("{:.0}-{:.0}", s.from_hz, s.to_hz),
+            s.points,
+            s.folds.len(),
+            s.reduced_frames.replaced,
+        );
+    }
+}
+
+/// The reason without the pipeline path and the resume hint.
+fn short(reason: &str) -> String {
+    let body = reason.split_once("): ").map_or(reason, |(_, b)| b);
+    body.split("; `hbcontact sweep")
+        .next()
+        .unwrap_or(body)
+        .to_string()
+}

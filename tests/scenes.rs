@@ -1,0 +1,388 @@
+//! The user scenes of `pipelines/scenes/` (issue #45): contact problems engineers of the
+//! field study, each swept from 0.7 to 1.5 times the natural frequency its drive excites, at
+//! the H that `hbcontact accuracy --ladder harmonic_balance.harmonics=5,10,20,40
+//! --tolerance 1e-2` recommends at a touching frequency (the largest of the cheapest rungs
+//! for the probe's first harmonic, its peak-to-peak and the mean contact force).
+//!
+//! Each test sweeps its scene end to end as shipped (stability check included) and holds the
+//! physics a user reads off the curve against closed forms it did not come from:
+//! - f1 of the scene's `modes` against Euler–Bernoulli beam or elementary bar theory,
+//!   f = (λ²/2π)(h/L²)√(E/12ρ) (λ = 1.8751 clamped–free, 4.7300 clamped–clamped) and
+//!   f = c/4L, c = √(E/ρ) (plane stress) or √(E/(ρ(1 − ν²))) (plane strain);
+//! - contact only stiffens: the resonance peak (largest probe amplitude) lies above f1 and
+//!   below the frequency of the stop held closed all period, f_c (clamped–pinned tip:
+//!   (3.9266/1.8751)² f1; clamped–clamped pinned at mid-span: the clamped–pinned half,
+//!   4 (3.9266/4.7300)² f1; a bar held at both ends: 2 f1), and a one-sided stop (the
+//!   impact oscillator, zero gap) stays below the bilinear frequency 2 f1 f_c / (f1 + f_c);
+//! - a hardening resonance bends over: the curve has a fold above f1;
+//! - the body reaches the stop (peak amplitude above the gap at the probe) and the stop holds
+//!   it below the free resonance (a linear run with the stop out of reach);
+//! - off resonance, at both ends of the sweep, the body does not touch (contact fraction 0);
+//! - the preloaded contact: closed all period at 0.7 f1 with the mean force of the static
+//!   bar, F_s (L − d/2)/L, and never open all period.
+//!
+//! Scenes that stop short today are `#[ignore]`d with the measured stop, to be run once the
+//! solver passes them (`cargo test --release --test scenes -- --ignored`).
+//!
+//! Symbols: f1 first natural frequency of the driven motion [Hz]; h beam depth, L length [m];
+//! E Young's modulus [Pa], ρ density [kg/m³], ν Poisson's ratio; F_s static drive force [N];
+//! d length of the driven stretch [m].
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::pipeline::{self, RunOptions};
+use hbcontact::sweep::{self, SweepRow, SweepSummary};
+use hbcontact::Silent;
+
+const STEEL_E: f64 = 210.0e9;
+const STEEL_RHO: f64 = 7800.0;
+
+/// Column indices of `SweepRow::values` (`sweep::outputs()`).
+const AMPLITUDE: usize = 0;
+const PEAK_FORCE: usize = 2;
+const MEAN_FORCE: usize = 3;
+const CONTACT_FRACTION: usize = 4;
+
+fn scene(name: &str, overrides: &[&str]) -> Pipeline {
+    let path = common::root()
+        .join("pipelines/scenes")
+        .join(format!("{name}.yaml"));
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    load_pipeline(&path, &overrides).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn out(tag: &str) -> Option<PathBuf> {
+    Some(common::temp_out(&format!("scenes-{tag}")))
+}
+
+/// The frequency [Hz] of the `nth` (1-based) mode whose effective mass along `axis` (0 = x,
+/// 1 = y) is at least a tenth of the mass free to move that way: the modes a drive along
+/// `axis` excites.
+fn driven_mode(name: &str, axis: usize, nth: usize) -> f64 {
+    let p = scene(name, &[]);
+    let options = RunOptions {
+        out: out(&format!("{name}-modes")),
+        ..Default::default()
+    };
+    let m = pipeline::modes(&p, &options, 8, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let driven: Vec<f64> = m
+        .summary
+        .modes
+        .iter()
+        .filter(|m| [m.mass_fraction_x, m.mass_fraction_y][axis] > 0.1)
+        .map(|m| m.frequency_hz)
+        .collect();
+    *driven
+        .get(nth - 1)
+        .expect("the driven mode among the lowest 8")
+}
+
+/// The probe's first-harmonic amplitude of a linear run at `hz` with `far` moving the stop
+/// out of reach: the free resonance the stop limits.
+fn free_amplitude(name: &str, far: &str, hz: f64) -> f64 {
+    let f = format!("harmonic_balance.frequency={hz}");
+    let p = scene(name, &[far, &f, "stability.check=false"]);
+    let options = RunOptions {
+        out: out(&format!("{name}-free")),
+        summary_only: true,
+        ..Default::default()
+    };
+    let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let contact = r.summary.contact.as_ref().expect("a contact scene");
+    assert_eq!(contact.peak_contact_force, 0.0, "{far} keeps the stop away");
+    r.summary
+        .probes
+        .values()
+        .next()
+        .expect("a probe")
+        .first_harmonic()
+}
+
+/// Sweep the scene as shipped and require that it reaches its end with exit 0.
+fn sweep_to_the_end(name: &str) -> SweepSummary {
+    let p = scene(name, &[]);
+    let options = RunOptions {
+        out: out(name),
+        ..Default::default()
+    };
+    let r = sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let s = r.summary;
+    let folds: Vec<f64> = s.folds.iter().map(|f| f.frequency_hz).collect();
+    println!(
+        "{name}: {} points, folds {folds:?}, {:.1} s",
+        s.points,
+        s.stage_seconds.total()
+    );
+    assert!(
+        r.failure.is_none(),
+        "{name}: {:?}",
+        r.failure.map(|e| e.to_string())
+    );
+    assert!(
+        s.stopped.is_none(),
+        "{name}: {:?}",
+        s.stopped.map(|x| x.reason)
+    );
+    let last = s.rows.last().expect("rows").frequency_hz;
+    assert!(
+        (last - s.to_hz).abs() < 1e-6 * s.to_hz,
+        "{last} against {}",
+        s.to_hz
+    );
+    s
+}
+
+fn peak(s: &SweepSummary) -> &SweepRow {
+    s.rows
+        .iter()
+        .max_by(|a, b| a.values[AMPLITUDE].total_cmp(&b.values[AMPLITUDE]))
+        .expect("rows")
+}
+
+/// Euler–Bernoulli bending frequency of a beam of depth h and length l, eigenvalue `lambda`.
+fn beam_frequency(lambda: f64, h: f64, l: f64) -> f64 {
+    lambda * lambda / (2.0 * PI) * h / (l * l) * (STEEL_E / (12.0 * STEEL_RHO)).sqrt()
+}
+
+fn bilinear(f1: f64, fc: f64) -> f64 {
+    2.0 * f1 * fc / (f1 + fc)
+}
+
+/// The claims every impacting scene shares: the swept range is 0.7–1.5 f1, neither end
+/// touches, the peak lies in (f1, `upper`) with an amplitude between the gap and the free
+/// resonance, and a fold lies above f1 (the resonance bends over).
+fn assert_stiffened_resonance(s: &SweepSummary, f1: f64, upper: f64, gap: f64, free: f64) {
+    assert!(
+        (s.from_hz / f1 - 0.7).abs() < 2e-3,
+        "from {} for f1 {f1}",
+        s.from_hz
+    );
+    assert!(
+        (s.to_hz / f1 - 1.5).abs() < 2e-3,
+        "to {} for f1 {f1}",
+        s.to_hz
+    );
+    for end in [s.rows.first().unwrap(), s.rows.last().unwrap()] {
+        assert_eq!(end.values[CONTACT_FRACTION], 0.0, "{} Hz", end.frequency_hz);
+    }
+    let top = peak(s);
+    let (f, a) = (top.frequency_hz, top.values[AMPLITUDE]);
+    println!("peak {f:.2} Hz = {:.4} f1 (bound {:.4} f1), amplitude {a:.3e} m (gap {gap:.1e}, free {free:.3e})", f / f1, upper / f1);
+    assert!(
+        f > f1 && f < upper,
+        "peak at {f} Hz outside ({f1}, {upper})"
+    );
+    assert!(
+        a > gap && a < free,
+        "peak amplitude {a} not in ({gap}, {free})"
+    );
+    assert!(top.values[PEAK_FORCE] > 0.0);
+    assert!(
+        s.folds.iter().any(|x| x.frequency_hz > f1),
+        "no fold above f1: {:?}",
+        s.folds
+    );
+}
+
+/// TEST GOAL: a steel cantilever (200 × 10 mm, 0.5% damping) whose tip swings onto a stop
+/// 0.5 mm below it (about a quarter of its free resonant amplitude, 1.8 mm) bends its
+/// resonance over to a fold above f1 (measured 232.1 Hz = 1.043 f1, H = 20), below the
+/// bilinear bound 1.628 f1; linear triangles, 3 through the depth, put f1 6% above
+/// Euler–Bernoulli (222.5 against 209.6 Hz).
+#[test]
+fn a_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
+    let name = "cantilever_stop";
+    let f1 = driven_mode(name, 1, 1);
+    let eb = beam_frequency(1.8751, 0.01, 0.2);
+    assert!(f1 > eb && f1 < 1.08 * eb, "{f1} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.05", f1);
+    let s = sweep_to_the_end(name);
+    let fc = (3.9266f64 / 1.8751).powi(2) * f1;
+    assert_stiffened_resonance(&s, f1, bilinear(f1, fc), 5e-4, free);
+}
+
+/// TEST GOAL: the cantilever on its stop in quadratic elements (2 through the depth): f1
+/// within 0.5% of Euler–Bernoulli, and the same stiffened resonance as the linear mesh.
+#[test]
+#[ignore = "issue #45: stops at 216.86 Hz after 88 points and a fold at 218.42 Hz: the arc-length corrector did not converge in 12 iterations (min_step 1e-5 and 1e-7, step 0.002 alike; H = 10 stops at 218.26 Hz, H = 40 at 212.77 Hz); see README, User scenes"]
+fn a_quadratic_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
+    let name = "cantilever_stop_p2";
+    let f1 = driven_mode(name, 1, 1);
+    let eb = beam_frequency(1.8751, 0.01, 0.2);
+    assert!((f1 - eb).abs() < 5e-3 * eb, "{f1} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.05", f1);
+    let s = sweep_to_the_end(name);
+    let fc = (3.9266f64 / 1.8751).powi(2) * f1;
+    assert_stiffened_resonance(&s, f1, bilinear(f1, fc), 5e-4, free);
+}
+
+/// The stuck frequency of the clamped–clamped beam pinned at mid-span: each half is a
+/// clamped–pinned beam of length L/2.
+fn clamped_pinned_at_midspan(f1: f64) -> f64 {
+    4.0 * (3.9266f64 / 4.7300).powi(2) * f1
+}
+
+/// TEST GOAL: a clamped–clamped steel beam (400 × 10 mm, 1% damping) with stops 0.2 mm above
+/// and below mid-span (0.46 mm free amplitude) hardens: its resonance folds above f1
+/// (measured 382.0 Hz = 1.083 f1), below the frequency of the beam pinned at mid-span.
+#[test]
+fn a_clamped_beam_between_two_stops_hardens_and_folds_above_f1() {
+    let name = "clamped_stops";
+    let f1 = driven_mode(name, 1, 1);
+    let eb = beam_frequency(4.7300, 0.01, 0.4);
+    assert!(f1 > eb && f1 < 1.08 * eb, "{f1} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.05", f1);
+    let s = sweep_to_the_end(name);
+    assert_stiffened_resonance(&s, f1, clamped_pinned_at_midspan(f1), 2e-4, free);
+}
+
+/// TEST GOAL: the clamped beam between its stops in quadratic elements: f1 within 0.5% of
+/// Euler–Bernoulli (332.2 against 333.1 Hz) and the same hardening fold (measured
+/// 360.6 Hz = 1.085 f1).
+#[test]
+fn a_quadratic_clamped_beam_between_two_stops_hardens_and_folds_above_f1() {
+    let name = "clamped_stops_p2";
+    let f1 = driven_mode(name, 1, 1);
+    let eb = beam_frequency(4.7300, 0.01, 0.4);
+    assert!((f1 - eb).abs() < 5e-3 * eb, "{f1} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.05", f1);
+    let s = sweep_to_the_end(name);
+    assert_stiffened_resonance(&s, f1, clamped_pinned_at_midspan(f1), 2e-4, free);
+}
+
+/// TEST GOAL: a steel blade (100 × 10 × 2 mm, 0.5% damping in modes 1 and 2) whose tip
+/// corners rub a concentric casing when it swings in its first bending mode: the resonance
+/// folds above f1, and the rub holds the tip's swing below its free resonance.
+#[test]
+#[ignore = "issue #45: at H = 5 (recommended) stops at 916.28 Hz after 33 points and a fold at 916.81 Hz: fixed-ω corrector: the line search found no decrease of ‖R‖ (stalled); H = 20 stops at 913.92 Hz (fixed-ω corrector: reached max_iterations = 200); H = 10 reaches the end; see README, User scenes"]
+fn a_blade_rubbing_its_casing_in_its_first_mode_folds_above_f1() {
+    let name = "blade_mode1";
+    let f1 = driven_mode(name, 0, 1);
+    let eb = beam_frequency(1.8751, 0.01, 0.1);
+    assert!(f1 > eb && f1 < 1.05 * eb, "{f1} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.clearance=0.01", f1);
+    let s = sweep_to_the_end(name);
+    // The swing the rub allows is larger than the corner clearance; no stuck state bounds it
+    // (the corner slides along the casing), so the bound is the second bending mode.
+    let f2 = driven_mode(name, 0, 2);
+    assert_stiffened_resonance(&s, f1, f2, 0.0, free);
+}
+
+/// TEST GOAL: the same blade driven around its second bending mode (0.7–1.5 f2) with a load
+/// 20 times the first scene's: the rub stiffens the second mode's resonance too.
+#[test]
+#[ignore = "issue #45: at H = 10 (recommended) stops at 5381.28 Hz after 50 points, no fold: the arc-length corrector did not converge in 12 iterations; H = 5 and H = 20 reach the end (folds 5379.6 and 5229.2 Hz at H = 20); see README, User scenes"]
+fn a_blade_rubbing_its_casing_in_its_second_mode_folds_above_f2() {
+    let name = "blade_mode2";
+    let f2 = driven_mode(name, 0, 2);
+    let eb = beam_frequency(1.8751, 0.01, 0.1) * (4.6941f64 / 1.8751).powi(2);
+    // Shear and rotary inertia lower the second mode of a 10:1 blade below Euler–Bernoulli.
+    assert!(f2 < eb && f2 > 0.95 * eb, "{f2} against {eb}");
+    let free = free_amplitude(name, "geometry.parameters.clearance=0.01", f2);
+    let s = sweep_to_the_end(name);
+    assert_stiffened_resonance(&s, f2, 1.5 * f2, 0.0, free);
+}
+
+/// f = c/4L of a plane-stress steel bar of length `l`.
+fn bar_frequency(l: f64) -> f64 {
+    (STEEL_E / STEEL_RHO).sqrt() / (4.0 * l)
+}
+
+/// TEST GOAL: the classic vibro-impact bar: a clamped steel rod (500 × 20 mm, 1% damping)
+/// whose free end strikes a rigid wall 20 µm away (about 40% of its free end amplitude)
+/// under axial drive: f1 = c/4L within 0.5%, and the resonance folds above f1 below the
+/// bilinear bound 4/3 f1 of a rod held at both ends half the period (measured 2722.6 Hz =
+/// 1.049 f1).
+#[test]
+fn the_vibro_impact_bar_folds_between_f1_and_the_bilinear_four_thirds() {
+    let name = "vibro_impact_bar";
+    let f1 = driven_mode(name, 0, 1);
+    let c4l = bar_frequency(0.5);
+    assert!((f1 - c4l).abs() < 5e-3 * c4l, "{f1} against {c4l}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.01", f1);
+    let s = sweep_to_the_end(name);
+    // The probe sits at mid-length, where the first axial mode moves sin(π/4) of the tip.
+    let gap_at_probe = 2e-5 * (PI / 4.0).sin();
+    assert_stiffened_resonance(&s, f1, bilinear(f1, 2.0 * f1), gap_at_probe, free);
+}
+
+/// TEST GOAL: the vibro-impact bar in quadratic elements (one through the depth): the same
+/// fold (measured 2724.6 Hz against 2722.6 Hz on linear triangles).
+#[test]
+fn a_quadratic_vibro_impact_bar_folds_between_f1_and_the_bilinear_four_thirds() {
+    let name = "vibro_impact_bar_p2";
+    let f1 = driven_mode(name, 0, 1);
+    let c4l = bar_frequency(0.5);
+    assert!((f1 - c4l).abs() < 5e-3 * c4l, "{f1} against {c4l}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.01", f1);
+    let s = sweep_to_the_end(name);
+    let gap_at_probe = 2e-5 * (PI / 4.0).sin();
+    assert_stiffened_resonance(&s, f1, bilinear(f1, 2.0 * f1), gap_at_probe, free);
+}
+
+/// TEST GOAL: an aluminium rod (300 × 20 mm) pressed onto a rigid seat by a static axial
+/// force of 240 N, driven by 0.95 of it: at 0.7 f1 the contact is closed all period with the
+/// mean force of the static bar, F_s (L − d/2)/L = 228 N; toward resonance it opens part of
+/// the period, and never all of it (a contact open all period could not carry the static
+/// force); the resonance of the partly open rod lies between f1 and 2 f1 (held at both ends).
+#[test]
+#[ignore = "issue #45: stops at its first point, 2974.0 Hz: no next point down to the smallest step 1.0e-5 (the contact gaps changed by 1.00e0) — the gaps of a contact closed all period are round-off, so every step changes them by 100%; with sweep.max_change=10 it reaches the end (425 points, folds at 6363.0 and 5755.0 Hz); see README, User scenes"]
+fn a_preloaded_rod_opens_part_of_the_period_only_near_its_resonance() {
+    let name = "preloaded_rod";
+    let f1 = driven_mode(name, 0, 1);
+    let c4l = (70.0e9f64 / 2700.0).sqrt() / (4.0 * 0.3);
+    assert!((f1 - c4l).abs() < 5e-3 * c4l, "{f1} against {c4l}");
+    let s = sweep_to_the_end(name);
+    let first = &s.rows[0];
+    let static_share = 2.0e5 * (2.0 * 0.03 * 0.02) * (0.3 - 0.015) / 0.3;
+    let mean = first.values[MEAN_FORCE];
+    assert!(
+        (mean - static_share).abs() < 0.02 * static_share,
+        "{mean} against {static_share}"
+    );
+    assert!(first.values[CONTACT_FRACTION] > 0.99, "{:?}", first.values);
+    for r in &s.rows {
+        assert!(
+            r.values[PEAK_FORCE] > 0.0,
+            "open all period at {} Hz",
+            r.frequency_hz
+        );
+        assert!(
+            r.values[MEAN_FORCE] > 0.98 * static_share,
+            "{} Hz",
+            r.frequency_hz
+        );
+    }
+    let partly_open = s
+        .rows
+        .iter()
+        .filter(|r| r.values[CONTACT_FRACTION] > 0.05 && r.values[CONTACT_FRACTION] < 0.95)
+        .count();
+    assert!(partly_open > 0);
+    let top = peak(&s);
+    assert!(
+        top.frequency_hz > f1 && top.frequency_hz < 2.0 * f1,
+        "{}",
+        top.frequency_hz
+    );
+}
+
+/// TEST GOAL: the reference strip (1 m × 0.1 m, plane strain) at 0.5% damping with the wall
+/// 0.1 mm from its end, swept 0.7–1.5 f1: f1 = c/4L (c of plane strain with free faces), and
+/// the resonance folds between f1 and 4/3 f1 (at H = 10 from 1200 Hz: 1447.3 Hz).
+#[test]
+#[ignore = "issue #45: at H = 40 (recommended) stops at 1357.17 Hz after 447 points and 246 s, 12 folds within 1345-1358 Hz: the continuation ran back onto the curve it had traced (between points 406 and 407); see README, User scenes"]
+fn the_lightly_damped_strip_folds_between_f1_and_the_bilinear_four_thirds() {
+    let name = "strip_light";
+    let f1 = driven_mode(name, 0, 1);
+    let c4l = (STEEL_E / (STEEL_RHO * (1.0 - 0.09))).sqrt() / 4.0;
+    assert!((f1 - c4l).abs() < 5e-3 * c4l, "{f1} against {c4l}");
+    let free = free_amplitude(name, "geometry.parameters.gap=0.01", f1);
+    let s = sweep_to_the_end(name);
+    let gap_at_probe = 1e-4 * (PI / 4.0).sin();
+    assert_stiffened_resonance(&s, f1, bilinear(f1, 2.0 * f1), gap_at_probe, free);
+}
