@@ -15,6 +15,8 @@
 //! penetration), solved by a primal–dual active set method warm-started from the last step.
 
 pub mod budget;
+pub mod characterize;
+pub mod late;
 pub mod setup;
 
 use std::cell::Cell;
@@ -105,6 +107,9 @@ pub struct TransientResult {
     pub probe_history: Vec<Vec<f64>>,
     /// Σλ at every step of the last period.
     pub total_contact_history: Vec<f64>,
+    /// The last whole periods (`late::PERIODS_KEPT`) of the probes and the contact force,
+    /// for `characterize`.
+    pub late: late::LateRecord,
     pub wall_time: Duration,
 }
 
@@ -669,6 +674,7 @@ pub fn run_to_periodic(
     let samples = settings.samples_per_period.max(1);
     let nc = s.contact.lambda.len();
     let mut record = LastPeriod::new(samples, steps, per_sample, nc, problem.probes.len());
+    let mut late = late::LateRecord::new(problem.probes.len(), steps, problem.period);
     let mut watch = Periodicity::new(problem.period, &s.u, &s.v_half);
     let (mut periods, mut converged, mut change) = (0, false, f64::INFINITY);
     // The state at the end of the last whole period (an interruption may come within one).
@@ -689,9 +695,12 @@ pub fn run_to_periodic(
             stepper.step(&mut s, periods * steps + step)?;
             let us = [&s.u_prev[..], &s.u, &s.u_next];
             record.record(step, dt, us, &s.contact.lambda, &problem.probes);
+            let probe_values = problem.probes.iter().map(|&d| s.u[d]);
+            late.record(step, probe_values, &s.contact.lambda);
             s.rotate();
         }
         periods += 1;
+        late.end_period();
         if s.u.iter().any(|v| !v.is_finite()) {
             return Err(Error::NotConverged(format!(
                 "time marching blew up in period {periods} (dt = {dt:e} s): lower transient.courant (now {})",
@@ -740,6 +749,7 @@ pub fn run_to_periodic(
         contact_force: record.contact_force,
         probe_history: record.probe_history,
         total_contact_history: record.total_contact_history,
+        late,
         wall_time: start.elapsed(),
     })
 }
