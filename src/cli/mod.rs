@@ -141,6 +141,12 @@ fn show_headline(s: &Summary) {
         RunMode::Transient => "time marching",
     };
     outln!("{}: {mode}", s.name);
+    if let Some(stability) = &h.stability {
+        outln!("  {stability}");
+    }
+    if let Some(late) = &h.late_response {
+        outln!("  {late}");
+    }
     if let Some((name, a)) = &h.probe {
         outln!(
             "  {}: first harmonic x {:.4e} m, y {:.4e} m; half peak-to-peak x {:.4e} m, y {:.4e} m",

@@ -6,6 +6,7 @@
 
 pub mod compare;
 pub mod end_state;
+pub mod late;
 pub mod model;
 pub mod modes;
 pub mod plots;
@@ -164,20 +165,31 @@ fn run_plots(
 /// The harmonic-balance solution of the transient's own model (diagonal mass) at t = 0, on
 /// the free dofs, scaled by 1 + `transient.perturbation`: the state a stability check
 /// marches from (the same discrete system, so a stable state is kept up to the time step's
-/// error).
+/// error); with the Floquet verdict on that state (`late::floquet_of_start`, stage
+/// `stability`; a verdict that fails is a warning).
 fn harmonic_balance_start(
     p: &Pipeline,
     model: &Model,
     stages: &mut Stages,
-) -> Result<crate::transient::InitialState> {
+    warnings: &mut Vec<String>,
+) -> Result<(crate::transient::InitialState, Option<stability::Stability>)> {
     let solution = stages::solve(p, model, stages)?;
     stages.run("check", || finite_solution(&solution))?;
+    let verdict = match stages.run("stability", || {
+        Ok(late::floquet_of_start(p, model, &solution))
+    })? {
+        Some(Ok(v)) => Some(v),
+        Some(Err(e)) => {
+            warnings.push(format!(
+                "no Floquet verdict on the harmonic-balance start: {e}"
+            ));
+            None
+        }
+        None => None,
+    };
     let dofs = &model.system.dofs;
-    Ok(stability::marching_start(
-        &solution,
-        dofs,
-        p.transient.perturbation,
-    ))
+    let start = stability::marching_start(&solution, dofs, p.transient.perturbation);
+    Ok((start, verdict))
 }
 
 /// The directory time-marching results go to: `--out`, else `output.directory` with
@@ -209,12 +221,15 @@ pub fn run_transient(
     })?);
     let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
     warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
-    let initial = match p.transient.start {
-        TransientStart::Rest => None,
-        TransientStart::HarmonicBalance => Some(harmonic_balance_start(p, &model, &mut stages)?),
+    let (initial, floquet) = match p.transient.start {
+        TransientStart::Rest => (None, None),
+        TransientStart::HarmonicBalance => {
+            let (start, verdict) = harmonic_balance_start(p, &model, &mut stages, &mut warnings)?;
+            (Some(start), verdict)
+        }
         TransientStart::Previous => {
             let free = model.system.dofs.free.len();
-            Some(end_state::read(&out, p, &mesh_info, free)?)
+            (Some(end_state::read(&out, p, &mesh_info, free)?), None)
         }
     };
     let (marching, result) = {
@@ -224,7 +239,7 @@ pub fn run_transient(
         stages::march(p, &model, initial, &mut stages)?
     };
     let staged = StagedDir::create(&out, "transient", options.replace)?;
-    let (mut summary, sampled) = stages.run("write", || {
+    let (mut summary, sampled, signals) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
         if !options.summary_only {
             let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
@@ -232,11 +247,26 @@ pub fn run_transient(
             stages::copy_mesh(&mesh_info, staged.path())?;
         }
         end_state::write(staged.path(), p, &mesh_info, &result)?;
-        let summary = summary::transient(p, mesh_info, &model, &result, &sampled);
-        Ok((summary, sampled))
+        let signals = late::LateSignals::of(&model, &marching, &result.late);
+        let f = p.harmonic_balance.frequency;
+        let converged = result.converged;
+        let late_response =
+            late::characterize(&signals, &result.late, converged, floquet.as_ref(), f);
+        let summary = summary::transient(p, mesh_info, &model, &result, &sampled, late_response);
+        Ok((summary, sampled, signals))
     })?;
     summary.warnings.extend(warnings);
+    if let Some(verdict) = floquet {
+        summary.stability = Some(verdict);
+    }
     run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
+    if !options.summary_only && p.output.plots {
+        let dir = staged.path().join("plots");
+        let f = p.harmonic_balance.frequency;
+        stages.run("plots", || {
+            plots::write_late_plots(&dir, &signals, f).map(|_| ())
+        })?;
+    }
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })

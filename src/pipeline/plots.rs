@@ -22,11 +22,13 @@
 use std::path::{Path, PathBuf};
 
 use super::compare::{Comparison, Overlay};
+use super::late::LateSignals;
 use super::model::Model;
 use super::report::{nodal_pressure, Sampled};
 use crate::contact::geometry::arc_lengths;
 use crate::output::plot::{tick, Axis, Figure, Style};
 use crate::output::tables::write_csv;
+use crate::transient::characterize::amplitude_spectrum;
 use crate::{Error, Result};
 
 /// Histories with at least this many points are drawn as plain curves, shorter ones with a
@@ -196,6 +198,99 @@ fn pressure_figure(
     .line("contact law", rows.iter().map(|r| (r[1], r[2])).collect())
     .from_zero();
     (fig, rows)
+}
+
+/// The late response of a march (`late::LateSignals`, the last whole periods as window
+/// means): `spectrum`, the probes' amplitude spectra A(ν) [m] against ν = frequency/f (Hann
+/// window, resolution f/L, lines up to 10 f or the record's Nyquist frequency; log axis down
+/// to 10⁻⁶ of the largest line); `late_response`, the probes' u over the L periods against
+/// t/T; `late_contact_force` (contact scenes), the total contact force over them. Returns
+/// the files written into `dir` (created).
+pub fn write_late_plots(dir: &Path, signals: &LateSignals, f: f64) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let periods = signals.periods;
+    let mut figures = vec![("spectrum", late_spectrum(signals, f))];
+    let t_axis = || {
+        Axis::linear(format!(
+            "t/T [-] from the start of the march, T = {} s",
+            tick(1.0 / f)
+        ))
+    };
+    let over = |v: &[f64]| -> Vec<(f64, f64)> {
+        signals
+            .times
+            .iter()
+            .zip(v)
+            .map(|(&t, &y)| (t * f, y))
+            .collect()
+    };
+    let mut history = Figure::new(
+        format!(
+            "probes over the last {periods} periods (means over T/{})",
+            signals.samples_per_period
+        ),
+        t_axis(),
+        Axis::linear("displacement [m]"),
+    );
+    for (label, v) in signals.probes() {
+        history = history.curve(label, over(v));
+    }
+    figures.push(("late_response", history));
+    let force = signals
+        .labels
+        .iter()
+        .zip(&signals.values)
+        .find(|((_, u), _)| *u == "N");
+    if let Some(((label, _), v)) = force {
+        let fig = Figure::new(
+            format!(
+                "total contact force over the last {periods} periods (means over T/{})",
+                signals.samples_per_period
+            ),
+            t_axis(),
+            Axis::linear("total contact force [N]"),
+        )
+        .curve(label.as_str(), over(v));
+        figures.push(("late_contact_force", fig));
+    }
+    let mut files = Vec::new();
+    for (stem, fig) in figures {
+        fig.save(&dir.join(stem))?;
+        files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
+    }
+    Ok(files)
+}
+
+/// `spectrum`: each probe signal's amplitude spectrum, log amplitude.
+fn late_spectrum(signals: &LateSignals, f: f64) -> Figure {
+    let periods = signals.periods.max(1);
+    let spectra: Vec<(&str, Vec<(f64, f64)>)> = signals
+        .probes()
+        .map(|(label, v)| (label, amplitude_spectrum(v, periods)))
+        .collect();
+    let largest = spectra
+        .iter()
+        .flat_map(|(_, s)| s.iter().skip(1).map(|p| p.1))
+        .fold(0.0f64, f64::max);
+    let floor = 1e-6 * largest;
+    let mut fig = Figure::new(
+        format!(
+            "probe spectrum over the last {periods} periods (resolution f/{periods}, f = {} Hz)",
+            tick(f)
+        ),
+        Axis::linear("frequency / drive frequency f [-]"),
+        Axis::log("amplitude [m]"),
+    );
+    for (label, s) in spectra {
+        let points = s
+            .into_iter()
+            .skip(1)
+            .take_while(|p| p.0 <= 10.0)
+            .map(|(nu, a)| (nu, a.max(floor)))
+            .collect();
+        fig = fig.curve(label, points);
+    }
+    fig
 }
 
 /// `compare`'s overlays: one figure per compared signal, harmonic balance against time

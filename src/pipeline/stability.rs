@@ -215,6 +215,26 @@ impl Stability {
         }
     }
 
+    /// The verdict in a few words for the run's headline when the state is not stable: the
+    /// verdict and, from Floquet multipliers, how stability is lost and the motion it brings.
+    pub fn headline(&self) -> Option<String> {
+        let verdict = match self.verdict {
+            Verdict::Unstable => "unstable",
+            Verdict::Undecided => "undecided",
+            _ => return None,
+        };
+        let how = match (self.crossing, self.multiplier) {
+            (Some(c), Some(m)) => {
+                let motion = self
+                    .new_frequency_hz
+                    .map_or(String::new(), |h| format!(", a motion at {h:.4} Hz"));
+                format!(" (|μ| = {m:.4}: {}{motion})", c.describe())
+            }
+            _ => String::new(),
+        };
+        Some(format!("the harmonic-balance state is {verdict}{how}"))
+    }
+
     /// The run's warning when the state is not one the structure settles into, or when the
     /// time-marching audit disagrees with the Floquet verdict.
     pub fn warning(&self) -> Option<String> {

@@ -78,7 +78,8 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub resonance: Option<ResonanceCheck>,
     /// Whether the harmonic-balance state is one the structure settles into (harmonic
-    /// balance only; `stability`, its cost is the stage time `stability`).
+    /// balance; time marching from it, `transient.start: harmonic_balance`, by its Floquet
+    /// multipliers; `stability`, its cost is the stage time `stability`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stability: Option<super::stability::Stability>,
     /// The largest cell von Mises stress over the output frames [Pa].
@@ -103,6 +104,10 @@ pub struct Headline {
     /// Wall time of every stage [s].
     pub wall_seconds: f64,
     pub warnings: usize,
+    /// The stability verdict in a few words, when the state is not stable.
+    pub stability: Option<String>,
+    /// What the late response of a march is (time marching).
+    pub late_response: Option<String>,
 }
 
 impl Summary {
@@ -127,6 +132,11 @@ impl Summary {
                 .and_then(ContactSolve::detour),
             wall_seconds: self.stage_seconds.total(),
             warnings: self.warnings.len(),
+            stability: self.stability.as_ref().and_then(|s| s.headline()),
+            late_response: self
+                .transient
+                .as_ref()
+                .map(|t| t.late_response.description.clone()),
         }
     }
 }
@@ -403,6 +413,10 @@ pub struct TransientInfo {
     /// is partial (the command exits with 130). Absent when the march ran its course.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stopped: Option<MarchStopped>,
+    /// What the last whole periods marched (at most 64) show: periodic, a k·T subharmonic,
+    /// quasi-periodic or irregular, the contact force's spread over those periods, and the
+    /// Floquet prediction against them (`transient.start: harmonic_balance`).
+    pub late_response: super::late::LateResponse,
 }
 
 /// Why a march ended before it was periodic or had marched `transient.max_periods`.
@@ -628,6 +642,7 @@ pub fn transient(
     model: &Model,
     result: &TransientResult,
     sampled: &Sampled,
+    late_response: super::late::LateResponse,
 ) -> Summary {
     // Peak and mean from every step (`contact_steps.csv`), which the frames undersample.
     let contact = sampled.steps.as_ref().map(|steps| {
@@ -645,8 +660,11 @@ pub fn transient(
     match &stopped {
         Some(s) => warnings.push(format!("a partial result: {}", s.reason)),
         None if !result.converged => warnings.push(format!(
-            "not periodic after {} periods (change {:.3e} > {:.1e}); raise transient.max_periods or add damping",
-            result.periods, result.periodicity_error, p.transient.periodic_tolerance
+            "not periodic after {} periods (change {:.3e} > {:.1e}): {}",
+            result.periods,
+            result.periodicity_error,
+            p.transient.periodic_tolerance,
+            late_response.description
         )),
         None => {}
     }
@@ -669,6 +687,7 @@ pub fn transient(
             start: p.transient.start.name().into(),
             perturbation: p.transient.perturbation,
             stopped,
+            late_response,
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
         max_von_mises: Some(max_von_mises(model, sampled)),

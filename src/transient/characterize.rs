@@ -82,7 +82,10 @@ pub struct Characterization {
 /// bin), ν = b/L, b = 0 … LR/2 (the mean removed: A(0) = 0).
 pub fn amplitude_spectrum(values: &[f64], periods: usize) -> Vec<(f64, f64)> {
     let spectrum = hann_dft(&centred(values));
-    let gain: f64 = hann(values.len()).iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let gain: f64 = hann(values.len())
+        .iter()
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
     spectrum
         .iter()
         .enumerate()
@@ -209,11 +212,13 @@ fn lines(ys: &[Vec<f64>], periods: usize) -> (Vec<Line>, f64) {
     peaks.truncate(LINES);
     let mut covered = vec![false; power.len()];
     for &b in &peaks {
-        for c in b.saturating_sub(2)..=(b + 2).min(power.len() - 1) {
-            covered[c] = true;
-        }
+        let end = (b + 2).min(power.len() - 1);
+        covered[b.saturating_sub(2)..=end].fill(true);
     }
-    let in_lines: f64 = (1..power.len()).filter(|&b| covered[b]).map(|b| power[b]).sum();
+    let in_lines: f64 = (1..power.len())
+        .filter(|&b| covered[b])
+        .map(|b| power[b])
+        .sum();
     let strongest = peaks.first().map_or(1.0, |&b| power[b]);
     let l = periods.max(1) as f64;
     let lines = peaks
@@ -300,12 +305,18 @@ mod tests {
     fn a_quasi_periodic_response_is_classified_with_its_second_frequency() {
         for nu2 in [1.0 / PI, 0.493] {
             let y = signal(|t| {
-                tau(1.0, t) + 0.3 * tau(nu2, t + 0.2) + 0.1 * tau(1.0 + nu2, t) + 0.05 * tau(2.0 - nu2, t)
+                tau(1.0, t)
+                    + 0.3 * tau(nu2, t + 0.2)
+                    + 0.1 * tau(1.0 + nu2, t)
+                    + 0.05 * tau(2.0 - nu2, t)
             });
             let c = characterize(&[y], R);
             assert_eq!(c.kind, Kind::QuasiPeriodic, "ν₂ = {nu2}: {c:?}");
             let found = c.second_frequency.unwrap();
-            assert!((found - nu2).abs() < 0.1 / L as f64, "ν₂ = {nu2}: found {found}");
+            assert!(
+                (found - nu2).abs() < 0.1 / L as f64,
+                "ν₂ = {nu2}: found {found}"
+            );
         }
     }
 

@@ -202,7 +202,10 @@ mod tests {
         let times = late.times();
         for (j, &u) in last.probes[0].iter().enumerate() {
             let (a, b) = (j * steps / WINDOWS, (j + 1) * steps / WINDOWS);
-            assert!((u - 0.5 * (a + b - 1) as f64).abs() < 1e-12, "window {j}: {u}");
+            assert!(
+                (u - 0.5 * (a + b - 1) as f64).abs() < 1e-12,
+                "window {j}: {u}"
+            );
             let t = times[(PERIODS_KEPT - 1) * WINDOWS + j];
             assert!((t - (p + u / steps as f64)).abs() < 1e-12, "{t}");
         }
