@@ -291,7 +291,11 @@ fn compare(v: &Stability, c: &Characterization, f: f64) -> Prediction {
         ),
         _ => (false, "the Floquet verdict was undecided".to_string()),
     };
-    let word = if agree { "they agree" } else { "they disagree" };
+    let word = match (agree, near && c.kind == Kind::Irregular) {
+        (true, _) => "they agree",
+        (false, true) => "the line is there, but within a broadband response, not the one new frequency predicted",
+        (false, false) => "they disagree",
+    };
     Prediction {
         verdict: v.verdict,
         crossing: v.crossing,

@@ -1,0 +1,72 @@
+//! What `hbcontact transient` says about a late response that is not T-periodic
+//! (`pipeline::late`, `transient::characterize`; docs/method.md, "The late response"), on a
+//! scene past a period doubling.
+
+mod common;
+
+use hbcontact::config::load_pipeline;
+use hbcontact::pipeline::late::LateKind;
+use hbcontact::pipeline::stability::Verdict;
+use hbcontact::pipeline::{self, RunOptions};
+
+/// TEST GOAL: the impact cantilever (tests/data/impact_cantilever.yaml, drive f = 1400 Hz,
+/// a rigid stop at the tip) marched 200 periods from its harmonic-balance state, perturbed
+/// by 1%. Hill's method on that state (the marching's own discrete model) says unstable,
+/// its leading multiplier near −1 (argument within 5° of 180°: the period-doubling family,
+/// a motion within two bins of the record's spectrum of f/2); the marching, which knows
+/// nothing of Hill, leaves the state, and the strongest line of its late spectrum (last 64
+/// periods) is f/2 to a tenth of a bin, the marched counterpart of the predicted frequency
+/// within two bins of it. The late response is not called periodic, the contact force's
+/// per-period peaks spread (min < mean < max), and the spectrum and late-history plots are
+/// drawn.
+#[test]
+fn a_period_doubling_predicted_by_hill_shows_as_the_half_frequency_line_of_the_marched_spectrum() {
+    let path = common::root().join("tests/data/impact_cantilever.yaml");
+    let p = load_pipeline(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let f = p.harmonic_balance.frequency;
+    let out = common::temp_out("late-impact-cantilever");
+    let options = RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    let run =
+        pipeline::run_transient(&p, &options, &hbcontact::Silent).unwrap_or_else(|e| panic!("{e}"));
+    let s = run.summary;
+    let v = s
+        .stability
+        .expect("a Floquet verdict on the harmonic-balance start");
+    println!("{}", v.reason);
+    assert_eq!(v.verdict, Verdict::Unstable, "{}", v.reason);
+    let argument = v.argument.expect("an argument").to_degrees();
+    assert!(argument > 175.0, "arg μ = {argument}°");
+    let late = s.transient.expect("transient details").late_response;
+    println!("{}", late.description);
+    let bins = late.periods as f64;
+    assert_eq!(late.periods, 64);
+    assert_ne!(late.kind, LateKind::Periodic, "{}", late.description);
+    let strongest = late.lines[0][0];
+    assert!(
+        (strongest - 0.5).abs() < 0.1 / bins,
+        "the strongest line is at {strongest} f, not f/2"
+    );
+    let prediction = late.prediction.expect("a prediction to compare");
+    let predicted = prediction.predicted_hz.expect("a predicted frequency");
+    let marched = prediction.marched_hz.expect("a marched frequency");
+    assert!(
+        (predicted - f / 2.0).abs() < 2.0 * f / bins,
+        "Hill's motion {predicted} Hz against f/2"
+    );
+    assert!(
+        (marched - predicted).abs() <= prediction.tolerance_hz,
+        "{marched} Hz against {predicted} Hz"
+    );
+    let peaks = late.peak_contact_force.expect("a contact force spread");
+    assert!(
+        peaks.min < peaks.mean && peaks.mean < peaks.max,
+        "{peaks:?}"
+    );
+    for plot in ["spectrum", "late_response", "late_contact_force"] {
+        let svg = out.join("plots").join(format!("{plot}.svg"));
+        assert!(svg.exists(), "{} missing", svg.display());
+    }
+}
