@@ -12,8 +12,8 @@ use hbcontact::pipeline::{self, RunOptions};
 /// TEST GOAL: the impact cantilever (tests/data/impact_cantilever.yaml, drive f = 1400 Hz,
 /// a rigid stop at the tip) marched 200 periods from its harmonic-balance state, perturbed
 /// by 1%. Hill's method on that state (the marching's own discrete model) says unstable,
-/// its leading multiplier near −1 (argument within 5° of 180°: the period-doubling family,
-/// a motion within two bins of the record's spectrum of f/2); the marching, which knows
+/// by a period doubling (its leading multiplier real and below −1, a motion within two bins
+/// of the record's spectrum of f/2); the marching, which knows
 /// nothing of Hill, leaves the state, and the strongest line of its late spectrum (last 64
 /// periods) is f/2 to a tenth of a bin, the marched counterpart of the predicted frequency
 /// within two bins of it. The late response is not called periodic, the contact force's
@@ -39,6 +39,12 @@ fn a_period_doubling_predicted_by_hill_shows_as_the_half_frequency_line_of_the_m
     assert_eq!(v.verdict, Verdict::Unstable, "{}", v.reason);
     let argument = v.argument.expect("an argument").to_degrees();
     assert!(argument > 175.0, "arg μ = {argument}°");
+    assert_eq!(
+        v.crossing,
+        Some(hbcontact::hbm::floquet::Crossing::PeriodDoubling),
+        "{}",
+        v.reason
+    );
     let late = s.transient.expect("transient details").late_response;
     println!("{}", late.description);
     let bins = late.periods as f64;
