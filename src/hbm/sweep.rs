@@ -25,8 +25,10 @@
 //!
 //! Step control: a corrector that fails, needs more than `MAX_CORRECTOR` iterations, lands
 //! farther than Δs from the predictor (a jump to another branch) or changes the contact gaps
-//! by more than `max_change` (relative) rejects the step and halves Δs; an easy step (≤ 3
-//! iterations) grows it by 1.5, up to the maximum.
+//! by more than `max_change` (relative: ‖Δg̃‖/max(‖g̃_a‖, ‖g̃_b‖, `GAP_FLOOR`·‖g̃_lin‖), g̃_lin
+//! the first point's contact-free gap, so a contact closed all period, whose gaps are
+//! round-off, is not measured against its round-off) rejects the step and halves Δs; an easy
+//! step (≤ 3 iterations) grows it by 1.5, up to the maximum.
 //!
 //! Resume: a `ContinuationState` saved after any point holds all the continuation carries from
 //! one point to the next (index, ω, the next Δs, τ, λ, F, c, N, the largest ‖λ‖, the trail,
@@ -705,13 +707,15 @@ impl<'a> Continuation<'a> {
         let mut omega_p = p.omega + ds * t[n] * self.span;
         // Land on the end frequency rather than past it.
         let end = self.s.omega_end;
-        if (omega_p - end) * self.direction > 0.0 && (p.omega - end) * self.direction < 0.0 {
+        let landing =
+            (omega_p - end) * self.direction > 0.0 && (p.omega - end) * self.direction < 0.0;
+        if landing {
             omega_p = end;
         }
         let x_p: Vec<f64> = (0..n).map(|i| p.x[i] + ds * t[i] * self.force).collect();
         let clock = Instant::now();
         let prepared = self.prepare_seconds();
-        let corrected = self.correct(&x_p, omega_p, t, ds);
+        let corrected = self.correct(&x_p, omega_p, t, ds, landing);
         // The corrector's own time (Newton, bordered solves, ∂g/∂ω) without its factorizations.
         self.timings.newton += clock.elapsed().as_secs_f64() - (self.prepare_seconds() - prepared);
         let (x, frame, corrector, iterations) = corrected?;
@@ -734,7 +738,8 @@ impl<'a> Continuation<'a> {
         }
         let point = self.after(p, x, &frame)?;
         let (point, frame) = self.verified(p, point, frame)?;
-        let change = relative_change(&p.gaps, &point.gaps);
+        let floor = GAP_FLOOR * self.force / self.newton.c;
+        let change = relative_change(&p.gaps, &point.gaps, floor);
         if change > self.s.max_change && ds > self.s.min_step {
             return Err(format!("the contact gaps changed by {change:.2e}"));
         }
@@ -834,14 +839,24 @@ impl<'a> Continuation<'a> {
     }
 
     /// The corrector from the predictor (x_p, ω_p): at fixed ω where the curve is a graph over
-    /// ω, else along the arc-length condition.
+    /// ω or the step is `landing` on the end frequency (and converges there), else along the
+    /// arc-length condition.
     fn correct(
         &mut self,
         x_p: &[f64],
         omega_p: f64,
         t: &[f64],
         ds: f64,
+        landing: bool,
     ) -> std::result::Result<(Vec<f64>, Frame, Corrector, usize), String> {
+        // The last point lands on the end frequency itself where the curve crosses it.
+        if landing && t[x_p.len()].abs() < GRAPH_SLOPE {
+            let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
+            let o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            if o.converged {
+                return Ok((o.multipliers, frame, Corrector::FixedFrequency, o.iterations));
+            }
+        }
         if t[x_p.len()].abs() >= GRAPH_SLOPE {
             let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
             let mut o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
@@ -1238,14 +1253,19 @@ fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
-/// ‖b − a‖ / max(‖a‖, ‖b‖).
-fn relative_change(a: &[f64], b: &[f64]) -> f64 {
+/// The gap change of a step is measured against at least this share of the contact-free
+/// gap ‖g̃_lin‖ = F/c of the first point (the scaling).
+const GAP_FLOOR: f64 = 1e-3;
+
+/// ‖b − a‖ / max(‖a‖, ‖b‖, floor).
+fn relative_change(a: &[f64], b: &[f64], floor: f64) -> f64 {
     let diff = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>();
     let norm = a
         .iter()
         .map(|x| x * x)
         .sum::<f64>()
-        .max(b.iter().map(|x| x * x).sum());
+        .max(b.iter().map(|x| x * x).sum())
+        .max(floor * floor);
     if norm > 0.0 {
         (diff / norm).sqrt()
     } else {
@@ -1387,7 +1407,7 @@ fn response_change(a: &Solution, b: &Solution) -> f64 {
             .flat_map(|z| z.iter().flat_map(|v| [v.re, v.im]))
             .collect()
     };
-    relative_change(&flat(a), &flat(b))
+    relative_change(&flat(a), &flat(b), 0.0)
 }
 
 #[cfg(test)]

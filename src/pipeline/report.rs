@@ -86,8 +86,9 @@ pub struct History {
     pub probe_means: Vec<[Vec<f64>; 2]>,
     /// The contact state at each time (empty without contact).
     pub contact: Vec<ContactState>,
-    /// The largest |n·u| + |g0| of a contact node over the history [m]: the scale of the
-    /// gaps' round-off.
+    /// The largest |n·u| + |g0| of a contact node, and |u_x| + |u_y| of a probe node, over
+    /// the history [m]: the scale of the gaps' round-off (a contact held closed all period
+    /// has n·u ≈ g0 ≈ 0, while the u it is recovered from is the structure's).
     pub gap_scale: f64,
 }
 
@@ -147,6 +148,8 @@ impl History {
         for j in 0..times.len() {
             for ((_, nodes), means) in model.probes.iter().zip(&mut probe_means) {
                 let n = nodes.len().max(1) as f64;
+                let moved = nodes.iter().map(|&i| u(j, 2 * i).abs() + u(j, 2 * i + 1).abs());
+                gap_scale = moved.fold(gap_scale, f64::max);
                 for (comp, series) in means.iter_mut().enumerate() {
                     series.push(nodes.iter().map(|&i| u(j, 2 * i + comp)).sum::<f64>() / n);
                 }
