@@ -854,7 +854,12 @@ impl<'a> Continuation<'a> {
             let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
             let o = super::reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
             if o.converged {
-                return Ok((o.multipliers, frame, Corrector::FixedFrequency, o.iterations));
+                return Ok((
+                    o.multipliers,
+                    frame,
+                    Corrector::FixedFrequency,
+                    o.iterations,
+                ));
             }
         }
         if t[x_p.len()].abs() >= GRAPH_SLOPE {
@@ -872,14 +877,44 @@ impl<'a> Continuation<'a> {
                 let c = self.newton.c;
                 o = globalize::smoothed_from(&frame.problem, &hb, c, x_p, self.reporter);
             }
+            if !o.converged && ds <= CORNER_STEPS * self.s.min_step {
+                // A corner: the arc-length corrector, which may pass where ω cannot be held.
+                let reason = format!("fixed-ω corrector: {}", o.reason);
+                let (x, frame, it) = self
+                    .arclength(x_p, omega_p, t, ds)
+                    .map_err(|e| format!("{reason}; then {e}"))?;
+                return Ok((x, frame, Corrector::Arclength, it));
+            }
             if !o.converged {
                 return Err(format!("fixed-ω corrector: {}", o.reason));
             }
             let iterations = o.iterations;
             Ok((o.multipliers, frame, Corrector::FixedFrequency, iterations))
         } else {
-            let (x, frame, it) = self.arclength(x_p, omega_p, t, ds)?;
-            Ok((x, frame, Corrector::Arclength, it))
+            match self.arclength(x_p, omega_p, t, ds) {
+                Ok((x, frame, it)) => Ok((x, frame, Corrector::Arclength, it)),
+                // Where the curve has a corner steps do not shrink past, the fixed-ω smoothed
+                // corrector from the predictor.
+                Err(e) if ds <= CORNER_STEPS * self.s.min_step => {
+                    let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
+                    let hb = HbSettings {
+                        samples: self.newton.samples,
+                        ..self.hb.clone()
+                    };
+                    let c = self.newton.c;
+                    let o = globalize::smoothed_from(&frame.problem, &hb, c, x_p, self.reporter);
+                    if !o.converged {
+                        return Err(e);
+                    }
+                    Ok((
+                        o.multipliers,
+                        frame,
+                        Corrector::FixedFrequency,
+                        o.iterations,
+                    ))
+                }
+                Err(e) => Err(e),
+            }
         }
     }
 
@@ -1252,6 +1287,10 @@ fn retrace_reason(p: &Point, index: usize, j: usize, refine_key: &str) -> String
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
+
+/// Steps up to this many smallest steps that one corrector fails (at a corner of the curve)
+/// try the other: the fixed-ω smoothed corrector after the arc-length one, and back.
+const CORNER_STEPS: f64 = 4.0;
 
 /// The gap change of a step is measured against at least this share of the contact-free
 /// gap ‖g̃_lin‖ = F/c of the first point (the scaling).

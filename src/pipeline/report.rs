@@ -148,7 +148,9 @@ impl History {
         for j in 0..times.len() {
             for ((_, nodes), means) in model.probes.iter().zip(&mut probe_means) {
                 let n = nodes.len().max(1) as f64;
-                let moved = nodes.iter().map(|&i| u(j, 2 * i).abs() + u(j, 2 * i + 1).abs());
+                let moved = nodes
+                    .iter()
+                    .map(|&i| u(j, 2 * i).abs() + u(j, 2 * i + 1).abs());
                 gap_scale = moved.fold(gap_scale, f64::max);
                 for (comp, series) in means.iter_mut().enumerate() {
                     series.push(nodes.iter().map(|&i| u(j, 2 * i + comp)).sum::<f64>() / n);
