@@ -677,7 +677,7 @@ fn floor() {
 fn products() {
     use faer::c64;
     use hbcontact::hbm::fourier::{phasor, set_phasor};
-    use hbcontact::hbm::reduced::ReducedProblem;
+    use hbcontact::hbm::problem::ReducedProblem;
     println!("\n## The product G v of a GMRES iteration: faer's matrix–vector product against a dot per row");
     println!(
         "{:>6} {:>4} {:>14} {:>14} {:>7}",

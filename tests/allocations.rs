@@ -7,7 +7,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use faer::c64;
-use hbcontact::hbm::reduced::ReducedProblem;
+use hbcontact::hbm::problem::ReducedProblem;
 use hbcontact::hbm::step::{self, KrylovHint, NodeBlocks, StepMethod};
 
 thread_local! {

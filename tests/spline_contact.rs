@@ -6,8 +6,7 @@ mod common;
 use faer::c64;
 use hbcontact::hbm::basis::{SplineBasis, SplineSampler, TimeBasis};
 use hbcontact::hbm::fourier::{self, Sampler};
-use hbcontact::hbm::sampler::ContactSampler;
-use hbcontact::hbm::step;
+use hbcontact::hbm::sampler::{self, ContactSampler};
 use hbcontact::pipeline::stability::Verdict;
 use hbcontact::pipeline::{self, RunOptions, Summary};
 use hbcontact::Silent;
@@ -114,7 +113,7 @@ fn spline_contact_maps_invert_and_equal_the_per_frequency_forms() {
     let m = 2 * h + 1;
     let (mut x, mut y) = (vec![0.0; m * m], vec![0.0; m * m]);
     general.activity_block(&slopes(n), &mut x);
-    step::activity_block(&direct, &slopes(n), &mut y);
+    sampler::activity_block(&direct, &slopes(n), &mut y);
     assert_eq!(x, y);
 }
 

@@ -24,7 +24,8 @@ use std::time::{Duration, Instant};
 use faer::c64;
 
 use super::basis::TimeBasis;
-use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
+use super::problem::ReducedProblem;
+use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings};
 use super::step::{KrylovHint, StepMethod};
 use super::{fourier, knobs};
 use super::{measure_complementarity, ContactSolution, HbSettings, System};

@@ -23,7 +23,8 @@
 
 use super::basis::{SplineBasis, TimeBasis};
 use super::fourier::harmonic_of;
-use super::reduced::{self, NewtonOutcome, NewtonSettings, ReducedProblem};
+use super::problem::ReducedProblem;
+use super::reduced::{self, NewtonOutcome, NewtonSettings};
 use super::step::{KrylovHint, StepMethod};
 use crate::progress::Reporter;
 

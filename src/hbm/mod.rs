@@ -24,6 +24,7 @@ pub mod frames;
 mod globalize;
 pub mod hill;
 pub mod knobs;
+pub mod problem;
 pub mod reduced;
 pub mod sampler;
 pub mod solution;
@@ -40,7 +41,8 @@ use crate::contact::ContactOperator;
 use crate::linalg::Factor;
 use crate::progress::Reporter;
 use crate::{Error, Result};
-pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings, ReducedProblem};
+pub use problem::ReducedProblem;
+pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings};
 pub use solution::{Complementarity, ContactSolution, Snapshot, Solution, Timings};
 pub use system::{HarmonicInput, System};
 

@@ -17,9 +17,10 @@
 //!   Q = (DFT, divided per frequency by S² â_j) ∘ Pᵀ W; Q P = I on the kept frequencies,
 //!   since the quadrature of φᵀφ is exact.
 
+use num_complex::Complex64;
+
 use super::basis::{cardinal, SplineSampler, TimeBasis};
 use super::fourier::{self, cos_index, phasor, sin_index, Sampler};
-use super::step;
 
 /// Samples per segment a spline contact solve uses unless `harmonic_balance.samples` says
 /// otherwise.
@@ -128,7 +129,7 @@ impl ContactSampler {
     /// `activity_block` in the work space `work`.
     pub fn activity_block_with(&self, slopes: &[f64], out: &mut [f64], work: &mut SamplerWork) {
         match self {
-            ContactSampler::Fourier(s) => step::activity_block_with(s, slopes, out, work),
+            ContactSampler::Fourier(s) => activity_block_with(s, slopes, out, work),
             ContactSampler::Spline(s) => s.activity_block(slopes, out, work),
         }
     }
@@ -325,6 +326,66 @@ impl SplineMaps {
     }
 }
 
+/// A_i = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples, Fourier basis
+/// (a spline basis forms it in `SplineMaps`). A_i is a Toeplitz-plus-Hankel matrix in the
+/// harmonics, so it follows from one FFT of the slopes and M² lookups (`step`'s header).
+pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
+    activity_block_with(sampler, slopes, out, &mut SamplerWork::default());
+}
+
+/// `activity_block` in the work space `work`.
+pub fn activity_block_with(
+    sampler: &Sampler,
+    slopes: &[f64],
+    out: &mut [f64],
+    work: &mut SamplerWork,
+) {
+    let (h, n) = (sampler.harmonics, sampler.samples);
+    let m = 2 * h + 1;
+    let SamplerWork {
+        fft,
+        a: c_table,
+        b: s_table,
+        ..
+    } = work;
+    let spectrum = &mut fft.spectrum;
+    spectrum.clear();
+    spectrum.extend(slopes.iter().map(|&v| Complex64::new(v, 0.0)));
+    sampler.forward_with(spectrum, &mut fft.scratch);
+    // Ĉ_j = mean(s cos jθ) and Ŝ_j = mean(s sin jθ) for j = 0..2H (2H < N); Ĉ is even in j,
+    // Ŝ odd.
+    let scale = 1.0 / n as f64;
+    c_table.clear();
+    c_table.extend(spectrum[..=2 * h].iter().map(|z| z.re * scale));
+    s_table.clear();
+    s_table.extend(spectrum[..=2 * h].iter().map(|z| -z.im * scale));
+    let c_hat = |j: i64| c_table[j.unsigned_abs() as usize];
+    let s_hat = |j: i64| s_table[j.unsigned_abs() as usize] * j.signum() as f64;
+    // Basis p_a: index 0 the constant (cos 0θ), 2k−1 cos kθ, 2k sin kθ; harmonics p (rows)
+    // and q (columns) fill their cos/sin block, weight 1 for the constant's row, else 2.
+    for p in 0..=h {
+        let weight = if p == 0 { 1.0 } else { 2.0 };
+        for q in 0..=h {
+            let (pi, qi) = (p as i64, q as i64);
+            let (difference, sum) = (pi - qi, pi + qi);
+            let cos_cos = 0.5 * (c_hat(difference) + c_hat(sum));
+            let cos_sin = 0.5 * (s_hat(sum) - s_hat(difference));
+            out[cos_index(p) * m + cos_index(q)] = weight * cos_cos;
+            if q > 0 {
+                out[cos_index(p) * m + sin_index(q)] = weight * cos_sin;
+            }
+            if p > 0 {
+                let sin_cos = 0.5 * (s_hat(sum) + s_hat(difference));
+                out[sin_index(p) * m + cos_index(q)] = weight * sin_cos;
+                if q > 0 {
+                    let sin_sin = 0.5 * (c_hat(difference) - c_hat(sum));
+                    out[sin_index(p) * m + sin_index(q)] = weight * sin_sin;
+                }
+            }
+        }
+    }
+}
+
 /// The value at t of the function with coefficients `coeffs` (M = 2H + 1, phasors of the
 /// basis' frequencies 0..H) for period 2π/ω: Fourier's series, or Re Σ_j z_j E_j(t).
 pub fn evaluate(basis: &TimeBasis, coeffs: &[f64], omega: f64, t: f64) -> f64 {
@@ -351,4 +412,47 @@ fn dense(rows: usize, cols: usize, apply: impl Fn(&[f64], &mut [f64])) -> Vec<f6
         }
     }
     a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: the activity block from the slopes' Fourier sums equals Q diag(s) P formed
+    /// densely, for 0/1 and smoothed slopes (the trigonometric product identities, exact on
+    /// the samples because 2H < N).
+    #[test]
+    fn activity_block_from_spectrum_equals_dense_q_s_p() {
+        for (h, n) in [(0usize, 1usize), (1, 3), (3, 16), (5, 11), (8, 128)] {
+            let sampler = Sampler::new(h, n);
+            let m = 2 * h + 1;
+            let (p, q) = (sampler.p_matrix(), sampler.q_matrix());
+            for smooth in [false, true] {
+                let slopes: Vec<f64> = (0..n)
+                    .map(|s| {
+                        let x = ((s * 37 + 11) % 17) as f64 / 17.0;
+                        if smooth {
+                            x
+                        } else {
+                            (x > 0.4) as u8 as f64
+                        }
+                    })
+                    .collect();
+                let mut fast = vec![0.0; m * m];
+                activity_block(&sampler, &slopes, &mut fast);
+                for a in 0..m {
+                    for b in 0..m {
+                        let dense: f64 = (0..n)
+                            .map(|s| q[a * n + s] * slopes[s] * p[s * m + b])
+                            .sum();
+                        assert!(
+                            (dense - fast[a * m + b]).abs() < 1e-12,
+                            "H = {h}, N = {n}, ({a}, {b}): {dense} vs {}",
+                            fast[a * m + b]
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

@@ -22,10 +22,9 @@
 //! whichever served the last step (`krylov_step`).
 
 use faer::{c64, Mat};
-use num_complex::Complex64;
 
-use super::fourier::{cos_index, harmonic_of, phasor, set_phasor, sin_index, Sampler};
-use super::reduced::ReducedProblem;
+use super::fourier::{harmonic_of, phasor, set_phasor};
+use super::problem::ReducedProblem;
 use super::sampler::{ContactSampler, SamplerWork};
 use crate::linalg::{loose_or_stalled, DenseLu, DenseLuWork, GmresWork, LuWork};
 
@@ -76,65 +75,6 @@ pub fn resolve(method: StepMethod, nodes: usize, harmonics: usize, samples: usiz
             }
         }
         other => other,
-    }
-}
-
-/// A_i = Q diag(s) P (M × M, row-major) from the slopes `s` at the N samples, Fourier basis
-/// (a spline basis forms it in `sampler`).
-pub fn activity_block(sampler: &Sampler, slopes: &[f64], out: &mut [f64]) {
-    activity_block_with(sampler, slopes, out, &mut SamplerWork::default());
-}
-
-/// `activity_block` in the work space `work`.
-pub fn activity_block_with(
-    sampler: &Sampler,
-    slopes: &[f64],
-    out: &mut [f64],
-    work: &mut SamplerWork,
-) {
-    let (h, n) = (sampler.harmonics, sampler.samples);
-    let m = 2 * h + 1;
-    let SamplerWork {
-        fft,
-        a: c_table,
-        b: s_table,
-        ..
-    } = work;
-    let spectrum = &mut fft.spectrum;
-    spectrum.clear();
-    spectrum.extend(slopes.iter().map(|&v| Complex64::new(v, 0.0)));
-    sampler.forward_with(spectrum, &mut fft.scratch);
-    // Ĉ_j = mean(s cos jθ) and Ŝ_j = mean(s sin jθ) for j = 0..2H (2H < N); Ĉ is even in j,
-    // Ŝ odd.
-    let scale = 1.0 / n as f64;
-    c_table.clear();
-    c_table.extend(spectrum[..=2 * h].iter().map(|z| z.re * scale));
-    s_table.clear();
-    s_table.extend(spectrum[..=2 * h].iter().map(|z| -z.im * scale));
-    let c_hat = |j: i64| c_table[j.unsigned_abs() as usize];
-    let s_hat = |j: i64| s_table[j.unsigned_abs() as usize] * j.signum() as f64;
-    // Basis p_a: index 0 the constant (cos 0θ), 2k−1 cos kθ, 2k sin kθ; harmonics p (rows)
-    // and q (columns) fill their cos/sin block, weight 1 for the constant's row, else 2.
-    for p in 0..=h {
-        let weight = if p == 0 { 1.0 } else { 2.0 };
-        for q in 0..=h {
-            let (pi, qi) = (p as i64, q as i64);
-            let (difference, sum) = (pi - qi, pi + qi);
-            let cos_cos = 0.5 * (c_hat(difference) + c_hat(sum));
-            let cos_sin = 0.5 * (s_hat(sum) - s_hat(difference));
-            out[cos_index(p) * m + cos_index(q)] = weight * cos_cos;
-            if q > 0 {
-                out[cos_index(p) * m + sin_index(q)] = weight * cos_sin;
-            }
-            if p > 0 {
-                let sin_cos = 0.5 * (s_hat(sum) + s_hat(difference));
-                out[sin_index(p) * m + cos_index(q)] = weight * sin_cos;
-                if q > 0 {
-                    let sin_sin = 0.5 * (c_hat(difference) - c_hat(sum));
-                    out[sin_index(p) * m + sin_index(q)] = weight * sin_sin;
-                }
-            }
-        }
     }
 }
 
@@ -775,44 +715,6 @@ mod tests {
         // 0.1 τ / r: solving to 1e-4 from r = 1e-5 already leaves 1e-9 = 0.1 τ.
         assert!((forcing(1e-5, 1e-8) - 1e-4).abs() < 1e-18);
         assert_eq!(forcing(1e-7, 1e-8), 1e-4);
-    }
-
-    /// TEST GOAL: the activity block from the slopes' Fourier sums equals Q diag(s) P formed
-    /// densely, for 0/1 and smoothed slopes (the trigonometric product identities, exact on
-    /// the samples because 2H < N).
-    #[test]
-    fn activity_block_from_spectrum_equals_dense_q_s_p() {
-        for (h, n) in [(0usize, 1usize), (1, 3), (3, 16), (5, 11), (8, 128)] {
-            let sampler = Sampler::new(h, n);
-            let m = 2 * h + 1;
-            let (p, q) = (sampler.p_matrix(), sampler.q_matrix());
-            for smooth in [false, true] {
-                let slopes: Vec<f64> = (0..n)
-                    .map(|s| {
-                        let x = ((s * 37 + 11) % 17) as f64 / 17.0;
-                        if smooth {
-                            x
-                        } else {
-                            (x > 0.4) as u8 as f64
-                        }
-                    })
-                    .collect();
-                let mut fast = vec![0.0; m * m];
-                activity_block(&sampler, &slopes, &mut fast);
-                for a in 0..m {
-                    for b in 0..m {
-                        let dense: f64 = (0..n)
-                            .map(|s| q[a * n + s] * slopes[s] * p[s * m + b])
-                            .sum();
-                        assert!(
-                            (dense - fast[a * m + b]).abs() < 1e-12,
-                            "H = {h}, N = {n}, ({a}, {b}): {dense} vs {}",
-                            fast[a * m + b]
-                        );
-                    }
-                }
-            }
-        }
     }
 
     /// A coupled problem: `nodes` nodes whose compliance G_k couples them all (a contact
