@@ -11,7 +11,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use hbcontact::config::load_pipeline;
+use hbcontact::pipeline::load_pipeline;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::Silent;
 

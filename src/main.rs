@@ -11,8 +11,8 @@ mod cli;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use cli::interrupt::Keeps;
-use hbcontact::config::load_pipeline;
 use hbcontact::output::staging::Replace;
+use hbcontact::pipeline::load_pipeline;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::{Error, Reporter, Silent};
 

@@ -3,7 +3,8 @@
 
 use std::path::PathBuf;
 
-use hbcontact::config::{load_pipeline, FieldName, ObstacleSpec, PlaneModelSpec};
+use hbcontact::config::{FieldName, ObstacleSpec, PlaneModelSpec};
+use hbcontact::pipeline::load_pipeline;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

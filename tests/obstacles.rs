@@ -10,8 +10,7 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use hbcontact::config::{ContactMass, ContactSpec, ObstacleSpec};
-use hbcontact::contact::geometry::{build_contact_set, ContactSet};
+use hbcontact::contact::geometry::{build_contact_set, ContactScene, ContactSet, Obstacle};
 use hbcontact::mesh::{Cell, CellKind, Edge, Mesh2d};
 
 /// A strip of Quad4 cells over the bottom nodes `bottom` (x, y), with a flat top at y = `top`.
@@ -110,13 +109,11 @@ fn add_curve(mesh: &mut Mesh2d, name: &str, points: &[[f64; 2]]) {
     mesh.node_groups.insert(name.into(), ids);
 }
 
-fn spec(boundary: &str, obstacle: ObstacleSpec, search: Option<f64>) -> ContactSpec {
-    ContactSpec {
+fn spec(boundary: &str, obstacle: Obstacle, search: Option<f64>) -> ContactScene {
+    ContactScene {
         boundary: boundary.into(),
         obstacle,
         search_distance: search,
-        mass: ContactMass::Lumped,
-        allow_initial_penetration: false,
     }
 }
 
@@ -178,7 +175,7 @@ fn line_obstacle_gaps_are_signed_distances_and_normals_point_into_it() {
     let l = norm([0.1, 1.0]);
     let n_line = [0.1 / l, 1.0 / l];
     let point = [0.0, 0.0];
-    let obstacle = ObstacleSpec::Line {
+    let obstacle = Obstacle::Line {
         point,
         normal: n_line,
     };
@@ -228,7 +225,7 @@ fn line_obstacle_gaps_are_signed_distances_and_normals_point_into_it() {
 fn circle_casing_gap_is_radius_minus_distance_and_normals_point_outward() {
     let mesh = square();
     let center = [0.5, 0.5];
-    let casing = |radius: f64| ObstacleSpec::Circle {
+    let casing = |radius: f64| Obstacle::Circle {
         center,
         radius,
         body_inside: true,
@@ -284,7 +281,7 @@ fn circle_cylinder_gap_is_distance_minus_radius_and_normals_point_to_the_centre(
     let mesh = strip(&bottom, 1.0);
     let center = [0.5, -1.0];
     let radius = 1.15;
-    let obstacle = ObstacleSpec::Circle {
+    let obstacle = Obstacle::Circle {
         center,
         radius,
         body_inside: false,
@@ -324,7 +321,7 @@ fn circle_cylinder_gap_is_distance_minus_radius_and_normals_point_to_the_centre(
 fn curve_obstacle_keeps_nodes_facing_it_and_drops_nodes_off_its_ends() {
     let mut mesh = square();
     add_curve(&mut mesh, "wall", &[[1.1, 0.3], [1.1, 0.6], [1.1, 1.5]]);
-    let obstacle = ObstacleSpec::Curve {
+    let obstacle = Obstacle::Curve {
         group: "wall".into(),
     };
     let set = build_contact_set(&mesh, &spec("right", obstacle.clone(), None)).unwrap();
@@ -413,7 +410,7 @@ fn curve_obstacle_meshed_by_gmsh_matches_the_wall_line() {
         &mesh,
         &spec(
             "right",
-            ObstacleSpec::Curve {
+            Obstacle::Curve {
                 group: "wall".into(),
             },
             None,
@@ -462,7 +459,7 @@ fn curve_obstacle_meshed_by_gmsh_matches_the_wall_line() {
 }
 
 /// The error of `build_contact_set` on bad contact input, as (variant name, message).
-fn contact_error(mesh: &Mesh2d, spec: &ContactSpec) -> (String, String) {
+fn contact_error(mesh: &Mesh2d, spec: &ContactScene) -> (String, String) {
     let e = build_contact_set(mesh, spec).expect_err("bad contact input must be refused");
     // The variant's name is the start of its Debug form ("Model(…)", "Config { … }").
     let debug = format!("{e:?}");
@@ -474,13 +471,13 @@ fn contact_error(mesh: &Mesh2d, spec: &ContactSpec) -> (String, String) {
     (class, e.to_string())
 }
 
-fn bad_inputs() -> Vec<(&'static str, ContactSpec, &'static str)> {
+fn bad_inputs() -> Vec<(&'static str, ContactScene, &'static str)> {
     vec![
         (
             "an obstacle curve group with 2-D cells",
             spec(
                 "right",
-                ObstacleSpec::Curve {
+                Obstacle::Curve {
                     group: "body".into(),
                 },
                 None,
@@ -491,7 +488,7 @@ fn bad_inputs() -> Vec<(&'static str, ContactSpec, &'static str)> {
             "a contact boundary without edges (a point group)",
             spec(
                 "corner",
-                ObstacleSpec::Line {
+                Obstacle::Line {
                     point: [0.0, -1.0],
                     normal: [0.0, 1.0],
                 },

@@ -9,8 +9,13 @@ pub mod schema;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+pub(crate) use raw::config_error;
 pub use raw::{load_pipeline, parse_pipeline};
 pub use schema::pipeline_schema;
+
+/// Default of `geometry.max_aspect_ratio`, above which a mesh is refused
+/// (`pipeline::sanity`).
+pub const DEFAULT_MAX_ASPECT: f64 = 1e3;
 
 /// A validated pipeline.
 #[derive(Clone, Debug)]

@@ -611,7 +611,7 @@ pub const MAX_PLANE_STRAIN_POISSON: f64 = 0.4999995;
 /// The loosest `transient.periodic_tolerance`.
 pub const MAX_PERIODIC_TOLERANCE: f64 = 1e-2;
 
-fn config_error(path: &Path, message: impl Into<String>) -> Error {
+pub(crate) fn config_error(path: &Path, message: impl Into<String>) -> Error {
     Error::Config {
         path: path.to_path_buf(),
         message: crate::error::shorten_quoted(&message.into()),
@@ -921,7 +921,6 @@ fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         stability,
         output,
     };
-    check_spline_scene(path, &pipeline)?;
     Ok(pipeline)
 }
 
@@ -1028,16 +1027,14 @@ fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
             format!("geometry.gmsh_timeout = {gmsh_timeout} s: at most 1e7 s (about 4 months)"),
         ));
     }
-    let max_aspect_ratio = g
-        .max_aspect_ratio
-        .unwrap_or(crate::pipeline::sanity::DEFAULT_MAX_ASPECT);
+    let max_aspect_ratio = g.max_aspect_ratio.unwrap_or(super::DEFAULT_MAX_ASPECT);
     if !(1.0..=MAX_MAGNITUDE).contains(&max_aspect_ratio) {
         return Err(config_error(
             path,
             format!(
                 "geometry.max_aspect_ratio = {} must be a finite number of at least 1 (default {}; a cell beyond 1000 is a mesh error, not a shape)",
                 show(max_aspect_ratio),
-                crate::pipeline::sanity::DEFAULT_MAX_ASPECT
+                super::DEFAULT_MAX_ASPECT
             ),
         ));
     }
@@ -1321,48 +1318,6 @@ fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
         ));
     }
     Ok(BasisSpec::Spline { degree, segments })
-}
-
-/// A spline basis: samples (if given) a multiple of the segments with at least degree + 1
-/// per segment, an odd number of segments in a sweep with contact, and more than two segments
-/// per period of every harmonic the loads excite.
-fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
-    let BasisSpec::Spline { degree, segments } = p.harmonic_balance.basis else {
-        return Ok(());
-    };
-    if let Some(n) = p.harmonic_balance.samples {
-        let per = crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT;
-        if !n.is_multiple_of(segments) || n / segments < degree + 1 {
-            return Err(config_error(
-                path,
-                format!("harmonic_balance.samples = {n} must be a multiple of harmonic_balance.basis.spline.segments = {segments} with at least degree + 1 = {} per segment (the contact terms sample each segment at its Gauss points): use {} ({per} per segment, the default), or leave samples out", degree + 1, per * segments),
-            ));
-        }
-    }
-    if p.sweep.is_some() && p.contact.is_some() && segments.is_multiple_of(2) {
-        return Err(config_error(
-            path,
-            format!("harmonic_balance.basis.spline.segments = {segments} is even: a sweep with contact needs an odd number of segments (with even S the Nyquist frequency S/2 has no damping, σ = 0, and somewhere in a sweep's range S/2·ω meets a mesh mode and the branch climbs without bound: docs/method.md §16); use segments = {}", segments + 1),
-        ));
-    }
-    let b = &p.boundaries;
-    let loads = b
-        .loads
-        .iter()
-        .flat_map(|l| &l.signal.harmonics)
-        .map(|h| h.0);
-    let motions = b
-        .prescribed
-        .iter()
-        .flat_map(|m| &m.signal.harmonics)
-        .map(|h| h.0);
-    if let Some(k) = loads.chain(motions).max().filter(|&k| 2 * k >= segments) {
-        return Err(config_error(
-            path,
-            format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the loads: use more than {} segments (several times more for accuracy)", 2 * k),
-        ));
-    }
-    Ok(())
 }
 
 fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {

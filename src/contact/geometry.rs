@@ -4,11 +4,35 @@
 //! the obstacle's outline for the output; and the arc length s_i of boundary nodes along the
 //! boundary's edges (for plots against position on the contact boundary).
 
-use crate::config::{ContactSpec, ObstacleSpec};
 use std::collections::HashMap;
 
 use crate::mesh::{Edge, Mesh2d};
 use crate::{Error, Result};
+
+/// A rigid obstacle.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Obstacle {
+    /// A curve of the geometry (a physical group meshed as 1-D elements only).
+    Curve { group: String },
+    /// The half-plane behind the line through `point`; `normal` (unit) points out of the
+    /// obstacle, into the free space where the body is.
+    Line { point: [f64; 2], normal: [f64; 2] },
+    /// A circle; `body_inside` = the body lies inside it (a casing), else outside (a cylinder).
+    Circle {
+        center: [f64; 2],
+        radius: f64,
+        body_inside: bool,
+    },
+}
+
+/// Where contact is sought: the body boundary whose nodes are the candidates, the obstacle,
+/// and how far from it a candidate may be (`None` keeps all).
+#[derive(Clone, Debug)]
+pub struct ContactScene {
+    pub boundary: String,
+    pub obstacle: Obstacle,
+    pub search_distance: Option<f64>,
+}
 
 #[derive(Clone, Debug)]
 pub struct ContactSet {
@@ -225,7 +249,7 @@ fn tributary_lengths(mesh: &Mesh2d, edges: &[Edge]) -> HashMap<usize, f64> {
 /// The contact boundary's nodes and edges, checked to be a curve of the body.
 fn boundary<'m>(
     mesh: &'m Mesh2d,
-    spec: &ContactSpec,
+    spec: &ContactScene,
     body: &[usize],
 ) -> Result<(&'m [usize], &'m [Edge])> {
     let Some(candidates) = mesh.node_groups.get(&spec.boundary) else {
@@ -253,14 +277,14 @@ fn boundary<'m>(
 /// The closest obstacle point and the normal into the obstacle for node `n` at x; `None` when
 /// off a curve obstacle.
 fn closest_point(
-    spec: &ObstacleSpec,
+    spec: &Obstacle,
     polyline: Option<&Polyline>,
     n: usize,
     x: [f64; 2],
     outward: Option<[f64; 2]>,
 ) -> Result<Option<([f64; 2], [f64; 2])>> {
     Ok(match (spec, polyline) {
-        (ObstacleSpec::Line { point, normal }, _) => {
+        (Obstacle::Line { point, normal }, _) => {
             let d = dot(sub(x, *point), *normal);
             Some((
                 [x[0] - d * normal[0], x[1] - d * normal[1]],
@@ -268,7 +292,7 @@ fn closest_point(
             ))
         }
         (
-            ObstacleSpec::Circle {
+            Obstacle::Circle {
                 center,
                 radius,
                 body_inside,
@@ -284,18 +308,18 @@ fn closest_point(
             let c = [center[0] + radius * u[0], center[1] + radius * u[1]];
             Some((c, if *body_inside { u } else { [-u[0], -u[1]] }))
         }
-        (ObstacleSpec::Curve { .. }, Some(polyline)) => polyline.project(x, outward),
-        (ObstacleSpec::Curve { .. }, None) => None,
+        (Obstacle::Curve { .. }, Some(polyline)) => polyline.project(x, outward),
+        (Obstacle::Curve { .. }, None) => None,
     })
 }
 
 /// Build the candidates' normals and gaps.
-pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactSpec) -> Result<ContactSet> {
+pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSet> {
     let body = mesh.body_nodes();
     let (candidates, edges) = boundary(mesh, spec, &body)?;
     let tributary = tributary_lengths(mesh, edges);
     let polyline = match &spec.obstacle {
-        ObstacleSpec::Curve { group } => Some(Polyline::from_curve(mesh, group, &body)?),
+        Obstacle::Curve { group } => Some(Polyline::from_curve(mesh, group, &body)?),
         _ => None,
     };
     let outward = outward_normals(mesh, &spec.boundary);
@@ -363,11 +387,11 @@ pub struct ObstacleOutline {
 /// side (at least 1°), in `ARC_SEGMENTS` segments (the whole circle if the arc would close);
 /// a curve as its mesh edges (a 3-node edge as two segments through its middle node). Every
 /// point lies on the obstacle (a line or circle to round-off; a curve's are its mesh nodes).
-pub fn obstacle_outline(mesh: &Mesh2d, spec: &ContactSpec, set: &ContactSet) -> ObstacleOutline {
-    match &spec.obstacle {
-        ObstacleSpec::Line { point, normal } => line_outline(mesh, set, *point, *normal),
-        ObstacleSpec::Circle { center, radius, .. } => circle_outline(set, *center, *radius),
-        ObstacleSpec::Curve { group } => curve_outline(mesh, group),
+pub fn obstacle_outline(mesh: &Mesh2d, obstacle: &Obstacle, set: &ContactSet) -> ObstacleOutline {
+    match obstacle {
+        Obstacle::Line { point, normal } => line_outline(mesh, set, *point, *normal),
+        Obstacle::Circle { center, radius, .. } => circle_outline(set, *center, *radius),
+        Obstacle::Curve { group } => curve_outline(mesh, group),
     }
 }
 

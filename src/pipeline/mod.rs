@@ -57,6 +57,14 @@ pub struct RunResult {
 }
 
 /// The directory results go to.
+/// The pipeline at `path` with `overrides` applied, validated field by field (`config`) and
+/// as a scene (`sanity::check_spline_scene`).
+pub fn load_pipeline(path: &std::path::Path, overrides: &[String]) -> Result<Pipeline> {
+    let p = crate::config::load_pipeline(path, overrides)?;
+    sanity::check_spline_scene(path, &p)?;
+    Ok(p)
+}
+
 pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
     options
         .out
@@ -336,7 +344,9 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         let set = p
             .contact
             .as_ref()
-            .map(|spec| crate::contact::geometry::build_contact_set(&mesh, spec))
+            .map(|spec| {
+                crate::contact::geometry::build_contact_set(&mesh, &model::contact_scene(spec))
+            })
             .transpose()?;
         if let Some(set) = &set {
             if let Some(w) = sanity::check_penetration_of(p, &mesh, set)? {

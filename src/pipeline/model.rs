@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::config::{
     BasisSpec, ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline, PlaneModelSpec,
 };
-use crate::contact::geometry::{build_contact_set, ContactSet};
+use crate::contact::geometry::{build_contact_set, ContactScene, ContactSet, Obstacle};
 use crate::contact::mass::{redistribute_mass, Redistribution};
 use crate::contact::{contact_operator, ContactOperator};
 use crate::fem::DofMap;
@@ -188,7 +188,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let dofs = dof_map(p, &mesh)?;
     let contact_set = match &p.contact {
         Some(spec) => {
-            let mut set = build_contact_set(&mesh, spec)?;
+            let mut set = build_contact_set(&mesh, &contact_scene(spec))?;
             set.drop_held(|d| dofs.free_index(d).is_some());
             Some(set)
         }
@@ -398,6 +398,37 @@ fn nodal_load(mesh: &Mesh2d, material: &Material, load: &LoadSpec, value: [f64; 
                 .unwrap_or(&[]);
             fem::point_force_load(mesh, nodes, value)
         }
+    }
+}
+
+/// The contact block as the contact module takes it.
+pub fn contact_scene(spec: &ContactSpec) -> ContactScene {
+    ContactScene {
+        boundary: spec.boundary.clone(),
+        obstacle: obstacle(&spec.obstacle),
+        search_distance: spec.search_distance,
+    }
+}
+
+/// The pipeline's obstacle as the contact module takes it.
+pub fn obstacle(spec: &ObstacleSpec) -> Obstacle {
+    match spec {
+        ObstacleSpec::Curve { group } => Obstacle::Curve {
+            group: group.clone(),
+        },
+        ObstacleSpec::Line { point, normal } => Obstacle::Line {
+            point: *point,
+            normal: *normal,
+        },
+        ObstacleSpec::Circle {
+            center,
+            radius,
+            body_inside,
+        } => Obstacle::Circle {
+            center: *center,
+            radius: *radius,
+            body_inside: *body_inside,
+        },
     }
 }
 

@@ -325,7 +325,8 @@ impl Sampled {
         write_probes(&dir.join("probes.csv"), model, h)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
             write_contact_history(&dir.join("contact.csv"), model, &h.times, &h.contact)?;
-            let outline = obstacle_outline(&model.mesh, spec, &c.set);
+            let outline =
+                obstacle_outline(&model.mesh, &super::model::obstacle(&spec.obstacle), &c.set);
             write_lines_vtu(
                 &dir.join("obstacle.vtu"),
                 &outline.points,

@@ -6,7 +6,7 @@
 //! - aspect ratio α of a cell = L² / (k A): L its longest corner edge, A the area of its
 //!   corner polygon, k = 2 for triangles and 1 for quadrilaterals, so α = a/b for an a × b
 //!   rectangle or either of its halves (an equilateral triangle: 1.15). Warned above
-//!   `WARN_ASPECT`, refused above `geometry.max_aspect_ratio` (default `DEFAULT_MAX_ASPECT`).
+//!   `WARN_ASPECT`, refused above `geometry.max_aspect_ratio` (default `config::DEFAULT_MAX_ASPECT`).
 //! - inverted cell: det J ≤ 0 at a Gauss point (a mid-side node beyond the opposite side).
 //! - c_s = √(G/ρ), G = E / (2(1 + ν)): the shear wave speed, the slowest bulk wave.
 //! - f_res = p c_s / (2 h): the highest frequency the mesh resolves, two elements of the
@@ -43,18 +43,19 @@
 //!   order, one element through: within 0.3% on both.
 
 use super::model::{Model, Purpose};
-use crate::config::{Pipeline, PlaneModelSpec};
+use std::path::Path;
+
+use crate::config::{config_error, BasisSpec, Pipeline, PlaneModelSpec};
 use crate::contact::geometry::ContactSet;
 use crate::fem::{self, Material};
 use crate::hbm::basis::TimeBasis;
+use crate::hbm::sampler::SPLINE_SAMPLES_PER_SEGMENT;
 use crate::hbm::Solution;
 use crate::mesh::{CellKind, Mesh2d};
 use crate::{Error, Result};
 
 /// Aspect ratio above which a run warns.
 pub const WARN_ASPECT: f64 = 20.0;
-/// Default of `geometry.max_aspect_ratio`, above which a mesh is refused.
-pub const DEFAULT_MAX_ASPECT: f64 = 1e3;
 /// A strain beyond which small-strain elasticity is stretched (0.1%).
 pub const SMALL_STRAIN: f64 = 1e-3;
 /// Complementarity violation above which a contact run warns.
@@ -755,6 +756,48 @@ pub fn check_contact_result(model: &Model, solution: &Solution) -> Vec<String> {
         ));
     }
     warnings
+}
+
+/// A spline basis: samples (if given) a multiple of the segments with at least degree + 1
+/// per segment, an odd number of segments in a sweep with contact, and more than two segments
+/// per period of every harmonic the loads excite.
+pub fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
+    let BasisSpec::Spline { degree, segments } = p.harmonic_balance.basis else {
+        return Ok(());
+    };
+    if let Some(n) = p.harmonic_balance.samples {
+        let per = SPLINE_SAMPLES_PER_SEGMENT;
+        if !n.is_multiple_of(segments) || n / segments < degree + 1 {
+            return Err(config_error(
+                path,
+                format!("harmonic_balance.samples = {n} must be a multiple of harmonic_balance.basis.spline.segments = {segments} with at least degree + 1 = {} per segment (the contact terms sample each segment at its Gauss points): use {} ({per} per segment, the default), or leave samples out", degree + 1, per * segments),
+            ));
+        }
+    }
+    if p.sweep.is_some() && p.contact.is_some() && segments.is_multiple_of(2) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.segments = {segments} is even: a sweep with contact needs an odd number of segments (with even S the Nyquist frequency S/2 has no damping, σ = 0, and somewhere in a sweep's range S/2·ω meets a mesh mode and the branch climbs without bound: docs/method.md §16); use segments = {}", segments + 1),
+        ));
+    }
+    let b = &p.boundaries;
+    let loads = b
+        .loads
+        .iter()
+        .flat_map(|l| &l.signal.harmonics)
+        .map(|h| h.0);
+    let motions = b
+        .prescribed
+        .iter()
+        .flat_map(|m| &m.signal.harmonics)
+        .map(|h| h.0);
+    if let Some(k) = loads.chain(motions).max().filter(|&k| 2 * k >= segments) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the loads: use more than {} segments (several times more for accuracy)", 2 * k),
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

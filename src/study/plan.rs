@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 use sha2::{Digest, Sha256};
 
 use super::spec::{Design, Reference, Scale, Study, Value};
-use crate::config::{load_pipeline, Pipeline};
+use crate::config::Pipeline;
 use crate::error::excerpt;
+use crate::pipeline::load_pipeline;
 use crate::{Error, Result};
 
 /// Which solver a point runs.

@@ -7,8 +7,9 @@ pub mod svg;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::config::Pipeline;
 use hbcontact::hbm::{self, HbSettings, Solution};
+use hbcontact::pipeline::load_pipeline;
 use hbcontact::pipeline::{self, Model, Purpose, Stages};
 
 pub fn root() -> PathBuf {
