@@ -181,11 +181,7 @@ fn a_newton_runs_allocations_do_not_grow_with_its_iterations() {
                     max_iterations: iterations,
                     method,
                     smoothing,
-                    min_iterations: 0,
-                    stagnation: 0,
-                    hover: 0,
-                    rise: 0,
-                    krylov_hint: KrylovHint::default(),
+                    ..Default::default()
                 };
                 let before = allocations();
                 let o = reduced::newton(&problem, &settings, &start, &hbcontact::Silent);

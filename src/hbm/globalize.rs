@@ -26,7 +26,7 @@ use faer::c64;
 use super::basis::TimeBasis;
 use super::problem::ReducedProblem;
 use super::reduced::{self, IterationLog, NewtonOutcome, NewtonSettings};
-use super::step::{KrylovHint, StepMethod};
+use super::step::KrylovHint;
 use super::{fourier, knobs};
 use super::{measure_complementarity, ContactSolution, HbSettings, System};
 use crate::contact::ContactOperator;
@@ -320,13 +320,9 @@ impl<'a> Attempts<'a> {
             c,
             tolerance: self.settings.tolerance,
             max_iterations: self.settings.max_iterations,
-            method: StepMethod::Auto,
             smoothing,
-            min_iterations: 0,
-            stagnation: 0,
-            hover: 0,
-            rise: 0,
             krylov_hint: self.krylov_hint.clone(),
+            ..Default::default()
         }
     }
 

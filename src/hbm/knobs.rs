@@ -25,7 +25,7 @@ use super::basis::{SplineBasis, TimeBasis};
 use super::fourier::harmonic_of;
 use super::problem::ReducedProblem;
 use super::reduced::{self, NewtonOutcome, NewtonSettings};
-use super::step::{KrylovHint, StepMethod};
+use super::step::KrylovHint;
 use crate::progress::Reporter;
 
 /// Relative change of the answer below which a doubled N counts as converged.
@@ -171,13 +171,10 @@ fn resolve(
         c,
         tolerance,
         max_iterations,
-        method: StepMethod::Auto,
-        smoothing: 0.0,
         min_iterations: 1,
-        stagnation: 0,
         hover,
-        rise: 0,
         krylov_hint: hint.detached(),
+        ..Default::default()
     };
     reduced::newton(problem, &settings, start, reporter)
 }

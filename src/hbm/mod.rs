@@ -235,13 +235,8 @@ pub fn solve_from(
         c: start.c,
         tolerance: settings.tolerance,
         max_iterations: settings.max_iterations.min(50),
-        method: step::StepMethod::Auto,
-        smoothing: 0.0,
         min_iterations: 1,
-        stagnation: 0,
-        hover: 0,
-        rise: 0,
-        krylov_hint: Default::default(),
+        ..Default::default()
     };
     let outcome = timed(&mut timings.newton, || {
         reduced::newton(&problem, &newton, &start.multipliers, reporter)

@@ -46,6 +46,27 @@ pub struct NewtonSettings {
     pub krylov_hint: step::KrylovHint,
 }
 
+/// The plain run: a step method by estimated flops, the exact contact law, no forced steps,
+/// no give-up rule but the line search's and the iteration budget, a fresh Krylov hint. N,
+/// c, the tolerance and the iteration budget are zero: every run sets them.
+impl Default for NewtonSettings {
+    fn default() -> Self {
+        NewtonSettings {
+            samples: 0,
+            c: 0.0,
+            tolerance: 0.0,
+            max_iterations: 0,
+            method: StepMethod::Auto,
+            smoothing: 0.0,
+            min_iterations: 0,
+            stagnation: 0,
+            hover: 0,
+            rise: 0,
+            krylov_hint: Default::default(),
+        }
+    }
+}
+
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
 /// of the multipliers before any is known (zero when nothing penetrates).
 pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
@@ -491,13 +512,7 @@ mod tests {
             c: k,
             tolerance: 1e-12,
             max_iterations: 20,
-            method: StepMethod::Auto,
-            smoothing: 0.0,
-            min_iterations: 0,
-            stagnation: 0,
-            hover: 0,
-            rise: 0,
-            krylov_hint: Default::default(),
+            ..Default::default()
         };
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
@@ -549,13 +564,7 @@ mod tests {
                 c: k,
                 tolerance: 1e-12,
                 max_iterations: 50,
-                method: StepMethod::Auto,
-                smoothing: 0.0,
-                min_iterations: 0,
-                stagnation: 0,
-                hover: 0,
-                rise: 0,
-                krylov_hint: Default::default(),
+                ..Default::default()
             };
             let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
             assert!(out.converged, "H = {h}: {}", out.reason);
@@ -597,13 +606,7 @@ mod tests {
             c: 1.0,
             tolerance: 1e-10,
             max_iterations: 60,
-            method: StepMethod::Auto,
-            smoothing: 0.0,
-            min_iterations: 0,
-            stagnation: 0,
-            hover: 0,
-            rise: 0,
-            krylov_hint: Default::default(),
+            ..Default::default()
         };
         settings.method = StepMethod::Dense;
         let dense = newton(&problem, &settings, &vec![0.0; 2 * m], &crate::Silent);
