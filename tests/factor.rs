@@ -1,4 +1,4 @@
-//! The kept complex symmetric LDLᵀ (`linalg::Factor::Ldlt`, `src/linalg/schur.rs`) against
+//! The kept complex symmetric LDLᵀ (`linalg::Factor::Ldlt`, `src/linalg/schur/`) against
 //! faer's pivoting sparse LU on shipped scenes: its solves, its contact compliance G_k, and
 //! the fallback to the LU when a pivot fails.
 
