@@ -4,14 +4,16 @@
 
 pub mod limits;
 pub mod raw;
+mod read;
 pub mod schema;
+mod validate;
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-pub(crate) use raw::config_error;
-pub use raw::{load_pipeline, parse_pipeline};
+pub use read::{load_pipeline, parse_pipeline};
 pub use schema::pipeline_schema;
+pub(crate) use validate::config_error;
 
 /// Default of `geometry.max_aspect_ratio`, above which a mesh is refused
 /// (`pipeline::sanity`).
