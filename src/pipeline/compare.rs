@@ -23,7 +23,7 @@
 //!
 //! Overlays: `Comparison::overlays` keeps both time series of every probe column, of the
 //! opening of the contact node with the largest HB force (`contact.csv`; time marching at its
-//! frames) and of the total contact force; `write` draws them (`plots::write_overlays`).
+//! frames) and of the total contact force; `write` draws them (`write_overlays`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -32,7 +32,9 @@ use faer::c64;
 use schemars::JsonSchema;
 use serde::Serialize;
 
+use super::plots::{over_period, style, time_axis};
 use crate::hbm::fourier;
+use crate::output::plot::{Axis, Figure};
 use crate::output::tables::{write_json, write_text};
 use crate::{Error, Result};
 
@@ -528,7 +530,7 @@ pub fn write(c: &Comparison, dir: &Path) -> Result<()> {
         "compare",
         &["compare.json", "compare.csv", "plots"],
     )?;
-    super::plots::write_overlays(c, &dir.join("plots"))?;
+    write_overlays(c, &dir.join("plots"))?;
     write_json(&dir.join("compare.json"), c)?;
     let mut csv = String::from(
         "quantity,unit,harmonic_balance,transient,difference,relative,phase_difference_deg\n",
@@ -555,6 +557,38 @@ pub fn compare_schema() -> serde_json::Value {
         .into_generator()
         .into_root_schema_for::<Comparison>();
     serde_json::Value::from(schema)
+}
+
+/// `compare`'s overlays: one figure per compared signal, harmonic balance against time
+/// marching over one period, as `compare_<quantity>` in `dir` (created); returns the files.
+pub fn write_overlays(c: &Comparison, dir: &Path) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let period = 1.0 / c.frequency_hz;
+    let mut files = Vec::new();
+    for o in &c.overlays {
+        let stem = format!("compare_{}", o.quantity);
+        overlay_figure(o, period).save(&dir.join(&stem))?;
+        files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
+    }
+    Ok(files)
+}
+
+fn overlay_figure(o: &Overlay, period: f64) -> Figure {
+    let (hb, tm) = (&o.harmonic_balance, &o.transient);
+    Figure::new(
+        format!("{}: harmonic balance against time marching", o.title),
+        time_axis(period),
+        Axis::linear(format!("{} [{}]", o.title, o.unit)),
+    )
+    .curve(
+        "harmonic balance",
+        over_period(&hb.times, &hb.values, period),
+    )
+    .add(
+        "time marching",
+        over_period(&tm.times, &tm.values, period),
+        style(tm.times.len()),
+    )
 }
 
 #[cfg(test)]

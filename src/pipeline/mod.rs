@@ -16,6 +16,7 @@ pub mod sanity;
 pub mod stability;
 pub mod stages;
 pub mod summary;
+pub mod times;
 
 use std::path::PathBuf;
 
@@ -30,9 +31,10 @@ use crate::Result;
 pub use model::{build, Model, Purpose};
 pub use modes::{modes, ModesResult, ModesSummary};
 use report::Sampled;
-pub use stages::{hb_settings, StageTimes, Stages};
+pub use stages::{hb_settings, Stages};
 use summary::MeshInfo;
 pub use summary::{summary_schema, Summary};
+pub use times::StageTimes;
 
 /// Options from the command line.
 #[derive(Clone, Debug, Default)]

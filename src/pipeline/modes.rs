@@ -14,8 +14,9 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::model::{build, MassModel, Model, Purpose};
-use super::stages::{self, StageTimes, Stages};
+use super::stages::{self, Stages};
 use super::summary::{sizes, MeshInfo, Sizes};
+use super::times::StageTimes;
 use super::RunOptions;
 use crate::config::Pipeline;
 use crate::fem::modes::{effective_mass, free_mass, lowest_modes, rayleigh_damping_ratio};

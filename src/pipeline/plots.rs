@@ -1,6 +1,5 @@
-//! The plots a run draws into `plots/` of its output directory, and the overlays `compare`
-//! draws of a harmonic-balance and a time-marching result; SVG and PNG each, through
-//! `output::plot`.
+//! The plots a run draws into `plots/` of its output directory, SVG and PNG each, through
+//! `output::plot` (`compare` draws its overlays with the same axes and styles).
 //!
 //! Per run, over the one period it writes (harmonic balance: the steady period at the
 //! history's N samples; time marching: the last marched period):
@@ -21,7 +20,6 @@
 
 use std::path::{Path, PathBuf};
 
-use super::compare::{Comparison, Overlay};
 use super::late::LateSignals;
 use super::model::Model;
 use super::report::{nodal_pressure, Sampled};
@@ -35,7 +33,7 @@ use crate::{Error, Result};
 /// marker at every sample (the time-marching frames).
 const DENSE: usize = 64;
 
-fn style(points: usize) -> Style {
+pub(super) fn style(points: usize) -> Style {
     if points >= DENSE {
         Style::Curve
     } else {
@@ -43,12 +41,12 @@ fn style(points: usize) -> Style {
     }
 }
 
-fn time_axis(period: f64) -> Axis {
+pub(super) fn time_axis(period: f64) -> Axis {
     Axis::linear(format!("t/T [-], period T = {} s", tick(period)))
 }
 
 /// (t/T, v) points closed over the period.
-fn over_period(times: &[f64], values: &[f64], period: f64) -> Vec<(f64, f64)> {
+pub(super) fn over_period(times: &[f64], values: &[f64], period: f64) -> Vec<(f64, f64)> {
     let mut pts: Vec<(f64, f64)> = times
         .iter()
         .zip(values)
@@ -291,36 +289,4 @@ fn late_spectrum(signals: &LateSignals, f: f64) -> Figure {
         fig = fig.curve(label, points);
     }
     fig
-}
-
-/// `compare`'s overlays: one figure per compared signal, harmonic balance against time
-/// marching over one period, as `compare_<quantity>` in `dir` (created); returns the files.
-pub fn write_overlays(c: &Comparison, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let period = 1.0 / c.frequency_hz;
-    let mut files = Vec::new();
-    for o in &c.overlays {
-        let stem = format!("compare_{}", o.quantity);
-        overlay_figure(o, period).save(&dir.join(&stem))?;
-        files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
-    }
-    Ok(files)
-}
-
-fn overlay_figure(o: &Overlay, period: f64) -> Figure {
-    let (hb, tm) = (&o.harmonic_balance, &o.transient);
-    Figure::new(
-        format!("{}: harmonic balance against time marching", o.title),
-        time_axis(period),
-        Axis::linear(format!("{} [{}]", o.title, o.unit)),
-    )
-    .curve(
-        "harmonic balance",
-        over_period(&hb.times, &hb.values, period),
-    )
-    .add(
-        "time marching",
-        over_period(&tm.times, &tm.values, period),
-        style(tm.times.len()),
-    )
 }

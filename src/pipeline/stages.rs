@@ -1,18 +1,15 @@
 //! The stages `run`, `run_transient`, `check` and `modes` string together, each timed into
-//! `StageTimes` and announced to the `Reporter`: meshing, the resonance check, solving by
+//! `StageTimes` (`times`) and announced to the `Reporter`: meshing, the resonance check, solving by
 //! harmonic balance or by time marching, the stability verdict, and committing the staged
 //! output with its summary.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
-
-use schemars::JsonSchema;
-use serde::{Serialize, Serializer};
 
 use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
 use super::stability::{self, Stability};
 use super::summary::{MeshInfo, Summary};
+use super::times::StageTimes;
 use crate::config::{BasisSpec, Pipeline, StabilityMethod};
 use crate::hbm::{self, HbSettings, Solution};
 use crate::mesh::{self, Mesh2d};
@@ -22,67 +19,6 @@ use crate::progress::Reporter;
 use crate::transient::setup::Marching;
 use crate::transient::{self, TransientResult, TransientSettings};
 use crate::{Error, Result};
-
-/// Per-stage wall times in seconds, in run order; serialized as a map with their `total`.
-#[derive(Clone, Debug, Default, JsonSchema)]
-#[schemars(with = "std::collections::BTreeMap<String, f64>")]
-pub struct StageTimes(Vec<(String, f64)>);
-
-impl StageTimes {
-    /// Run stage `name`, timing it and telling the reporter.
-    pub fn time<T>(
-        &mut self,
-        name: &str,
-        reporter: &dyn Reporter,
-        f: impl FnOnce() -> Result<T>,
-    ) -> Result<T> {
-        reporter.stage(name);
-        let start = Instant::now();
-        let out = f();
-        let secs = start.elapsed().as_secs_f64();
-        reporter.stage_done(name, secs);
-        self.0.push((name.to_string(), secs));
-        out
-    }
-
-    pub fn push(&mut self, name: &str, secs: f64) {
-        self.0.push((name.to_string(), secs));
-    }
-
-    /// Add `secs` to stage `name`'s time (a stage done in parts, e.g. a sweep's checks made
-    /// as its points are found), or push it when the stage has not run.
-    pub fn add(&mut self, name: &str, secs: f64) {
-        match self.0.iter_mut().find(|(n, _)| n == name) {
-            Some((_, v)) => *v += secs,
-            None => self.push(name, secs),
-        }
-    }
-
-    /// The time of stage `name` (summed if it ran several times; 0 if it never ran).
-    pub fn get(&self, name: &str) -> f64 {
-        self.0
-            .iter()
-            .filter(|(n, _)| n == name)
-            .map(|(_, v)| v)
-            .sum()
-    }
-
-    pub fn total(&self) -> f64 {
-        self.0.iter().map(|(_, v)| v).sum()
-    }
-}
-
-impl Serialize for StageTimes {
-    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut map = serializer.serialize_map(Some(self.0.len() + 1))?;
-        for (k, v) in &self.0 {
-            map.serialize_entry(k, v)?;
-        }
-        map.serialize_entry("total", &self.total())?;
-        map.end()
-    }
-}
 
 /// The run's bookkeeping: which pipeline, the reporter, and the stage times so far. Every
 /// stage runs through it, so each is timed, announced, and its error names pipeline and stage.

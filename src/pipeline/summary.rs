@@ -12,7 +12,7 @@ use serde::Serialize;
 use super::model::{Effects, Model};
 use super::report::{truncated_law_force, History, Sampled};
 use super::resonance::ResonanceCheck;
-use super::stages::StageTimes;
+use super::times::StageTimes;
 use crate::config::Pipeline;
 use crate::hbm::knobs::KnobCheck;
 use crate::hbm::{Complementarity, IterationLog, Solution};
