@@ -27,6 +27,10 @@
 //!   A = Σ r rᵀ over the held dofs' rows r = (1, 0, −(y − y_c)/L) or (0, 1, (x − x_c)/L), L the
 //!   part's size. Free motions warn; where harmonic balance needs the static stiffness (contact,
 //!   or a static load or motion) they make K singular: an error naming them.
+//! - spline scene (`check_spline_scene`, when the pipeline is loaded): with a spline basis of
+//!   degree p and S segments, given samples N a multiple of S with at least p + 1 per segment
+//!   (the contact quadrature), S odd in a sweep with contact (at S/2 an undamped Nyquist
+//!   frequency), and S > 2k for every harmonic k of the loads and motions.
 //! - initial penetration: contact nodes with a negative initial gap. Deeper than
 //!   `SMALL_STRAIN` S it is refused unless `contact.allow_initial_penetration` (then warned).
 //! - thin for its cells: at a boundary node, the thickness t is the distance along the inward
