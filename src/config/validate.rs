@@ -55,7 +55,7 @@ pub(crate) fn config_error(path: &Path, message: impl Into<String>) -> Error {
 }
 
 /// A number as a message shows it: plain when moderate, in exponent form when huge or tiny.
-pub(super) fn show(v: f64) -> String {
+fn show(v: f64) -> String {
     if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
         format!("{v:e}")
     } else {
@@ -64,7 +64,7 @@ pub(super) fn show(v: f64) -> String {
 }
 
 /// A number that must be finite and at most `MAX_MAGNITUDE` in size.
-pub(super) fn finite(path: &Path, field: &str, v: f64) -> Result<f64> {
+fn finite(path: &Path, field: &str, v: f64) -> Result<f64> {
     if v.is_finite() && v.abs() <= MAX_MAGNITUDE {
         Ok(v)
     } else {
@@ -78,7 +78,7 @@ pub(super) fn finite(path: &Path, field: &str, v: f64) -> Result<f64> {
     }
 }
 
-pub(super) fn finite_all(path: &Path, field: &str, values: &[f64]) -> Result<()> {
+fn finite_all(path: &Path, field: &str, values: &[f64]) -> Result<()> {
     for (i, &v) in values.iter().enumerate() {
         let name = if values.len() > 1 {
             format!("{field}[{i}]")
@@ -91,7 +91,7 @@ pub(super) fn finite_all(path: &Path, field: &str, values: &[f64]) -> Result<()>
 }
 
 /// A group name: non-empty and at most `MAX_NAME_CHARS` characters.
-pub(super) fn group_name(path: &Path, field: &str, name: &str) -> Result<()> {
+fn group_name(path: &Path, field: &str, name: &str) -> Result<()> {
     let n = name.chars().count();
     if n == 0 || n > MAX_NAME_CHARS {
         return Err(config_error(
@@ -105,7 +105,7 @@ pub(super) fn group_name(path: &Path, field: &str, name: &str) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
+fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
     if v > 0.0 && v.is_finite() && v <= MAX_MAGNITUDE {
         Ok(v)
     } else {
@@ -121,7 +121,7 @@ pub(super) fn positive(path: &Path, field: &str, v: f64) -> Result<f64> {
 
 /// A relative path from the pipeline: next to it, then one level up (the project root for
 /// `pipelines/x.yaml`), then from the working directory; else an error naming each place tried.
-pub(super) fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
+fn resolve(path: &Path, field: &str, file: &Path) -> Result<PathBuf> {
     if file.is_absolute() {
         return if file.exists() {
             Ok(file.to_path_buf())
@@ -188,7 +188,7 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
 
 /// A contact solve computes harmonics 0..H only: every harmonic a load or motion excites must
 /// be among them.
-pub(super) fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> Result<()> {
+fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> Result<()> {
     let loads = b.loads.iter().enumerate().flat_map(|(i, l)| {
         l.signal
             .harmonics
@@ -214,7 +214,7 @@ pub(super) fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> 
     Ok(())
 }
 
-pub(super) fn validate_name(path: &Path, name: &str) -> Result<()> {
+fn validate_name(path: &Path, name: &str) -> Result<()> {
     if name.chars().count() > 100 {
         return Err(config_error(
             path,
@@ -240,7 +240,7 @@ pub(super) fn validate_name(path: &Path, name: &str) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
+fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry> {
     let order = g.order.unwrap_or(1);
     if !(1..=2).contains(&order) {
         return Err(config_error(
@@ -315,7 +315,7 @@ pub(super) fn validate_geometry(path: &Path, g: RawGeometry) -> Result<Geometry>
     })
 }
 
-pub(super) fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
+fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialSpec> {
     positive(path, "material.youngs_modulus", m.youngs_modulus)?;
     positive(path, "material.density", m.density)?;
     if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
@@ -351,7 +351,7 @@ pub(super) fn validate_material(path: &Path, m: RawMaterial) -> Result<MaterialS
 }
 
 /// Harmonic indices of one signal: each k ≥ 1 and at most once; `field` names the entry.
-pub(super) fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> {
+fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> Result<()> {
     for (j, &k) in ks.iter().enumerate() {
         if k == 0 || ks[..j].contains(&k) {
             return Err(config_error(path, format!("{field}.harmonics[{j}].k = {k} must be ≥ 1 and appear once (put the constant part in `static`)")));
@@ -368,7 +368,7 @@ pub(super) fn check_harmonic_indices(path: &Path, field: &str, ks: &[usize]) -> 
     Ok(())
 }
 
-pub(super) fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
+fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
     for (i, g) in b.fixed.iter().enumerate() {
         group_name(path, &format!("boundaries.fixed[{i}]"), g)?;
     }
@@ -392,11 +392,7 @@ pub(super) fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Bound
 }
 
 /// `boundaries.prescribed[i]`: a group name, distinct harmonic indices, finite values.
-pub(super) fn validate_prescribed(
-    path: &Path,
-    i: usize,
-    p: RawPrescribed,
-) -> Result<PrescribedSpec> {
+fn validate_prescribed(path: &Path, i: usize, p: RawPrescribed) -> Result<PrescribedSpec> {
     let field = format!("boundaries.prescribed[{i}]");
     group_name(path, &format!("{field}.group"), &p.group)?;
     let ks: Vec<usize> = p.harmonics.iter().map(|h| h.k).collect();
@@ -425,7 +421,7 @@ pub(super) fn validate_prescribed(
 
 /// `boundaries.loads[i]`: a group name, distinct harmonic indices, finite values, and a
 /// static part or harmonics.
-pub(super) fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpec> {
+fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpec> {
     let field = format!("boundaries.loads[{i}]");
     group_name(path, &format!("{field}.group"), &l.group)?;
     let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
@@ -460,10 +456,7 @@ pub(super) fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpe
     })
 }
 
-pub(super) fn validate_damping(
-    path: &Path,
-    damping: Option<RawDamping>,
-) -> Result<Option<Rayleigh>> {
+fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<Rayleigh>> {
     let Some(d) = damping else {
         return Ok(None);
     };
@@ -483,10 +476,7 @@ pub(super) fn validate_damping(
     }))
 }
 
-pub(super) fn validate_harmonic_balance(
-    path: &Path,
-    hb: RawHarmonicBalance,
-) -> Result<HarmonicBalance> {
+fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<HarmonicBalance> {
     if hb.frequency.is_finite() && hb.frequency > MAX_FREQUENCY {
         return Err(config_error(
             path,
@@ -567,9 +557,9 @@ pub(super) fn validate_harmonic_balance(
 }
 
 /// The most segments of a spline basis (as many unknowns per scalar as samples).
-pub(super) const MAX_SEGMENTS: usize = 100_000;
+const MAX_SEGMENTS: usize = 100_000;
 
-pub(super) fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
+fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
     let Some(RawBasis::Spline { degree, segments }) = basis else {
         return Ok(BasisSpec::Fourier);
     };
@@ -592,10 +582,7 @@ pub(super) fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<Bas
     Ok(BasisSpec::Spline { degree, segments })
 }
 
-pub(super) fn validate_contact(
-    path: &Path,
-    contact: Option<RawContact>,
-) -> Result<Option<ContactSpec>> {
+fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
     let Some(c) = contact else {
         return Ok(None);
     };
@@ -645,10 +632,7 @@ pub(super) fn validate_contact(
     }))
 }
 
-pub(super) fn validate_transient(
-    path: &Path,
-    transient: Option<RawTransient>,
-) -> Result<TransientSpec> {
+fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<TransientSpec> {
     let mut spec = TransientSpec::default();
     let Some(t) = transient else {
         return Ok(spec);
@@ -702,7 +686,7 @@ pub(super) fn validate_transient(
     Ok(spec)
 }
 
-pub(super) fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<StabilitySpec> {
+fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<StabilitySpec> {
     let mut spec = StabilitySpec::default();
     let Some(r) = raw else {
         return Ok(spec);
@@ -749,7 +733,7 @@ pub(super) fn validate_stability(path: &Path, raw: Option<RawStability>) -> Resu
     Ok(spec)
 }
 
-pub(super) fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
+fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
     let mut spec = SweepSpec {
         from_hz: sweep_frequency(path, "sweep.from", s.from)?,
         to_hz: sweep_frequency(path, "sweep.to", s.to)?,
@@ -830,11 +814,11 @@ pub(super) fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
 }
 
 /// The most points one sweep may take (each is a set of factorizations).
-pub(super) const MAX_SWEEP_POINTS: usize = 100_000;
+const MAX_SWEEP_POINTS: usize = 100_000;
 
 /// `sweep.from` and `sweep.to`: positive and at most `MAX_FREQUENCY`, like
 /// `harmonic_balance.frequency`.
-pub(super) fn sweep_frequency(path: &Path, field: &str, v: f64) -> Result<f64> {
+fn sweep_frequency(path: &Path, field: &str, v: f64) -> Result<f64> {
     if v.is_finite() && v > MAX_FREQUENCY {
         return Err(config_error(
             path,
@@ -847,11 +831,7 @@ pub(super) fn sweep_frequency(path: &Path, field: &str, v: f64) -> Result<f64> {
     positive(path, field, v)
 }
 
-pub(super) fn validate_output(
-    path: &Path,
-    output: Option<RawOutput>,
-    name: &str,
-) -> Result<OutputSpec> {
+fn validate_output(path: &Path, output: Option<RawOutput>, name: &str) -> Result<OutputSpec> {
     let out = output.unwrap_or(RawOutput {
         directory: None,
         frames: None,

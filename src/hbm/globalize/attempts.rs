@@ -32,7 +32,7 @@ pub(super) struct Route {
 
 impl Route {
     /// Up the ladder `ladder` (just [H]: direct), without the damping continuation.
-    pub(super) fn laddered(ladder: Vec<usize>) -> Route {
+    fn laddered(ladder: Vec<usize>) -> Route {
         let damping = Vec::new();
         Route { ladder, damping }
     }
@@ -47,7 +47,7 @@ pub(super) struct Attempts<'a> {
     pub(super) log: Vec<IterationLog>,
     pub(super) reasons: Vec<String>,
     /// When the time budget ends.
-    pub(super) deadline: Instant,
+    deadline: Instant,
     /// The budget a failed run ran out of, if any.
     pub(super) exhausted: Option<Budget>,
     /// The preconditioner every run's matrix-free steps start with: the one that served the
@@ -80,7 +80,7 @@ pub(super) fn converging(log: &[IterationLog]) -> bool {
 }
 
 /// Newton steps below which a run that used up its iterations counts as converging.
-pub(super) const STUCK_AFTER: usize = 8;
+const STUCK_AFTER: usize = 8;
 
 impl<'a> Attempts<'a> {
     /// No run yet; the time budget starts now.
@@ -124,7 +124,7 @@ impl<'a> Attempts<'a> {
     }
 
     /// The problem at rung h: the full one borrowed, a truncation owned.
-    pub(super) fn problem_at(&self, h: usize) -> Cow<'a, ReducedProblem> {
+    fn problem_at(&self, h: usize) -> Cow<'a, ReducedProblem> {
         if h == self.problem.harmonics {
             Cow::Borrowed(self.problem)
         } else {
@@ -190,7 +190,7 @@ impl<'a> Attempts<'a> {
     }
 
     /// `smoothed` on a given problem (a ladder rung, a heavier-damped scene).
-    pub(super) fn smoothed_on(
+    fn smoothed_on(
         &mut self,
         problem: &ReducedProblem,
         c: f64,
@@ -283,7 +283,7 @@ impl<'a> Attempts<'a> {
     /// `None` when the level had not settled, the pipeline's `max_iterations` leaves no room
     /// for the try, or the exact law did not converge within it (the levels then go on from
     /// `level`).
-    pub(super) fn settled_exact(
+    fn settled_exact(
         &mut self,
         problem: &ReducedProblem,
         c: f64,
@@ -308,7 +308,7 @@ impl<'a> Attempts<'a> {
 
     /// The Newton on the exact law (μ = 0) from a smoothing level's solution `x`, taking at
     /// least `min_iterations` and at most `max_iterations` steps.
-    pub(super) fn exact_law(
+    fn exact_law(
         &mut self,
         problem: &ReducedProblem,
         c: f64,
@@ -323,7 +323,7 @@ impl<'a> Attempts<'a> {
     /// `exact_law` from a continuation's end point `x`, with the pipeline's `max_iterations`
     /// and at least one step to polish it onto the exact law's active set (none when nothing
     /// penetrates, `force` = 0: λ = 0 is then exact).
-    pub(super) fn exact_law_at_end(
+    fn exact_law_at_end(
         &mut self,
         problem: &ReducedProblem,
         c: f64,
@@ -340,12 +340,7 @@ impl<'a> Attempts<'a> {
     /// the step in μ (and so in the damping), unless it ran out of `max_iterations`; a level
     /// converged in two iterations or fewer widens it back towards 0.3. Returns the ratios ζ
     /// passed through.
-    pub(super) fn joint(
-        &mut self,
-        c: f64,
-        heavier: Heavier,
-        zeta: f64,
-    ) -> Option<(NewtonOutcome, Vec<f64>)> {
+    fn joint(&mut self, c: f64, heavier: Heavier, zeta: f64) -> Option<(NewtonOutcome, Vec<f64>)> {
         let (own, top) = (self.problem, DAMPED_START / zeta);
         let mut settings = self.newton_settings(own.harmonics, c, 0.0);
         let force = reduced::linear_force(own, settings.samples, c);
@@ -402,7 +397,7 @@ impl<'a> Attempts<'a> {
     /// One Newton run on the scene with its damping scaled by `scale` (the scene's own at 1),
     /// the heavier problem kept in `heavy` for the next level at the same scale; `None` when
     /// it cannot be formed or the time budget is spent (the reason recorded).
-    pub(super) fn run_scaled(
+    fn run_scaled(
         &mut self,
         heavy: &mut Option<(f64, ReducedProblem)>,
         heavier: Heavier,
@@ -454,11 +449,7 @@ impl<'a> Attempts<'a> {
     }
 
     /// `heavier(scale)`, or `None` with the reason recorded (or the time budget spent).
-    pub(super) fn heavier_problem(
-        &mut self,
-        heavier: Heavier,
-        scale: f64,
-    ) -> Option<ReducedProblem> {
+    fn heavier_problem(&mut self, heavier: Heavier, scale: f64) -> Option<ReducedProblem> {
         if Instant::now() >= self.deadline {
             self.exhausted = Some(Budget::Time);
             return None;

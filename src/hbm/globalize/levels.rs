@@ -93,7 +93,7 @@ pub(super) fn short_steps(log: &[IterationLog]) -> bool {
 /// schedule of `smoothed_on` and `joint`.
 pub(super) struct Levels {
     pub(super) force: f64,
-    pub(super) floor: f64,
+    floor: f64,
     pub(super) ratio: f64,
     /// μ of the last level passed (F before any), and its solution (the start before any).
     pub(super) last: f64,

@@ -59,7 +59,7 @@ pub(super) struct Scratch {
 /// elimination that fills it). It remembers whether a `take` found it empty, so that memory
 /// touched ahead stops once the eliminations outrun it. A clone is an empty pool.
 pub(super) struct Pool<T> {
-    pub(super) items: std::sync::Mutex<Vec<T>>,
+    items: std::sync::Mutex<Vec<T>>,
     pub(super) ran_dry: std::sync::atomic::AtomicBool,
 }
 
@@ -221,7 +221,7 @@ impl LdltFactor {
     }
 
     /// Tᵀ b per right-hand side: x[q * r + c] is coordinate q of right-hand side c.
-    pub(super) fn transformed<B: AsRef<[c64]>>(&self, rhs: &[B]) -> Vec<c64> {
+    fn transformed<B: AsRef<[c64]>>(&self, rhs: &[B]) -> Vec<c64> {
         let (n, r) = (self.plan.dim(), rhs.len());
         let mut x = vec![c64::new(0.0, 0.0); n * r];
         for (c, b) in rhs.iter().enumerate() {
@@ -238,7 +238,7 @@ impl LdltFactor {
     /// A supernode whose pivot rows are all zero changes nothing and is skipped: a right-hand
     /// side on the contact normals alone (Bᵀy) passes through untouched.
     #[inline(always)]
-    pub(super) fn forward<S: pulp::Simd>(&self, simd: S, x: &mut [c64], r: usize) {
+    fn forward<S: pulp::Simd>(&self, simd: S, x: &mut [c64], r: usize) {
         let mut local = Vec::new();
         let zero = c64::new(0.0, 0.0);
         for (s, node) in self.plan.supernodes.iter().enumerate() {
@@ -275,7 +275,7 @@ impl LdltFactor {
     }
 
     /// x_n ← S⁻¹ x_n on the kept coordinates.
-    pub(super) fn apply_s_inverse(&self, x: &mut [c64], r: usize) {
+    fn apply_s_inverse(&self, x: &mut [c64], r: usize) {
         let (e, nk) = (self.plan.eliminated, self.plan.kept());
         if nk > 0 {
             let xn = MatRef::from_row_major_slice(&x[e * r..], nk, r);
@@ -290,7 +290,7 @@ impl LdltFactor {
 
     /// x ← L⁻ᵀ x over the eliminated coordinates.
     #[inline(always)]
-    pub(super) fn backward<S: pulp::Simd>(&self, simd: S, x: &mut [c64], r: usize) {
+    fn backward<S: pulp::Simd>(&self, simd: S, x: &mut [c64], r: usize) {
         let mut local = Vec::new();
         for (s, node) in self.plan.supernodes.iter().enumerate().rev() {
             let l = self.panel(s);
@@ -318,11 +318,11 @@ impl LdltFactor {
 /// A solve's sweeps (forward, S⁻¹ and, if asked, backward) as a `pulp::WithSimd`
 /// operation, compiled like `Elimination` for the widest instruction set the machine has:
 /// their column updates are complex mul-adds, which SSE2 does by shuffles.
-pub(super) struct Sweeps<'a> {
+struct Sweeps<'a> {
     pub(super) factor: &'a LdltFactor,
     pub(super) x: &'a mut [c64],
     pub(super) r: usize,
-    pub(super) backward: bool,
+    backward: bool,
 }
 
 impl pulp::WithSimd for Sweeps<'_> {

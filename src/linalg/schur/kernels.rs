@@ -121,7 +121,7 @@ pub(super) fn subtract_multiple<S: pulp::Simd>(simd: S, y: &mut [c64], x: &[c64]
 /// loop's rounding: a sweep through a tangle of the sampled law turns on its last digits
 /// (docs/method.md §4).
 #[inline(always)]
-pub(super) fn subtract_product(y: &mut [c64], x: &[c64], s: c64) {
+fn subtract_product(y: &mut [c64], x: &[c64], s: c64) {
     let x = &x[..y.len()];
     let (yf, xf): (&mut [f64], &[f64]) = (
         pulp::bytemuck::cast_slice_mut(y),
@@ -148,7 +148,7 @@ pub(super) fn subtract_product(y: &mut [c64], x: &[c64], s: c64) {
 
 /// x *= s (complex), rounded exactly as the plain loop, two at a time (as `subtract_product`).
 #[inline(always)]
-pub(super) fn scale_exactly(x: &mut [c64], s: c64) {
+fn scale_exactly(x: &mut [c64], s: c64) {
     let xf: &mut [f64] = pulp::bytemuck::cast_slice_mut(x);
     let mut pairs = xf.chunks_exact_mut(4);
     for x in &mut pairs {
@@ -167,7 +167,7 @@ pub(super) fn scale_exactly(x: &mut [c64], s: c64) {
 
 /// The largest max(|re|, |im|) of x (0 for none), in the machine's widest registers.
 #[inline(always)]
-pub(super) fn largest<S: pulp::Simd>(simd: S, x: &[c64]) -> f64 {
+fn largest<S: pulp::Simd>(simd: S, x: &[c64]) -> f64 {
     let parts: &[f64] = pulp::bytemuck::cast_slice(x);
     let (head, tail) = S::as_simd_f64s(parts);
     let mut big = simd.splat_f64s(0.0);
@@ -204,13 +204,7 @@ pub(super) fn dot<S: pulp::Simd>(simd: S, x: &[c64], y: &[c64]) -> c64 {
 }
 
 /// F[end.., end..] −= L D Lᵀ (lower triangle) for the panel of columns start..end.
-pub(super) fn trailing_update(
-    front: &mut [c64],
-    m: usize,
-    start: usize,
-    end: usize,
-    work: &mut Vec<c64>,
-) {
+fn trailing_update(front: &mut [c64], m: usize, start: usize, end: usize, work: &mut Vec<c64>) {
     let (rest, width) = (m - end, end - start);
     if rest == 0 {
         return;

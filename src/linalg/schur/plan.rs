@@ -16,15 +16,15 @@ use crate::linalg::Csc;
 
 /// The basis change T: per old dof the coordinates it expands into, which coordinates are
 /// kept, and each row of B's kept coordinate.
-pub(super) struct Basis {
-    pub(super) exp: Vec<Expansion>,
+struct Basis {
+    exp: Vec<Expansion>,
     pub(super) kept: Vec<bool>,
-    pub(super) kept_dof: Vec<Option<usize>>,
+    kept_dof: Vec<Option<usize>>,
 }
 
 impl Basis {
     /// T = I, nothing kept (no contact).
-    pub(super) fn identity(n: usize) -> Basis {
+    fn identity(n: usize) -> Basis {
         Basis {
             exp: (0..n).map(|d| vec![(d, 1.0)]).collect(),
             kept: vec![false; n],
@@ -35,7 +35,7 @@ impl Basis {
 
 /// The basis change for B; `None` when B is not one row per node on at most two dofs of its
 /// own (then only the solve path applies).
-pub(super) fn expansions(b: &Csc) -> Option<Basis> {
+fn expansions(b: &Csc) -> Option<Basis> {
     let n = b.ncols;
     let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); b.nrows];
     for j in 0..n {
@@ -78,17 +78,17 @@ pub(super) fn expansions(b: &Csc) -> Option<Basis> {
 }
 
 /// A column-compressed pattern: column c's rows, ascending and distinct, at ptr[c]..ptr[c + 1].
-pub(super) struct Pattern {
-    pub(super) ptr: Vec<usize>,
-    pub(super) idx: Vec<usize>,
+struct Pattern {
+    ptr: Vec<usize>,
+    idx: Vec<usize>,
 }
 
 impl Pattern {
-    pub(super) fn col(&self, c: usize) -> &[usize] {
+    fn col(&self, c: usize) -> &[usize] {
         &self.idx[self.ptr[c]..self.ptr[c + 1]]
     }
 
-    pub(super) fn cols(&self) -> usize {
+    fn cols(&self) -> usize {
         self.ptr.len() - 1
     }
 
@@ -131,7 +131,7 @@ impl Pattern {
 
 /// The sorted, deduplicated full pattern of Ã on the coordinates: column q gathers, for every
 /// entry (r, c) of A and every coordinate q of c's expansion, the coordinates of r's.
-pub(super) fn transformed_pattern(a: &Csc, exp: &[Expansion]) -> Pattern {
+fn transformed_pattern(a: &Csc, exp: &[Expansion]) -> Pattern {
     let entries = |c: usize| a.row_idx[a.col_ptr[c]..a.col_ptr[c + 1]].iter();
     let mut counts = vec![0usize; a.ncols];
     for c in 0..a.ncols {
@@ -153,11 +153,7 @@ pub(super) fn transformed_pattern(a: &Csc, exp: &[Expansion]) -> Pattern {
 
 /// AMD order of the eliminated coordinates, then the kept ones in the order of B's rows:
 /// `order[new] = coordinate`.
-pub(super) fn elimination_order(
-    cols: &Pattern,
-    kept: &[bool],
-    kept_dof: &[Option<usize>],
-) -> Vec<usize> {
+fn elimination_order(cols: &Pattern, kept: &[bool], kept_dof: &[Option<usize>]) -> Vec<usize> {
     let elim: Vec<usize> = (0..cols.cols()).filter(|&c| !kept[c]).collect();
     let mut compact = vec![usize::MAX; cols.cols()];
     for (i, &c) in elim.iter().enumerate() {
@@ -197,19 +193,14 @@ pub(super) fn elimination_order(
 }
 
 /// Ã's lower triangle in the new order (CSC) and, per nonzero of A, the slots it adds into.
-pub(super) struct Transformed {
+struct Transformed {
     pub(super) col_ptr: Vec<usize>,
     pub(super) row_idx: Vec<usize>,
     pub(super) scatter_ptr: Vec<usize>,
     pub(super) scatter: Vec<(usize, f64)>,
 }
 
-pub(super) fn transform(
-    a: &Csc,
-    exp: &[Expansion],
-    cols: &Pattern,
-    position: &[usize],
-) -> Transformed {
+fn transform(a: &Csc, exp: &[Expansion], cols: &Pattern, position: &[usize]) -> Transformed {
     let n = cols.cols();
     let mut counts = vec![0usize; n];
     for c in 0..n {
@@ -267,7 +258,7 @@ pub(super) fn transform(
 }
 
 /// Mul-adds of eliminating `pivots` columns of a front of `m` rows (LDLᵀ, lower triangle).
-pub(super) fn front_cost(pivots: usize, m: usize) -> f64 {
+fn front_cost(pivots: usize, m: usize) -> f64 {
     (0..pivots)
         .map(|k| {
             let c = (m - k - 1) as f64;
@@ -290,7 +281,7 @@ impl SchurPlan {
         Self::build(a, Basis::identity(a.ncols))
     }
 
-    pub(super) fn build(a: &Csc, basis: Basis) -> SchurPlan {
+    fn build(a: &Csc, basis: Basis) -> SchurPlan {
         let Basis {
             exp,
             kept,
@@ -447,7 +438,7 @@ impl SchurPlan {
         result
     }
 
-    pub(super) fn eliminate_with(
+    fn eliminate_with(
         &self,
         re: &[f64],
         im: Option<&[f64]>,
@@ -673,7 +664,7 @@ pub(super) fn trapezoid(pivots: usize, m: usize) -> usize {
 /// pivots, or at most 16 and under 80% explicit zeros in its L, or at most 48 and under 10%,
 /// or any size and under 5%. The merged front's rows are the child's pivots, then the
 /// parent's rows (the child's CB rows are among them). Children before parents, greedily.
-pub(super) fn amalgamate(mut nodes: Vec<Supernode>) -> Vec<Supernode> {
+fn amalgamate(mut nodes: Vec<Supernode>) -> Vec<Supernode> {
     let count = nodes.len();
     let mut zeros = vec![0usize; count];
     let mut alive = vec![true; count];

@@ -43,7 +43,7 @@ pub(super) fn sha256_hex(bytes: &[u8]) -> String {
 
 /// The largest cached mesh read back, per element `geometry.max_elements` allows [bytes]: an
 /// element of a second-order mesh, with its share of nodes, takes about 200 bytes in MSH 4.1.
-pub(super) const CACHED_BYTES_PER_ELEMENT: u64 = 1024;
+const CACHED_BYTES_PER_ELEMENT: u64 = 1024;
 
 /// Whether a cached mesh is the one gmsh wrote: at most `CACHED_BYTES_PER_ELEMENT` per
 /// element `max_elements` allows, and its SHA-256 equals the one stored beside it (a

@@ -17,20 +17,20 @@ use super::*;
 pub(super) const TRIAL_ELEMENTS: f64 = 4000.0;
 
 /// Elements of an equilateral-triangle mesh of size h per unit area: 4/(√3 h²).
-pub(super) const TRIANGLES_PER_AREA: f64 = 2.31;
+const TRIANGLES_PER_AREA: f64 = 2.31;
 
 /// What the geometry looks like before meshing (from gmsh `-0`): the bounding box of its points
 /// and the smallest size it asks for anywhere (point sizes, field sizes, `-clmax`).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Extent {
-    pub(super) area: f64,
-    pub(super) diagonal: f64,
-    pub(super) smallest_size: Option<f64>,
+struct Extent {
+    area: f64,
+    diagonal: f64,
+    smallest_size: Option<f64>,
 }
 
 /// Read the points and sizes of an unrolled `.geo` (what gmsh `-0` writes: numbers and
 /// `cl__N` variables).
-pub(super) fn parse_unrolled(text: &str) -> Option<Extent> {
+fn parse_unrolled(text: &str) -> Option<Extent> {
     let mut vars: BTreeMap<String, f64> = BTreeMap::new();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     let mut smallest = f64::INFINITY;

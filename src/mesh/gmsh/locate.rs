@@ -35,7 +35,7 @@ impl GmshCommand {
     }
 }
 
-pub(super) fn venv_command(venv_bin: &Path) -> Option<GmshCommand> {
+fn venv_command(venv_bin: &Path) -> Option<GmshCommand> {
     let script = venv_bin.join("gmsh");
     if !script.is_file() {
         return None;
@@ -112,14 +112,14 @@ pub fn find_gmsh(explicit: Option<&Path>, near: Option<&Path>) -> Result<GmshCom
     )))
 }
 
-pub(super) static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
+static VERSIONS: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
 /// The file in a mesh cache that remembers `gmsh --version` across processes.
-pub(super) const VERSIONS_FILE: &str = "gmsh-versions.txt";
+const VERSIONS_FILE: &str = "gmsh-versions.txt";
 
 /// The largest `VERSIONS_FILE` read back [bytes]: a line per gmsh installation, each a few
 /// hundred bytes.
-pub(super) const VERSIONS_FILE_BYTES: u64 = 64 << 10;
+const VERSIONS_FILE_BYTES: u64 = 64 << 10;
 
 /// The contents of `path` when it holds at most `max` bytes (None: missing, unreadable or
 /// larger): files of the cache are read back without trusting their size.
@@ -154,7 +154,7 @@ pub fn gmsh_version(cmd: &GmshCommand, cache_dir: Option<&Path>) -> Result<Strin
 /// pip wheel's Python only to ask costs 0.1–0.15 s, most of a small scene's run; an upgrade
 /// of gmsh rewrites those files, and a changed file asks again. A file that cannot be read or
 /// written only means asking.
-pub(super) fn remembered_version(
+fn remembered_version(
     cmd: &GmshCommand,
     dir: &Path,
     ask: impl FnOnce() -> Result<String>,
@@ -189,7 +189,7 @@ pub(super) fn remembered_version(
 /// the venv's `gmsh.py` module, the wheel's API, which holds the version): their paths, and
 /// their sizes and modification times (ns); `None` when one cannot be read (then the version
 /// is not remembered).
-pub(super) fn command_stamp(cmd: &GmshCommand) -> Option<(String, String)> {
+fn command_stamp(cmd: &GmshCommand) -> Option<(String, String)> {
     let modules = cmd.prefix_args.iter().flat_map(|script| {
         let lib = script
             .parent()
@@ -225,7 +225,7 @@ pub(super) fn command_stamp(cmd: &GmshCommand) -> Option<(String, String)> {
 }
 
 /// Run `gmsh --version`.
-pub(super) fn ask_version(cmd: &GmshCommand) -> Result<String> {
+fn ask_version(cmd: &GmshCommand) -> Result<String> {
     let key = cmd.describe();
     let mut c = cmd.command();
     c.arg("--version");

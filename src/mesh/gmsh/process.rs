@@ -14,7 +14,7 @@ use crate::{Error, Result};
 use super::*;
 
 /// Process groups of the gmsh runs under way (their leaders' pids), for `kill_running`.
-pub(super) static RUNNING: Mutex<Vec<i32>> = Mutex::new(Vec::new());
+static RUNNING: Mutex<Vec<i32>> = Mutex::new(Vec::new());
 
 /// Kill every gmsh run under way (its whole process group); true when there was one. For a
 /// SIGINT/SIGTERM handler of the program: gmsh runs in its own process group, so a
@@ -29,7 +29,7 @@ pub fn kill_running() -> bool {
     !running.is_empty()
 }
 
-pub(super) fn kill_group(pgid: i32) {
+fn kill_group(pgid: i32) {
     if pgid > 0 {
         // SAFETY: kill(2) has no memory-safety preconditions; a negative pid names the group.
         unsafe {
@@ -39,9 +39,9 @@ pub(super) fn kill_group(pgid: i32) {
 }
 
 /// Unregisters a running gmsh and kills its group unless it ended by itself (also on unwinding).
-pub(super) struct RunningGuard {
-    pub(super) pgid: i32,
-    pub(super) ended: bool,
+struct RunningGuard {
+    pgid: i32,
+    ended: bool,
 }
 
 impl Drop for RunningGuard {
@@ -115,7 +115,7 @@ pub(super) enum Stop {
 pub(super) struct Conversation<'a> {
     pub(super) stdin: Option<std::process::ChildStdin>,
     pub(super) lines: mpsc::Receiver<String>,
-    pub(super) deadline: Instant,
+    deadline: Instant,
     pub(super) timeout: Duration,
     pub(super) what: &'a str,
     /// The memory limit in force (the last one the session was told).
@@ -152,7 +152,7 @@ impl Conversation<'_> {
     }
 }
 
-pub(super) fn timed_out(what: &str, timeout: Duration) -> Error {
+fn timed_out(what: &str, timeout: Duration) -> Error {
     Error::Gmsh(format!(
         "{what} did not finish within geometry.gmsh_timeout = {} s and was killed (with its process group); the mesh is probably too fine: a larger geometry.mesh_size or larger size parameters, or raise geometry.gmsh_timeout",
         timeout.as_secs_f64()
@@ -226,7 +226,7 @@ pub(super) fn converse<T>(
 /// Start gmsh in its own process group, dying with this process (a parent-death signal), its
 /// address space limited (`limits`: soft and hard RLIMIT_AS), its stdout and stderr piped (and
 /// stdin when `interactive`), registered for `kill_running`.
-pub(super) fn spawn_bounded(
+fn spawn_bounded(
     mut c: Command,
     what: &str,
     interactive: bool,
@@ -299,7 +299,7 @@ pub(super) fn spawn_bounded(
 
 /// gmsh's stdout: each of gmsh's lines reported as progress (the conversation's own answers,
 /// `hbcontact:…`, are not), and every line passed on to the conversation.
-pub(super) fn read_stdout(
+fn read_stdout(
     stdout: Option<std::process::ChildStdout>,
     reporter: &dyn Reporter,
     sender: mpsc::Sender<String>,
@@ -324,7 +324,7 @@ pub(super) fn read_stdout(
 }
 
 /// Wait for gmsh's end until `deadline`, then kill its group.
-pub(super) fn wait_bounded(
+fn wait_bounded(
     child: &mut std::process::Child,
     pgid: i32,
     deadline: Instant,

@@ -13,7 +13,7 @@ use super::*;
 
 /// The gmsh command line meshing `request` in 2-D into `out`, sizes scaled by `scale`
 /// (`-clscale`), without the program.
-pub(super) fn mesh_args(request: &MeshRequest, out: &Path, scale: f64) -> Vec<std::ffi::OsString> {
+fn mesh_args(request: &MeshRequest, out: &Path, scale: f64) -> Vec<std::ffi::OsString> {
     let mut args: Vec<std::ffi::OsString> = vec![request.geo.clone().into(), "-2".into()];
     args.extend(["-order".into(), request.order.to_string().into()]);
     args.extend(parameter_args(request));
@@ -30,7 +30,7 @@ pub(super) fn mesh_args(request: &MeshRequest, out: &Path, scale: f64) -> Vec<st
     args
 }
 
-pub(super) fn parameter_args(request: &MeshRequest) -> Vec<std::ffi::OsString> {
+fn parameter_args(request: &MeshRequest) -> Vec<std::ffi::OsString> {
     let mut args: Vec<std::ffi::OsString> = Vec::new();
     for (k, v) in &request.parameters {
         args.extend(["-setnumber".into(), k.into(), format!("{v:e}").into()]);
@@ -43,7 +43,7 @@ pub(super) fn parameter_args(request: &MeshRequest) -> Vec<std::ffi::OsString> {
 
 /// The message of a failed gmsh run: its lines with "Error" (else its last lines) and how it
 /// ended, even when it printed nothing (killed by a signal).
-pub(super) fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Error {
+fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Error {
     let text = format!("{}{}", o.stdout, o.stderr);
     let errors: Vec<&str> = text.lines().filter(|l| l.contains("Error")).collect();
     let mut shown = if errors.is_empty() {
@@ -97,7 +97,7 @@ pub(super) fn failure(request: &MeshRequest, o: &GmshOutput, out: &Path) -> Erro
 /// exception gmsh logged no error for (what `bad_alloc` through gmsh's API looks like:
 /// "Error : " and nothing after it), or gmsh died of SIGABRT, SIGSEGV or SIGBUS (an
 /// allocation failure it did not catch).
-pub(super) fn out_of_memory(o: &GmshOutput) -> bool {
+fn out_of_memory(o: &GmshOutput) -> bool {
     let text = format!("{}{}", o.stdout, o.stderr);
     let failed = !o.status.success() || text.contains("Error");
     let allocation = [
@@ -122,7 +122,7 @@ pub(super) fn out_of_memory(o: &GmshOutput) -> bool {
 
 /// The message of a gmsh stopped by its memory limit: the limit, what it was derived from,
 /// and what to change.
-pub(super) fn memory_exceeded(request: &MeshRequest, memory: &MemoryLimit) -> String {
+fn memory_exceeded(request: &MeshRequest, memory: &MemoryLimit) -> String {
     let per_element = GMSH_BYTES_PER_ELEMENT >> 10;
     let base = GMSH_BASE_BYTES as f64 / 1e9;
     if memory.from_estimate {
@@ -143,7 +143,7 @@ pub(super) fn memory_exceeded(request: &MeshRequest, memory: &MemoryLimit) -> St
 }
 
 /// ` (now a = 1e0, b = 2e0)`, the request's geometry parameters, or nothing.
-pub(super) fn parameters_named(request: &MeshRequest) -> String {
+fn parameters_named(request: &MeshRequest) -> String {
     if request.parameters.is_empty() {
         return String::new();
     }
@@ -157,7 +157,7 @@ pub(super) fn parameters_named(request: &MeshRequest) -> String {
 
 /// Run one gmsh command to its end under the memory limit `memory` and check that it wrote
 /// `out` without an error.
-pub(super) fn run_checked(
+fn run_checked(
     c: Command,
     cmd: &GmshCommand,
     request: &MeshRequest,
@@ -192,7 +192,7 @@ pub(super) trait GmshSteps {
 }
 
 /// A native gmsh: one command per step, each started under the limit in force.
-pub(super) struct Commands<'a> {
+struct Commands<'a> {
     pub(super) cmd: &'a GmshCommand,
     pub(super) request: &'a MeshRequest,
     pub(super) limits: &'a MeshLimits,
@@ -236,7 +236,7 @@ impl GmshSteps for Commands<'_> {
 }
 
 /// The pip wheel's gmsh: one session answering each step.
-pub(super) struct Session<'c, 'a>(&'c mut Conversation<'a>);
+struct Session<'c, 'a>(&'c mut Conversation<'a>);
 
 impl GmshSteps for Session<'_, '_> {
     fn unroll(&mut self, path: &Path) -> std::result::Result<(), Stop> {
@@ -259,7 +259,7 @@ impl GmshSteps for Session<'_, '_> {
 /// `unroll PATH` (gmsh `-0`), `mesh SCALE PATH` (`-2 -clscale SCALE -o PATH`), `limit BYTES`
 /// (its address space from then on, within the hard limit it started with). End of input
 /// ends it. Its meshes are byte for byte the command line's.
-pub(super) const SESSION_DRIVER: &str = r#"
+const SESSION_DRIVER: &str = r#"
 import resource
 import sys
 import gmsh
@@ -303,11 +303,7 @@ gmsh.finalize()
 "#;
 
 /// The session command for `cmd` (None: not the pip wheel's Python script).
-pub(super) fn session_command(
-    cmd: &GmshCommand,
-    request: &MeshRequest,
-    out: &Path,
-) -> Option<Command> {
+fn session_command(cmd: &GmshCommand, request: &MeshRequest, out: &Path) -> Option<Command> {
     let python = cmd
         .program
         .file_name()?
