@@ -258,6 +258,26 @@ impl Stability {
     }
 }
 
+/// A contact state that needs no multipliers gets its verdict here: a static state (H = 0)
+/// is not judged, and one whose contact set does not change over the period is judged by its
+/// damping (`Stability::constant_contact`). Otherwise the closed sets over the period
+/// (`floquet::segments`), for the Floquet or marching verdict.
+pub fn shortcut(
+    model: &Model,
+    basis: &hbm::basis::TimeBasis,
+    omega: f64,
+    contact: &ContactSolution,
+) -> std::result::Result<Stability, Vec<Segment>> {
+    if contact.harmonics == 0 {
+        return Ok(Stability::static_state());
+    }
+    let segments = floquet::segments(basis, omega, contact);
+    if segments.len() == 1 {
+        return Ok(Stability::constant_contact(model));
+    }
+    Err(segments)
+}
+
 /// The verdict of a linear scene, from its damping.
 pub fn linear(model: &Model) -> Stability {
     let damped = model

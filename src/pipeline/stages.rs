@@ -221,13 +221,10 @@ pub fn stability(
             _ => Stability::not_checked(),
         });
     };
-    if contact.harmonics == 0 {
-        return Ok(Stability::static_state());
-    }
-    let segments = crate::hbm::floquet::segments(&solution.basis, solution.omega, contact);
-    if segments.len() == 1 {
-        return Ok(Stability::constant_contact(model));
-    }
+    let segments = match stability::shortcut(model, &solution.basis, solution.omega, contact) {
+        Ok(verdict) => return Ok(verdict),
+        Err(segments) => segments,
+    };
     let floquet = match spec.method {
         StabilityMethod::March => None,
         _ => Some(stages.run("stability", || {

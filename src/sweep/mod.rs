@@ -532,14 +532,11 @@ fn judge_state(
     omega: f64,
     contact: &ContactSolution,
 ) -> Stability {
-    if contact.harmonics == 0 {
-        return Stability::static_state();
-    }
     let basis = crate::hbm::basis::TimeBasis::Fourier;
-    let segments = floquet::segments(&basis, omega, contact);
-    if segments.len() == 1 {
-        return Stability::constant_contact(model);
-    }
+    let segments = match stability::shortcut(model, &basis, omega, contact) {
+        Ok(verdict) => return verdict,
+        Err(segments) => segments,
+    };
     stability::by_floquet_state(model, Some(hill), omega, contact, &segments)
         .unwrap_or_else(|e| Stability::no_multipliers(&e))
 }
@@ -596,26 +593,9 @@ fn judge_points(
             }
         })
         .collect();
-    // Each point's closed sets over the period, once: a point whose set does not change
-    // needs no check, the others go to Floquet and/or marching.
-    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
-    let with_segments: Vec<(&Start, Option<Vec<floquet::Segment>>)> = chosen
-        .into_iter()
-        .map(|start| {
-            let (_, omega, contact) = start;
-            (
-                start,
-                contact
-                    .as_ref()
-                    .map(|s| floquet::segments(&basis, *omega, s)),
-            )
-        })
-        .collect();
-    let (fixed, varying): (Vec<_>, Vec<_>) = with_segments
-        .into_iter()
-        .partition(|(_, seg)| seg.as_ref().is_some_and(|s| s.len() == 1));
-    for ((i, _, _), _) in fixed {
-        record(writer, *i, Stability::constant_contact(model));
+    let (judged_here, varying) = shortcuts(p, model, chosen);
+    for (i, verdict) in judged_here {
+        record(writer, i, verdict);
     }
     let (chosen, segments): (Vec<&Start>, Vec<_>) = varying.into_iter().unzip();
     let floquet = match spec.method {
@@ -647,6 +627,33 @@ fn judge_points(
         record(writer, *i, verdict);
     }
     Ok(())
+}
+
+/// The `chosen` points that need no multipliers, with their verdicts (`stability::shortcut`),
+/// and the others with their closed sets over the period (`None`: no contact state kept).
+#[allow(clippy::type_complexity)]
+fn shortcuts<'a>(
+    p: &Pipeline,
+    model: &Model,
+    chosen: Vec<&'a Start>,
+) -> (
+    Vec<(usize, Stability)>,
+    Vec<(&'a Start, Option<Vec<floquet::Segment>>)>,
+) {
+    let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
+    let (mut judged, mut varying) = (Vec::new(), Vec::new());
+    for start in chosen {
+        let (i, omega, contact) = start;
+        match contact
+            .as_ref()
+            .map(|c| stability::shortcut(model, &basis, *omega, c))
+        {
+            Some(Ok(verdict)) => judged.push((*i, verdict)),
+            Some(Err(segments)) => varying.push((start, Some(segments))),
+            None => varying.push((start, None)),
+        }
+    }
+    (judged, varying)
 }
 
 /// Point `i`'s verdict, into its row (`stable`, `multiplier`) and the writer's verdicts.
