@@ -715,7 +715,9 @@ impl<'a> Continuation<'a> {
         let x_p: Vec<f64> = (0..n).map(|i| p.x[i] + ds * t[i] * self.force).collect();
         let clock = Instant::now();
         let prepared = self.prepare_seconds();
-        let corrected = self.correct(&x_p, omega_p, t, ds, landing);
+        // Near a grazing corner `graze` steps to the open branch instead.
+        let corner = ds <= CORNER_STEPS * self.s.min_step && norm(&p.x) > GRAZING * self.largest;
+        let corrected = self.correct(&x_p, omega_p, t, ds, (landing, corner));
         // The corrector's own time (Newton, bordered solves, ∂g/∂ω) without its factorizations.
         self.timings.newton += clock.elapsed().as_secs_f64() - (self.prepare_seconds() - prepared);
         let (x, frame, corrector, iterations) = corrected?;
@@ -840,14 +842,15 @@ impl<'a> Continuation<'a> {
 
     /// The corrector from the predictor (x_p, ω_p): at fixed ω where the curve is a graph over
     /// ω or the step is `landing` on the end frequency (and converges there), else along the
-    /// arc-length condition.
+    /// arc-length condition; at a `corner` (a step of a few smallest steps, away from a grazing
+    /// corner) the one that failed hands over to the other.
     fn correct(
         &mut self,
         x_p: &[f64],
         omega_p: f64,
         t: &[f64],
         ds: f64,
-        landing: bool,
+        (landing, corner): (bool, bool),
     ) -> std::result::Result<(Vec<f64>, Frame, Corrector, usize), String> {
         // The last point lands on the end frequency itself where the curve crosses it.
         if landing && t[x_p.len()].abs() < GRAPH_SLOPE {
@@ -877,7 +880,7 @@ impl<'a> Continuation<'a> {
                 let c = self.newton.c;
                 o = globalize::smoothed_from(&frame.problem, &hb, c, x_p, self.reporter);
             }
-            if !o.converged && ds <= CORNER_STEPS * self.s.min_step {
+            if !o.converged && corner {
                 // A corner: the arc-length corrector, which may pass where ω cannot be held.
                 let reason = format!("fixed-ω corrector: {}", o.reason);
                 let (x, frame, it) = self
@@ -895,7 +898,7 @@ impl<'a> Continuation<'a> {
                 Ok((x, frame, it)) => Ok((x, frame, Corrector::Arclength, it)),
                 // Where the curve has a corner steps do not shrink past, the fixed-ω smoothed
                 // corrector from the predictor.
-                Err(e) if ds <= CORNER_STEPS * self.s.min_step => {
+                Err(e) if corner => {
                     let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
                     let hb = HbSettings {
                         samples: self.newton.samples,
@@ -1288,8 +1291,9 @@ fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
-/// Steps up to this many smallest steps that one corrector fails (at a corner of the curve)
-/// try the other: the fixed-ω smoothed corrector after the arc-length one, and back.
+/// Steps up to this many smallest steps that one corrector fails (at a corner of the curve,
+/// not a grazing one) try the other: the fixed-ω smoothed corrector after the arc-length one,
+/// and back.
 const CORNER_STEPS: f64 = 4.0;
 
 /// The gap change of a step is measured against at least this share of the contact-free
