@@ -45,7 +45,7 @@ use faer::Mat;
 use super::fourier::{node_phasors, set_phasor};
 use super::frames::{self, ReducedModel};
 use super::reduced::{NewtonSettings, Residual};
-use super::step::{self, StepMethod};
+use super::step;
 use super::{globalize, prepare, prepare_with, Source};
 use super::{ContactSolution, HbSettings, LinearResponse, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
@@ -316,17 +316,9 @@ impl<'a> Continuation<'a> {
         let omega = s.resume.as_ref().map_or(s.omega_start, |r| r.omega);
         system.omega = omega;
         let newton = NewtonSettings {
-            samples: 0,
-            c: 0.0,
             tolerance: hb.tolerance,
             max_iterations: MAX_CORRECTOR,
-            method: StepMethod::Auto,
-            smoothing: 0.0,
-            min_iterations: 0,
-            stagnation: 0,
-            hover: 0,
-            rise: 0,
-            krylov_hint: Default::default(),
+            ..Default::default()
         };
         let mut c = Continuation {
             system,
