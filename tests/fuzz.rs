@@ -722,16 +722,22 @@ fn fuzz_seeds_load_unmutated() {
 // ---------------------------------------------------------------------------------------------
 // sweep.json mutations: a saved sweep resumed.
 
+/// This process's seed folder of `kind` under output/test-fuzz, emptied (not created).
+fn fresh_seed_dir(kind: &str) -> PathBuf {
+    let dir = root().join(format!(
+        "output/test-fuzz/{kind}-seed-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
 /// The seed sweep: strip_sweep_light stopped at its budget of 6 points (1200–1279 Hz, 105
 /// contact unknowns), swept once per test process.
 fn sweep_seed() -> &'static Path {
     static SEED: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     SEED.get_or_init(|| {
-        let dir = root().join(format!(
-            "output/test-fuzz/sweep-seed-{}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = fresh_seed_dir("sweep");
         let options = hbcontact::pipeline::RunOptions {
             out: Some(dir.clone()),
             ..Default::default()
@@ -1107,11 +1113,7 @@ struct StudySeed {
 fn study_seed() -> &'static StudySeed {
     static SEED: std::sync::OnceLock<StudySeed> = std::sync::OnceLock::new();
     SEED.get_or_init(|| {
-        let dir = root().join(format!(
-            "output/test-fuzz/study-seed-{}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = fresh_seed_dir("study");
         std::fs::create_dir_all(&dir).expect("seed directory");
         let path = dir.join("study.yaml");
         let text = format!(

@@ -94,12 +94,7 @@ fn free_amplitude(name: &str, far: &str, hz: f64) -> f64 {
     let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
     let contact = r.summary.contact.as_ref().expect("a contact scene");
     assert_eq!(contact.peak_contact_force, 0.0, "{far} keeps the stop away");
-    r.summary
-        .probes
-        .values()
-        .next()
-        .expect("a probe")
-        .first_harmonic()
+    common::first_probe_harmonic(&r.summary)
 }
 
 /// Sweep the scene as shipped and require that it reaches its end with exit 0.

@@ -29,12 +29,7 @@ fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
         ..Default::default()
     };
     let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
-    r.summary
-        .probes
-        .values()
-        .next()
-        .expect("a probe")
-        .first_harmonic()
+    common::first_probe_harmonic(&r.summary)
 }
 
 /// The checks a linear sweep of the cantilever shares with its basis: the peak row lies within

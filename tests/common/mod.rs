@@ -150,6 +150,11 @@ pub fn render_with_paraview(
     last.expect("at least one attempt")
 }
 
+/// The first probe's first-harmonic amplitude in a run's summary.
+pub fn first_probe_harmonic(s: &pipeline::Summary) -> f64 {
+    s.probes.values().next().expect("a probe").first_harmonic()
+}
+
 /// `hbcontact run` of a shipped scene through the library, summary only, into
 /// output/test-runs/`tag`.
 pub fn run_summary(name: &str, overrides: &[&str], tag: &str) -> pipeline::Summary {
