@@ -81,6 +81,24 @@ pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
     c * penetration.max(0.0)
 }
 
+/// The share of c · max |r| (the force that closes the linear solution's largest gap or
+/// penetration) below which the multipliers are noise: the floor of the residual's scale, so
+/// that multipliers of 1e-200 where nothing penetrates read as zero, not as the scale itself.
+const NOISE: f64 = 1e-9;
+
+/// NOISE · c · max_n |r_n(t_n)|: the scale no residual is measured below.
+fn noise_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
+    let sampler = problem.sampler(samples);
+    let m = problem.coefficients();
+    let mut buffer = vec![0.0; samples];
+    let mut largest: f64 = 0.0;
+    for i in 0..problem.nodes {
+        sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut buffer);
+        largest = buffer.iter().fold(largest, |a, &v| a.max(v.abs()));
+    }
+    NOISE * c * largest
+}
+
 /// Residual norms the non-monotone line search looks back over.
 const NONMONOTONE_WINDOW: usize = 8;
 /// Steps taken without sufficient decrease before the Newton gives up.
@@ -136,6 +154,8 @@ pub(super) struct Residual<'a> {
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
+    /// `noise_force`: the floor of that scale.
+    noise_force: f64,
     /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
     node_blocks: std::cell::RefCell<step::NodeBlocks>,
     /// What an evaluation writes besides its result, kept between evaluations.
@@ -164,6 +184,7 @@ impl<'a> Residual<'a> {
             c: settings.c,
             smoothing: settings.smoothing,
             linear_force: linear_force(problem, settings.samples, settings.c),
+            noise_force: noise_force(problem, settings.samples, settings.c),
             node_blocks: Default::default(),
             scratch: Default::default(),
         }
@@ -239,7 +260,11 @@ impl<'a> Residual<'a> {
 
     /// ‖R‖∞ over the force scale.
     pub(super) fn relative(&self, e: &Evaluation) -> f64 {
-        let scale = self.linear_force.max(e.peak).max(f64::MIN_POSITIVE);
+        let scale = self
+            .linear_force
+            .max(e.peak)
+            .max(self.noise_force)
+            .max(f64::MIN_POSITIVE);
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
@@ -517,6 +542,40 @@ mod tests {
         let out = newton(&problem, &settings, &[0.0], &crate::Silent);
         assert!(out.converged, "{}", out.reason);
         assert!((out.multipliers[0] + (f - k * g0)).abs() < 1e-12);
+    }
+
+    /// TEST GOAL: where nothing penetrates (the answer is λ = 0), Newton from multipliers of
+    /// 1e-200 (a resumed sweep state tampered in its last digits) reads them as zero at once;
+    /// with their own peak as the residual's scale they read 100% wrong (on the strip sweep's
+    /// reduced frame 200 iterations then never moved them: the case ef33f7e6 of
+    /// tests/fuzz.proptest-regressions).
+    #[test]
+    fn denormal_scale_multipliers_where_nothing_penetrates_are_zero() {
+        // Two nodes, H = 3, each on a spring k, statically held g0/2 off the stop.
+        let (k, g0, h) = (2.0, 1.0, 3usize);
+        let m = 2 * h + 1;
+        let problem = ReducedProblem::from_compliance(2, h, |_, i, j| {
+            c64::new(if i == j { 1.0 / k } else { 0.1 / k }, 0.0)
+        });
+        let problem = ReducedProblem {
+            linear_gap: (0..2 * m)
+                .map(|r| if r % m == 0 { -g0 / 2.0 } else { 0.0 })
+                .collect(),
+            ..problem
+        };
+        let settings = NewtonSettings {
+            samples: 16,
+            c: k,
+            tolerance: 1e-10,
+            max_iterations: 50,
+            ..Default::default()
+        };
+        for start in [0.0, 1e-200, -1e-300] {
+            let x: Vec<f64> = (0..2 * m).map(|r| start * (1.0 + r as f64)).collect();
+            let out = newton(&problem, &settings, &x, &crate::Silent);
+            assert!(out.converged, "from {start:e}: {}", out.reason);
+            assert_eq!(out.iterations, 0, "from {start:e}");
+        }
     }
 
     /// A massless node on a spring driven by f(t) = F cos ωt against a stop at g0 > 0: the
