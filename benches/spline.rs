@@ -19,7 +19,7 @@ fn main() {
     let off = "stability.check=false".to_string();
     let options = |tag: &str| RunOptions {
         out: Some(work.join(tag)),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     let run = |tag: &str, set: &str| -> Option<Summary> {

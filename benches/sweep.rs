@@ -33,7 +33,11 @@ fn main() {
     };
     let options = |dir: &str, summary_only: bool| RunOptions {
         out: Some(work.join(dir)),
-        summary_only,
+        write: if summary_only {
+            hbcontact::pipeline::WriteLevel::Summary
+        } else {
+            hbcontact::pipeline::WriteLevel::Full
+        },
         ..Default::default()
     };
     // A cold run at mid-span (warms the mesh cache too), then the one that counts.

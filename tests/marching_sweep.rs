@@ -104,7 +104,7 @@ fn march(hz: f64, dir: &Path, previous: bool, courant: f64) -> (f64, bool) {
     let p = scene(&[&frequency, &start, &courant]);
     let options = RunOptions {
         out: Some(dir.to_path_buf()),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     let s = pipeline::run_transient(&p, &options, &Silent)

@@ -1411,7 +1411,7 @@ fn the_write_stage_reports_each_frame_to_the_reporter() {
     let recording = Recording::default();
     let options = RunOptions {
         out: Some(common::temp_out("write-progress-summary-only")),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     pipeline::run(&p, &options, &recording).unwrap_or_else(|e| panic!("{e}"));

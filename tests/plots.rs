@@ -265,7 +265,7 @@ fn plots_are_skipped_when_switched_off_or_summary_only_and_contact_plots_need_co
     let p = common::scene("quickstart", &[]);
     let options = RunOptions {
         out: Some(summary_only.clone()),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     pipeline::run(&p, &options, &hbcontact::Silent).unwrap_or_else(|e| panic!("{e}"));

@@ -88,7 +88,7 @@ fn free_amplitude(name: &str, far: &str, hz: f64) -> f64 {
     let p = scene(name, &[far, &f, "stability.check=false"]);
     let options = RunOptions {
         out: out(&format!("{name}-free")),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));

@@ -200,7 +200,7 @@ fn splines_resolve_the_reference_strip_impact_peak_that_fourier_smears() {
     let p = common::scene("reference_strip", &[off]);
     let options = RunOptions {
         out: Some(common::temp_out("spline-contact-transient")),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     let marching = pipeline::run_transient(&p, &options, &Silent)

@@ -25,7 +25,7 @@ fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
     let p = common::scene(name, &refs);
     let options = RunOptions {
         out: Some(common::temp_out(tag)),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
@@ -439,7 +439,7 @@ fn transient_in(dir: &std::path::Path, overrides: &[&str]) -> hbcontact::Result<
     let p = common::scene("reference_strip", overrides);
     let options = RunOptions {
         out: Some(dir.to_path_buf()),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     pipeline::run_transient(&p, &options, &Silent).map(|r| r.summary)

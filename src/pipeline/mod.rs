@@ -10,9 +10,11 @@ pub mod late;
 pub mod model;
 pub mod modes;
 pub mod plots;
+pub mod publish;
 pub mod report;
 pub mod resonance;
 pub mod sanity;
+pub mod scene;
 pub mod stability;
 pub mod stages;
 pub mod summary;
@@ -24,13 +26,15 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, TransientStart};
-use crate::output::staging::{self, Replace};
+use crate::output::staging::Replace;
 use crate::output::StagedDir;
 use crate::progress::Reporter;
 use crate::Result;
 pub use model::{build, Model, Purpose};
 pub use modes::{modes, ModesResult, ModesSummary};
+pub use publish::WriteLevel;
 use report::Sampled;
+pub use scene::{open, prepare, Scene};
 pub use stages::{hb_settings, Stages};
 use summary::MeshInfo;
 pub use summary::{summary_schema, Summary};
@@ -41,8 +45,8 @@ pub use times::StageTimes;
 pub struct RunOptions {
     /// Overrides `output.directory`.
     pub out: Option<PathBuf>,
-    /// Write `summary.json` only, not the VTU series, CSV histories and mesh (study points).
-    pub summary_only: bool,
+    /// How much to write: the summary only or with the amplitudes (study points), or all.
+    pub write: WriteLevel,
     /// Who may replace an existing output folder (`--force`: move one not ours aside).
     pub replace: Replace,
     /// `run_transient`: an interruption (`transient::request_stop`) stops the march and the
@@ -77,30 +81,49 @@ pub fn output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
 /// `hbcontact run`: the harmonic-balance steady state.
 pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<RunResult> {
     let out = output_dir(p, options);
-    staging::claim(&out, options.replace, reporter)?;
-    let mut stages = Stages::new(p, reporter);
-    let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
-    let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
-    warnings.extend(stages.run("check", || {
-        sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)
-    })?);
-    let model = stages.run("assemble", || {
-        build(p, mesh.clone(), Purpose::HarmonicBalance)
-    })?;
-    warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
+    let (scene, stages) = scene::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
+    run_scene(p, options, scene, stages)
+}
+
+/// `run` from its opened scene: solve, check, judge stability, publish into the output
+/// folder `open` claimed.
+pub fn run_scene(
+    p: &Pipeline,
+    options: &RunOptions,
+    scene: Scene,
+    mut stages: Stages,
+) -> Result<RunResult> {
+    let out = output_dir(p, options);
+    let Scene {
+        model,
+        mesh_info,
+        mut warnings,
+    } = scene;
     stages.run("check", || stages::check_stability_march(p, &model))?;
     stages::touch_solve_memory(p, &model);
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
     stages.run("check", || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
-    let stability = stages::stability(p, mesh, &model, &solution, &mut stages)?;
+    let stability = stages::stability(p, &model, &solution, &mut stages)?;
     warnings.extend(stability.warning());
     let staged = StagedDir::create(&out, "run", options.replace)?;
+    let (level, reporter) = (options.write, stages.reporter);
     let (mut summary, sampled) = stages.run("write", || {
-        write_run(p, options, mesh_info, &model, &solution, &staged, reporter)
+        let info = mesh_info.clone();
+        let at = staged.path();
+        let written = publish::harmonic_balance(p, (&model, info), &solution, level, at, reporter)?;
+        if level == WriteLevel::Full {
+            stages::copy_mesh(&mesh_info, staged.path())?;
+        }
+        Ok(written)
     })?;
-    run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
+    if publish::plotting(p, level) {
+        let (plots, period) = (staged.path().join("plots"), 1.0 / summary.frequency_hz);
+        stages.run("plots", || {
+            publish::plots(p, (&model, &sampled), &plots, period)
+        })?;
+    }
     let (check, resonance_warnings) = resonance;
     summary.resonance = check;
     summary.stability = Some(stability);
@@ -109,34 +132,6 @@ pub fn run(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Resul
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
-}
-
-/// Stage `write`: the time samples (the frame series, the contact history), the harmonic
-/// amplitudes and the mesh into the staged output (only the summary with `summary_only`),
-/// and the run's summary.
-fn write_run(
-    p: &Pipeline,
-    options: &RunOptions,
-    mesh_info: MeshInfo,
-    model: &Model,
-    solution: &crate::hbm::Solution,
-    staged: &StagedDir,
-    reporter: &dyn Reporter,
-) -> Result<(Summary, Sampled)> {
-    // The N the contact solve settled on (adaptive), so the law is sampled where it holds.
-    let samples = solution
-        .contact
-        .as_ref()
-        .map_or(hb_settings(p).samples, |c| c.samples);
-    let sampled = Sampled::harmonic_balance(model, solution, p.output.frames, samples);
-    if !options.summary_only {
-        let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
-        sampled.write(staged.path(), model, contact, fields, reporter)?;
-        report::write_amplitudes(staged.path(), model, solution)?;
-        stages::copy_mesh(&mesh_info, staged.path())?;
-    }
-    let summary = summary::harmonic_balance(p, mesh_info, model, solution, &sampled);
-    Ok((summary, sampled))
 }
 
 /// A solution with a non-finite coefficient is a model error (inputs of extreme magnitude
@@ -149,27 +144,6 @@ fn finite_solution(solution: &crate::hbm::Solution) -> Result<()> {
     Err(crate::Error::Model(
         "the solution holds non-finite values: the loads, sizes or material constants are of such extreme magnitudes that their products overflow; rescale the units (e.g. mm–N–s) or check the magnitudes".into(),
     ))
-}
-
-/// Stage `plots`: the run's plots into `plots/` of the staged output, unless the run writes
-/// its summary only or `output.plots` is false.
-fn run_plots(
-    p: &Pipeline,
-    options: &RunOptions,
-    model: &Model,
-    sampled: &Sampled,
-    staged: &StagedDir,
-    stages: &mut Stages,
-) -> Result<()> {
-    if options.summary_only || !p.output.plots {
-        return Ok(());
-    }
-    let boundary = p.contact.as_ref().map(|c| c.boundary.as_str());
-    let period = 1.0 / p.harmonic_balance.frequency;
-    let dir = staged.path().join("plots");
-    stages.run("plots", || {
-        plots::write_run_plots(&dir, model, sampled, boundary, period).map(|_| ())
-    })
 }
 
 /// The harmonic-balance solution of the transient's own model (diagonal mass) at t = 0, on
@@ -222,15 +196,12 @@ pub fn run_transient(
     reporter: &dyn Reporter,
 ) -> Result<RunResult> {
     let out = transient_output_dir(p, options);
-    staging::claim(&out, options.replace, reporter)?;
-    let mut stages = Stages::new(p, reporter);
-    let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
-    let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
-    warnings.extend(stages.run("check", || {
-        sanity::check_supports(p, &mesh, Purpose::Transient)
-    })?);
-    let model = stages.run("assemble", || build(p, mesh, Purpose::Transient))?;
-    warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
+    let (scene, mut stages) = scene::open(p, &out, options, Purpose::Transient, reporter)?;
+    let Scene {
+        model,
+        mesh_info,
+        mut warnings,
+    } = scene;
     let (initial, floquet) = match p.transient.start {
         TransientStart::Rest => (None, None),
         TransientStart::HarmonicBalance => {
@@ -249,9 +220,10 @@ pub fn run_transient(
         stages::march(p, &model, initial, &mut stages)?
     };
     let staged = StagedDir::create(&out, "transient", options.replace)?;
+    let full = options.write == WriteLevel::Full;
     let (mut summary, sampled, signals) = stages.run("write", || {
         let sampled = Sampled::transient(&model, &marching, &result);
-        if !options.summary_only {
+        if full {
             let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
             sampled.write(staged.path(), &model, contact, fields, reporter)?;
             stages::copy_mesh(&mesh_info, staged.path())?;
@@ -269,11 +241,11 @@ pub fn run_transient(
     if let Some(verdict) = floquet {
         summary.stability = Some(verdict);
     }
-    run_plots(p, options, &model, &sampled, &staged, &mut stages)?;
-    if !options.summary_only && p.output.plots {
+    if publish::plotting(p, options.write) {
         let dir = staged.path().join("plots");
         let f = p.harmonic_balance.frequency;
         stages.run("plots", || {
+            publish::plots(p, (&model, &sampled), &dir, 1.0 / f)?;
             plots::write_late_plots(&dir, &signals, f).map(|_| ())
         })?;
     }
@@ -330,34 +302,23 @@ pub struct GroupInfo {
     pub cells: usize,
 }
 
-/// `hbcontact check`: the config and the geometry's groups, without solving.
+/// `hbcontact check`: the config, the geometry's groups and the scene's checks, without
+/// solving; it writes nothing.
 pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Result<CheckReport> {
     let out = output_dir(p, options);
     let mut stages = Stages::new(p, reporter);
-    let (mesh, info) = stages::mesh(p, &out, &mut stages)?;
-    let set = stages.run("check", || {
-        model::check_groups(p, &mesh)?;
-        for w in sanity::check_mesh(p, &mesh)? {
-            reporter.warning(&w);
-        }
-        if let Some(w) = sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)? {
-            reporter.warning(&w);
-        }
-        let set = p
-            .contact
-            .as_ref()
-            .map(|spec| {
-                crate::contact::geometry::build_contact_set(&mesh, &model::contact_scene(spec))
-            })
-            .transpose()?;
-        if let Some(set) = &set {
-            if let Some(w) = sanity::check_penetration_of(p, &mesh, set)? {
-                reporter.warning(&w);
-            }
-        }
-        Ok(set)
-    })?;
-    stages.run("check", || check_marches(p, &mesh, reporter))?;
+    let scene = scene::prepare(p, &out, Purpose::HarmonicBalance, &mut stages)?;
+    for w in &scene.warnings {
+        reporter.warning(w);
+    }
+    let (mesh, info) = (&scene.model.mesh, scene.mesh_info);
+    // Every node of the contact group, held ones too (the model keeps the free ones).
+    let set = p
+        .contact
+        .as_ref()
+        .map(|spec| crate::contact::geometry::build_contact_set(mesh, &model::contact_scene(spec)))
+        .transpose()?;
+    stages.run("check", || check_marches(p, mesh, reporter))?;
     let groups = mesh
         .node_groups
         .iter()

@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use super::model::{build, MassModel, Model, Purpose};
-use super::stages::{self, Stages};
+use super::model::{MassModel, Model, Purpose};
+use super::stages;
 use super::summary::{sizes, MeshInfo, Sizes};
 use super::times::StageTimes;
 use super::RunOptions;
@@ -93,7 +93,8 @@ pub fn modes_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
     })
 }
 
-/// `hbcontact modes`: mesh → assemble → modes → write, committed atomically like `run`.
+/// `hbcontact modes`: the scene (`open`: mesh, checks, assembly) → modes → write, committed
+/// atomically like `run`.
 pub fn modes(
     p: &Pipeline,
     options: &RunOptions,
@@ -106,10 +107,11 @@ pub fn modes(
         )));
     }
     let out = modes_output_dir(p, options);
-    crate::output::staging::claim(&out, options.replace, reporter)?;
-    let mut stages = Stages::new(p, reporter);
-    let (mesh, mesh_info) = stages::mesh(p, &out, &mut stages)?;
-    let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
+    let (scene, mut stages) = super::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
+    for w in &scene.warnings {
+        reporter.warning(w);
+    }
+    let (model, mesh_info) = (scene.model, scene.mesh_info);
     let modes = stages.run("modes", || natural_modes(&model, count))?;
     let staged = StagedDir::create(&out, "modes", options.replace)?;
     let mut summary = stages.run("write", || {

@@ -209,7 +209,6 @@ pub fn march<'m>(
 /// judge by their damping, static states (H = 0) are not judged.
 pub fn stability(
     p: &Pipeline,
-    mesh: Mesh2d,
     model: &Model,
     solution: &Solution,
     stages: &mut Stages,
@@ -234,7 +233,7 @@ pub fn stability(
     match (spec.method, floquet) {
         (StabilityMethod::Floquet, Some(Ok(verdict))) => return Ok(verdict),
         (StabilityMethod::Both, Some(Ok(verdict))) => {
-            let marched = march_verdict(p, mesh, model, contact, stages)?;
+            let marched = march_verdict(p, model, contact, stages)?;
             return Ok(stability::audited(verdict, marched));
         }
         (_, Some(Err(e))) => stages.reporter.warning(&format!(
@@ -242,7 +241,7 @@ pub fn stability(
         )),
         _ => {}
     }
-    march_verdict(p, mesh, model, contact, stages)
+    march_verdict(p, model, contact, stages)
 }
 
 /// The Floquet verdict on `contact`, the contact part of `solution`, a state of `model`
@@ -260,7 +259,6 @@ fn floquet_verdict(
 /// The time-marching verdict on `contact`, a state of `model`.
 fn march_verdict(
     p: &Pipeline,
-    mesh: Mesh2d,
     model: &Model,
     contact: &crate::hbm::ContactSolution,
     stages: &mut Stages,
@@ -268,7 +266,7 @@ fn march_verdict(
     let spec = &p.stability;
     let reporter = stages.reporter;
     stages.run("stability", || {
-        let marching = build(p, mesh, Purpose::Transient)?;
+        let marching = build(p, model.mesh.clone(), Purpose::Transient)?;
         let verdict = stability::by_marching(
             p,
             spec,

@@ -631,7 +631,13 @@ pub fn harmonic_balance(
         probes: probe_amplitudes(model, history, p.harmonic_balance.harmonics),
         warnings: solution.warnings.clone(),
         max_von_mises: Some(max_von_mises(model, sampled)),
-        ..common(p, RunMode::HarmonicBalance, mesh, model, Some(solution))
+        ..common(
+            p,
+            (RunMode::HarmonicBalance, frequency_of(p, solution)),
+            mesh,
+            model,
+            Some(solution),
+        )
     }
 }
 
@@ -691,7 +697,13 @@ pub fn transient(
         }),
         probe_dof_amplitudes: Some(dof_amplitudes),
         max_von_mises: Some(max_von_mises(model, sampled)),
-        ..common(p, RunMode::Transient, mesh, model, None)
+        ..common(
+            p,
+            (RunMode::Transient, p.harmonic_balance.frequency),
+            mesh,
+            model,
+            None,
+        )
     }
 }
 
@@ -717,10 +729,21 @@ fn march_interrupted(p: &Pipeline, result: &TransientResult, steps: usize) -> Ma
     }
 }
 
-/// The parts every run reports.
+/// The solution's frequency [Hz]: the pipeline's where ω is 2π times it (so it reads as
+/// written), else ω/2π (a sweep's point).
+fn frequency_of(p: &Pipeline, solution: &Solution) -> f64 {
+    let nominal = p.harmonic_balance.frequency;
+    if 2.0 * std::f64::consts::PI * nominal == solution.omega {
+        nominal
+    } else {
+        solution.omega / (2.0 * std::f64::consts::PI)
+    }
+}
+
+/// The parts every run reports, at `frequency_hz`.
 fn common(
     p: &Pipeline,
-    mode: RunMode,
+    (mode, frequency_hz): (RunMode, f64),
     mesh: MeshInfo,
     model: &Model,
     solution: Option<&Solution>,
@@ -729,8 +752,8 @@ fn common(
         name: p.name.clone(),
         mode,
         pipeline: p.source.clone(),
-        frequency_hz: p.harmonic_balance.frequency,
-        period_s: 1.0 / p.harmonic_balance.frequency,
+        frequency_hz,
+        period_s: 1.0 / frequency_hz,
         mesh,
         effects: effects(model, solution),
         sizes: sizes(model),

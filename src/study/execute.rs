@@ -20,13 +20,14 @@
 //! whose JSON ends early (a copy or a write that did not finish) is not trusted either: a run
 //! says so and runs the point again, a merge (which runs nothing) refuses it.
 //!
-//! Beyond the summary (`Needs`): natural frequencies (after the run, from the same mesh and
-//! model: `pipeline::modes::natural_modes`, K and M of the free dofs, the contact open); the
+//! Beyond the summary (`Needs`): natural frequencies (from the scene the run solves, meshed
+//! and assembled once: `pipeline::modes::natural_modes`, K and M of the free dofs, the contact
+//! open; a marching point's from the harmonic-balance model of its cached mesh); the
 //! peak resident memory (Linux: writing "5" to /proc/self/clear_refs resets VmHWM, the peak
 //! RSS, to the current RSS; VmHWM in /proc/self/status after the run is the run's peak, so it
 //! is measured only when points run one at a time); and the harmonic amplitudes on every
-//! node (`amplitudes.vtu`, kept from a full write whose frame series is then removed), which
-//! the accuracy study's displacement L2 error reads.
+//! node (`amplitudes.vtu`, the run's write level `Amplitudes`: no frame series is written),
+//! which the accuracy study's displacement L2 error reads.
 //! Meshes are made once per distinct geometry before the points run, into the cache the points
 //! share (`points/.mesh-cache`, its entries locked while written).
 
@@ -44,7 +45,7 @@ use crate::config::Pipeline;
 use crate::output::tables::write_json;
 use crate::pipeline::modes::natural_modes;
 use crate::pipeline::stability::Verdict;
-use crate::pipeline::{self, build, stages, Purpose, RunOptions, Stages, Summary};
+use crate::pipeline::{self, build, stages, Purpose, RunOptions, Stages, Summary, WriteLevel};
 use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
 
@@ -438,26 +439,45 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
 fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     let dir = point_dir(out, &point.key);
     let amplitudes = needs.amplitudes && point.mode == Mode::HarmonicBalance;
+    let write = match (point.full, amplitudes) {
+        (true, _) => WriteLevel::Full,
+        (false, true) => WriteLevel::Amplitudes,
+        (false, false) => WriteLevel::Summary,
+    };
     let options = RunOptions {
         out: Some(dir.clone()),
-        summary_only: !point.full && !amplitudes,
+        write,
         // The point's folder is the study's own (under its `points/`).
         replace: crate::output::staging::Replace::Owned,
         keep_interrupted_march: false,
     };
     let probe = needs.probe.as_deref();
-    let memory = needs.peak_memory.then(reset_peak_memory);
     // The check by time marching only where the study tabulates it.
     let mut p = point.pipeline.clone();
     p.stability.check &= needs.stability;
     let start = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let run = match point.mode {
-            Mode::HarmonicBalance => pipeline::run(&p, &options, &Silent),
-            Mode::Transient => pipeline::run_transient(&p, &options, &Silent),
-        }?;
+        let (run, modes, memory) = match point.mode {
+            // One mesh and one assembly for the modes and the run.
+            Mode::HarmonicBalance => {
+                let purpose = Purpose::HarmonicBalance;
+                let (scene, stages) = pipeline::open(&p, &dir, &options, purpose, &Silent)?;
+                let modes = natural_frequencies(&scene.model, needs.modes)?;
+                let memory = needs.peak_memory.then(reset_peak_memory);
+                (
+                    pipeline::run_scene(&p, &options, scene, stages)?,
+                    modes,
+                    memory,
+                )
+            }
+            Mode::Transient => {
+                let memory = needs.peak_memory.then(reset_peak_memory);
+                let run = pipeline::run_transient(&p, &options, &Silent)?;
+                let modes = harmonic_balance_modes(&point.pipeline, &dir, needs.modes)?;
+                (run, modes, memory)
+            }
+        };
         let peak = memory.map(|reset| reset.and_then(|()| peak_memory_mb()));
-        let modes = natural_frequencies(&point.pipeline, &dir, needs.modes)?;
         Ok::<_, Error>((run, peak, modes))
     }));
     let seconds = start.elapsed().as_secs_f64();
@@ -483,9 +503,6 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
             }
             for (k, f) in modes.iter().enumerate() {
                 outputs.insert(Output::NaturalFrequency(k + 1).name(), Some(*f));
-            }
-            if amplitudes && !point.full {
-                keep_only_amplitudes(&dir);
             }
             PointRecord {
                 outputs,
@@ -514,20 +531,28 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     Ok(record)
 }
 
-/// The `count` lowest natural frequencies [Hz] of the model the point's run solved (its
-/// mesh from the cache), as `hbcontact modes` computes them.
-fn natural_frequencies(p: &Pipeline, dir: &Path, count: usize) -> Result<Vec<f64>> {
+/// The `count` lowest natural frequencies [Hz] of `model`, as `hbcontact modes` computes them.
+fn natural_frequencies(model: &pipeline::Model, count: usize) -> Result<Vec<f64>> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let modes = natural_modes(model, count)?;
+    Ok(modes
+        .iter()
+        .map(|(w2, _)| w2.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
+        .collect())
+}
+
+/// `natural_frequencies` of the harmonic-balance model of a point that marched (its own
+/// model has the diagonal mass of time marching), its mesh from the cache.
+fn harmonic_balance_modes(p: &Pipeline, dir: &Path, count: usize) -> Result<Vec<f64>> {
     if count == 0 {
         return Ok(Vec::new());
     }
     let mut stages = Stages::new(p, &Silent);
     let (mesh, _) = stages::mesh(p, dir, &mut stages)?;
     let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
-    let modes = stages.run("modes", || natural_modes(&model, count))?;
-    Ok(modes
-        .iter()
-        .map(|(w2, _)| w2.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
-        .collect())
+    natural_frequencies(&model, count)
 }
 
 /// Reset this process's peak resident memory (VmHWM) to its current RSS: Linux's
@@ -543,24 +568,6 @@ fn peak_memory_mb() -> Option<f64> {
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
-}
-
-/// Remove a full write's frame series, mesh and histories, keeping `amplitudes.vtu` and the
-/// summary (an accuracy rung needs no more).
-fn keep_only_amplitudes(dir: &Path) {
-    let keep = ["amplitudes.vtu", "summary.json", "point.json"];
-    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-        let name = entry.file_name();
-        if keep.iter().any(|k| name == *k) {
-            continue;
-        }
-        let path = entry.path();
-        let _ = if path.is_dir() {
-            std::fs::remove_dir_all(&path)
-        } else {
-            std::fs::remove_file(&path)
-        };
-    }
 }
 
 /// Mesh every distinct geometry of `points` once (in parallel), into the points' shared

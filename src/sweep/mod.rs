@@ -37,7 +37,6 @@ use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
 use crate::hbm::ContactSolution;
-use crate::mesh::Mesh2d;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
 use crate::pipeline::report::Sampled;
@@ -249,19 +248,12 @@ fn execute(
     })?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
-    crate::output::staging::claim(&out, options.replace, reporter)?;
-    let mut stages = Stages::new(p, reporter);
-    let (mesh, mesh_info) = pipeline::stages::mesh(p, &out, &mut stages)?;
-    let mut warnings = stages.run("check", || pipeline::sanity::check_mesh(p, &mesh))?;
-    warnings.extend(stages.run("check", || {
-        pipeline::sanity::check_supports(p, &mesh, Purpose::HarmonicBalance)
-    })?);
-    let model = stages.run("assemble", || {
-        build(p, mesh.clone(), Purpose::HarmonicBalance)
-    })?;
-    warnings.extend(stages.run("check", || {
-        pipeline::sanity::check_initial_penetration(p, &model)
-    })?);
+    let (scene, mut stages) = pipeline::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
+    let pipeline::Scene {
+        model,
+        mesh_info,
+        warnings,
+    } = scene;
     if let Some(s) = &saved {
         resume::check_state(s, &model, p, &out)?;
     }
@@ -289,7 +281,7 @@ fn execute(
         .push("sweep", clock.elapsed().as_secs_f64() - judging);
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run("stability", || {
-        judge_points(p, mesh, &model, &mut writer, &starts, &folds, reporter)
+        judge_points(p, &model, &mut writer, &starts, &folds, reporter)
     })?;
     stages.times.add("stability", judging);
     let (timings, reduced, stopped, failure) = match ended {
@@ -550,7 +542,6 @@ type Start = (usize, f64, Option<ContactSolution>);
 /// the points in parallel), or both (marching audits Floquet).
 fn judge_points(
     p: &Pipeline,
-    mesh: Mesh2d,
     model: &Model,
     writer: &mut points::Writer,
     starts: &[Start],
@@ -615,7 +606,7 @@ fn judge_points(
     };
     let marched = match (spec.method, &floquet) {
         (StabilityMethod::Floquet, Some(_)) => None,
-        _ => Some(by_marching(p, mesh, &chosen, reporter)?),
+        _ => Some(by_marching(p, model, &chosen, reporter)?),
     };
     for (k, (i, _, _)) in chosen.iter().enumerate() {
         let verdict = match (&floquet, &marched) {
@@ -703,12 +694,12 @@ fn by_floquet(
 /// The time-marching verdicts of the `chosen` points, in parallel.
 fn by_marching(
     p: &Pipeline,
-    mesh: Mesh2d,
+    model: &Model,
     chosen: &[&Start],
     reporter: &dyn Reporter,
 ) -> Result<Vec<Stability>> {
     let spec = &p.stability;
-    let marching = build(p, mesh, Purpose::Transient)?;
+    let marching = build(p, model.mesh.clone(), Purpose::Transient)?;
     let done = AtomicUsize::new(0);
     let total = Some(chosen.len() as u64);
     let verdicts: Vec<Stability> = chosen

@@ -27,10 +27,9 @@ use crate::hbm::sweep::{without_kinks, ContinuationState, Fold, PointInfo, KINK}
 use crate::hbm::Solution;
 use crate::output::tables::write_json;
 use crate::output::{write_pvd, write_vtu, Field};
-use crate::pipeline::report::{write_amplitudes, Sampled};
 use crate::pipeline::stability::Stability;
 use crate::pipeline::summary::MeshInfo;
-use crate::pipeline::{hb_settings, plots, summary, Model};
+use crate::pipeline::{publish, sanity, Model, WriteLevel};
 use crate::{Error, Result};
 
 /// A point written with a run's full output.
@@ -365,33 +364,22 @@ impl<'a> Writer<'a> {
         verdict: Option<&Stability>,
     ) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        let hz = solution.omega / (2.0 * PI);
-        let mut at = self.p.clone();
-        at.harmonic_balance.frequency = hz;
-        let samples = solution
-            .contact
-            .as_ref()
-            .map_or(hb_settings(&at).samples, |c| c.samples);
-        let model = self.model;
-        let sampled = Sampled::harmonic_balance(model, solution, at.output.frames, samples);
-        sampled.write(
+        let (p, model, full) = (self.p, self.model, WriteLevel::Full);
+        let (mut s, sampled) = publish::harmonic_balance(
+            p,
+            (model, self.mesh.clone()),
+            solution,
+            full,
             dir,
-            model,
-            at.contact.as_ref(),
-            &at.output.fields,
             &crate::progress::Silent,
         )?;
-        write_amplitudes(dir, model, solution)?;
-        let mut s = summary::harmonic_balance(&at, self.mesh.clone(), model, solution, &sampled);
         s.warnings
-            .extend(crate::pipeline::sanity::check_contact_result(
-                model, solution,
-            ));
+            .extend(sanity::check_contact_result(model, solution));
         s.warnings.extend(verdict.and_then(Stability::warning));
         s.stability = verdict.cloned();
-        if at.output.plots {
-            let boundary = at.contact.as_ref().map(|c| c.boundary.as_str());
-            plots::write_run_plots(&dir.join("plots"), model, &sampled, boundary, 1.0 / hz)?;
+        if publish::plotting(p, full) {
+            let period = 1.0 / s.frequency_hz;
+            publish::plots(p, (model, &sampled), &dir.join("plots"), period)?;
         }
         write_json(&dir.join("summary.json"), &s)
     }

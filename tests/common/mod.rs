@@ -161,7 +161,7 @@ pub fn run_summary(name: &str, overrides: &[&str], tag: &str) -> pipeline::Summa
     let p = scene(name, overrides);
     let options = pipeline::RunOptions {
         out: Some(temp_out(tag)),
-        summary_only: true,
+        write: hbcontact::pipeline::WriteLevel::Summary,
         ..Default::default()
     };
     pipeline::run(&p, &options, &hbcontact::Silent)
