@@ -9,7 +9,7 @@
 //!
 //! `cargo bench --bench study -- accuracy` instead runs the shipped accuracy study
 //! (studies/strip_accuracy.yaml, rungs one at a time) from an empty directory and prints its
-//! table: the wall times and peak memories of the README's accuracy table.
+//! table: the wall times and peak memories of the accuracy table of docs/verification.md.
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -394,7 +394,7 @@ fn lightly_damped_reference_strip_needs_at_most_three_times_the_iterations() {
         let model = common::model(&p, Purpose::HarmonicBalance);
         common::solve(&model, &p)
     };
-    // The 0.5%-damped answer's change at the second c, measured (README's light-damping
+    // The 0.5%-damped answer's change at the second c, measured (docs/performance.md's light-damping
     // table), held within a factor 2: H = 40 at 3c, H = 60 above the 1% the run warns at.
     for (h, measured) in [(5usize, 0.0068), (20, 0.0091), (40, 0.0045), (60, 0.0339)] {
         let contact = |alpha: f64| {

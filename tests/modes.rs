@@ -178,7 +178,7 @@ fn resonance_warning_fires_within_half_a_percent_of_f1_and_not_at_half_of_it() {
 // TEST GOAL: the shipped quickstart (500 Hz) is off resonance, and the same bracket driven at
 // 1 kHz, where the quickstart used to sit, warns of its first bending mode (998.6 Hz, ζ =
 // βω/2 = 0.31%, detuning +0.14%): the single-mode magnification there is 146× (held within
-// 2×), the number the README shows.
+// 2×), the number docs/verification.md shows.
 #[test]
 fn quickstart_is_off_resonance_and_at_1_khz_warns_of_the_brackets_first_bending_mode() {
     let run = |tag: &str, overrides: &[&str]| {

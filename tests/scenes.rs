@@ -203,7 +203,7 @@ fn a_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
 /// TEST GOAL: the cantilever on its stop in quadratic elements (2 through the depth): f1
 /// within 0.5% of Euler–Bernoulli, and the same stiffened resonance as the linear mesh.
 #[test]
-#[ignore = "issue #45: passes the corner at 216.86 Hz (fold 216.855 Hz) and a second one, then at 216.72 Hz (point 274) runs back onto its own curve in a tangle of kinks; see README, User scenes"]
+#[ignore = "issue #45: passes the corner at 216.86 Hz (fold 216.855 Hz) and a second one, then at 216.72 Hz (point 274) runs back onto its own curve in a tangle of kinks; see docs/verification.md, User scenes"]
 fn a_quadratic_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
     let name = "cantilever_stop_p2";
     let f1 = driven_mode(name, 1, 1);
@@ -269,7 +269,7 @@ fn a_blade_rubbing_its_casing_in_its_first_mode_folds_above_f1() {
 /// TEST GOAL: the same blade driven around its second bending mode (0.7–1.5 f2) with a load
 /// 20 times the first scene's: the rub stiffens the second mode's resonance too.
 #[test]
-#[ignore = "issue #45: at H = 10 (recommended) stops at 5381.28 Hz after 50 points, no fold: the arc-length corrector did not converge in 12 iterations; H = 5 and H = 20 reach the end (folds 5379.6 and 5229.2 Hz at H = 20); see README, User scenes"]
+#[ignore = "issue #45: at H = 10 (recommended) stops at 5381.28 Hz after 50 points, no fold: the arc-length corrector did not converge in 12 iterations; H = 5 and H = 20 reach the end (folds 5379.6 and 5229.2 Hz at H = 20); see docs/verification.md, User scenes"]
 fn a_blade_rubbing_its_casing_in_its_second_mode_folds_above_f2() {
     let name = "blade_mode2";
     let f2 = driven_mode(name, 0, 2);
@@ -366,7 +366,7 @@ fn a_preloaded_rod_opens_part_of_the_period_only_near_its_resonance() {
 /// 0.1 mm from its end, swept 0.7–1.5 f1: f1 = c/4L (c of plane strain with free faces), and
 /// the resonance folds between f1 and 4/3 f1 (at H = 10 from 1200 Hz: 1447.3 Hz).
 #[test]
-#[ignore = "issue #45: at H = 40 (recommended) stops at 1357.17 Hz after 447 points and 246 s, 12 folds within 1345-1358 Hz: the continuation ran back onto the curve it had traced (between points 406 and 407); see README, User scenes"]
+#[ignore = "issue #45: at H = 40 (recommended) stops at 1357.17 Hz after 447 points and 246 s, 12 folds within 1345-1358 Hz: the continuation ran back onto the curve it had traced (between points 406 and 407); see docs/verification.md, User scenes"]
 fn the_lightly_damped_strip_folds_between_f1_and_the_bilinear_four_thirds() {
     let name = "strip_light";
     let f1 = driven_mode(name, 0, 1);

@@ -674,15 +674,17 @@ fn string_valued_parameters_vary_keys_whose_values_are_words() {
     assert!(stderr(&o).contains("range"), "{}", stderr(&o));
 }
 
-/// TEST GOAL: the README's accuracy table is what the shipped study
+/// TEST GOAL: the accuracy table of docs/verification.md is what the shipped study
 /// (studies/strip_accuracy.yaml) computes: every rung, in order, with its first-harmonic,
-/// peak-to-peak and displacement L2 errors within a factor 2 of the README's (the references
-/// exactly 0). Reads the table from README.md, so the README cannot drift from the study.
+/// peak-to-peak and displacement L2 errors within a factor 2 of the documented ones (the
+/// references exactly 0). Reads the table from the document, so it cannot drift from the study.
 #[test]
-fn shipped_strip_accuracy_study_errors_are_the_readme_table() {
-    let readme = std::fs::read_to_string(common::root().join("README.md")).unwrap();
+fn shipped_strip_accuracy_study_errors_are_the_documented_table() {
+    let readme = std::fs::read_to_string(common::root().join("docs/verification.md")).unwrap();
     let header = "| probe 1st-harmonic error | probe peak-to-peak error | displacement L2 error |";
-    let at = readme.find(header).expect("the README's accuracy table");
+    let at = readme
+        .find(header)
+        .expect("the accuracy table of docs/verification.md");
     let table: Vec<Vec<String>> = readme[at..]
         .lines()
         .skip(2)
@@ -703,7 +705,7 @@ fn shipped_strip_accuracy_study_errors_are_the_readme_table() {
         out.to_str().unwrap(),
     ]);
     let rows = table_without_times(&out.join("accuracy.csv"));
-    assert_eq!(rows.len() - 1, table.len(), "one README row per rung");
+    assert_eq!(rows.len() - 1, table.len(), "one documented row per rung");
     let columns = [
         (4, "error_probe_first_harmonic"),
         (5, "error_probe_peak_to_peak"),
@@ -940,7 +942,7 @@ fn study_and_accuracy_tables_carry_each_points_warnings() {
         field.and_then(|v| v.parse().ok()).expect("an error")
     };
     assert!(error(lines[1]) > 2.0 * error(lines[2]), "{text}");
-    // The README's numbers, within 2×: 2.4% at H = 15, 0.73% at H = 20.
+    // The numbers of docs/verification.md, within 2×: 2.4% at H = 15, 0.73% at H = 20.
     assert!((0.012..0.048).contains(&error(lines[1])), "{text}");
     assert!((0.0037..0.0146).contains(&error(lines[2])), "{text}");
     let svg = std::fs::read_to_string(dir.join("accuracy/accuracy.svg")).unwrap();

@@ -278,7 +278,7 @@ fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
 /// 1500–1520 Hz), and where the next tangle turns
 /// it round (measured: near 1595 Hz, three turning points within 5 Hz, after 14–15 in all and
 /// 411–425 points; the spot moves with round-off) it stops with the retrace diagnosis,
-/// keeping the curve so far. The README's sweep section quotes these numbers.
+/// keeping the curve so far. docs/verification.md, "Frequency-response curves", quotes these numbers.
 #[test]
 fn at_ten_harmonics_the_tangled_scene_passes_its_first_tangle_and_stops_at_a_later_one() {
     let s = run_sweep(

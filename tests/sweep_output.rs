@@ -1,7 +1,7 @@
 //! What `hbcontact sweep` writes besides its table: the curve's plots (read back from the SVG
 //! and compared with sweep.csv), frames.pvd along the curve (read by meshio), the full run
 //! outputs at the folds, the peak and `sweep.write_at`, the curve so far of a sweep that
-//! fails part-way, and `--resume` (docs/method.md, "Sweeps"; README, "Frequency-response
+//! fails part-way, and `--resume` (docs/method.md, "Sweeps"; docs/guide.md, "Frequency-response
 //! curves through folds").
 //!
 //! The scene: the 5%-damped strip against its wall (pipelines/strip_sweep.yaml) on a coarse
