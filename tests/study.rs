@@ -490,11 +490,11 @@ fn each_geometry_is_meshed_by_one_gmsh_process() {
         out.to_str().unwrap(),
     ]);
     let calls = std::fs::read_to_string(&log).unwrap();
-    let sessions = calls.lines().filter(|l| *l == "-c").count();
+    let gmsh_sessions = calls.lines().filter(|l| *l == "-c").count();
     assert_eq!(
-        (sessions, calls.lines().count()),
+        (gmsh_sessions, calls.lines().count()),
         (3, 4),
-        "3 geometries, one session each, and one --version: {calls}"
+        "3 geometries, one gmsh session each, and one --version: {calls}"
     );
 }
 
