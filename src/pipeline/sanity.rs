@@ -47,6 +47,7 @@
 //!   order, one element through: within 0.3% on both.
 
 use super::model::{Model, Purpose};
+use std::collections::HashMap;
 use std::path::Path;
 
 use crate::config::{config_error, BasisSpec, Pipeline, PlaneModelSpec};
@@ -300,138 +301,19 @@ pub struct ThinSpot {
 /// (the mean of its boundary edges' inward normals) to the first boundary edge it meets, at
 /// most `THIN_CELLS` h away, h the longest corner edge of the node's cells.
 pub fn thin_spots(mesh: &Mesh2d) -> Vec<ThinSpot> {
-    use std::collections::HashMap;
     let nodes = &mesh.nodes;
     let size = body_size(mesh);
     if !(size > 0.0 && size.is_finite()) {
         return Vec::new();
     }
-    // Boundary edges: corner edges of one cell only, with that cell's centroid (the inside).
-    let mut uses: HashMap<(usize, usize), (u32, [f64; 2])> = HashMap::new();
-    let mut longest = vec![0.0f64; nodes.len()];
-    let length = |a: usize, b: usize| (nodes[b][0] - nodes[a][0]).hypot(nodes[b][1] - nodes[a][1]);
-    for cell in &mesh.cells {
-        let k = &cell.nodes[..cell.kind.corners()];
-        let mut centre = [0.0; 2];
-        for &n in k {
-            centre[0] += nodes[n][0] / k.len() as f64;
-            centre[1] += nodes[n][1] / k.len() as f64;
-        }
-        let edge = (0..k.len())
-            .map(|a| length(k[a], k[(a + 1) % k.len()]))
-            .fold(0.0f64, f64::max);
-        for a in 0..k.len() {
-            let (p, q) = (k[a], k[(a + 1) % k.len()]);
-            let entry = uses.entry((p.min(q), p.max(q))).or_insert((0, centre));
-            entry.0 += 1;
-            longest[p] = longest[p].max(edge);
-        }
-    }
-    // Every corner edge; the boundary ones first.
-    let mut edges: Vec<(usize, usize, [f64; 2])> = Vec::with_capacity(uses.len());
-    let mut interior = Vec::new();
-    for ((p, q), (n, c)) in uses {
-        if n == 1 {
-            edges.push((p, q, c));
-        } else {
-            interior.push((p, q, c));
-        }
-    }
-    let boundary = edges.len();
+    let (edges, boundary, longest) = corner_edges(mesh);
     if boundary == 0 {
         return Vec::new();
     }
-    edges.extend(interior);
-    // Inward unit normals, summed per node.
-    let mut normal = vec![[0.0f64; 2]; nodes.len()];
-    for &(p, q, c) in &edges[..boundary] {
-        let (a, b) = (nodes[p], nodes[q]);
-        let l = length(p, q);
-        if !(l > 0.0) {
-            continue;
-        }
-        let mut n = [-(b[1] - a[1]) / l, (b[0] - a[0]) / l];
-        let mid = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
-        if n[0] * (c[0] - mid[0]) + n[1] * (c[1] - mid[1]) < 0.0 {
-            n = [-n[0], -n[1]];
-        }
-        for m in [p, q] {
-            normal[m][0] += n[0];
-            normal[m][1] += n[1];
-        }
-    }
-    // A grid of the edges, cells the median boundary edge long; edges longer than `LONG`
-    // cells are tested by every ray.
-    const LONG: f64 = 8.0;
-    let mut lengths: Vec<f64> = edges[..boundary]
-        .iter()
-        .map(|&(p, q, _)| length(p, q))
-        .collect();
-    lengths.sort_by(f64::total_cmp);
-    let g = lengths[lengths.len() / 2].max(1e-9 * size);
-    let key = |x: f64, y: f64| ((x / g).floor() as i64, (y / g).floor() as i64);
-    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-    let mut long = Vec::new();
-    for (i, &(p, q, _)) in edges.iter().enumerate() {
-        if length(p, q) > LONG * g {
-            long.push(i);
-            continue;
-        }
-        let (a, b) = (key(nodes[p][0], nodes[p][1]), key(nodes[q][0], nodes[q][1]));
-        for x in a.0.min(b.0)..=a.0.max(b.0) {
-            for y in a.1.min(b.1)..=a.1.max(b.1) {
-                grid.entry((x, y)).or_default().push(i);
-            }
-        }
-    }
-    // Along the ray o + s d, 0 < s ≤ reach: the distance to the nearest boundary edge not at
-    // node `from`, and the distances at which it crosses interior edges.
-    let cast = |from: usize, o: [f64; 2], d: [f64; 2], reach: f64| -> (Option<f64>, Vec<f64>) {
-        let mut best: Option<f64> = None;
-        let mut crossed = Vec::new();
-        let mut test = |i: usize| {
-            let (p, q, _) = edges[i];
-            if p == from || q == from {
-                return;
-            }
-            let (a, b) = (nodes[p], nodes[q]);
-            let e = [b[0] - a[0], b[1] - a[1]];
-            let det = d[0] * (-e[1]) - d[1] * (-e[0]);
-            if det.abs() <= 1e-300 {
-                return;
-            }
-            let r = [a[0] - o[0], a[1] - o[1]];
-            let s = (r[0] * (-e[1]) - r[1] * (-e[0])) / det;
-            let u = (d[0] * r[1] - d[1] * r[0]) / det;
-            if s > 1e-9 * size && s <= reach && (0.0..=1.0).contains(&u) {
-                if i < boundary {
-                    best = Some(best.map_or(s, |b: f64| b.min(s)));
-                } else {
-                    crossed.push(s);
-                }
-            }
-        };
-        long.iter().for_each(|&i| test(i));
-        let steps = (2.0 * reach / g).ceil() as usize;
-        let mut seen = std::collections::HashSet::new();
-        for k in 0..=steps {
-            let s = reach * k as f64 / steps.max(1) as f64;
-            let c = key(o[0] + s * d[0], o[1] + s * d[1]);
-            for x in c.0 - 1..=c.0 + 1 {
-                for y in c.1 - 1..=c.1 + 1 {
-                    if seen.insert((x, y)) {
-                        grid.get(&(x, y))
-                            .into_iter()
-                            .flatten()
-                            .for_each(|&i| test(i));
-                    }
-                }
-            }
-        }
-        (best, crossed)
-    };
+    let normal = inward_normals(nodes, &edges[..boundary]);
+    let grid = EdgeGrid::new(nodes, edges, boundary, size);
     let mut spots = Vec::new();
-    let mut on_boundary: Vec<usize> = edges.iter().flat_map(|&(p, q, _)| [p, q]).collect();
+    let mut on_boundary: Vec<usize> = grid.edges.iter().flat_map(|&(p, q, _)| [p, q]).collect();
     on_boundary.sort_unstable();
     on_boundary.dedup();
     for n in on_boundary {
@@ -442,7 +324,7 @@ pub fn thin_spots(mesh: &Mesh2d) -> Vec<ThinSpot> {
             continue;
         }
         let reach = (THIN_CELLS * h).min(size / SLENDER);
-        let (Some(t), mut crossed) = cast(n, nodes[n], [nx / l, ny / l], reach) else {
+        let (Some(t), mut crossed) = grid.cast(n, nodes[n], [nx / l, ny / l], reach) else {
             continue;
         };
         // Interior edges crossed before the far side, one per place (a ray through a node
@@ -458,6 +340,179 @@ pub fn thin_spots(mesh: &Mesh2d) -> Vec<ThinSpot> {
         });
     }
     spots
+}
+
+/// A corner edge (p, q) with the centroid of a cell it bounds (the inside).
+type CornerEdge = (usize, usize, [f64; 2]);
+
+fn edge_length(nodes: &[[f64; 2]], a: usize, b: usize) -> f64 {
+    (nodes[b][0] - nodes[a][0]).hypot(nodes[b][1] - nodes[a][1])
+}
+
+/// Every corner edge of the cells, the boundary ones (of one cell only) first, with their
+/// count; and per node the longest corner edge of its cells.
+fn corner_edges(mesh: &Mesh2d) -> (Vec<CornerEdge>, usize, Vec<f64>) {
+    let nodes = &mesh.nodes;
+    let mut uses: HashMap<(usize, usize), (u32, [f64; 2])> = HashMap::new();
+    let mut longest = vec![0.0f64; nodes.len()];
+    for cell in &mesh.cells {
+        let k = &cell.nodes[..cell.kind.corners()];
+        let mut centre = [0.0; 2];
+        for &n in k {
+            centre[0] += nodes[n][0] / k.len() as f64;
+            centre[1] += nodes[n][1] / k.len() as f64;
+        }
+        let edge = (0..k.len())
+            .map(|a| edge_length(nodes, k[a], k[(a + 1) % k.len()]))
+            .fold(0.0f64, f64::max);
+        for a in 0..k.len() {
+            let (p, q) = (k[a], k[(a + 1) % k.len()]);
+            let entry = uses.entry((p.min(q), p.max(q))).or_insert((0, centre));
+            entry.0 += 1;
+            longest[p] = longest[p].max(edge);
+        }
+    }
+    let mut edges: Vec<CornerEdge> = Vec::with_capacity(uses.len());
+    let mut interior = Vec::new();
+    for ((p, q), (n, c)) in uses {
+        if n == 1 {
+            edges.push((p, q, c));
+        } else {
+            interior.push((p, q, c));
+        }
+    }
+    let boundary = edges.len();
+    edges.extend(interior);
+    (edges, boundary, longest)
+}
+
+/// The inward unit normals of the `boundary` edges, summed per node.
+fn inward_normals(nodes: &[[f64; 2]], boundary: &[CornerEdge]) -> Vec<[f64; 2]> {
+    let mut normal = vec![[0.0f64; 2]; nodes.len()];
+    for &(p, q, c) in boundary {
+        let (a, b) = (nodes[p], nodes[q]);
+        let l = edge_length(nodes, p, q);
+        if !(l > 0.0) {
+            continue;
+        }
+        let mut n = [-(b[1] - a[1]) / l, (b[0] - a[0]) / l];
+        let mid = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
+        if n[0] * (c[0] - mid[0]) + n[1] * (c[1] - mid[1]) < 0.0 {
+            n = [-n[0], -n[1]];
+        }
+        for m in [p, q] {
+            normal[m][0] += n[0];
+            normal[m][1] += n[1];
+        }
+    }
+    normal
+}
+
+/// The corner edges binned on a grid of cells the median boundary edge long (`g`), for
+/// casting rays; edges longer than `LONG` cells are tested by every ray.
+struct EdgeGrid<'a> {
+    nodes: &'a [[f64; 2]],
+    edges: Vec<CornerEdge>,
+    /// The first `boundary` edges are on the boundary.
+    boundary: usize,
+    size: f64,
+    g: f64,
+    grid: HashMap<(i64, i64), Vec<usize>>,
+    long: Vec<usize>,
+}
+
+impl<'a> EdgeGrid<'a> {
+    const LONG: f64 = 8.0;
+
+    fn new(nodes: &'a [[f64; 2]], edges: Vec<CornerEdge>, boundary: usize, size: f64) -> Self {
+        let mut lengths: Vec<f64> = edges[..boundary]
+            .iter()
+            .map(|&(p, q, _)| edge_length(nodes, p, q))
+            .collect();
+        lengths.sort_by(f64::total_cmp);
+        let g = lengths[lengths.len() / 2].max(1e-9 * size);
+        let mut index = EdgeGrid {
+            nodes,
+            edges,
+            boundary,
+            size,
+            g,
+            grid: HashMap::new(),
+            long: Vec::new(),
+        };
+        for i in 0..index.edges.len() {
+            let (p, q, _) = index.edges[i];
+            if edge_length(nodes, p, q) > Self::LONG * g {
+                index.long.push(i);
+                continue;
+            }
+            let (a, b) = (index.key(nodes[p]), index.key(nodes[q]));
+            for x in a.0.min(b.0)..=a.0.max(b.0) {
+                for y in a.1.min(b.1)..=a.1.max(b.1) {
+                    index.grid.entry((x, y)).or_default().push(i);
+                }
+            }
+        }
+        index
+    }
+
+    fn key(&self, [x, y]: [f64; 2]) -> (i64, i64) {
+        ((x / self.g).floor() as i64, (y / self.g).floor() as i64)
+    }
+
+    /// Along the ray o + s d, 0 < s ≤ reach: the distance to the nearest boundary edge not
+    /// at node `from`, and the distances at which it crosses interior edges.
+    fn cast(&self, from: usize, o: [f64; 2], d: [f64; 2], reach: f64) -> (Option<f64>, Vec<f64>) {
+        let mut best: Option<f64> = None;
+        let mut crossed = Vec::new();
+        let mut test = |i: usize| {
+            let Some(s) = self.hit(i, from, o, d, reach) else {
+                return;
+            };
+            if i < self.boundary {
+                best = Some(best.map_or(s, |b: f64| b.min(s)));
+            } else {
+                crossed.push(s);
+            }
+        };
+        self.long.iter().for_each(|&i| test(i));
+        let steps = (2.0 * reach / self.g).ceil() as usize;
+        let mut seen = std::collections::HashSet::new();
+        for k in 0..=steps {
+            let s = reach * k as f64 / steps.max(1) as f64;
+            let c = self.key([o[0] + s * d[0], o[1] + s * d[1]]);
+            for x in c.0 - 1..=c.0 + 1 {
+                for y in c.1 - 1..=c.1 + 1 {
+                    if seen.insert((x, y)) {
+                        self.grid
+                            .get(&(x, y))
+                            .into_iter()
+                            .flatten()
+                            .for_each(|&i| test(i));
+                    }
+                }
+            }
+        }
+        (best, crossed)
+    }
+
+    /// Where the ray o + s d meets edge `i` (not one at node `from`), 0 < s ≤ reach.
+    fn hit(&self, i: usize, from: usize, o: [f64; 2], d: [f64; 2], reach: f64) -> Option<f64> {
+        let (p, q, _) = self.edges[i];
+        if p == from || q == from {
+            return None;
+        }
+        let (a, b) = (self.nodes[p], self.nodes[q]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let det = d[0] * (-e[1]) - d[1] * (-e[0]);
+        if det.abs() <= 1e-300 {
+            return None;
+        }
+        let r = [a[0] - o[0], a[1] - o[1]];
+        let s = (r[0] * (-e[1]) - r[1] * (-e[0])) / det;
+        let u = (d[0] * r[1] - d[1] * r[0]) / det;
+        (s > 1e-9 * self.size && s <= reach && (0.0..=1.0).contains(&u)).then_some(s)
+    }
 }
 
 /// A first-order mesh thin for its cells where the body is slender (`thin_spots`, at least
@@ -605,25 +660,7 @@ fn part_free_motions(mesh: &Mesh2d, nodes: &[usize], held: &[[bool; 2]]) -> Vec<
         .filter(|&i| eigen.eigenvalues[i] <= 1e-9 * scale)
         .map(|i| eigen.eigenvectors.column(i).into_owned())
         .collect();
-    let describe = |v: Vector3<f64>| {
-        let (a, b, theta) = (v[0], v[1], v[2] / size);
-        let t = a.hypot(b);
-        if (v[2]).abs() <= 1e-6 * t {
-            if b.abs() <= 1e-6 * t {
-                "translation along x".to_string()
-            } else if a.abs() <= 1e-6 * t {
-                "translation along y".to_string()
-            } else {
-                format!("translation along ({:.3}, {:.3})", a / t, b / t)
-            }
-        } else {
-            format!(
-                "rotation about ({:.4e}, {:.4e})",
-                centre[0] - b / theta,
-                centre[1] + a / theta
-            )
-        }
-    };
+    let describe = |v: Vector3<f64>| describe_rigid_motion([v[0], v[1], v[2]], centre, size);
     match null.as_slice() {
         [] => Vec::new(),
         [v] => vec![describe(*v)],
@@ -642,6 +679,28 @@ fn part_free_motions(mesh: &Mesh2d, nodes: &[usize], held: &[[bool; 2]]) -> Vec<
             ));
             all
         }
+    }
+}
+
+/// The rigid motion (a, b, θ·size) about `centre` of a part `size` across, in words: a
+/// translation (along x, y or a direction) or a rotation about the point it leaves fixed.
+fn describe_rigid_motion(v: [f64; 3], centre: [f64; 2], size: f64) -> String {
+    let (a, b, theta) = (v[0], v[1], v[2] / size);
+    let t = a.hypot(b);
+    if (v[2]).abs() <= 1e-6 * t {
+        if b.abs() <= 1e-6 * t {
+            "translation along x".to_string()
+        } else if a.abs() <= 1e-6 * t {
+            "translation along y".to_string()
+        } else {
+            format!("translation along ({:.3}, {:.3})", a / t, b / t)
+        }
+    } else {
+        format!(
+            "rotation about ({:.4e}, {:.4e})",
+            centre[0] - b / theta,
+            centre[1] + a / theta
+        )
     }
 }
 
