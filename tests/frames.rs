@@ -4,8 +4,8 @@
 mod common;
 
 use faer::c64;
+use hbcontact::hbm::continuation::{sweep, PointInfo, SweepOutcome, SweepSettings};
 use hbcontact::hbm::frames::{self, ReducedModel};
-use hbcontact::hbm::sweep::{sweep, PointInfo, SweepOutcome, SweepSettings};
 use hbcontact::hbm::{solve_from, Solution};
 use hbcontact::linalg::Factor;
 use hbcontact::pipeline::Purpose;

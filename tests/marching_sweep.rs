@@ -12,7 +12,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use hbcontact::config::Pipeline;
-use hbcontact::hbm::sweep::{sweep, PointInfo};
+use hbcontact::hbm::continuation::{sweep, PointInfo};
 use hbcontact::hbm::{solve_from, ContactSolution, Solution};
 use hbcontact::pipeline::end_state::{self, Marched};
 use hbcontact::pipeline::stability::marching_start;

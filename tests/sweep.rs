@@ -252,7 +252,7 @@ fn tangled_scene(harmonics: &str) -> [&str; 4] {
 /// H = 10 with the Newton's forcing term capped at 1e-3 it stopped at 1447.5 Hz; the test
 /// below holds what H = 10 does now), so the test asks for a stop inside the region of
 /// turning points, not at one frequency. The retrace check itself is unit-tested in
-/// src/hbm/sweep.rs.
+/// src/hbm/continuation/trail.rs.
 #[test]
 fn a_continuation_tangled_by_kinks_of_the_sampled_law_stops_with_a_diagnosis() {
     let s = run_sweep(

@@ -18,6 +18,7 @@
 //! the contact reduction runs only when there is an obstacle.
 
 pub mod basis;
+pub mod continuation;
 pub mod floquet;
 pub mod fourier;
 pub mod frames;
@@ -29,7 +30,6 @@ pub mod reduced;
 pub mod sampler;
 pub mod solution;
 pub mod step;
-pub mod sweep;
 pub mod system;
 
 use std::collections::BTreeMap;

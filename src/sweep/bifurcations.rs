@@ -160,7 +160,7 @@ fn between(a: &SweepRow, b: &SweepRow, turns: bool) -> BifurcationReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hbm::sweep::Corrector;
+    use crate::hbm::continuation::Corrector;
 
     fn row(index: usize, f: f64, judged: Option<(f64, f64, Crossing)>) -> SweepRow {
         turning(index, f, judged, 1.0)

@@ -32,10 +32,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{Pipeline, StabilityMethod, SweepSpec};
 use crate::hbm::basis::TimeBasis;
+use crate::hbm::continuation::{self, ContinuationState, Corrector, SweepSettings};
 use crate::hbm::floquet::{self, Crossing};
 use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
-use crate::hbm::sweep::{self as continuation, ContinuationState, Corrector, SweepSettings};
 use crate::hbm::ContactSolution;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
@@ -179,7 +179,7 @@ pub struct SweepSummary {
     /// frames"): its dimension, the frames it gave, the points whose check failed and were
     /// solved again on factored frames, and the largest backward error of a point it kept.
     /// Dimension 0: every frame was factored.
-    pub reduced_frames: crate::hbm::sweep::ReducedFrames,
+    pub reduced_frames: crate::hbm::continuation::ReducedFrames,
 }
 
 impl SweepSummary {
@@ -316,7 +316,7 @@ fn execute(
 struct Ended<'a> {
     warnings: Vec<String>,
     timings: crate::hbm::Timings,
-    reduced: crate::hbm::sweep::ReducedFrames,
+    reduced: crate::hbm::continuation::ReducedFrames,
     failure: Option<Error>,
     out: &'a std::path::Path,
 }

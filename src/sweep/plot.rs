@@ -146,7 +146,7 @@ fn pieces(rows: &[SweepRow], c: usize) -> Vec<(bool, Vec<(f64, f64)>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hbm::sweep::Corrector;
+    use crate::hbm::continuation::Corrector;
 
     fn row(index: usize, stable: Option<bool>) -> SweepRow {
         SweepRow {

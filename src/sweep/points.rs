@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::resume::Saved;
 use super::{FoldReport, SweepRow};
 use crate::config::{Pipeline, SweepSpec};
-use crate::hbm::sweep::{without_kinks, ContinuationState, Fold, PointInfo, KINK};
+use crate::hbm::continuation::{without_kinks, ContinuationState, Fold, PointInfo, KINK};
 use crate::hbm::Solution;
 use crate::output::tables::write_json;
 use crate::output::{write_pvd, write_vtu, Field};

@@ -41,8 +41,8 @@ use serde::Deserialize;
 
 use super::{FoldReport, Stopped, SweepRow, WrittenPoint};
 use crate::config::{Pipeline, SweepSpec};
+use crate::hbm::continuation::ContinuationState;
 use crate::hbm::knobs::MAX_DOUBLINGS;
-use crate::hbm::sweep::ContinuationState;
 use crate::pipeline::Model;
 use crate::{Error, Result};
 
@@ -529,7 +529,7 @@ fn check_reduced_model(
         0
     };
     let nodes = model.contact.as_ref().map_or(0, |c| c.operator.nodes());
-    if crate::hbm::sweep::reduced_model_pays(&model.system, nodes, harmonics, frequencies) {
+    if crate::hbm::continuation::reduced_model_pays(&model.system, nodes, harmonics, frequencies) {
         return Ok(());
     }
     let why = "but this scene's sweep builds no reduced model of its frames";

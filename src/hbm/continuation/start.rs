@@ -1,0 +1,143 @@
+//! The first point of a continuation: cold (the single-frequency solve, which fixes c and N
+//! for the whole curve and the force scale F = c ‖r‖ of the first point's linear gap r), or
+//! resumed from a saved state.
+//!
+//! Resume: a `ContinuationState` saved after any point holds all the continuation carries from
+//! one point to the next (index, ω, the next Δs, τ, λ, F, c, N, the largest ‖λ‖, the trail,
+//! the Krylov hint, the frequencies the reduced model learned at and the kind of the point's
+//! frame), and continues the curve from that point as if it had not stopped: the model is
+//! built and taught again, the point's λ is taken as saved on a frame of the same kind (a
+//! Newton from it checks it solves there, on its own branch), and the points after it are the
+//! uninterrupted sweep's bit for bit.
+
+use super::corrector::MAX_CORRECTOR;
+use super::frame::Frame;
+use super::{hz, Continuation, ContinuationState, ReducedFrames, SweepSettings};
+use crate::contact::ContactOperator;
+use crate::hbm::reduced::{self, NewtonSettings};
+use crate::hbm::{solve_contact_timed, HbSettings, NewtonOutcome, System, Timings};
+use crate::progress::Reporter;
+use crate::{Error, Result};
+
+impl<'a> Continuation<'a> {
+    /// The cold first point (the single-frequency solve, knob checks included) fixes c and N
+    /// for the whole curve; a resumed one is taken as saved (`resume_at`).
+    pub(super) fn start(
+        system: &'a mut System,
+        op: &'a ContactOperator,
+        hb: &'a HbSettings,
+        s: &'a SweepSettings,
+        reporter: &'a dyn Reporter,
+    ) -> Result<Self> {
+        let omega = s.resume.as_ref().map_or(s.omega_start, |r| r.omega);
+        system.omega = omega;
+        let newton = NewtonSettings {
+            tolerance: hb.tolerance,
+            max_iterations: MAX_CORRECTOR,
+            ..Default::default()
+        };
+        let mut c = Continuation {
+            system,
+            op,
+            hb,
+            s,
+            reporter,
+            newton,
+            force: 0.0,
+            span: (s.omega_end - s.omega_start).abs(),
+            direction: (s.omega_end - s.omega_start).signum(),
+            timings: Timings::default(),
+            factorizations: 0,
+            largest: 0.0,
+            jumped: None,
+            first: None,
+            model: None,
+            model_built: false,
+            enriched_at: Vec::new(),
+            reduced: ReducedFrames::default(),
+        };
+        match &s.resume {
+            None => c.cold_start(omega)?,
+            Some(r) => c.resume_at(r)?,
+        }
+        Ok(c)
+    }
+
+    /// The first point of a new curve: the single-frequency solve at ω on factorizations.
+    fn cold_start(&mut self, omega: f64) -> Result<()> {
+        let frame = self.exact_frame(omega)?;
+        let first = solve_contact_timed(
+            self.system,
+            self.op,
+            &frame.problem,
+            self.hb,
+            self.reporter,
+            &mut self.timings,
+        )?;
+        let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
+        (self.newton.samples, self.newton.c) = (first.samples, first.c);
+        self.force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);
+        self.first = Some((first.multipliers, first.newton, frame));
+        Ok(())
+    }
+
+    /// The saved point `r`, where the uninterrupted continuation stood after it: its scaling,
+    /// c, N and Krylov hint, the largest ‖λ‖ so far, the reduced model built and taught at the
+    /// saved frequencies as it was then, and the point's frame of the same kind (reduced or
+    /// factored) as the one it was solved on. Its multipliers solve that frame as they are
+    /// (checked by a Newton from them, which then takes no step), so the continuation goes on
+    /// from the very state it stopped in.
+    fn resume_at(&mut self, r: &ContinuationState) -> Result<()> {
+        (self.newton.samples, self.newton.c) = (r.samples, r.c);
+        self.newton.krylov_hint.set_harmonic_first(r.harmonic_first);
+        self.force = r.force_scale;
+        self.largest = r.largest;
+        self.build_model();
+        if self.model.is_none() && !r.enriched_at.is_empty() {
+            return Err(Error::Input(format!(
+                "the saved point (sweep.json's `resume.enriched_at`) at {:.6} Hz names \
+                 frequencies a reduced model learned at, and this scene's sweep builds none: \
+                 sweep again without --resume",
+                hz(r.omega)
+            )));
+        }
+        for &omega in &r.enriched_at {
+            let exact = self.exact_frame(omega)?;
+            self.enrich(&exact);
+        }
+        if r.reduced_frame && self.model.is_none() {
+            return Err(Error::Input(format!(
+                "the saved point (sweep.json's `resume`) at {:.6} Hz was solved on a frame of \
+                 the reduced model, which this scene does not build (`sweep.reduced_frames`, \
+                 the mesh or the contact set changed): sweep again without --resume",
+                hz(r.omega)
+            )));
+        }
+        let frame = self.frame_from(r.omega, r.reduced_frame)?;
+        let o = resolve_saved(&frame, &self.newton, r, self.reporter)?;
+        self.factorizations = 1;
+        self.first = Some((o.multipliers.clone(), o, frame));
+        Ok(())
+    }
+}
+
+/// The saved point checked on its frame by Newton from its own multipliers, which solve it
+/// (no iteration, the multipliers unchanged, on the frame they were solved on). One that does
+/// not solve again belongs to another scene, or was edited: bad input.
+fn resolve_saved(
+    frame: &Frame,
+    newton: &NewtonSettings,
+    r: &ContinuationState,
+    reporter: &dyn Reporter,
+) -> Result<NewtonOutcome> {
+    let o = reduced::newton(&frame.problem, newton, &r.multipliers, reporter);
+    if !o.converged || o.multipliers.len() != r.multipliers.len() {
+        return Err(Error::Input(format!(
+            "the saved point (sweep.json's `resume`) at {:.6} Hz does not solve again ({}): resume needs the scene the \
+             sweep was started with; sweep again without --resume",
+            hz(frame.omega),
+            o.reason
+        )));
+    }
+    Ok(o)
+}
