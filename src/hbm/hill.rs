@@ -722,6 +722,18 @@ fn arnoldi(
     n: usize,
     steps: usize,
 ) -> Result<Vec<(c64, Vec<c64>)>> {
+    let (basis, hess, k) = arnoldi_factorization(apply, n, steps)?;
+    converged_ritz_pairs(&basis, &hess, k)
+}
+
+/// The Arnoldi factorization A V_k = V_{k+1} H̄_k of `apply` from a fixed start vector: the
+/// basis V (n × (steps + 1)), the Hessenberg matrix H̄ ((steps + 1) × steps) and the steps k
+/// taken (fewer than `steps` when h_{k+1,k} ≤ 1e-14 |h_{k,k}|, an invariant subspace).
+fn arnoldi_factorization(
+    apply: impl Fn(&[f64]) -> Vec<f64>,
+    n: usize,
+    steps: usize,
+) -> Result<(Mat<f64>, Mat<f64>, usize)> {
     use faer::linalg::matmul::matmul;
     use faer::{Accum, Par};
     let mut basis = Mat::<f64>::zeros(n, steps + 1);
@@ -770,6 +782,17 @@ fn arnoldi(
             basis[(i, k)] = w[(i, 0)] / beta;
         }
     }
+    Ok((basis, hess, k))
+}
+
+/// The Ritz pairs (θ, V_k y) of the factorization's k × k Hessenberg matrix H_k whose
+/// residual |h_{k+1,k} y_k| is at most 1e-8 |θ| ‖y‖ (θ ≠ 0).
+fn converged_ritz_pairs(
+    basis: &Mat<f64>,
+    hess: &Mat<f64>,
+    k: usize,
+) -> Result<Vec<(c64, Vec<c64>)>> {
+    let n = basis.nrows();
     let (values, vectors) = crate::linalg::eigen_real(hess.as_ref().submatrix(0, 0, k, k))
         .map_err(|e| Error::Model(format!("Hill's method: Ritz values: {e}")))?;
     let tail = hess[(k, k - 1)].abs();

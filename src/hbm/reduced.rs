@@ -363,9 +363,8 @@ pub fn newton_until(
         active_samples: current.active_samples(),
         step: 0.0,
     });
-    let (mut iterations, mut stalls) = (0, 0);
-    // The last `NONMONOTONE_WINDOW` residual norms, newest at `iterations % window`.
-    let mut history = [0.0f64; NONMONOTONE_WINDOW];
+    let mut iterations = 0;
+    let mut memory = SearchMemory::default();
     let mut watch = Watch::new(residual.relative(&current));
     let reason = loop {
         let rel = residual.relative(&current);
@@ -384,23 +383,8 @@ pub fn newton_until(
         if let Err(why) = residual.direction(&current, settings, &mut step) {
             break Some(why);
         }
-        history[iterations % NONMONOTONE_WINDOW] = norm2(&current.residual);
-        // The worst of the last min(iterations, window) norms (the unused slots are 0).
-        let reference = history.iter().fold(0.0f64, |a, &b| a.max(b));
         let buffers = (&mut trial, &mut best);
-        let alpha = match line_search(&residual, &current, &step, reference, buffers) {
-            Ok(alpha) => {
-                std::mem::swap(&mut current, &mut trial);
-                Some(alpha)
-            }
-            // Take the best trial anyway, a bounded number of times, to leave a kink.
-            Err(alpha) if stalls < MAX_FORCED_STEPS => {
-                stalls += 1;
-                std::mem::swap(&mut current, &mut best);
-                Some(alpha)
-            }
-            Err(_) => None,
-        };
+        let alpha = memory.step(&residual, iterations, &mut current, &step, buffers);
         let stalled = alpha.is_none();
         let alpha = alpha.unwrap_or(0.0);
         watch.stepped(alpha);
@@ -423,6 +407,51 @@ pub fn newton_until(
         iterations,
         log,
         reason: reason.unwrap_or_default(),
+    }
+}
+
+/// The non-monotone line search's memory over a Newton run: the last `NONMONOTONE_WINDOW`
+/// residual norms ‖R‖ (newest at `iterations % window`) and the forced steps taken.
+#[derive(Default)]
+struct SearchMemory {
+    history: [f64; NONMONOTONE_WINDOW],
+    stalls: usize,
+}
+
+impl SearchMemory {
+    /// Iteration `iterations`' step from `current` along `step`: the line search against the
+    /// worst of the last min(iterations, window) norms, or, when it finds no decrease, its
+    /// best trial anyway (up to `MAX_FORCED_STEPS` times, to leave a kink). `current` becomes
+    /// the point taken; the step length, `None` when the search stalled (`current` unchanged).
+    fn step(
+        &mut self,
+        residual: &Residual,
+        iterations: usize,
+        current: &mut Evaluation,
+        step: &[f64],
+        (trial, best): (&mut Evaluation, &mut Evaluation),
+    ) -> Option<f64> {
+        self.history[iterations % NONMONOTONE_WINDOW] = norm2(&current.residual);
+        // The unused slots are 0.
+        let reference = self.history.iter().fold(0.0f64, |a, &b| a.max(b));
+        match line_search(
+            residual,
+            current,
+            step,
+            reference,
+            (&mut *trial, &mut *best),
+        ) {
+            Ok(alpha) => {
+                std::mem::swap(current, trial);
+                Some(alpha)
+            }
+            Err(alpha) if self.stalls < MAX_FORCED_STEPS => {
+                self.stalls += 1;
+                std::mem::swap(current, best);
+                Some(alpha)
+            }
+            Err(_) => None,
+        }
     }
 }
 
@@ -730,18 +759,10 @@ mod jacobian_tests {
         }
     }
 
-    /// The generalized Jacobian equals the finite-difference derivative of R away from kinks.
-    #[test]
-    fn jacobian_matches_finite_differences() {
-        let (nc, h) = (3usize, 4usize);
+    /// A Fourier problem of `nc` nodes at H = `h` drawn from `rnd` (values in [−½, ½)):
+    /// symmetric G_k with diagonal real parts shifted by 2, and a linear gap.
+    fn random_problem(nc: usize, h: usize, rnd: &mut dyn FnMut() -> f64) -> ReducedProblem {
         let m = 2 * h + 1;
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
-        };
         let compliance: Vec<Vec<c64>> = (0..=h)
             .map(|_| {
                 let mut g = vec![c64::new(0.0, 0.0); nc * nc];
@@ -755,13 +776,28 @@ mod jacobian_tests {
                 g
             })
             .collect();
-        let problem = ReducedProblem {
+        ReducedProblem {
             nodes: nc,
             harmonics: h,
             compliance,
             linear_gap: (0..nc * m).map(|_| rnd()).collect(),
             basis: TimeBasis::Fourier,
+        }
+    }
+
+    /// The generalized Jacobian equals the finite-difference derivative of R away from kinks.
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let (nc, h) = (3usize, 4usize);
+        let m = 2 * h + 1;
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
         };
+        let problem = random_problem(nc, h, &mut rnd);
         let sampler = ContactSampler::new(&TimeBasis::Fourier, h, 64);
         let x: Vec<f64> = (0..nc * m).map(|_| rnd()).collect();
         let c = 0.7;

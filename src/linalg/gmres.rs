@@ -79,13 +79,7 @@ impl GmresWork {
         } = self;
         let mut last = f64::INFINITY;
         for _ in 0..cycles {
-            // w = b − A x (b itself from x = 0).
-            if x.iter().all(|&xi| xi == 0.0) {
-                w.copy_from_slice(b);
-            } else {
-                apply(x, w);
-                w.iter_mut().zip(b).for_each(|(wi, bi)| *wi = bi - *wi);
-            }
+            initial_residual(apply, b, x, w);
             let beta = norm(w);
             last = beta / b_norm;
             if last <= tolerance {
@@ -101,31 +95,10 @@ impl GmresWork {
                 let zj = &mut z[j * n..(j + 1) * n];
                 precondition(&v[j * n..(j + 1) * n], zj);
                 apply(zj, w);
-                for (i, vi) in v.chunks_exact(n).enumerate() {
-                    let hij = dot(w, vi);
-                    h[i * restart + j] = hij;
-                    for (wk, vk) in w.iter_mut().zip(vi) {
-                        *wk -= hij * vk;
-                    }
-                }
-                let wn = norm(w);
-                h[(j + 1) * restart + j] = wn;
-                for i in 0..j {
-                    let (a, b) = (h[i * restart + j], h[(i + 1) * restart + j]);
-                    h[i * restart + j] = cs[i] * a + sn[i] * b;
-                    h[(i + 1) * restart + j] = -sn[i] * a + cs[i] * b;
-                }
-                let (a, b) = (h[j * restart + j], h[(j + 1) * restart + j]);
-                let d = (a * a + b * b).sqrt();
-                if d == 0.0 {
+                let wn = orthogonalize(w, v, h, restart, j);
+                if !rotate(h, cs, sn, g, restart, j) {
                     break;
                 }
-                cs[j] = a / d;
-                sn[j] = b / d;
-                h[j * restart + j] = d;
-                h[(j + 1) * restart + j] = 0.0;
-                g[j + 1] = -sn[j] * g[j];
-                g[j] *= cs[j];
                 used = j + 1;
                 last = g[j + 1].abs() / b_norm;
                 if last <= tolerance || wn == 0.0 {
@@ -134,21 +107,96 @@ impl GmresWork {
                 }
                 v.extend(w.iter().map(|a| a / wn));
             }
-            // Back substitution for y (in g's first entries), then x += Z y.
-            for i in (0..used).rev() {
-                let s: f64 = ((i + 1)..used).map(|k| h[i * restart + k] * g[k]).sum();
-                g[i] = (g[i] - s) / h[i * restart + i];
-            }
-            for (yk, zk) in g[..used].iter().zip(z.chunks_exact(n)) {
-                for (xi, zi) in x.iter_mut().zip(zk) {
-                    *xi += yk * zi;
-                }
-            }
+            update_solution(h, g, z, x, restart, used);
             if converged {
                 return Ok(());
             }
         }
         Err(last)
+    }
+}
+
+/// w = b − A x, or b itself from x = 0 (no product).
+fn initial_residual(
+    apply: &mut dyn FnMut(&[f64], &mut [f64]),
+    b: &[f64],
+    x: &[f64],
+    w: &mut [f64],
+) {
+    if x.iter().all(|&xi| xi == 0.0) {
+        w.copy_from_slice(b);
+    } else {
+        apply(x, w);
+        w.iter_mut().zip(b).for_each(|(wi, bi)| *wi = bi - *wi);
+    }
+}
+
+/// Modified Gram–Schmidt of w = A z_j against the basis v_0..v_j: column j of H̄ (h_ij =
+/// w·v_i, then h_{j+1,j} = ‖w‖), w left orthogonal to the basis; returns ‖w‖.
+fn orthogonalize(w: &mut [f64], v: &[f64], h: &mut [f64], restart: usize, j: usize) -> f64 {
+    let n = w.len(); // one vector of the basis
+    for (i, vi) in v.chunks_exact(n).enumerate() {
+        let hij = dot(w, vi);
+        h[i * restart + j] = hij;
+        for (wk, vk) in w.iter_mut().zip(vi) {
+            *wk -= hij * vk;
+        }
+    }
+    let wn = dot(w, w).sqrt();
+    h[(j + 1) * restart + j] = wn;
+    wn
+}
+
+/// Column j of H̄ through the earlier Givens rotations, then the rotation (c_j, s_j) that
+/// zeroes h_{j+1,j}, applied to it and to g (g_{j+1} = −s_j g_j, g_j ← c_j g_j). `false`
+/// (nothing changed but the earlier rotations) when the column is zero: the Krylov space is
+/// exhausted.
+fn rotate(
+    h: &mut [f64],
+    cs: &mut [f64],
+    sn: &mut [f64],
+    g: &mut [f64],
+    restart: usize,
+    j: usize,
+) -> bool {
+    for i in 0..j {
+        let (a, b) = (h[i * restart + j], h[(i + 1) * restart + j]);
+        h[i * restart + j] = cs[i] * a + sn[i] * b;
+        h[(i + 1) * restart + j] = -sn[i] * a + cs[i] * b;
+    }
+    let (a, b) = (h[j * restart + j], h[(j + 1) * restart + j]);
+    let d = (a * a + b * b).sqrt();
+    if d == 0.0 {
+        return false;
+    }
+    cs[j] = a / d;
+    sn[j] = b / d;
+    h[j * restart + j] = d;
+    h[(j + 1) * restart + j] = 0.0;
+    g[j + 1] = -sn[j] * g[j];
+    g[j] *= cs[j];
+    true
+}
+
+/// Back substitution of the rotated H y = g for y over the first `used` columns (y in g's
+/// first entries), then x += Z y.
+fn update_solution(
+    h: &[f64],
+    g: &mut [f64],
+    z: &[f64],
+    x: &mut [f64],
+    restart: usize,
+    used: usize,
+) {
+    let n = z.len() / restart; // z holds `restart` vectors
+    for i in (0..used).rev() {
+        let s: f64 = ((i + 1)..used).map(|k| h[i * restart + k] * g[k]).sum();
+        g[i] = (g[i] - s) / h[i * restart + i];
+    }
+    for (yk, zk) in g[..used].iter().zip(z.chunks_exact(n)) {
+        for (xi, zi) in x.iter_mut().zip(zk) {
+            *xi += yk * zi;
+        }
     }
 }
 

@@ -683,30 +683,17 @@ pub fn run_to_periodic(
         velocity: s.v_half.clone(),
     };
     let mut interrupted = None;
-    // One load per step (no measurable cost): within a step of the request.
-    let armed = ARMED_HERE.with(Cell::get);
-    let stop_requested = || armed && STOP.load(Ordering::Relaxed);
-    'periods: while periods < settings.max_periods {
-        for step in 0..steps {
-            if stop_requested() {
-                interrupted = Some(step);
-                break 'periods;
-            }
-            stepper.step(&mut s, periods * steps + step)?;
-            let us = [&s.u_prev[..], &s.u, &s.u_next];
-            record.record(step, dt, us, &s.contact.lambda, &problem.probes);
-            let probe_values = problem.probes.iter().map(|&d| s.u[d]);
-            late.record(step, probe_values, &s.contact.lambda);
-            s.rotate();
+    let stop_requested = stop_requested();
+    while periods < settings.max_periods {
+        let records = (&mut record, &mut late);
+        interrupted =
+            stepper.march_period(&mut s, problem, (periods, steps), records, &stop_requested)?;
+        if interrupted.is_some() {
+            break;
         }
         periods += 1;
         late.end_period();
-        if s.u.iter().any(|v| !v.is_finite()) {
-            return Err(Error::NotConverged(format!(
-                "time marching blew up in period {periods} (dt = {dt:e} s): lower transient.courant (now {})",
-                settings.courant
-            )));
-        }
+        check_finite(&s.u, periods, dt, settings)?;
         end_state.displacement.copy_from_slice(&s.u);
         end_state.velocity.copy_from_slice(&s.v_half);
         change = watch.observe(&s.u, &s.v_half);
@@ -740,9 +727,7 @@ pub fn run_to_periodic(
         changes: watch.changes,
         departures: watch.departures,
         end_state,
-        times: (0..samples)
-            .map(|i| i as f64 * problem.period / samples as f64)
-            .collect(),
+        times: sample_times(samples, problem.period),
         displacement: record.displacement,
         velocity: record.velocity,
         acceleration: record.acceleration,
@@ -752,6 +737,32 @@ pub fn run_to_periodic(
         late,
         wall_time: start.elapsed(),
     })
+}
+
+/// Whether an interruption asks the march to stop (`StopOnInterrupt`; never where it is not
+/// armed). One load per step (no measurable cost): within a step of the request.
+fn stop_requested() -> impl Fn() -> bool {
+    let armed = ARMED_HERE.with(Cell::get);
+    move || armed && STOP.load(Ordering::Relaxed)
+}
+
+/// A march whose displacements are no longer finite (in period `periods`, at step `dt`) blew
+/// up: an explicit step above its stability limit.
+fn check_finite(u: &[f64], periods: usize, dt: f64, settings: &TransientSettings) -> Result<()> {
+    if u.iter().any(|v| !v.is_finite()) {
+        return Err(Error::NotConverged(format!(
+            "time marching blew up in period {periods} (dt = {dt:e} s): lower transient.courant (now {})",
+            settings.courant
+        )));
+    }
+    Ok(())
+}
+
+/// The `samples` phases t_i = i T / samples of a period T.
+fn sample_times(samples: usize, period: f64) -> Vec<f64> {
+    (0..samples)
+        .map(|i| i as f64 * period / samples as f64)
+        .collect()
 }
 
 /// What a march keeps fixed: the product with K, the step's coefficients and the contact
@@ -804,6 +815,31 @@ impl MarchState {
 }
 
 impl<'a> Stepper<'a> {
+    /// Period `period` (of `steps` steps) from `s`, each step recorded in the last period's
+    /// samples and the late record: `Some(step)` when `stop_requested` stops it before that
+    /// step (the period unfinished).
+    fn march_period(
+        &self,
+        s: &mut MarchState,
+        problem: &TransientProblem,
+        (period, steps): (usize, usize),
+        (record, late): (&mut LastPeriod, &mut late::LateRecord),
+        stop_requested: &dyn Fn() -> bool,
+    ) -> Result<Option<usize>> {
+        for step in 0..steps {
+            if stop_requested() {
+                return Ok(Some(step));
+            }
+            self.step(s, period * steps + step)?;
+            let us = [&s.u_prev[..], &s.u, &s.u_next];
+            record.record(step, self.dt, us, &s.contact.lambda, &problem.probes);
+            let probe_values = problem.probes.iter().map(|&d| s.u[d]);
+            late.record(step, probe_values, &s.contact.lambda);
+            s.rotate();
+        }
+        Ok(None)
+    }
+
     /// The stepper, the steps per period and the steps per output sample.
     fn new(
         problem: &TransientProblem<'a>,

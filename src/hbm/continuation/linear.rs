@@ -13,7 +13,7 @@ use super::stepping::relative_change;
 use super::{hz, ContinuationState, Corrector, OnPoint, PointInfo, SweepOutcome, SweepSettings};
 use crate::hbm::{prepare, HbSettings, Solution, System, Timings};
 use crate::progress::Reporter;
-use crate::{Error, Result};
+use crate::Result;
 
 /// Without contact the curve is the linear response, a graph over ω: steps in ω shrink where
 /// the response changes fast (near a resonance) and grow where it does not.
@@ -24,35 +24,21 @@ pub(super) fn linear_sweep(
     reporter: &dyn Reporter,
     on_point: &mut OnPoint,
 ) -> Result<SweepOutcome> {
-    let span = (s.omega_end - s.omega_start).abs();
-    let direction = (s.omega_end - s.omega_start).signum();
-    let mut outcome = SweepOutcome::default();
-    let solve_at = |system: &mut System, omega: f64, timings: &mut Timings| {
-        system.omega = omega;
-        let (linear, _) = prepare(system, None, hb, reporter, timings)?;
-        Ok::<_, Error>(linear.into_solution(system, None, Timings::default()))
+    let sweep = LinearSweep {
+        hb,
+        s,
+        reporter,
+        span: (s.omega_end - s.omega_start).abs(),
+        direction: (s.omega_end - s.omega_start).signum(),
     };
+    let direction = sweep.direction;
+    let mut outcome = SweepOutcome::default();
     let clock = Instant::now();
     let (start, mut omega, mut ds) = s
         .resume
         .as_ref()
         .map_or((0, s.omega_start, s.step), |r| (r.index, r.omega, r.step));
-    let state = |index: usize, omega: f64, ds: f64| ContinuationState {
-        index,
-        omega,
-        step: ds,
-        tangent: vec![direction],
-        multipliers: Vec::new(),
-        force_scale: 0.0,
-        c: 0.0,
-        samples: 0,
-        largest: 0.0,
-        reduced_frame: false,
-        enriched_at: Vec::new(),
-        harmonic_first: false,
-        trail: Vec::new(),
-    };
-    let mut current = solve_at(system, omega, &mut outcome.timings)?;
+    let mut current = sweep.solve_at(system, omega, &mut outcome.timings)?;
     let mut info = PointInfo {
         index: start,
         omega,
@@ -60,39 +46,23 @@ pub(super) fn linear_sweep(
         factorizations: 1,
         tangent_omega: direction,
         seconds: clock.elapsed().as_secs_f64(),
-        state: Some(state(start, omega, ds)),
+        state: Some(sweep.state(start, omega, ds)),
         ..info_stub()
     };
     on_point(&info, &current)?;
     let mut index = start + 1;
     while index < s.max_points && (omega - s.omega_end) * direction < 0.0 {
         let clock = Instant::now();
-        let mut tries = 0;
-        let next = loop {
-            let w = if ((omega + direction * ds * span) - s.omega_end) * direction > 0.0 {
-                s.omega_end
-            } else {
-                omega + direction * ds * span
-            };
-            tries += 1;
-            let candidate = solve_at(system, w, &mut outcome.timings)?;
-            let change = response_change(&current, &candidate);
-            if change <= s.max_change || ds * 0.5 < s.min_step {
-                if change < 0.3 * s.max_change {
-                    ds = (1.5 * ds).min(s.max_step);
-                }
-                break (w, candidate);
-            }
-            ds *= 0.5;
-        };
-        (omega, current) = next;
+        let tries;
+        (omega, current, tries) =
+            sweep.next(system, (omega, &current), &mut ds, &mut outcome.timings)?;
         info = PointInfo {
             index,
             omega,
             factorizations: tries,
             step: ds,
             seconds: clock.elapsed().as_secs_f64(),
-            state: Some(state(index, omega, ds)),
+            state: Some(sweep.state(index, omega, ds)),
             ..info
         };
         on_point(&info, &current)?;
@@ -102,6 +72,76 @@ pub(super) fn linear_sweep(
     reporter.task_done("sweep");
     outcome.points = index;
     Ok(outcome)
+}
+
+/// What the contact-free sweep keeps fixed: the settings, the span Ω and the direction
+/// sign(ω_end − ω_start).
+struct LinearSweep<'a> {
+    hb: &'a HbSettings,
+    s: &'a SweepSettings,
+    reporter: &'a dyn Reporter,
+    span: f64,
+    direction: f64,
+}
+
+impl LinearSweep<'_> {
+    /// The linear response at ω (`system.omega` set to it).
+    fn solve_at(&self, system: &mut System, omega: f64, timings: &mut Timings) -> Result<Solution> {
+        system.omega = omega;
+        let (linear, _) = prepare(system, None, self.hb, self.reporter, timings)?;
+        Ok(linear.into_solution(system, None, Timings::default()))
+    }
+
+    /// The point after (ω, `current`): steps of Δs = `ds` (clipped to the end frequency),
+    /// halved while the response changes by more than `max_change` (down to `min_step`), the
+    /// next grown by 1.5 after a small change; its ω, response and the solves it took.
+    fn next(
+        &self,
+        system: &mut System,
+        (omega, current): (f64, &Solution),
+        ds: &mut f64,
+        timings: &mut Timings,
+    ) -> Result<(f64, Solution, usize)> {
+        let (s, direction, span) = (self.s, self.direction, self.span);
+        let mut tries = 0;
+        loop {
+            let w = if ((omega + direction * *ds * span) - s.omega_end) * direction > 0.0 {
+                s.omega_end
+            } else {
+                omega + direction * *ds * span
+            };
+            tries += 1;
+            let candidate = self.solve_at(system, w, timings)?;
+            let change = response_change(current, &candidate);
+            if change <= s.max_change || *ds * 0.5 < s.min_step {
+                if change < 0.3 * s.max_change {
+                    *ds = (1.5 * *ds).min(s.max_step);
+                }
+                return Ok((w, candidate, tries));
+            }
+            *ds *= 0.5;
+        }
+    }
+
+    /// What continuing from point `index` at ω with the next step `ds` needs (no contact:
+    /// the direction alone).
+    fn state(&self, index: usize, omega: f64, ds: f64) -> ContinuationState {
+        ContinuationState {
+            index,
+            omega,
+            step: ds,
+            tangent: vec![self.direction],
+            multipliers: Vec::new(),
+            force_scale: 0.0,
+            c: 0.0,
+            samples: 0,
+            largest: 0.0,
+            reduced_frame: false,
+            enriched_at: Vec::new(),
+            harmonic_first: false,
+            trail: Vec::new(),
+        }
+    }
 }
 
 /// Relative change of the free dofs' harmonic amplitudes between two linear solutions.

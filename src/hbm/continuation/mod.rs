@@ -261,48 +261,12 @@ struct Continuation<'a> {
 }
 
 impl Continuation<'_> {
+    /// Follow the curve point by point from the first, handing each to `on_point`, until it
+    /// passes the end frequency, `max_points` are reached or it cannot go on (`stopped`).
     fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
-        let clock = Instant::now();
-        let (x, first_newton, frame) = self
-            .first
-            .take()
-            .ok_or_else(|| Error::Model("internal: the sweep's first point was taken".into()))?;
-        let (tangent, start, mut ds) = match &self.s.resume {
-            Some(r) => (r.tangent.clone(), r.index, r.step),
-            None => {
-                let initial = [vec![0.0; x.len()], vec![self.direction]].concat();
-                (self.tangent(&frame, &x, &initial)?, 0, self.s.step)
-            }
-        };
-        let mut point = Point {
-            gaps: frame.problem.gap(&x),
-            x,
-            omega: frame.omega,
-            tangent,
-        };
-        let mut outcome = SweepOutcome::default();
-        // A resumed point brings the largest ‖λ‖ before it and its trail.
-        self.largest = self.largest.max(norm(&point.x));
         let mut trail = Trail::default();
-        for y in self.s.resume.iter().flat_map(|r| &r.trail) {
-            trail.push(y.clone());
-        }
-        let y = self.scaled(&point);
-        trail.push(y.clone());
-        let info = PointInfo {
-            index: start,
-            omega: frame.omega,
-            corrector: Corrector::Cold,
-            newton_iterations: first_newton.iterations,
-            factorizations: self.factorizations,
-            step: 0.0,
-            tangent_omega: point.tangent_omega(),
-            seconds: clock.elapsed().as_secs_f64(),
-            state: Some(self.state(&point, ds, start, frame.reduced)),
-            scaled: y,
-        };
-        self.build_model();
-        self.emit(&info, &point.x, frame, first_newton, on_point)?;
+        let (mut point, start, mut ds) = self.first_point(&mut trail, on_point)?;
+        let mut outcome = SweepOutcome::default();
         let mut index = start + 1;
         while index < self.s.max_points {
             if self.beyond_end(&point) {
@@ -325,14 +289,7 @@ impl Continuation<'_> {
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }
-            let newton = NewtonOutcome {
-                multipliers: Vec::new(),
-                converged: true,
-                iterations: info.newton_iterations,
-                relative_residual: 0.0,
-                log: Vec::new(),
-                reason: String::new(),
-            };
+            let newton = corrector_newton(info.newton_iterations);
             self.largest = self.largest.max(norm(&next.x));
             info.state = Some(self.state(&next, ds, index, frame.reduced));
             info.scaled = y;
@@ -342,15 +299,72 @@ impl Continuation<'_> {
             point = next;
             index += 1;
         }
+        Ok(self.finish(outcome, index))
+    }
+
+    /// The first point (cold, or the resumed one, from `first`) with its direction (the
+    /// saved one, or the tangent towards the end frequency), pushed on `trail` after the trail
+    /// a resumed state brings, and handed to `on_point`; the point, its index and the step the
+    /// next is tried with.
+    fn first_point(
+        &mut self,
+        trail: &mut Trail,
+        on_point: &mut OnPoint,
+    ) -> Result<(Point, usize, f64)> {
+        let clock = Instant::now();
+        let (x, first_newton, frame) = self
+            .first
+            .take()
+            .ok_or_else(|| Error::Model("internal: the sweep's first point was taken".into()))?;
+        let (tangent, start, ds) = match &self.s.resume {
+            Some(r) => (r.tangent.clone(), r.index, r.step),
+            None => {
+                let initial = [vec![0.0; x.len()], vec![self.direction]].concat();
+                (self.tangent(&frame, &x, &initial)?, 0, self.s.step)
+            }
+        };
+        let point = Point {
+            gaps: frame.problem.gap(&x),
+            x,
+            omega: frame.omega,
+            tangent,
+        };
+        // A resumed point brings the largest ‖λ‖ before it and its trail.
+        self.largest = self.largest.max(norm(&point.x));
+        for y in self.s.resume.iter().flat_map(|r| &r.trail) {
+            trail.push(y.clone());
+        }
+        let y = self.scaled(&point);
+        trail.push(y.clone());
+        let info = PointInfo {
+            index: start,
+            omega: frame.omega,
+            corrector: Corrector::Cold,
+            newton_iterations: first_newton.iterations,
+            factorizations: self.factorizations,
+            step: 0.0,
+            tangent_omega: point.tangent_omega(),
+            seconds: clock.elapsed().as_secs_f64(),
+            state: Some(self.state(&point, ds, start, frame.reduced)),
+            scaled: y,
+        };
+        self.build_model();
+        self.emit(&info, &point.x, frame, first_newton, on_point)?;
+        Ok((point, start, ds))
+    }
+
+    /// The outcome of a sweep that ended after `points` points: its folds (kinks of the
+    /// sampled law dropped), timings and the reduced model's account.
+    fn finish(self, mut outcome: SweepOutcome, points: usize) -> SweepOutcome {
         self.reporter.task_done("sweep");
-        outcome.points = index;
+        outcome.points = points;
         outcome.folds = without_kinks(std::mem::take(&mut outcome.folds), KINK * self.span);
         outcome.timings = self.timings;
         outcome.reduced = ReducedFrames {
             dimension: self.model.as_ref().map_or(0, ReducedModel::dim),
             ..self.reduced
         };
-        Ok(outcome)
+        outcome
     }
 
     /// y = (λ/F, ω/Ω), the point in the scaled unknowns the arc length is measured in.
@@ -432,6 +446,19 @@ pub fn without_kinks(folds: Vec<Fold>, width: f64) -> Vec<Fold> {
         }
     }
     out
+}
+
+/// The Newton account of a point the corrector reached in `iterations` (its multipliers are
+/// the point's, given to `emit` apart).
+fn corrector_newton(iterations: usize) -> NewtonOutcome {
+    NewtonOutcome {
+        multipliers: Vec::new(),
+        converged: true,
+        iterations,
+        relative_residual: 0.0,
+        log: Vec::new(),
+        reason: String::new(),
+    }
 }
 
 /// The fold at point `at`, where ω turns back (the secants before and after it disagree in

@@ -200,56 +200,94 @@ pub fn mesh_geometry_with(
         super::geo::check_parameters(geo, &request.parameters)?;
     }
     if geo.extension().is_some_and(|e| e == "msh") {
-        if !geo.is_file() {
-            return Err(Error::Gmsh(format!(
-                "mesh file {} does not exist",
-                geo.display()
-            )));
-        }
-        return Ok(MeshedGeometry {
-            msh: geo.clone(),
-            cache_hit: true,
-            gmsh_version: String::new(),
-        });
+        return given_mesh(geo);
     }
     let contents = std::fs::read(geo)
         .map_err(|e| Error::Gmsh(format!("cannot read geometry {}: {e}", geo.display())))?;
     let cmd = find_gmsh(request.gmsh.as_deref(), geo.parent())?;
     let version = gmsh_version(&cmd, Some(cache_dir))?;
-    let stem = geo
-        .file_stem()
-        .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_else(|| "mesh".into());
-    let msh = cache_dir.join(format!(
-        "{stem}-{}.msh",
-        cache_key(request, &contents, &version)
-    ));
+    let msh = cache_entry(request, &contents, &version, cache_dir);
     // One mesher per cache entry at a time, across threads and processes (a study's points,
     // Slurm shards on a shared file system): the others wait here, then find it cached.
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
     let _lock = lock_entry(&msh)?;
-    if msh.is_file() {
-        match verify_cached(&msh, limits.max_elements) {
-            Ok(()) => {
-                return Ok(MeshedGeometry {
-                    msh,
-                    cache_hit: true,
-                    gmsh_version: version,
-                })
-            }
-            Err(why) => {
-                reporter.warning(&format!(
-                    "cached mesh {} {why}: meshing again",
-                    msh.display()
-                ));
-                evict(&msh);
-            }
+    if from_cache(&msh, limits, reporter) {
+        return Ok(MeshedGeometry {
+            msh,
+            cache_hit: true,
+            gmsh_version: version,
+        });
+    }
+    mesh_into_cache(&cmd, request, limits, cache_dir, reporter, &msh)?;
+    Ok(MeshedGeometry {
+        msh,
+        cache_hit: false,
+        gmsh_version: version,
+    })
+}
+
+/// A `.msh` geometry, taken as it is.
+fn given_mesh(msh: &Path) -> Result<MeshedGeometry> {
+    if !msh.is_file() {
+        return Err(Error::Gmsh(format!(
+            "mesh file {} does not exist",
+            msh.display()
+        )));
+    }
+    Ok(MeshedGeometry {
+        msh: msh.to_path_buf(),
+        cache_hit: true,
+        gmsh_version: String::new(),
+    })
+}
+
+/// The cache file of the mesh of `request` (the geometry's `contents`, gmsh `version`):
+/// `<stem>-<key>.msh` in `cache_dir`.
+fn cache_entry(request: &MeshRequest, contents: &[u8], version: &str, cache_dir: &Path) -> PathBuf {
+    let stem = request
+        .geo
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_else(|| "mesh".into());
+    cache_dir.join(format!(
+        "{stem}-{}.msh",
+        cache_key(request, contents, version)
+    ))
+}
+
+/// Whether the cache entry `msh` holds a sound mesh within `limits`; one that does not is
+/// evicted (with a warning), to be meshed again.
+fn from_cache(msh: &Path, limits: &MeshLimits, reporter: &dyn Reporter) -> bool {
+    if !msh.is_file() {
+        return false;
+    }
+    match verify_cached(msh, limits.max_elements) {
+        Ok(()) => true,
+        Err(why) => {
+            reporter.warning(&format!(
+                "cached mesh {} {why}: meshing again",
+                msh.display()
+            ));
+            evict(msh);
+            false
         }
     }
+}
+
+/// Mesh `request` with gmsh `cmd` into the cache entry `msh`: the element estimate (and its
+/// refusal) first, in the same gmsh session, then the mesh to a file beside `msh`, its
+/// checksum and the move into place.
+fn mesh_into_cache(
+    cmd: &GmshCommand,
+    request: &MeshRequest,
+    limits: &MeshLimits,
+    cache_dir: &Path,
+    reporter: &dyn Reporter,
+    msh: &Path,
+) -> Result<()> {
     // Unique per call: threads of one process (parallel tests, studies) may mesh at once.
-    let tmp = crate::files::temp_beside(&msh);
-    // The estimate, and its refusal, come before the mesh, in the same gmsh session.
-    let meshed = with_gmsh(&cmd, request, limits, reporter, &tmp, |steps| {
+    let tmp = crate::files::temp_beside(msh);
+    let meshed = with_gmsh(cmd, request, limits, reporter, &tmp, |steps| {
         let estimate = estimate_with(steps, request, cache_dir)?;
         if estimate > limits.max_elements as f64 {
             return Err(Stop::Error(too_many_elements(request, limits, estimate)));
@@ -264,12 +302,8 @@ pub fn mesh_geometry_with(
     // The checksum goes first, so a mesh in the cache always has one (a crash in between
     // leaves a checksum without its mesh, which is harmless).
     let bytes = std::fs::read(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let sum = checksum_path(&msh);
+    let sum = checksum_path(msh);
     std::fs::write(&sum, sha256_hex(&bytes)).map_err(|e| Error::io(&sum, e))?;
-    std::fs::rename(&tmp, &msh).map_err(|e| Error::io(&msh, e))?;
-    Ok(MeshedGeometry {
-        msh,
-        cache_hit: false,
-        gmsh_version: version,
-    })
+    std::fs::rename(&tmp, msh).map_err(|e| Error::io(msh, e))?;
+    Ok(())
 }
