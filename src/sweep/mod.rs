@@ -1,5 +1,5 @@
 //! `hbcontact sweep`: a frequency-response curve of a pipeline's scene, by the continuation of
-//! `hbm::sweep`, written as `<output.directory>-sweep/` or `--out` (staged, then committed):
+//! `hbm::continuation`, written as `<output.directory>-sweep/` or `--out` (staged, then committed):
 //! - `sweep.csv` (one row per point: frequency, the outputs, how the point was found) and
 //!   `sweep.json` (the typed `SweepSummary`: folds, why it stopped, what `--resume` needs);
 //! - `sweep.svg`/`.png` and (contact scenes) `sweep_force.svg`/`.png`: the curves (`plot`);

@@ -11,7 +11,7 @@
 //!
 //! Folds are the continuation's: where the direction's ω-component τ_ω changes sign between
 //! consecutive points (the point before the change is the fold), kinks of the sampled law
-//! removed by `hbm::sweep::without_kinks`; the rule is applied here to the points as they
+//! removed by `hbm::continuation::without_kinks`; the rule is applied here to the points as they
 //! come, so the folds are known also when the sweep fails part-way or is resumed.
 
 use std::f64::consts::PI;

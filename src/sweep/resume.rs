@@ -1,6 +1,6 @@
 //! `hbcontact sweep --resume`: continue a sweep saved in its output directory from its last
 //! point. sweep.json keeps what that needs (`SweepSummary::resume`, a
-//! `hbm::sweep::ContinuationState`): everything the continuation carries from one point to
+//! `hbm::continuation::ContinuationState`): everything the continuation carries from one point to
 //! the next, so that the points after it are those of the uninterrupted sweep bit for bit:
 //! the point's index and ω, the step the next point is tried with, the unit direction τ in
 //! the scaled unknowns (λ/F, ω/Ω), whose sign of τ_ω says whether the curve was running
@@ -514,7 +514,7 @@ pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Re
 }
 
 /// A reduced frame or lessons of a reduced model only where this scene's sweep builds one
-/// (`hbm::sweep::reduced_model_pays`).
+/// (`hbm::continuation::reduced_model_pays`).
 fn check_reduced_model(
     path: &Path,
     state: &ContinuationState,
