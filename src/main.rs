@@ -16,7 +16,8 @@ use hbcontact::pipeline::load_pipeline;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::{Error, Reporter, Silent};
 
-/// The exit codes, as `--help` lists them (README, "Run it", says the same).
+/// The exit codes, as `--help` lists them (docs/guide.md#exit-codes says the same, with what
+/// to do about each).
 const EXIT_CODES: &str = "\
 Exit codes:
   0    success
@@ -574,7 +575,8 @@ fn ladder(path: &std::path::Path, l: &str) -> hbcontact::Result<hbcontact::study
     })
 }
 
-/// `hbcontact accuracy`: an accuracy study built from the command line.
+/// `hbcontact accuracy`: the accuracy study `study::accuracy::from_ladders` builds from the
+/// command line, run, and its table shown.
 fn accuracy(
     c: &Input,
     out: Option<&std::path::Path>,
@@ -582,67 +584,29 @@ fn accuracy(
     transient_reference: bool,
     tolerance: Option<f64>,
 ) -> hbcontact::Result<()> {
-    use hbcontact::study::spec::{Accuracy, Design, Ladder, Reference, WriteLevel};
+    use hbcontact::study::spec::Reference;
     use hbcontact::study::{self, StudyOptions};
     let pipeline = load(c)?;
-    let mut parsed = ladders
+    let parsed = ladders
         .iter()
         .map(|l| ladder(&c.pipeline, l))
         .collect::<hbcontact::Result<Vec<_>>>()?;
-    if parsed.is_empty() {
-        let h = pipeline.harmonic_balance.harmonics.max(1);
-        if pipeline.contact.is_some() {
-            parsed.push(Ladder {
-                key: "harmonic_balance.harmonics".into(),
-                values: [h / 4, h / 2, h, 2 * h]
-                    .iter()
-                    .filter(|&&v| v >= 1)
-                    .map(|&v| v as f64)
-                    .collect(),
-            });
-        }
-        parsed.push(Ladder {
-            key: "geometry.order".into(),
-            values: vec![1.0, 2.0],
-        });
-    }
-    let out = out.map(std::path::Path::to_path_buf).unwrap_or_else(|| {
-        let mut d = pipeline.output.directory.clone().into_os_string();
-        d.push("-accuracy");
-        PathBuf::from(d)
-    });
-    let spec = study::Study {
-        name: format!("{}-accuracy", pipeline.name),
-        source: c.pipeline.clone(),
-        pipeline: c.pipeline.clone(),
-        set: c.set.clone(),
-        design: Design::Grid,
-        parameters: Vec::new(),
-        outputs: study::Output::defaults(),
-        probe: None,
-        write: WriteLevel::Summary,
-        full_points: Vec::new(),
-        threads: Some(1),
-        out: out.clone(),
-        accuracy: Some(Accuracy {
-            reference: if transient_reference {
-                Reference::Transient
-            } else {
-                Reference::Finest
-            },
-            ladders: parsed,
-        }),
+    let reference = if transient_reference {
+        Reference::Transient
+    } else {
+        Reference::Finest
     };
+    let spec = study::accuracy::from_ladders(&pipeline, &c.set, parsed, reference, out)?;
     let options = StudyOptions {
         trust_geometry: c.trust_geometry,
         ..StudyOptions::default()
     };
-    cli::interrupt::keeps(Keeps::Study(out.clone()));
+    cli::interrupt::keeps(Keeps::Study(spec.out.clone()));
     let report = study::run(&spec, &options, &*reporter(c.quiet))?;
     if let Some(acc) = &report.accuracy {
         if !c.quiet {
             cli::study::show_accuracy(acc);
-            eprintln!("wrote {}/accuracy.csv and accuracy.svg", out.display());
+            eprintln!("wrote {}/accuracy.csv and accuracy.svg", spec.out.display());
         }
         if let Some(t) = tolerance {
             cli::study::show_tolerance(acc, t);

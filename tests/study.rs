@@ -1220,3 +1220,62 @@ fn a_cut_short_point_record_is_run_again_by_a_study_and_refused_by_a_merge() {
     let record = common::read_json(&record_path);
     assert_eq!(record["status"], "ok");
 }
+
+/// TEST GOAL: `hbcontact accuracy` without `--ladder` climbs the pipeline's harmonics H/4,
+/// H/2, H, 2H when the scene has contact (the strip: H = 20 gives 5, 10, 20, 40) and element
+/// order 1, 2 always (the quickstart, without contact, climbs that alone), one rung at a
+/// time, into `<output.directory>-accuracy`; a ladder of one value is refused against its
+/// own last rung (naming `--ladder`) and taken against a time-marching reference.
+#[test]
+fn accuracy_without_ladders_climbs_the_harmonics_with_contact_and_the_element_order() {
+    use hbcontact::study::accuracy::{default_ladders, from_ladders};
+    use hbcontact::study::spec::{Ladder, Reference};
+    let strip = hbcontact::pipeline::load_pipeline(Path::new("pipelines/strip_wall.yaml"), &[])
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(strip.harmonic_balance.harmonics, 20);
+    let ladders = default_ladders(&strip);
+    let found: Vec<(&str, &[f64])> = ladders
+        .iter()
+        .map(|l| (l.key.as_str(), l.values.as_slice()))
+        .collect();
+    assert_eq!(
+        found,
+        [
+            ("harmonic_balance.harmonics", &[5.0, 10.0, 20.0, 40.0][..]),
+            ("geometry.order", &[1.0, 2.0][..])
+        ]
+    );
+    let quick = hbcontact::pipeline::load_pipeline(Path::new("pipelines/quickstart.yaml"), &[])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let ladders = default_ladders(&quick);
+    assert_eq!(ladders.len(), 1);
+    assert_eq!(ladders[0].key, "geometry.order");
+
+    let set = vec!["harmonic_balance.harmonics=8".to_string()];
+    let spec = from_ladders(&strip, &set, Vec::new(), Reference::Finest, None).unwrap();
+    let mut expected = strip.output.directory.clone().into_os_string();
+    expected.push("-accuracy");
+    assert_eq!(spec.out, PathBuf::from(expected));
+    assert_eq!(spec.threads, Some(1));
+    assert_eq!(spec.set, set);
+    assert_eq!(spec.pipeline, strip.source);
+    assert_eq!(spec.accuracy.as_ref().unwrap().ladders.len(), 2);
+
+    let one = || {
+        vec![Ladder {
+            key: "harmonic_balance.harmonics".into(),
+            values: vec![10.0],
+        }]
+    };
+    let e = from_ladders(&strip, &[], one(), Reference::Finest, None)
+        .expect_err("one rung cannot be its own reference")
+        .to_string();
+    assert!(
+        e.contains("--ladder harmonic_balance.harmonics") && e.contains("at least 2"),
+        "{e}"
+    );
+    let named = Path::new("elsewhere");
+    let spec = from_ladders(&strip, &[], one(), Reference::Transient, Some(named)).unwrap();
+    assert_eq!(spec.out, named);
+    assert_eq!(spec.point_count(), 2, "one rung and the marched reference");
+}

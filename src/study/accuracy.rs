@@ -35,8 +35,9 @@ use super::displacement::{read_amplitudes, relative_l2};
 use super::execute::Execution;
 use super::outputs::Output;
 use super::plan::{point_dir, Mode};
-use super::spec::{Accuracy, Reference, Study};
+use super::spec::{Accuracy, Design, Ladder, Reference, Study, WriteLevel};
 use super::table::{csv_field, csv_number, slug, warnings_field, Row, Staged};
+use crate::config::Pipeline;
 use crate::output::plot::{tick, Axis, Figure};
 use crate::output::tables::write_json;
 use crate::{Error, Result};
@@ -502,4 +503,83 @@ pub fn publish(
     write_json(&staged.dir.join("manifest.json"), &manifest)?;
     staged.publish()?;
     Ok(out.join("accuracy.csv"))
+}
+
+/// The ladders `hbcontact accuracy` climbs when none is given: with contact the harmonics
+/// H/4, H/2, H, 2H of the pipeline's H (those at least 1, each once), then element order 1, 2.
+pub fn default_ladders(pipeline: &Pipeline) -> Vec<Ladder> {
+    let mut ladders = Vec::new();
+    if pipeline.contact.is_some() {
+        let h = pipeline.harmonic_balance.harmonics.max(1);
+        let mut values: Vec<f64> = Vec::new();
+        for v in [h / 4, h / 2, h, 2 * h] {
+            if v >= 1 && !values.contains(&(v as f64)) {
+                values.push(v as f64);
+            }
+        }
+        ladders.push(Ladder {
+            key: "harmonic_balance.harmonics".into(),
+            values,
+        });
+    }
+    ladders.push(Ladder {
+        key: "geometry.order".into(),
+        values: vec![1.0, 2.0],
+    });
+    ladders
+}
+
+/// Where `hbcontact accuracy` writes without `--out`: `<output.directory>-accuracy`.
+pub fn output_dir(pipeline: &Pipeline) -> PathBuf {
+    let mut d = pipeline.output.directory.clone().into_os_string();
+    d.push("-accuracy");
+    PathBuf::from(d)
+}
+
+/// The accuracy study of `hbcontact accuracy`: `ladders` (none: `default_ladders`) over the
+/// pipeline `pipeline` was read from, with `set` applied to every rung, against `reference`,
+/// written to `out` (None: `output_dir`). Its rungs run one at a time, so that no rung's wall
+/// time is measured beside another's. A ladder with fewer values than the reference needs
+/// (two with `Finest`: the last is the reference) or a value that is not finite is refused
+/// with the pipeline named.
+pub fn from_ladders(
+    pipeline: &Pipeline,
+    set: &[String],
+    ladders: Vec<Ladder>,
+    reference: Reference,
+    out: Option<&Path>,
+) -> Result<Study> {
+    let need = if reference == Reference::Finest { 2 } else { 1 };
+    for l in &ladders {
+        if l.values.len() < need || l.values.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Config {
+                path: pipeline.source.clone(),
+                message: format!(
+                    "--ladder {}: needs at least {need} finite values, cheapest first (the last is the reference unless --transient-reference), e.g. {}=5,10,20",
+                    crate::error::excerpt(&l.key),
+                    crate::error::excerpt(&l.key)
+                ),
+            });
+        }
+    }
+    let ladders = if ladders.is_empty() {
+        default_ladders(pipeline)
+    } else {
+        ladders
+    };
+    Ok(Study {
+        name: format!("{}-accuracy", pipeline.name),
+        source: pipeline.source.clone(),
+        pipeline: pipeline.source.clone(),
+        set: set.to_vec(),
+        design: Design::Grid,
+        parameters: Vec::new(),
+        outputs: Output::defaults(),
+        probe: None,
+        write: WriteLevel::Summary,
+        full_points: Vec::new(),
+        threads: Some(1),
+        out: out.map_or_else(|| output_dir(pipeline), Path::to_path_buf),
+        accuracy: Some(Accuracy { reference, ladders }),
+    })
 }
