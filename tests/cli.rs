@@ -1,7 +1,8 @@
 //! The command line as a user meets it (issue #50, "a command line that behaves like a good
 //! one"): each subcommand's `--help` describes its own options and no other subcommand's, the
-//! top-level help lists the exit codes, `check` offers no `--out`, and progress on a stderr
-//! that is not a terminal is one line per stage and at most one progress line a second.
+//! top-level help lists the exit codes, `check` offers no `--out`, progress on a stderr that
+//! is not a terminal is one line per stage and at most one progress line a second, naming the
+//! frequency, the point or the period and step, and a sweep's resume hint names its folder.
 
 mod common;
 
@@ -150,10 +151,12 @@ fn progress_lines(err: &str) -> Vec<&str> {
 }
 
 /// TEST GOAL: without a terminal each stage of a run is one line with its time (`[check]
-/// 0.002 s`, no bare `[check]` before it), and a stage is named bare only to head the
-/// progress lines it shows.
+/// 0.002 s`, no bare `[check]` before it), the solve too; a stage is named bare only to head
+/// the progress lines it shows; the checks made between mesh, assembly and solve are one
+/// `[check]` line (issue #50: it was printed twice, then five times), and summary.json's
+/// `stage_seconds` names each stage once, the checks' parts summed.
 #[test]
-fn each_stage_of_a_run_is_one_line_with_its_time() {
+fn each_stage_of_a_run_is_one_line_with_its_time_and_check_is_said_once() {
     let out = common::temp_out("cli-stages");
     let o = common::hbcontact(&[
         "run",
@@ -164,8 +167,13 @@ fn each_stage_of_a_run_is_one_line_with_its_time() {
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     let lines: Vec<&str> = err.lines().collect();
-    let checks = lines.iter().filter(|l| l.starts_with("[check]")).count();
-    assert!(checks >= 1, "{err}");
+    for stage in ["mesh", "check", "assemble", "solve", "write"] {
+        let timed = lines
+            .iter()
+            .filter(|l| l.starts_with(&format!("[{stage}] ")) && l.ends_with(" s"))
+            .count();
+        assert_eq!(timed, 1, "`[{stage}] … s` {timed} times:\n{err}");
+    }
     for (i, l) in lines.iter().enumerate() {
         if l.starts_with('[') && !l.ends_with(" s") {
             assert!(
@@ -175,6 +183,144 @@ fn each_stage_of_a_run_is_one_line_with_its_time() {
             assert_ne!(*l, "[check]", "{err}");
         }
     }
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    let start = text.find("\"stage_seconds\"").expect("stage_seconds");
+    let end = start + text[start..].find('}').unwrap();
+    let keys: Vec<&str> = text[start..end]
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.trim().split('"').nth(1))
+        .collect();
+    assert!(
+        keys.contains(&"check") && keys.contains(&"mesh"),
+        "{keys:?}"
+    );
+    let unique: std::collections::BTreeSet<&&str> = keys.iter().collect();
+    assert_eq!(unique.len(), keys.len(), "a stage named twice: {keys:?}");
+}
+
+/// TEST GOAL: a march whose period takes thousands of steps names the period and the step
+/// within it from its first report on (`periods 0/1: period 1: step 1024/N`; it used to show
+/// nothing for minutes until a period ended), fewer lines than the reports made and at most
+/// one a second besides the last state, which comes before the stage's time.
+#[test]
+fn a_long_march_names_its_period_and_step_and_its_lines_are_throttled() {
+    let out = common::temp_out("cli-march-progress");
+    let start = Instant::now();
+    let o = common::hbcontact(&[
+        "transient",
+        "pipelines/quickstart.yaml",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "damping.beta=0",
+        "--set",
+        "damping.alpha=100",
+        "--set",
+        "transient.max_periods=1",
+        "--set",
+        "output.plots=false",
+    ]);
+    let seconds = start.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    println!("{seconds:.1} s:\n{err}");
+    let lines = progress_lines(&err);
+    let first = lines
+        .first()
+        .unwrap_or_else(|| panic!("no progress:\n{err}"));
+    let steps: usize = first
+        .strip_prefix("  periods 0/1: period 1: step 1024/")
+        .unwrap_or_else(|| panic!("the first line `{first}` names no step"))
+        .parse()
+        .unwrap();
+    assert!(
+        steps >= 2048,
+        "{steps} steps a period: too few to show throttling"
+    );
+    let reports = steps / 1024 + 1;
+    assert!(
+        lines.len() < reports,
+        "{} lines for {reports} reports:\n{err}",
+        lines.len()
+    );
+    assert!(
+        lines.len() as f64 <= seconds.ceil() + 1.0,
+        "{} progress lines in {seconds:.1} s:\n{err}",
+        lines.len()
+    );
+    let mut seen = std::collections::BTreeSet::new();
+    for l in &lines {
+        assert!(seen.insert(*l), "`{l}` printed twice:\n{err}");
+        assert!(l.starts_with("  periods "), "`{l}`");
+    }
+    let all: Vec<&str> = err.lines().collect();
+    let last = all
+        .iter()
+        .position(|l| l.starts_with("  periods 1/1: change "));
+    let timed = all
+        .iter()
+        .position(|l| l.starts_with("[march] ") && l.ends_with(" s"));
+    assert!(
+        matches!((last, timed), (Some(a), Some(b)) if a < b),
+        "the march's last state is not before its time:\n{err}"
+    );
+}
+
+/// TEST GOAL: a sweep stopped short without `--out` prints a resume command without `--out`
+/// that names the default folder `<output.directory>-sweep`, and run by a shell as printed it
+/// continues the sweep there (issue #50; `sweep_output.rs` covers the hint with `--out`).
+#[test]
+fn sweep_resume_hint_without_out_names_the_default_folder() {
+    let base = common::temp_out("cli-resume-default");
+    let directory = format!("output.directory={}", base.join("scene").display());
+    let default = base.join("scene-sweep");
+    let sets = [
+        "geometry.parameters.lc=0.025",
+        "sweep.from=1550",
+        "sweep.to=1750",
+        "stability.check=false",
+        "output.plots=false",
+        directory.as_str(),
+        "sweep.max_points=4",
+    ];
+    let mut args = vec!["sweep", "pipelines/strip_sweep.yaml"];
+    for s in &sets {
+        args.extend(["--set", s]);
+    }
+    let o = common::hbcontact(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = common::read_json(&default.join("sweep.json"));
+    let reason = json["stopped"]["reason"].as_str().unwrap().to_string();
+    let command = reason
+        .split('`')
+        .nth(1)
+        .unwrap_or_else(|| panic!("{reason}"));
+    assert!(!command.contains("--out"), "{command}");
+    assert!(command.ends_with(" --resume"), "{command}");
+    assert!(
+        reason.contains(&format!("into {}", default.display())),
+        "{reason}"
+    );
+    assert!(stdout(&o).contains(command), "{}", stdout(&o));
+    let bin = std::path::Path::new(env!("CARGO_BIN_EXE_hbcontact"))
+        .parent()
+        .unwrap();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let resumed = std::process::Command::new("sh")
+        .args(["-c", &format!("{command} --quiet --set sweep.max_points=6")])
+        .env("PATH", path)
+        .current_dir(common::root())
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", stderr(&resumed));
+    let json = common::read_json(&default.join("sweep.json"));
+    assert_eq!(json["rows"].as_array().unwrap().len(), 6);
+    assert_eq!(json["resumed_from"], serde_json::json!([3]));
 }
 
 /// TEST GOAL: a sweep's progress (stderr not a terminal) is at most one line a second, plus

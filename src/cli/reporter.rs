@@ -1,13 +1,16 @@
 //! The command line's `Reporter`. Each stage is one line, `[mesh] 0.378 s`, when it ends. Long
-//! tasks (the sweep's frequency, a study's points, the contact Newton, the marching periods)
-//! show as progress bars (indicatif) when stderr is a terminal; otherwise as plain lines, at
-//! most one per second in all, each naming every task under way (`sweep 41: 1402.964 Hz;
-//! factor 3/11: harmonic 2`); a task that a line showed and that ends in a state no line
-//! showed says that last state once (`points 9/9: …`), unless it ran inside another (a
-//! sweep's hundreds of factorizations print nothing of their own). A stage that shows
-//! progress is announced (`[stability]`) before its first line.
+//! tasks (the sweep's frequency, a study's points, the contact Newton, the marching periods
+//! and the step within one) show as progress bars (indicatif) when stderr is a terminal;
+//! otherwise as plain lines, at most one per second in all, each naming every task under way
+//! (`sweep 41: 1402.964 Hz; factor 3/11: harmonic 2`); a task that a line showed and that
+//! ends in a state no line showed says that last state once (`points 9/9: …`), before its
+//! stage's time, unless it ran inside another (a sweep's hundreds of factorizations print
+//! nothing of their own). A stage that shows progress is announced (`[stability]`) before its
+//! first line. A stage run again that shows no progress of its own (the quick checks between
+//! mesh, assembly and solve) prints no second line: `[check]` appears once a run, and
+//! summary.json's `stage_seconds` holds the sum of its parts.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::io::IsTerminal;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -35,6 +38,10 @@ struct State {
     unannounced: Option<String>,
     /// When the last progress line was printed.
     last_line: Option<Instant>,
+    /// The stages whose line was printed.
+    printed: HashSet<String>,
+    /// The running stage reported progress.
+    progressed: bool,
 }
 
 struct Task {
@@ -119,6 +126,7 @@ impl Reporter for Cli {
         let Ok(mut state) = self.state.lock() else {
             return;
         };
+        state.progressed = false;
         match &self.bars {
             Some(mp) => {
                 if let Some(old) = state.stage_bar.take() {
@@ -136,6 +144,14 @@ impl Reporter for Cli {
                 bar.finish_and_clear();
             }
             state.unannounced = None;
+            // A task's last state that no line showed goes before the stage's time.
+            if state.tasks.iter().any(|t| t.seen && !t.shown) {
+                state.print_tasks();
+            }
+            let again = !state.printed.insert(name.to_string());
+            if again && !state.progressed {
+                return;
+            }
         }
         self.line(&format!("[{name}] {seconds:.3} s"));
     }
@@ -144,6 +160,7 @@ impl Reporter for Cli {
         let Ok(mut state) = self.state.lock() else {
             return;
         };
+        state.progressed = true;
         match &self.bars {
             Some(mp) => {
                 let bar = state

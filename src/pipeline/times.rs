@@ -1,5 +1,7 @@
 //! The wall time of each stage of a run (`stages`), in run order, in seconds; the summaries
-//! write them as a map with their `total`.
+//! write them as a map with their `total`. A stage run in parts (the checks between mesh,
+//! assembly and solve) is one entry holding the sum of its parts, so that the map has each
+//! key once.
 
 use std::time::Instant;
 
@@ -15,7 +17,7 @@ use crate::Result;
 pub struct StageTimes(Vec<(String, f64)>);
 
 impl StageTimes {
-    /// Run stage `name`, timing it and telling the reporter.
+    /// Run stage `name`, timing it (added to its earlier parts) and telling the reporter.
     pub fn time<T>(
         &mut self,
         name: &str,
@@ -27,12 +29,13 @@ impl StageTimes {
         let out = f();
         let secs = start.elapsed().as_secs_f64();
         reporter.stage_done(name, secs);
-        self.0.push((name.to_string(), secs));
+        self.add(name, secs);
         out
     }
 
+    /// Record `secs` for stage `name` (added to its earlier parts).
     pub fn push(&mut self, name: &str, secs: f64) {
-        self.0.push((name.to_string(), secs));
+        self.add(name, secs);
     }
 
     /// Add `secs` to stage `name`'s time (a stage done in parts, e.g. a sweep's checks made
@@ -40,7 +43,7 @@ impl StageTimes {
     pub fn add(&mut self, name: &str, secs: f64) {
         match self.0.iter_mut().find(|(n, _)| n == name) {
             Some((_, v)) => *v += secs,
-            None => self.push(name, secs),
+            None => self.0.push((name.to_string(), secs)),
         }
     }
 

@@ -657,6 +657,10 @@ impl Drop for StopOnInterrupt {
     }
 }
 
+/// Steps between two reports within a period (a period can take 10⁵ steps and minutes; a
+/// report costs about a microsecond, a step at least that).
+const STEPS_PER_REPORT: usize = 1024;
+
 /// March `problem` period by period until the state at a period start changes by less than
 /// `settings.periodic_tolerance` from the last (not after the first period from rest), its
 /// `decided` rule stops it, `settings.max_periods` are marched, or an interruption stops it
@@ -686,8 +690,13 @@ pub fn run_to_periodic(
     let stop_requested = stop_requested();
     while periods < settings.max_periods {
         let records = (&mut record, &mut late);
-        interrupted =
-            stepper.march_period(&mut s, problem, (periods, steps), records, &stop_requested)?;
+        interrupted = stepper.march_period(
+            &mut s,
+            problem,
+            (periods, steps),
+            records,
+            (&stop_requested, reporter, settings.max_periods),
+        )?;
         if interrupted.is_some() {
             break;
         }
@@ -824,13 +833,18 @@ impl<'a> Stepper<'a> {
         problem: &TransientProblem,
         (period, steps): (usize, usize),
         (record, late): (&mut LastPeriod, &mut late::LateRecord),
-        stop_requested: &dyn Fn() -> bool,
+        (stop_requested, reporter, max_periods): (&dyn Fn() -> bool, &dyn Reporter, usize),
     ) -> Result<Option<usize>> {
         for step in 0..steps {
             if stop_requested() {
                 return Ok(Some(step));
             }
             self.step(s, period * steps + step)?;
+            if (step + 1) % STEPS_PER_REPORT == 0 {
+                let (done, of) = (period as u64, Some(max_periods as u64));
+                let status = format!("period {}: step {}/{steps}", period + 1, step + 1);
+                reporter.progress("periods", done, of, &status);
+            }
             let us = [&s.u_prev[..], &s.u, &s.u_next];
             record.record(step, self.dt, us, &s.contact.lambda, &problem.probes);
             let probe_values = problem.probes.iter().map(|&d| s.u[d]);
