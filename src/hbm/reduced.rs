@@ -81,12 +81,15 @@ pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
     c * penetration.max(0.0)
 }
 
-/// The share of c · max |r| (the force that closes the linear solution's largest gap or
-/// penetration) below which the multipliers are noise: the floor of the residual's scale, so
-/// that multipliers of 1e-200 where nothing penetrates read as zero, not as the scale itself.
+/// The share of c · max |r| (the force that closes the linear solution's largest gap)
+/// below which a start's multipliers are noise where nothing penetrates (the answer is
+/// λ = 0): such a start is λ = 0. Measured against their own peak, multipliers of 1e-200
+/// would read 100% wrong, and on the strip sweep's reduced frame 200 iterations never moved
+/// them.
 const NOISE: f64 = 1e-9;
 
-/// NOISE · c · max_n |r_n(t_n)|: the scale no residual is measured below.
+/// NOISE · c · max_n |r_n(t_n)|: the force below which a start is noise where nothing
+/// penetrates.
 fn noise_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
     let sampler = problem.sampler(samples);
     let m = problem.coefficients();
@@ -154,7 +157,7 @@ pub(super) struct Residual<'a> {
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
-    /// `noise_force`: the floor of that scale.
+    /// `noise_force`: a start below it where nothing penetrates is λ = 0.
     noise_force: f64,
     /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
     node_blocks: std::cell::RefCell<step::NodeBlocks>,
@@ -258,13 +261,19 @@ impl<'a> Residual<'a> {
         e.peak = peak;
     }
 
+    /// `start`, or λ = 0 where nothing penetrates and `start` is below `noise_force`.
+    fn denoised(&self, start: &[f64]) -> Vec<f64> {
+        let peak = start.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
+        if self.linear_force == 0.0 && peak <= self.noise_force {
+            vec![0.0; start.len()]
+        } else {
+            start.to_vec()
+        }
+    }
+
     /// ‖R‖∞ over the force scale.
     pub(super) fn relative(&self, e: &Evaluation) -> f64 {
-        let scale = self
-            .linear_force
-            .max(e.peak)
-            .max(self.noise_force)
-            .max(f64::MIN_POSITIVE);
+        let scale = self.linear_force.max(e.peak).max(f64::MIN_POSITIVE);
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
@@ -352,7 +361,7 @@ pub fn newton_until(
     deadline: Option<std::time::Instant>,
 ) -> NewtonOutcome {
     let residual = Residual::new(problem, settings);
-    let mut current = residual.evaluate(start.to_vec());
+    let mut current = residual.evaluate(residual.denoised(start));
     // Everything the iterations write, sized here: the loop allocates nothing of its own.
     let (mut trial, mut best) = (current.clone(), current.clone());
     let mut step = Vec::with_capacity(current.x.len());

@@ -452,33 +452,9 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
         keep_interrupted_march: false,
     };
     let probe = needs.probe.as_deref();
-    // The check by time marching only where the study tabulates it.
-    let mut p = point.pipeline.clone();
-    p.stability.check &= needs.stability;
     let start = Instant::now();
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let (run, modes, memory) = match point.mode {
-            // One mesh and one assembly for the modes and the run.
-            Mode::HarmonicBalance => {
-                let purpose = Purpose::HarmonicBalance;
-                let (scene, stages) = pipeline::open(&p, &dir, &options, purpose, &Silent)?;
-                let modes = natural_frequencies(&scene.model, needs.modes)?;
-                let memory = needs.peak_memory.then(reset_peak_memory);
-                (
-                    pipeline::run_scene(&p, &options, scene, stages)?,
-                    modes,
-                    memory,
-                )
-            }
-            Mode::Transient => {
-                let memory = needs.peak_memory.then(reset_peak_memory);
-                let run = pipeline::run_transient(&p, &options, &Silent)?;
-                let modes = harmonic_balance_modes(&point.pipeline, &dir, needs.modes)?;
-                (run, modes, memory)
-            }
-        };
-        let peak = memory.map(|reset| reset.and_then(|()| peak_memory_mb()));
-        Ok::<_, Error>((run, peak, modes))
+        solve_point(point, needs, &dir, &options)
     }));
     let seconds = start.elapsed().as_secs_f64();
     let base = PointRecord {
@@ -529,6 +505,37 @@ fn run_point(out: &Path, point: &Point, needs: &Needs) -> Result<PointRecord> {
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     write_json(&dir.join("point.json"), &record)?;
     Ok(record)
+}
+
+/// The point's run (the marching check only where the study tabulates it), its peak memory
+/// [MB] where asked, and its natural frequencies.
+fn solve_point(
+    point: &Point,
+    needs: &Needs,
+    dir: &Path,
+    options: &RunOptions,
+) -> Result<(pipeline::RunResult, Option<Option<f64>>, Vec<f64>)> {
+    let mut p = point.pipeline.clone();
+    p.stability.check &= needs.stability;
+    let (run, modes, memory) = match point.mode {
+        // One mesh and one assembly for the modes and the run.
+        Mode::HarmonicBalance => {
+            let purpose = Purpose::HarmonicBalance;
+            let (scene, stages) = pipeline::open(&p, dir, options, purpose, &Silent)?;
+            let modes = natural_frequencies(&scene.model, needs.modes)?;
+            let memory = needs.peak_memory.then(reset_peak_memory);
+            let run = pipeline::run_scene(&p, options, scene, stages)?;
+            (run, modes, memory)
+        }
+        Mode::Transient => {
+            let memory = needs.peak_memory.then(reset_peak_memory);
+            let run = pipeline::run_transient(&p, options, &Silent)?;
+            let modes = harmonic_balance_modes(&point.pipeline, dir, needs.modes)?;
+            (run, modes, memory)
+        }
+    };
+    let peak = memory.map(|reset| reset.and_then(|()| peak_memory_mb()));
+    Ok((run, peak, modes))
 }
 
 /// The `count` lowest natural frequencies [Hz] of `model`, as `hbcontact modes` computes them.

@@ -330,6 +330,39 @@ fn check_history(
             "holds a contact history (trail, enriched_at, reduced_frame, largest) for a curve without multipliers".into()
         });
     }
+    let largest = check_trail(path, saved, state, spec)?;
+    let close = (state.largest - largest).abs() <= 1e-9 * largest;
+    require(
+        state.largest.is_finite() && close,
+        path,
+        "resume.largest",
+        || {
+            format!(
+                "= {} is not the largest ‖λ‖ of the trail and the point ({largest})",
+                state.largest
+            )
+        },
+    )?;
+    check_enriched(path, state, spec)?;
+    require(
+        !state.reduced_frame || spec.reduced_frames,
+        path,
+        "resume.reduced_frame",
+        || {
+            "is true but sweep.reduced_frames is false: resume with the same sweep.reduced_frames"
+                .into()
+        },
+    )
+}
+
+/// Each point of `resume.trail`: one entry per multiplier plus ω/Ω, finite, at its row's
+/// frequency; returns the largest ‖λ‖ of the trail and the point.
+fn check_trail(
+    path: &Path,
+    saved: &Saved,
+    state: &ContinuationState,
+    spec: &SweepSpec,
+) -> Result<f64> {
     let two_pi = 2.0 * std::f64::consts::PI;
     let span = (two_pi * spec.to_hz - two_pi * spec.from_hz).abs();
     let t = &state.trail;
@@ -364,18 +397,14 @@ fn check_history(
         })?;
         largest = largest.max(state.force_scale * norm(&y[..width - 1]));
     }
-    let close = (state.largest - largest).abs() <= 1e-9 * largest;
-    require(
-        state.largest.is_finite() && close,
-        path,
-        "resume.largest",
-        || {
-            format!(
-                "= {} is not the largest ‖λ‖ of the trail and the point ({largest})",
-                state.largest
-            )
-        },
-    )?;
+    Ok(largest)
+}
+
+/// `resume.enriched_at`: no more frequencies than the curve can have taught the reduced
+/// model, each within the sweep's range widened by its span.
+fn check_enriched(path: &Path, state: &ContinuationState, spec: &SweepSpec) -> Result<()> {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let span = (two_pi * spec.to_hz - two_pi * spec.from_hz).abs();
     let e = &state.enriched_at;
     let most = if spec.reduced_frames {
         max_enrichments(state.index + 1, spec)
@@ -400,15 +429,7 @@ fn check_history(
             format!("= {w} rad/s lies outside the sweep's range widened by its span")
         })?;
     }
-    require(
-        !state.reduced_frame || spec.reduced_frames,
-        path,
-        "resume.reduced_frame",
-        || {
-            "is true but sweep.reduced_frames is false: resume with the same sweep.reduced_frames"
-                .into()
-        },
-    )
+    Ok(())
 }
 
 fn norm(x: &[f64]) -> f64 {
