@@ -368,19 +368,7 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
     }
     let mut set: Vec<String> = raw.set.iter().map(|(k, v)| format!("{k}={v}")).collect();
     set.extend(extra_set.iter().cloned());
-    let design = match raw.design {
-        RawDesign::Grid => Design::Grid,
-        RawDesign::List => Design::List,
-        RawDesign::LatinHypercube { samples, seed } => {
-            if samples == 0 || samples > MAX_POINTS {
-                return Err(bad(
-                    path,
-                    format!("design.latin_hypercube.samples = {samples}: give 1 to {MAX_POINTS} (the most points a study may have)"),
-                ));
-            }
-            Design::LatinHypercube { samples, seed }
-        }
-    };
+    let design = design(path, raw.design)?;
     let parameters = raw
         .parameters
         .into_iter()
@@ -389,16 +377,7 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
         .collect::<Result<Vec<_>>>()?;
     let accuracy = raw.accuracy.map(|a| accuracy(path, a)).transpose()?;
     check_layout(path, &design, &parameters, accuracy.is_some())?;
-    let outputs = match raw.outputs {
-        None => Output::defaults(),
-        Some(names) => names
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                Output::parse(n).map_err(|why| bad(path, format!("outputs[{i}] `{n}`: {why}")))
-            })
-            .collect::<Result<Vec<_>>>()?,
-    };
+    let outputs = outputs(path, raw.outputs.as_deref())?;
     if let Some(t) = raw.threads.filter(|&t| t == 0 || t > MAX_THREADS) {
         return Err(bad(
             path,
@@ -431,6 +410,37 @@ fn validate(path: &Path, raw: RawStudy, extra_set: &[String]) -> Result<Study> {
         .out
         .unwrap_or_else(|| PathBuf::from("output").join(&study.name));
     Ok(Study { out, ..study })
+}
+
+/// The design, its sample count within `MAX_POINTS`.
+fn design(path: &Path, raw: RawDesign) -> Result<Design> {
+    Ok(match raw {
+        RawDesign::Grid => Design::Grid,
+        RawDesign::List => Design::List,
+        RawDesign::LatinHypercube { samples, seed } => {
+            if samples == 0 || samples > MAX_POINTS {
+                return Err(bad(
+                    path,
+                    format!("design.latin_hypercube.samples = {samples}: give 1 to {MAX_POINTS} (the most points a study may have)"),
+                ));
+            }
+            Design::LatinHypercube { samples, seed }
+        }
+    })
+}
+
+/// The outputs named (each one a study knows), or the defaults.
+fn outputs(path: &Path, names: Option<&[String]>) -> Result<Vec<Output>> {
+    match names {
+        None => Ok(Output::defaults()),
+        Some(names) => names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                Output::parse(n).map_err(|why| bad(path, format!("outputs[{i}] `{n}`: {why}")))
+            })
+            .collect(),
+    }
 }
 
 fn check_layout(path: &Path, design: &Design, params: &[Parameter], accuracy: bool) -> Result<()> {

@@ -720,12 +720,7 @@ pub fn run_to_periodic(
             }
         }
     }
-    if let (Some(step), 0) = (interrupted, periods) {
-        return Err(Error::Interrupted(format!(
-            "interrupted in the first period of the march (step {step} of {steps}): no whole \
-             period marched to keep"
-        )));
-    }
+    nothing_to_keep(interrupted, periods, steps)?;
     Ok(TransientResult {
         dt,
         steps_per_period: steps,
@@ -746,6 +741,17 @@ pub fn run_to_periodic(
         late,
         wall_time: start.elapsed(),
     })
+}
+
+/// An interruption within the first period leaves no whole period to keep: an error.
+fn nothing_to_keep(interrupted: Option<usize>, periods: usize, steps: usize) -> Result<()> {
+    match (interrupted, periods) {
+        (Some(step), 0) => Err(Error::Interrupted(format!(
+            "interrupted in the first period of the march (step {step} of {steps}): no whole \
+             period marched to keep"
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// Whether an interruption asks the march to stop (`StopOnInterrupt`; never where it is not
