@@ -745,7 +745,6 @@ struct CategoricalPlot {
 
 impl CategoricalPlot {
     fn read(path: &Path) -> Self {
-        use resvg::usvg::roxmltree;
         let text = std::fs::read_to_string(path).unwrap();
         let doc = roxmltree::Document::parse(&text).expect("the plot is XML");
         let num = |n: &roxmltree::Node, a: &str| n.attribute(a).unwrap().parse::<f64>().unwrap();

@@ -1,7 +1,8 @@
 //! Plots as SVG and PNG: line and scatter series with labels on linear or logarithmic axes
 //! (`Figure`), and heat maps of a value over a two-parameter grid (`HeatMap`). Drawn with
-//! `plotters` into SVG; the PNG is the same SVG rasterized by `resvg` with the DejaVu Sans
-//! font compiled in (assets/fonts), so both look alike and need no system fonts.
+//! `plotters`, twice from the same drawing calls: into SVG, and into a bitmap encoded as PNG
+//! (text rasterized by `ab_glyph` from the DejaVu Sans font compiled in, assets/fonts), so
+//! both look alike and need no system fonts. The font also gives the SVG's text its widths.
 //!
 //! Small on purpose: a study's output-against-parameter plots, the accuracy study's Pareto
 //! plot, a run's time histories and a sweep's frequency-response curves all use it. A curve
@@ -18,6 +19,7 @@
 //! ```
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::coord::Shift;
@@ -143,6 +145,53 @@ fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::Model(format!("internal: plot: {e}"))
 }
 
+/// The compiled-in font registered, once, as the `sans-serif` the plots ask for.
+fn font() -> Result<()> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    });
+    if *ok {
+        Ok(())
+    } else {
+        Err(plot_error(
+            "the compiled-in font assets/fonts/DejaVuSans.ttf does not load",
+        ))
+    }
+}
+
+/// A drawing area of the plot size on `backend`, white, with the font registered.
+fn canvas<DB: DrawingBackend>(backend: DB) -> Result<DrawingArea<DB, Shift>> {
+    font()?;
+    let root = backend.into_drawing_area();
+    root.fill(&WHITE).map_err(plot_error)?;
+    Ok(root)
+}
+
+/// The SVG document `paint` draws.
+fn svg_of(paint: impl FnOnce(DrawingArea<SVGBackend, Shift>) -> Result<()>) -> Result<String> {
+    let mut text = String::new();
+    paint(canvas(SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)))?)?;
+    Ok(text)
+}
+
+/// The PNG image (RGB, 8 bits) `paint` draws.
+fn png_of(paint: impl FnOnce(DrawingArea<BitMapBackend, Shift>) -> Result<()>) -> Result<Vec<u8>> {
+    let mut rgb = vec![0; 3 * (WIDTH * HEIGHT) as usize];
+    paint(canvas(BitMapBackend::with_buffer(
+        &mut rgb,
+        (WIDTH, HEIGHT),
+    ))?)?;
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, WIDTH, HEIGHT);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(plot_error)?;
+    writer.write_image_data(&rgb).map_err(plot_error)?;
+    writer.finish().map_err(plot_error)?;
+    Ok(bytes)
+}
+
 impl Figure {
     pub fn new(title: impl Into<String>, x: Axis, y: Axis) -> Self {
         Figure {
@@ -233,22 +282,23 @@ impl Figure {
 
     /// The figure as an SVG document.
     pub fn svg(&self) -> Result<String> {
-        let mut text = String::new();
-        {
-            let root = SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)).into_drawing_area();
-            root.fill(&WHITE).map_err(plot_error)?;
-            let (xr, yr) = self.ranges();
-            match (self.x.log, self.y.log) {
-                (false, false) => self.draw(&root, xr.0..xr.1, yr.0..yr.1)?,
-                (true, false) => self.draw(&root, (xr.0..xr.1).log_scale(), yr.0..yr.1)?,
-                (false, true) => self.draw(&root, xr.0..xr.1, (yr.0..yr.1).log_scale())?,
-                (true, true) => {
-                    self.draw(&root, (xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())?
-                }
-            }
-            root.present().map_err(plot_error)?;
+        svg_of(|root| self.paint(root))
+    }
+
+    /// The figure as a PNG image.
+    pub fn png(&self) -> Result<Vec<u8>> {
+        png_of(|root| self.paint(root))
+    }
+
+    fn paint<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<()> {
+        let (xr, yr) = self.ranges();
+        match (self.x.log, self.y.log) {
+            (false, false) => self.draw(&root, xr.0..xr.1, yr.0..yr.1)?,
+            (true, false) => self.draw(&root, (xr.0..xr.1).log_scale(), yr.0..yr.1)?,
+            (false, true) => self.draw(&root, xr.0..xr.1, (yr.0..yr.1).log_scale())?,
+            (true, true) => self.draw(&root, (xr.0..xr.1).log_scale(), (yr.0..yr.1).log_scale())?,
         }
-        Ok(text)
+        root.present().map_err(plot_error)
     }
 
     /// The x and y axis ranges of the drawable points (see `range`).
@@ -266,8 +316,9 @@ impl Figure {
         )
     }
 
-    fn draw<X, Y>(&self, root: &DrawingArea<SVGBackend, Shift>, x: X, y: Y) -> Result<()>
+    fn draw<DB, X, Y>(&self, root: &DrawingArea<DB, Shift>, x: X, y: Y) -> Result<()>
     where
+        DB: DrawingBackend,
         X: AsRangedCoord<Value = f64>,
         Y: AsRangedCoord<Value = f64>,
         X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -348,11 +399,9 @@ impl Figure {
 
     /// The marks: a black glyph on the point, its label placed where it overlaps no label
     /// placed before it and stays inside the frame (`label_box`).
-    fn draw_marks<X, Y>(
-        &self,
-        chart: &mut ChartContext<SVGBackend, Cartesian2d<X, Y>>,
-    ) -> Result<()>
+    fn draw_marks<DB, X, Y>(&self, chart: &mut ChartContext<DB, Cartesian2d<X, Y>>) -> Result<()>
     where
+        DB: DrawingBackend,
         X: Ranged<ValueType = f64>,
         Y: Ranged<ValueType = f64>,
     {
@@ -391,7 +440,7 @@ impl Figure {
 
     /// Write `<stem>.svg` and `<stem>.png`.
     pub fn save(&self, stem: &Path) -> Result<()> {
-        save_both(stem, &self.svg()?)
+        save_both(stem, &self.svg()?, &self.png()?)
     }
 
     /// The frame corner whose quarter-width, quarter-height box holds the fewest points (on
@@ -499,78 +548,80 @@ pub struct HeatMap {
 
 impl HeatMap {
     pub fn svg(&self) -> Result<String> {
-        let mut text = String::new();
-        {
-            let root = SVGBackend::with_string(&mut text, (WIDTH, HEIGHT)).into_drawing_area();
-            root.fill(&WHITE).map_err(plot_error)?;
-            let (nx, ny) = (self.xs.len().max(1), self.ys.len().max(1));
-            let xs = self.xs.clone();
-            let ys = self.ys.clone();
-            let label = |vals: &[f64], v: f64| -> String {
-                let i = v.floor();
-                if v - i > 0.45 && v - i < 0.55 && i >= 0.0 && (i as usize) < vals.len() {
-                    tick(vals[i as usize])
-                } else {
-                    String::new()
-                }
-            };
-            let mut chart = ChartBuilder::on(&root)
-                .caption(&self.title, ("sans-serif", 18))
-                .margin(12)
-                .x_label_area_size(48)
-                .y_label_area_size(78)
-                .build_cartesian_2d(0.0..nx as f64, 0.0..ny as f64)
-                .map_err(plot_error)?;
-            chart
-                .configure_mesh()
-                .disable_mesh()
-                .x_labels(4 * nx + 1)
-                .y_labels(4 * ny + 1)
-                .x_desc(self.x.label.as_str())
-                .y_desc(self.y.label.as_str())
-                .x_label_formatter(&|v| label(&xs, *v))
-                .y_label_formatter(&|v| label(&ys, *v))
-                .draw()
-                .map_err(plot_error)?;
-            let finite = self
-                .values
-                .iter()
-                .flatten()
-                .copied()
-                .filter(|v| v.is_finite());
-            let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
-            for (j, row) in self.values.iter().enumerate() {
-                for (i, &v) in row.iter().enumerate() {
-                    if !v.is_finite() {
-                        continue;
-                    }
-                    let t = if hi > lo { (v - lo) / (hi - lo) } else { 0.5 };
-                    let (x, y) = (i as f64, j as f64);
-                    chart
-                        .draw_series(std::iter::once(Rectangle::new(
-                            [(x, y), (x + 1.0, y + 1.0)],
-                            colour_scale(t).filled(),
-                        )))
-                        .map_err(plot_error)?;
-                    chart
-                        .draw_series(std::iter::once(Text::new(
-                            tick(v),
-                            (x + 0.3, y + 0.55),
-                            ("sans-serif", 13),
-                        )))
-                        .map_err(plot_error)?;
-                }
+        svg_of(|root| self.paint(root))
+    }
+
+    pub fn png(&self) -> Result<Vec<u8>> {
+        png_of(|root| self.paint(root))
+    }
+
+    fn paint<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<()> {
+        let (nx, ny) = (self.xs.len().max(1), self.ys.len().max(1));
+        let xs = self.xs.clone();
+        let ys = self.ys.clone();
+        let label = |vals: &[f64], v: f64| -> String {
+            let i = v.floor();
+            if v - i > 0.45 && v - i < 0.55 && i >= 0.0 && (i as usize) < vals.len() {
+                tick(vals[i as usize])
+            } else {
+                String::new()
             }
-            root.present().map_err(plot_error)?;
+        };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&self.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(78)
+            .build_cartesian_2d(0.0..nx as f64, 0.0..ny as f64)
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_labels(4 * nx + 1)
+            .y_labels(4 * ny + 1)
+            .x_desc(self.x.label.as_str())
+            .y_desc(self.y.label.as_str())
+            .x_label_formatter(&|v| label(&xs, *v))
+            .y_label_formatter(&|v| label(&ys, *v))
+            .draw()
+            .map_err(plot_error)?;
+        let finite = self
+            .values
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|v| v.is_finite());
+        let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+        for (j, row) in self.values.iter().enumerate() {
+            for (i, &v) in row.iter().enumerate() {
+                if !v.is_finite() {
+                    continue;
+                }
+                let t = if hi > lo { (v - lo) / (hi - lo) } else { 0.5 };
+                let (x, y) = (i as f64, j as f64);
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x, y), (x + 1.0, y + 1.0)],
+                        colour_scale(t).filled(),
+                    )))
+                    .map_err(plot_error)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        tick(v),
+                        (x + 0.3, y + 0.55),
+                        ("sans-serif", 13),
+                    )))
+                    .map_err(plot_error)?;
+            }
         }
-        Ok(text)
+        root.present().map_err(plot_error)
     }
 
     /// Write `<stem>.svg` and `<stem>.png`.
     pub fn save(&self, stem: &Path) -> Result<()> {
-        save_both(stem, &self.svg()?)
+        save_both(stem, &self.svg()?, &self.png()?)
     }
 }
 
@@ -618,26 +669,6 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
-/// An SVG document rasterized to PNG bytes (text in the compiled-in DejaVu Sans).
-pub fn svg_to_png(svg: &str) -> Result<Vec<u8>> {
-    let mut options = resvg::usvg::Options::default();
-    {
-        let db = options.fontdb_mut();
-        db.load_font_data(FONT.to_vec());
-        db.set_sans_serif_family("DejaVu Sans");
-    }
-    let tree = resvg::usvg::Tree::from_str(svg, &options).map_err(plot_error)?;
-    let size = tree.size().to_int_size();
-    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height())
-        .ok_or_else(|| plot_error("empty image"))?;
-    resvg::render(
-        &tree,
-        resvg::tiny_skia::Transform::default(),
-        &mut pixmap.as_mut(),
-    );
-    pixmap.encode_png().map_err(plot_error)
-}
-
 fn with_extension(stem: &Path, ext: &str) -> PathBuf {
     let mut name = stem.as_os_str().to_owned();
     name.push(".");
@@ -645,11 +676,11 @@ fn with_extension(stem: &Path, ext: &str) -> PathBuf {
     PathBuf::from(name)
 }
 
-fn save_both(stem: &Path, svg: &str) -> Result<()> {
+fn save_both(stem: &Path, svg: &str, png: &[u8]) -> Result<()> {
     let svg_path = with_extension(stem, "svg");
     std::fs::write(&svg_path, svg).map_err(|e| Error::io(&svg_path, e))?;
     let png_path = with_extension(stem, "png");
-    std::fs::write(&png_path, svg_to_png(svg)?).map_err(|e| Error::io(&png_path, e))
+    std::fs::write(&png_path, png).map_err(|e| Error::io(&png_path, e))
 }
 
 #[cfg(test)]
