@@ -70,15 +70,24 @@ impl Default for NewtonSettings {
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
 /// of the multipliers before any is known (zero when nothing penetrates).
 pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
+    c * sampled_linear_gap(problem, samples).0.max(0.0)
+}
+
+/// The linear solution's sampled gap r_n(t_n): its largest value (the deepest penetration
+/// where positive) and its largest magnitude, over every node and sample.
+fn sampled_linear_gap(problem: &ReducedProblem, samples: usize) -> (f64, f64) {
     let sampler = problem.sampler(samples);
     let m = problem.coefficients();
     let mut buffer = vec![0.0; samples];
-    let mut penetration: f64 = 0.0;
+    let (mut penetration, mut largest): (f64, f64) = (0.0, 0.0);
     for i in 0..problem.nodes {
         sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut buffer);
-        penetration = buffer.iter().fold(penetration, |a, &v| a.max(v));
+        for &v in &buffer {
+            penetration = penetration.max(v);
+            largest = largest.max(v.abs());
+        }
     }
-    c * penetration.max(0.0)
+    (penetration, largest)
 }
 
 /// The share of c · max |r| (the force that closes the linear solution's largest gap)
@@ -87,20 +96,6 @@ pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
 /// would read 100% wrong, and on the strip sweep's reduced frame 200 iterations never moved
 /// them.
 const NOISE: f64 = 1e-9;
-
-/// NOISE · c · max_n |r_n(t_n)|: the force below which a start is noise where nothing
-/// penetrates.
-fn noise_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
-    let sampler = problem.sampler(samples);
-    let m = problem.coefficients();
-    let mut buffer = vec![0.0; samples];
-    let mut largest: f64 = 0.0;
-    for i in 0..problem.nodes {
-        sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut buffer);
-        largest = buffer.iter().fold(largest, |a, &v| a.max(v.abs()));
-    }
-    NOISE * c * largest
-}
 
 /// Residual norms the non-monotone line search looks back over.
 const NONMONOTONE_WINDOW: usize = 8;
@@ -157,7 +152,7 @@ pub(super) struct Residual<'a> {
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
-    /// `noise_force`: a start below it where nothing penetrates is λ = 0.
+    /// NOISE · c · max_n |r_n(t_n)|: a start below it where nothing penetrates is λ = 0.
     noise_force: f64,
     /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
     node_blocks: std::cell::RefCell<step::NodeBlocks>,
@@ -181,13 +176,15 @@ struct EvaluationScratch {
 
 impl<'a> Residual<'a> {
     pub(super) fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
+        // One pass over the sampled linear gap for both scales.
+        let (penetration, largest) = sampled_linear_gap(problem, settings.samples);
         Residual {
             problem,
             sampler: problem.sampler(settings.samples),
             c: settings.c,
             smoothing: settings.smoothing,
-            linear_force: linear_force(problem, settings.samples, settings.c),
-            noise_force: noise_force(problem, settings.samples, settings.c),
+            linear_force: settings.c * penetration.max(0.0),
+            noise_force: NOISE * settings.c * largest,
             node_blocks: Default::default(),
             scratch: Default::default(),
         }

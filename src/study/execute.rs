@@ -45,7 +45,7 @@ use crate::config::Pipeline;
 use crate::output::tables::write_json;
 use crate::pipeline::modes::natural_modes;
 use crate::pipeline::stability::Verdict;
-use crate::pipeline::{self, build, stages, Purpose, RunOptions, Stages, Summary, WriteLevel};
+use crate::pipeline::{self, stages, Purpose, RunOptions, Stages, Summary, WriteLevel};
 use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
 
@@ -557,9 +557,8 @@ fn harmonic_balance_modes(p: &Pipeline, dir: &Path, count: usize) -> Result<Vec<
         return Ok(Vec::new());
     }
     let mut stages = Stages::new(p, &Silent);
-    let (mesh, _) = stages::mesh(p, dir, &mut stages)?;
-    let model = stages.run("assemble", || build(p, mesh, Purpose::HarmonicBalance))?;
-    natural_frequencies(&model, count)
+    let scene = pipeline::prepare(p, dir, Purpose::HarmonicBalance, &mut stages)?;
+    natural_frequencies(&scene.model, count)
 }
 
 /// Reset this process's peak resident memory (VmHWM) to its current RSS: Linux's
