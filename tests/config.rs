@@ -77,7 +77,8 @@ fn overrides_change_values_and_create_blocks() {
         ObstacleSpec::Circle {
             center: [0.0, 0.0],
             radius: 2.0,
-            body_inside: true
+            body_inside: true,
+            lobes: None
         }
     );
 }
@@ -461,6 +462,14 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
         &["harmonic_balance.basis={spline: {degree: 3, segments: 33}}"],
     ),
     ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
+    (
+        "contact.obstacle.circle.lobes",
+        &["contact.obstacle={circle: {center: [0.0, 0.0], radius: 1.0, lobes: {count: 1, amplitude: 0.0}}}"],
+    ),
+    (
+        "contact.motion",
+        &["contact.motion={static: [0.0, 0.0], harmonics: [{k: 1, cos: [0.0, 0.0], sin: [0.0, 0.0]}]}"],
+    ),
     ("transient.perturbation", &["transient.start=harmonic_balance"]),
 ];
 
@@ -479,6 +488,14 @@ const BOUNDS_INSIDE_COMPANIONS: &[(&str, &[&str])] = &[
     ),
     (
         "boundaries.prescribed.harmonics.k",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+    (
+        "contact.motion.harmonics.k",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+    (
+        "contact.obstacle.circle.lobes.count",
         &["harmonic_balance.harmonics=1000"],
     ),
 ];
@@ -521,6 +538,11 @@ const BOUNDS_RELATIONAL: &[(&str, &str, &[&str])] = &[
         "boundaries.prescribed.harmonics.k",
         "at most once",
         &["boundaries.prescribed.0.harmonics=[{k: 1}, {k: 1}]"],
+    ),
+    (
+        "contact.motion.harmonics.k",
+        "at most once",
+        &["contact.motion.harmonics=[{k: 1}, {k: 1}]"],
     ),
 ];
 

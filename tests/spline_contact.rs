@@ -190,9 +190,11 @@ fn row(name: &str, unknowns: usize, s: &Summary, reference: &Summary) -> Row {
 /// force closer than Fourier at H = 40 and at H = 80 (161 unknowns per contact node, as
 /// many as S = 160), with less tension in the force series before impacts. Measured
 /// (relative errors of amplitude / mean / peak, tension = largest tension over peak):
-/// Fourier H = 40: +0.14% / +0.28% / −15.9%, 0.041; H = 80: +0.15% / +0.14% / −6.7%, 0.020;
-/// spline S = 80: +0.14% / +0.12% / −23.8%, 0.058; S = 160: +0.03% / +0.37% / −0.94%, 0.0049.
+/// Fourier H = 40: −0.006% / +0.28% / −15.9%, 0.041; H = 80: +0.003% / +0.14% / −6.7%, 0.020;
+/// spline S = 80: −0.003% / +0.12% / −23.8%, 0.058; S = 160: −0.12% / +0.37% / −0.94%, 0.0049.
 /// At S = 80 (80 unknowns) splines lose to H = 40: the impact rises within half a segment.
+/// The marched amplitude is read from every time step (since 2026-11-28; before, from the
+/// 32 frames, whose aliased impact harmonics put it 0.14% low and S = 160 seemingly closest).
 /// Tolerances are the measured values within 2×.
 #[test]
 fn splines_resolve_the_reference_strip_impact_peak_that_fourier_smears() {
@@ -242,7 +244,7 @@ fn splines_resolve_the_reference_strip_impact_peak_that_fourier_smears() {
         );
     }
     assert!(
-        s160.amplitude.abs() < 5e-4,
+        s160.amplitude.abs() < 2.5e-3,
         "S = 160 amplitude: {:e}",
         s160.amplitude
     );

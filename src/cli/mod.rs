@@ -311,6 +311,15 @@ pub fn show_check(report: &CheckReport) {
     }
     if let (Some(kept), Some(candidates)) = (report.contact_nodes, report.contact_candidates) {
         outln!("contact: {kept} of {candidates} boundary nodes face the obstacle");
+        if let Some([off, far]) = report.contact_dropped {
+            outln!("  dropped: {off} off the obstacle, {far} beyond contact.search_distance");
+        }
+        if let Some(gap) = report.smallest_gap {
+            outln!("  smallest initial gap {gap:.3e} m");
+        }
+        if let Some((group, nodes)) = &report.target {
+            outln!("  against `{group}` of another body: {nodes} of its nodes take the reaction");
+        }
         if let (Some(n), Some(depth)) = (report.penetrated_nodes, report.deepest_penetration) {
             if n > 0 {
                 outln!("  {n} start inside it, the deepest by {depth:.3e} m");

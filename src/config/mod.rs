@@ -129,6 +129,8 @@ pub struct Boundaries {
     pub fixed: Vec<String>,
     pub prescribed: Vec<PrescribedSpec>,
     pub loads: Vec<LoadSpec>,
+    /// Gravity's acceleration [x, y] (a static body force ρg), if any.
+    pub gravity: Option<[f64; 2]>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -181,7 +183,7 @@ impl Default for SolverSpec {
     }
 }
 
-/// A rigid obstacle.
+/// An obstacle: rigid, or another meshed body's boundary.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ObstacleSpec {
     /// A curve of the geometry (a physical group meshed as 1-D elements only).
@@ -189,12 +191,24 @@ pub enum ObstacleSpec {
     /// The half-plane behind the line through `point`; `normal` points out of the obstacle,
     /// into the free space where the body is.
     Line { point: [f64; 2], normal: [f64; 2] },
-    /// A circle; `body_inside` = the body lies inside it (a casing), else outside (a cylinder).
+    /// A circle; `body_inside` = the body lies inside it (a casing), else outside (a cylinder);
+    /// `lobes` makes it out of round and turning once per period relative to the body.
     Circle {
         center: [f64; 2],
         radius: f64,
         body_inside: bool,
+        lobes: Option<Lobes>,
     },
+    /// The boundary curve of another meshed body (elastic–elastic contact, node to segment).
+    Body { group: String },
+}
+
+/// Radius R + amplitude·cos(count·(θ + ωt) + phase) at polar angle θ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lobes {
+    pub count: usize,
+    pub amplitude: f64,
+    pub phase: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -216,6 +230,8 @@ pub struct ContactSpec {
     /// Accept nodes that start deeper inside the obstacle than a small strain of the body
     /// (`pipeline::sanity::check_initial_penetration`).
     pub allow_initial_penetration: bool,
+    /// A rigid obstacle's translation d(t) (`None`: fixed).
+    pub motion: Option<Signal<2>>,
 }
 
 #[derive(Clone, Debug)]

@@ -36,7 +36,8 @@ pub(super) struct RawPipeline {
     /// The periodic steady state sought: fundamental frequency, harmonics, samples, contact
     /// solver. Required.
     pub(super) harmonic_balance: RawHarmonicBalance,
-    /// Frictionless unilateral contact of a body boundary with a rigid obstacle. Default: none
+    /// Frictionless unilateral contact of a body boundary with a rigid obstacle or with the
+    /// boundary of another meshed body. Default: none
     /// (a linear scene).
     #[serde(default)]
     pub(super) contact: Option<RawContact>,
@@ -153,6 +154,10 @@ pub(super) struct RawBoundaries {
     /// External loads on groups: static part plus harmonics. Default: none.
     #[serde(default)]
     pub(super) loads: Vec<RawLoad>,
+    /// A uniform static acceleration [x, y] of gravity, in length/s² (e.g. [0, -9.81]): the
+    /// body force ρg on every cell, a static load. Default: none.
+    #[serde(default)]
+    pub(super) gravity: Option<[f64; 2]>,
 }
 
 /// A displacement component.
@@ -332,8 +337,8 @@ pub(super) enum RawBasis {
     },
 }
 
-/// A rigid obstacle, written as a one-key mapping: `{curve: NAME}`,
-/// `{line: {point, normal}}` or `{circle: {center, radius, body_inside}}`.
+/// An obstacle, written as a one-key mapping: `{curve: NAME}`, `{line: {point, normal}}`,
+/// `{circle: {center, radius, body_inside}}` (rigid), or `{body: NAME}` (another body).
 #[derive(Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 #[schemars(rename = "Obstacle")]
@@ -341,6 +346,11 @@ pub(super) enum RawObstacle {
     /// A curve of the geometry: a gmsh physical group meshed as line elements only, sharing
     /// no node with the body.
     Curve(String),
+    /// A boundary curve of another meshed body (a gmsh physical group of edges on a second
+    /// surface): elastic–elastic contact, each node of `contact.boundary` paired with its
+    /// closest point on this curve in the reference configuration (node to segment). Both
+    /// sides move; both get the contact fields.
+    Body(String),
     /// The half-plane behind a straight line.
     Line {
         /// A point [x, y] of the line (lengths). Required.
@@ -359,7 +369,42 @@ pub(super) enum RawObstacle {
         /// Default: false.
         #[serde(default)]
         body_inside: bool,
+        /// An out-of-round circle turning once per period about its centre relative to the
+        /// body (a casing seen from a blade rotating at the drive frequency): radius
+        /// R + amplitude·cos(count·(θ + ωt) + phase) at polar angle θ. Default: round.
+        #[serde(default)]
+        lobes: Option<RawLobes>,
     },
+}
+
+/// The lobes of an out-of-round circle obstacle.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "Lobes")]
+pub(super) struct RawLobes {
+    /// The number of lobes n, 1 to 1000: the gap varies at harmonic n of the drive frequency,
+    /// which harmonic_balance.harmonics must reach. Required.
+    pub(super) count: usize,
+    /// The radial amplitude δ of the lobes, a length ≥ 0, below the circle's radius.
+    /// Required.
+    pub(super) amplitude: f64,
+    /// The lobes' phase φ, in radians. Default: 0.
+    #[serde(default)]
+    pub(super) phase: f64,
+}
+
+/// A rigid obstacle's prescribed translation d(t) = static + Σ_k (cos_k cos kωt + sin_k sin
+/// kωt): each contact node's gap changes by n·d(t).
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "ObstacleMotion")]
+pub(super) struct RawObstacleMotion {
+    /// A constant offset [x, y] of the obstacle, a length. Default: [0, 0].
+    #[serde(default, rename = "static")]
+    pub(super) static_part: Option<[f64; 2]>,
+    /// The harmonic part, `{k, cos: [x, y], sin: [x, y]}` in lengths. Default: none.
+    #[serde(default)]
+    pub(super) harmonics: Vec<RawHarmonic2>,
 }
 
 /// The mass model of a contact scene.
@@ -383,8 +428,9 @@ pub(super) enum RawMass {
 pub(super) struct RawContact {
     /// The body's boundary curve group whose nodes may touch the obstacle. Required.
     pub(super) boundary: String,
-    /// The rigid obstacle: `{curve: NAME}`, `{line: {point: [x, y], normal: [x, y]}}` or
-    /// `{circle: {center: [x, y], radius: R, body_inside: BOOL}}`. Required.
+    /// The obstacle: `{curve: NAME}`, `{line: {point: [x, y], normal: [x, y]}}`,
+    /// `{circle: {center: [x, y], radius: R, body_inside: BOOL}}` (rigid), or `{body: NAME}`
+    /// (a boundary curve of another meshed body). Required.
     #[serde(with = "serde_yaml::with::singleton_map")]
     #[schemars(with = "RawObstacle")]
     pub(super) obstacle: RawObstacle,
@@ -399,6 +445,11 @@ pub(super) struct RawContact {
     /// obstacle on the wrong side of the body or a unit slip).
     #[serde(default)]
     pub(super) allow_initial_penetration: bool,
+    /// A rigid obstacle's periodic translation (a shaker table, a moving stop): `{static: [x,
+    /// y], harmonics: [{k, cos: [x, y], sin: [x, y]}]}`, lengths. Default: fixed. Not with a
+    /// `body` obstacle (move that body by its own loads or supports).
+    #[serde(default)]
+    pub(super) motion: Option<RawObstacleMotion>,
 }
 
 /// Settings of `hbcontact transient`.

@@ -161,8 +161,8 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let damping = validate_damping(path, raw.damping)?;
     let harmonic_balance = validate_harmonic_balance(path, raw.harmonic_balance)?;
     let contact = validate_contact(path, raw.contact)?;
-    if contact.is_some() {
-        check_contact_harmonics(path, &boundaries, harmonic_balance.harmonics)?;
+    if let Some(c) = &contact {
+        check_contact_harmonics(path, &boundaries, c, harmonic_balance.harmonics)?;
     }
     let transient = validate_transient(path, raw.transient)?;
     let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
@@ -186,9 +186,9 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     Ok(pipeline)
 }
 
-/// A contact solve computes harmonics 0..H only: every harmonic a load or motion excites must
-/// be among them.
-fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> Result<()> {
+/// A contact solve computes harmonics 0..H only: every harmonic a load, a motion or the
+/// obstacle's gap excites must be among them.
+fn check_contact_harmonics(path: &Path, b: &Boundaries, c: &ContactSpec, h: usize) -> Result<()> {
     let loads = b.loads.iter().enumerate().flat_map(|(i, l)| {
         l.signal
             .harmonics
@@ -201,7 +201,19 @@ fn check_contact_harmonics(path: &Path, b: &Boundaries, h: usize) -> Result<()> 
             .iter()
             .map(move |x| (format!("boundaries.prescribed[{i}]"), x.0))
     });
-    if let Some((field, k)) = loads.chain(motions).max_by_key(|(_, k)| *k) {
+    let moving = c
+        .motion
+        .iter()
+        .flat_map(|m| &m.harmonics)
+        .map(|x| ("contact.motion".to_string(), x.0));
+    let lobes = match &c.obstacle {
+        ObstacleSpec::Circle { lobes: Some(l), .. } => {
+            Some(("contact.obstacle.circle.lobes".to_string(), l.count))
+        }
+        _ => None,
+    };
+    let all = loads.chain(motions).chain(moving).chain(lobes);
+    if let Some((field, k)) = all.max_by_key(|(_, k)| *k) {
         if k > h {
             return Err(config_error(
                 path,
@@ -384,10 +396,14 @@ fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
         .enumerate()
         .map(|(i, l)| validate_load(path, i, l))
         .collect::<Result<Vec<_>>>()?;
+    if let Some(g) = b.gravity {
+        finite_all(path, "boundaries.gravity", &g)?;
+    }
     Ok(Boundaries {
         fixed: b.fixed,
         prescribed,
         loads,
+        gravity: b.gravity.filter(|g| *g != [0.0; 2]),
     })
 }
 
@@ -582,6 +598,53 @@ fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
     Ok(BasisSpec::Spline { degree, segments })
 }
 
+fn validate_lobes(path: &Path, l: RawLobes, radius: f64) -> Result<Lobes> {
+    let field = "contact.obstacle.circle.lobes";
+    if l.count == 0 || l.count > MAX_HARMONICS {
+        return Err(config_error(path, format!("{field}.count = {} must be in 1..={MAX_HARMONICS} (the gap varies at harmonic `count`)", l.count)));
+    }
+    finite(path, &format!("{field}.phase"), l.phase)?;
+    if !(l.amplitude >= 0.0 && l.amplitude < radius) {
+        return Err(config_error(
+            path,
+            format!(
+                "{field}.amplitude = {} must be ≥ 0 and below the radius {radius}",
+                l.amplitude
+            ),
+        ));
+    }
+    Ok(Lobes {
+        count: l.count,
+        amplitude: l.amplitude,
+        phase: l.phase,
+    })
+}
+
+fn validate_obstacle_motion(
+    path: &Path,
+    m: RawObstacleMotion,
+    obstacle: &ObstacleSpec,
+) -> Result<Signal<2>> {
+    let field = "contact.motion";
+    if matches!(obstacle, ObstacleSpec::Body { .. }) {
+        return Err(config_error(path, format!("{field}: a `body` obstacle is an elastic body; move it by its own loads or boundaries.prescribed, not by {field}")));
+    }
+    let ks: Vec<usize> = m.harmonics.iter().map(|h| h.k).collect();
+    check_harmonic_indices(path, field, &ks)?;
+    if let Some(s) = m.static_part {
+        finite_all(path, &format!("{field}.static"), &s)?;
+    }
+    for h in &m.harmonics {
+        let at = |part: &str| format!("{field}.harmonics (k = {}).{part}", h.k);
+        finite_all(path, &at("cos"), &h.cos)?;
+        finite_all(path, &at("sin"), &h.sin)?;
+    }
+    Ok(Signal {
+        static_part: m.static_part.unwrap_or([0.0; 2]),
+        harmonics: m.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
+    })
+}
+
 fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
     let Some(c) = contact else {
         return Ok(None);
@@ -591,6 +654,13 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
         RawObstacle::Curve(group) => {
             group_name(path, "contact.obstacle.curve", &group)?;
             ObstacleSpec::Curve { group }
+        }
+        RawObstacle::Body(group) => {
+            group_name(path, "contact.obstacle.body", &group)?;
+            if group == c.boundary {
+                return Err(config_error(path, format!("contact.obstacle.body: `{group}` is the contact boundary itself; name the other body's boundary curve")));
+            }
+            ObstacleSpec::Body { group }
         }
         RawObstacle::Line { point, normal } => {
             finite_all(path, "contact.obstacle.line.point", &point)?;
@@ -608,6 +678,7 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
             center,
             radius,
             body_inside,
+            lobes,
         } => ObstacleSpec::Circle {
             center: {
                 finite_all(path, "contact.obstacle.circle.center", &center)?;
@@ -615,8 +686,13 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
             },
             radius: positive(path, "contact.obstacle.circle.radius", radius)?,
             body_inside,
+            lobes: lobes.map(|l| validate_lobes(path, l, radius)).transpose()?,
         },
     };
+    let motion = c
+        .motion
+        .map(|m| validate_obstacle_motion(path, m, &obstacle))
+        .transpose()?;
     if let Some(d) = c.search_distance {
         positive(path, "contact.search_distance", d)?;
     }
@@ -625,6 +701,7 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
         obstacle,
         search_distance: c.search_distance,
         allow_initial_penetration: c.allow_initial_penetration,
+        motion,
         mass: match c.mass {
             RawMass::Redistributed => ContactMass::Redistributed,
             RawMass::Lumped => ContactMass::Lumped,

@@ -1,15 +1,17 @@
-//! Contact candidates against a rigid obstacle: for each node of the tagged body boundary, the
-//! closest obstacle point, the unit normal n_i pointing from the body into the obstacle, and
-//! the initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload);
+//! Contact candidates against an obstacle (rigid, or another meshed body's boundary, paired
+//! node to segment in `pairing`): for each node of the tagged body boundary, the closest
+//! obstacle point, the unit normal n_i pointing from the body into the obstacle, and the
+//! initial gap g0_i = (closest − x_i)·n_i (negative: initial penetration, a preload);
 //! the obstacle's outline for the output; and the arc length s_i of boundary nodes along the
 //! boundary's edges (for plots against position on the contact boundary).
 
 use std::collections::HashMap;
 
+use super::pairing::TargetSurface;
 use crate::mesh::{Edge, Mesh2d};
 use crate::{Error, Result};
 
-/// A rigid obstacle.
+/// An obstacle: rigid, or the boundary of another meshed body.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Obstacle {
     /// A curve of the geometry (a physical group meshed as 1-D elements only).
@@ -23,6 +25,8 @@ pub enum Obstacle {
         radius: f64,
         body_inside: bool,
     },
+    /// The boundary curve `boundary` of another meshed body (elastic–elastic contact).
+    Body { boundary: String },
 }
 
 /// Where contact is sought: the body boundary whose nodes are the candidates, the obstacle,
@@ -55,24 +59,59 @@ pub struct ContactSet {
     /// Candidates whose normal motion is fully held by boundary conditions: a support, not a
     /// contact (their multiplier would be undetermined).
     pub dropped_held: usize,
+    /// Per kept node, the target body's nodes and their weights N_a at the closest point
+    /// (B's row is n on the node and −N_a n on each target node); empty for a rigid obstacle.
+    pub targets: Vec<Vec<(usize, f64)>>,
+    /// The target boundary's nodes any row touches (sorted) and their tributary lengths.
+    pub target_nodes: Vec<usize>,
+    pub target_tributary: Vec<f64>,
 }
 
 impl ContactSet {
     /// Drop the nodes that cannot move along their normal (every dof the normal touches is
     /// held); `is_free(dof)` says whether a global dof is free.
     pub fn drop_held(&mut self, is_free: impl Fn(usize) -> bool) {
-        let keep: Vec<bool> = self
-            .nodes
-            .iter()
-            .zip(&self.normals)
-            .map(|(&n, normal)| (0..2).any(|c| normal[c] != 0.0 && is_free(2 * n + c)))
+        let keep: Vec<bool> = (0..self.nodes.len())
+            .map(|i| {
+                let normal = self.normals[i];
+                self.row_nodes(i)
+                    .any(|(n, _)| (0..2).any(|c| normal[c] != 0.0 && is_free(2 * n + c)))
+            })
             .collect();
         retain_by(&mut self.nodes, &keep);
         retain_by(&mut self.normals, &keep);
         retain_by(&mut self.gaps, &keep);
         retain_by(&mut self.closest, &keep);
         retain_by(&mut self.tributary, &keep);
+        if !self.targets.is_empty() {
+            retain_by(&mut self.targets, &keep);
+            let used: std::collections::BTreeSet<usize> =
+                self.targets.iter().flatten().map(|&(a, _)| a).collect();
+            let kept: Vec<bool> = self.target_nodes.iter().map(|a| used.contains(a)).collect();
+            retain_by(&mut self.target_nodes, &kept);
+            retain_by(&mut self.target_tributary, &kept);
+        }
         self.dropped_held += keep.iter().filter(|&&k| !k).count();
+    }
+
+    /// The nodes of row i of B and their weights: (node_i, 1), then each target node's
+    /// (a, −N_a); B's entries are these weights times n_i.
+    pub fn row_nodes(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let targets = self.targets.get(i).map_or(&[][..], |t| &t[..]);
+        std::iter::once((self.nodes[i], 1.0)).chain(targets.iter().map(|&(a, w)| (a, -w)))
+    }
+
+    /// Every node a row of B touches (the contact nodes and the target nodes), sorted.
+    pub fn touched_nodes(&self) -> Vec<usize> {
+        let mut all: Vec<usize> = self
+            .nodes
+            .iter()
+            .chain(&self.target_nodes)
+            .copied()
+            .collect();
+        all.sort_unstable();
+        all.dedup();
+        all
     }
 }
 
@@ -309,17 +348,22 @@ fn closest_point(
             Some((c, if *body_inside { u } else { [-u[0], -u[1]] }))
         }
         (Obstacle::Curve { .. }, Some(polyline)) => polyline.project(x, outward),
-        (Obstacle::Curve { .. }, None) => None,
+        (Obstacle::Curve { .. } | Obstacle::Body { .. }, None) => None,
+        (Obstacle::Body { .. }, Some(_)) => None,
     })
 }
 
-/// Build the candidates' normals and gaps.
+/// Build the candidates' normals and gaps (and, against a body, the target weights).
 pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSet> {
     let body = mesh.body_nodes();
     let (candidates, edges) = boundary(mesh, spec, &body)?;
     let tributary = tributary_lengths(mesh, edges);
     let polyline = match &spec.obstacle {
         Obstacle::Curve { group } => Some(Polyline::from_curve(mesh, group, &body)?),
+        _ => None,
+    };
+    let target = match &spec.obstacle {
+        Obstacle::Body { boundary } => Some(TargetSurface::new(mesh, boundary, candidates)?),
         _ => None,
     };
     let outward = outward_normals(mesh, &spec.boundary);
@@ -333,18 +377,27 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
         dropped_off_obstacle: 0,
         dropped_beyond_search: 0,
         dropped_held: 0,
+        targets: Vec::new(),
+        target_nodes: Vec::new(),
+        target_tributary: Vec::new(),
     };
     let mut smallest_gap = f64::INFINITY;
     for &n in candidates {
         let x = mesh.nodes[n];
-        let found = closest_point(
-            &spec.obstacle,
-            polyline.as_ref(),
-            n,
-            x,
-            outward.get(&n).copied(),
-        )?;
-        let Some((closest, normal)) = found else {
+        let found = match &target {
+            Some(t) => t
+                .project(x, outward.get(&n).copied())
+                .map(|p| (p.closest, p.normal, Some(p.weights))),
+            None => closest_point(
+                &spec.obstacle,
+                polyline.as_ref(),
+                n,
+                x,
+                outward.get(&n).copied(),
+            )?
+            .map(|(c, nrm)| (c, nrm, None)),
+        };
+        let Some((closest, normal, weights)) = found else {
             set.dropped_off_obstacle += 1;
             continue;
         };
@@ -360,6 +413,9 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
         set.closest.push(closest);
         set.tributary
             .push(tributary.get(&n).copied().unwrap_or(0.0));
+        if let Some(w) = weights {
+            set.targets.push(w);
+        }
     }
     if set.nodes.is_empty() {
         return Err(Error::Input(format!(
@@ -367,7 +423,26 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
             set.candidates, spec.boundary, set.dropped_off_obstacle, set.dropped_beyond_search
         )));
     }
+    if let Obstacle::Body { boundary } = &spec.obstacle {
+        set.index_targets(mesh, boundary);
+    }
     Ok(set)
+}
+
+impl ContactSet {
+    /// `target_nodes` and `target_tributary` from `targets` (the target group's edges).
+    fn index_targets(&mut self, mesh: &Mesh2d, group: &str) {
+        let edges = mesh.edge_groups.get(group).map_or(&[][..], Vec::as_slice);
+        let tributary = tributary_lengths(mesh, edges);
+        let mut nodes: Vec<usize> = self.targets.iter().flatten().map(|&(a, _)| a).collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        self.target_tributary = nodes
+            .iter()
+            .map(|a| tributary.get(a).copied().unwrap_or(0.0))
+            .collect();
+        self.target_nodes = nodes;
+    }
 }
 
 /// Circle arcs and closed circles drawn with this many segments.
@@ -392,6 +467,7 @@ pub fn obstacle_outline(mesh: &Mesh2d, obstacle: &Obstacle, set: &ContactSet) ->
         Obstacle::Line { point, normal } => line_outline(mesh, set, *point, *normal),
         Obstacle::Circle { center, radius, .. } => circle_outline(set, *center, *radius),
         Obstacle::Curve { group } => curve_outline(mesh, group),
+        Obstacle::Body { .. } => ObstacleOutline::default(),
     }
 }
 

@@ -5,7 +5,8 @@
 //!
 //! On a diagonal mass: each contact node's mass moves to the non-contact nodes of the cells
 //! around it, in proportion to their own mass; then a minimum-norm, mass-weighted correction of
-//! all nodal masses (Σδm = 0, Σδm·x = Δ) restores the centre of mass exactly.
+//! the nodal masses of each body (each connected set of cells: Σδm = 0, Σδm·x = Δ over that
+//! body) restores every body's mass and centre of mass exactly.
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -130,7 +131,15 @@ pub fn redistribute_mass(
         moved += mc;
     }
     if moved > 0.0 {
-        restore_first_moment(mesh, &mut m, &is_massless, first);
+        let lumped_nodal: Vec<f64> = (0..mesh.nodes.len()).map(|n| lumped[2 * n]).collect();
+        let roots = mesh.part_roots();
+        let bodies: std::collections::BTreeSet<usize> =
+            mesh.cells.iter().map(|c| roots[c.nodes[0]]).collect();
+        for body in bodies {
+            let in_body = |n: usize| roots[n] == body;
+            let target = first_moment(mesh, &lumped_nodal, in_body);
+            restore_first_moment(mesh, &mut m, &is_massless, target, in_body);
+        }
     }
     if let Some((n, v)) = m
         .iter()
@@ -174,19 +183,41 @@ fn receiving_ring(
     ring
 }
 
-/// Restore the first moment `first` of the nodal masses `m`: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j),
-/// w_j = m_j over all massive nodes. (Correcting the receiving ring alone can need negative
-/// masses: on a flat contact face every receiver lies on the same side of the moved mass.)
-fn restore_first_moment(mesh: &Mesh2d, m: &mut [f64], is_massless: &[bool], first: [f64; 2]) {
+/// The first moment Σ m_j x_j of the nodal masses `m` over the nodes where `keep` holds.
+fn first_moment(mesh: &Mesh2d, m: &[f64], keep: impl Fn(usize) -> bool) -> [f64; 2] {
+    let mut first = [0.0; 2];
+    for (n, p) in mesh.nodes.iter().enumerate() {
+        if keep(n) {
+            first[0] += m[n] * p[0];
+            first[1] += m[n] * p[1];
+        }
+    }
+    first
+}
+
+/// Restore the first moment `first` of the nodal masses `m` of the nodes where `in_body`
+/// holds: δ_j = w_j (μ0 + μ1 x_j + μ2 y_j), w_j = m_j over the body's massive nodes.
+/// (Correcting the receiving ring alone can need negative masses: on a flat contact face
+/// every receiver lies on the same side of the moved mass.)
+fn restore_first_moment(
+    mesh: &Mesh2d,
+    m: &mut [f64],
+    is_massless: &[bool],
+    first: [f64; 2],
+    in_body: impl Fn(usize) -> bool,
+) {
     let weights: Vec<f64> = m
         .iter()
         .enumerate()
-        .map(|(n, &v)| if is_massless[n] { 0.0 } else { v })
+        .map(|(n, &v)| {
+            if is_massless[n] || !in_body(n) {
+                0.0
+            } else {
+                v
+            }
+        })
         .collect();
-    let (_, first_now) = {
-        let full: Vec<f64> = m.iter().flat_map(|&v| [v, v]).collect();
-        moments(mesh, &full)
-    };
+    let first_now = first_moment(mesh, m, &in_body);
     let delta = [first[0] - first_now[0], first[1] - first_now[1]];
     let mut a = Matrix3::zeros();
     for (n, &w) in weights.iter().enumerate() {

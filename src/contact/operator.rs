@@ -1,7 +1,17 @@
 //! The contact operator of (1)–(2) in docs/method.md: row i of B is the unit normal n_i at
 //! contact node i's (x, y) dofs, pointing from the body toward the obstacle, so (B u)_i is the
 //! node's displacement toward the obstacle and g = B u − g0 ≤ 0 is the non-penetration
-//! condition (g0 the initial gap along n_i, positive = open).
+//! condition (g0 the initial gap along n_i, positive = open). Against another meshed body the
+//! row also holds −N_a n_i on each target node a (`pairing`): (B u)_i is the node's approach
+//! toward the target surface, and Bᵀλ puts the opposite force on the target.
+//!
+//! A moving or out-of-round rigid obstacle makes the gap periodic in time: g0_i(t) = g0_i +
+//! Σ_k Re(ĝ_{k,i} e^{ikωt}), k ≥ 1 (the note's g̃0 of (18), projected on the time basis where
+//! the linear gap is formed).
+
+use std::collections::BTreeMap;
+
+use faer::c64;
 
 use crate::fem::DofMap;
 use crate::linalg::Csc;
@@ -15,26 +25,42 @@ pub struct ContactOperator {
     pub b_free: Csc,
     /// B restricted to the prescribed dofs (nc × prescribed): prescribed motion moves gaps.
     pub b_prescribed: Csc,
-    /// Initial gaps along the normals.
+    /// Initial gaps along the normals (the mean gap of a moving obstacle).
     pub g0: Vec<f64>,
+    /// The gap's harmonics ĝ_k (k ≥ 1, one phasor per row, x = Re(ĝ e^{ikωt})): empty for a
+    /// fixed obstacle.
+    pub gap_harmonics: BTreeMap<usize, Vec<c64>>,
 }
 
 impl ContactOperator {
     pub fn nodes(&self) -> usize {
         self.g0.len()
     }
+
+    /// The gap g0(t) of every row at time t, the fundamental being ω.
+    pub fn gap_at(&self, omega: f64, t: f64, out: &mut [f64]) {
+        out.copy_from_slice(&self.g0);
+        for (&k, z) in &self.gap_harmonics {
+            let rotor = c64::from_polar(1.0, k as f64 * omega * t);
+            for (o, z) in out.iter_mut().zip(z) {
+                *o += (z * rotor).re;
+            }
+        }
+    }
 }
 
 /// B and g0 from the contact set's normals and gaps.
 pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
     let (mut free, mut held) = (Vec::new(), Vec::new());
-    for (i, (&n, normal)) in set.nodes.iter().zip(&set.normals).enumerate() {
-        for (c, &component) in normal.iter().enumerate() {
-            let d = 2 * n + c;
-            if let Some(f) = dofs.free_index(d) {
-                free.push((i, f, component));
-            } else if let Some(p) = dofs.prescribed_index(d) {
-                held.push((i, p, component));
+    for (i, normal) in set.normals.iter().enumerate() {
+        for (n, w) in set.row_nodes(i) {
+            for (c, &component) in normal.iter().enumerate() {
+                let d = 2 * n + c;
+                if let Some(f) = dofs.free_index(d) {
+                    free.push((i, f, w * component));
+                } else if let Some(p) = dofs.prescribed_index(d) {
+                    held.push((i, p, w * component));
+                }
             }
         }
     }
@@ -43,5 +69,6 @@ pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
         b_free: Csc::from_entries(nc, dofs.free.len(), &free),
         b_prescribed: Csc::from_entries(nc, dofs.prescribed.len(), &held),
         g0: set.gaps.clone(),
+        gap_harmonics: BTreeMap::new(),
     }
 }

@@ -58,6 +58,9 @@ pub const ORDER: usize = 2400;
 /// nearest the shift `SHIFT` by shift-invert Arnoldi.
 pub const DENSE: usize = 240;
 
+/// Hill matrices up to this order get every eigenvalue when Arnoldi finds no centred exponent.
+pub const DENSE_FALLBACK: usize = 1200;
+
 /// Shift-invert Arnoldi's shift σ/ω: real (so P(σ) is real) and right of the imaginary axis,
 /// nearer the rightmost exponents of the strip |Im s| ≤ ω/2, where each exponent has a copy,
 /// than any copy outside it.
@@ -97,7 +100,8 @@ impl<'a> SampledLaw<'a> {
 /// How the exponents are found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Eigen {
-    /// Dense up to `DENSE`, Arnoldi beyond.
+    /// Dense up to `DENSE`, Arnoldi beyond (dense up to `DENSE_FALLBACK` where Arnoldi finds
+    /// no centred exponent).
     Auto,
     /// Every eigenvalue of the Hill matrix.
     Dense,
@@ -218,11 +222,20 @@ impl HillModel {
             closed: &closed,
             blocks: &blocks,
         };
-        let exponents = if dense {
+        let all = || -> Result<Vec<c64>> {
             let stiffness = self.stiffness(self.coupling(&law, h)?, omega, h);
-            physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h, omega)?
-        } else {
-            self.rightmost_exponents(&law, omega, h)?
+            physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h, omega)
+        };
+        let exponents = match (dense, eigen) {
+            (true, _) => all()?,
+            // Arnoldi finds the copies nearest its shift; where the dynamic modes lie far above
+            // it (a drive well below them, or many harmonics) none of those is centred: every
+            // eigenvalue of a Hill matrix of moderate order then.
+            (false, Eigen::Auto) => match self.rightmost_exponents(&law, omega, h) {
+                Err(_) if 2 * r * m <= DENSE_FALLBACK => all()?,
+                found => found?,
+            },
+            (false, _) => self.rightmost_exponents(&law, omega, h)?,
         };
         let period = 2.0 * std::f64::consts::PI / omega;
         let exponents = real_at_half(exponents, omega);

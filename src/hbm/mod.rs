@@ -355,7 +355,12 @@ fn prepare_with(
         timed(&mut timings.reduce, || ReducedProblem {
             nodes: op.nodes(),
             harmonics: settings.harmonics,
-            linear_gap: globalize::linear_gap(op, settings.harmonics, &linear.free, &linear.motion),
+            linear_gap: globalize::linear_gap(
+                op,
+                settings.harmonics,
+                (&linear.free, &linear.motion),
+                &system.basis,
+            ),
             compliance: std::mem::take(&mut linear.compliance),
             basis: system.basis.clone(),
         })

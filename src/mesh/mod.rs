@@ -93,6 +93,26 @@ impl Mesh2d {
         (0..self.nodes.len()).filter(|&i| used[i]).collect()
     }
 
+    /// Every node's root in the union of the cells sharing nodes (a node of no cell is its own).
+    pub fn part_roots(&self) -> Vec<usize> {
+        let mut parent: Vec<usize> = (0..self.nodes.len()).collect();
+        fn find(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        for cell in &self.cells {
+            let a = find(&mut parent, cell.nodes[0]);
+            for &n in &cell.nodes[1..] {
+                let b = find(&mut parent, n);
+                parent[b] = a;
+            }
+        }
+        (0..parent.len()).map(|i| find(&mut parent, i)).collect()
+    }
+
     /// The names of all physical groups, for "did you mean" messages.
     pub fn group_names(&self) -> Vec<&str> {
         self.node_groups.keys().map(String::as_str).collect()

@@ -288,6 +288,15 @@ pub struct CheckReport {
     /// The deepest initial penetration, a length ≥ 0 (0: none).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub deepest_penetration: Option<f64>,
+    /// Candidates dropped: off the obstacle, and farther than `contact.search_distance`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact_dropped: Option<[usize; 2]>,
+    /// The smallest initial gap of the kept nodes (negative: penetration).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub smallest_gap: Option<f64>,
+    /// Against another body: its boundary group and how many of its nodes the pairs touch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<(String, usize)>,
     /// The mesh's physical groups: name → what they hold.
     pub groups: std::collections::BTreeMap<String, GroupInfo>,
 }
@@ -344,5 +353,20 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         contact_candidates: set.as_ref().map(|s| s.candidates),
         penetrated_nodes: set.as_ref().map(|s| sanity::initial_penetration(s).0),
         deepest_penetration: set.as_ref().map(|s| sanity::initial_penetration(s).1),
+        contact_dropped: set
+            .as_ref()
+            .map(|s| [s.dropped_off_obstacle, s.dropped_beyond_search]),
+        smallest_gap: set
+            .as_ref()
+            .map(|s| s.gaps.iter().copied().fold(f64::INFINITY, f64::min)),
+        target: match (&p.contact, &set) {
+            (Some(c), Some(s)) => match &c.obstacle {
+                crate::config::ObstacleSpec::Body { group } => {
+                    Some((group.clone(), s.target_nodes.len()))
+                }
+                _ => None,
+            },
+            _ => None,
+        },
     })
 }

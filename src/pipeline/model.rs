@@ -54,6 +54,12 @@ pub struct Effects {
     pub prescribed_motion: bool,
     pub damping: Option<String>,
     pub contact: Option<String>,
+    /// Gravity's acceleration [x, y] (a static body force), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<[f64; 2]>,
+    /// Harmonics of the gap that a moving or out-of-round obstacle excites (H covers them).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub gap_harmonics: Vec<usize>,
     pub mass: MassModel,
 }
 
@@ -155,8 +161,14 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
     }
     if let Some(c) = &p.contact {
         node_group(p, mesh, "contact.boundary", &c.boundary)?;
-        if let ObstacleSpec::Curve { group } = &c.obstacle {
-            node_group(p, mesh, "contact.obstacle.curve", group)?;
+        match &c.obstacle {
+            ObstacleSpec::Curve { group } => {
+                node_group(p, mesh, "contact.obstacle.curve", group)?;
+            }
+            ObstacleSpec::Body { group } => {
+                node_group(p, mesh, "contact.obstacle.body", group)?;
+            }
+            _ => {}
         }
     }
     if mesh.cells.is_empty() {
@@ -190,6 +202,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         Some(spec) => {
             let mut set = build_contact_set(&mesh, &contact_scene(spec))?;
             set.drop_held(|d| dofs.free_index(d).is_some());
+            shift_gaps(spec, &mut set);
             Some(set)
         }
         None => None,
@@ -208,10 +221,16 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .collect();
     let system = System::new(dofs, &stiffness, &mass.matrix, rayleigh, omega, inputs)?
         .with_basis(time_basis(p, purpose));
-    let contact = contact_set.map(|set| ContactModel {
-        operator: contact_operator(&set, &system.dofs),
-        set,
-        redistribution: mass.redistribution,
+    let contact = contact_set.map(|set| {
+        let mut operator = contact_operator(&set, &system.dofs);
+        if let Some(spec) = &p.contact {
+            operator.gap_harmonics = gap_harmonics(spec, &set);
+        }
+        ContactModel {
+            operator,
+            set,
+            redistribution: mass.redistribution,
+        }
     });
     if let (Purpose::HarmonicBalance, Some(c)) = (purpose, &contact) {
         // The LDLᵀ's symbolic analysis, with the contact normals kept. The LU's (the
@@ -231,6 +250,10 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         prescribed_motion,
         damping: rayleigh.map(|(a, b)| format!("Rayleigh: alpha = {a:e} 1/s, beta = {b:e} s")),
         contact: p.contact.as_ref().map(describe_contact),
+        gravity: p.boundaries.gravity,
+        gap_harmonics: contact.as_ref().map_or(Vec::new(), |c| {
+            c.operator.gap_harmonics.keys().copied().collect()
+        }),
         mass: mass.model,
     };
     Ok(Model {
@@ -301,7 +324,7 @@ fn mass(
     let lumped = fem::assemble_mass(mesh, material, MassKind::Lumped)?.diagonal();
     let redistribution = match (model, contact_set) {
         (MassModel::Redistributed, Some(set)) => {
-            Some(redistribute_mass(mesh, &lumped, &set.nodes)?)
+            Some(redistribute_mass(mesh, &lumped, &set.touched_nodes())?)
         }
         _ => None,
     };
@@ -353,6 +376,16 @@ fn harmonic_inputs(
             if cos.iter().chain(&sin).any(|&v| v != 0.0) {
                 add(k, cos, sin);
             }
+        }
+    }
+    if let Some(g) = p.boundaries.gravity {
+        // ρg on every cell: the consistent mass times g at every node (Σ N_a = 1).
+        let mass = fem::assemble_mass(mesh, material, MassKind::Consistent)?;
+        let field: Vec<f64> = (0..mesh.nodes.len()).flat_map(|_| g).collect();
+        let weight = mass.mul_vec(&field);
+        let target = &mut inputs.entry(0).or_insert_with(|| zero.clone()).force;
+        for (i, &d) in dofs.free.iter().enumerate() {
+            target[i] += c64::new(weight[d], 0.0);
         }
     }
     let mut prescribed_motion = false;
@@ -424,12 +457,61 @@ pub fn obstacle(spec: &ObstacleSpec) -> Obstacle {
             center,
             radius,
             body_inside,
+            ..
         } => Obstacle::Circle {
             center: *center,
             radius: *radius,
             body_inside: *body_inside,
         },
+        ObstacleSpec::Body { group } => Obstacle::Body {
+            boundary: group.clone(),
+        },
     }
+}
+
+/// A moving obstacle's constant offset d0 moves each gap by n_i·d0.
+fn shift_gaps(spec: &ContactSpec, set: &mut ContactSet) {
+    if let Some(d) = spec.motion.as_ref().map(|m| m.static_part) {
+        for (g, n) in set.gaps.iter_mut().zip(&set.normals) {
+            *g += n[0] * d[0] + n[1] * d[1];
+        }
+    }
+}
+
+/// The gap harmonics ĝ_k of each row (`ContactOperator::gap_harmonics`): a translation d(t)
+/// gives n_i·d̂_k (d̂_k = cos_k − i sin_k); n lobes of amplitude δ turning once per period
+/// give ±δ e^{i(nθ_i + φ)} at k = n, θ_i the closest point's polar angle (+ for a body
+/// inside the circle, whose gap R(θ, t) − r grows with the radius; − outside).
+fn gap_harmonics(spec: &ContactSpec, set: &ContactSet) -> BTreeMap<usize, Vec<c64>> {
+    let mut out: BTreeMap<usize, Vec<c64>> = BTreeMap::new();
+    let nc = set.nodes.len();
+    for &(k, cos, sin) in spec.motion.iter().flat_map(|m| &m.harmonics) {
+        let row = out.entry(k).or_insert_with(|| vec![c64::new(0.0, 0.0); nc]);
+        for (z, n) in row.iter_mut().zip(&set.normals) {
+            *z += c64::new(
+                n[0] * cos[0] + n[1] * cos[1],
+                -(n[0] * sin[0] + n[1] * sin[1]),
+            );
+        }
+    }
+    if let ObstacleSpec::Circle {
+        center,
+        body_inside,
+        lobes: Some(l),
+        ..
+    } = &spec.obstacle
+    {
+        let sign = if *body_inside { 1.0 } else { -1.0 };
+        let row = out
+            .entry(l.count)
+            .or_insert_with(|| vec![c64::new(0.0, 0.0); nc]);
+        for (z, c) in row.iter_mut().zip(&set.closest) {
+            let theta = (c[1] - center[1]).atan2(c[0] - center[0]);
+            *z += c64::from_polar(sign * l.amplitude, l.count as f64 * theta + l.phase);
+        }
+    }
+    out.retain(|_, z| z.iter().any(|v| v.norm() > 0.0));
+    out
 }
 
 /// How the summary names the scene's contact.
@@ -440,10 +522,20 @@ fn describe_contact(c: &ContactSpec) -> String {
             c.boundary
         ),
         ObstacleSpec::Line { .. } => format!("unilateral, `{}` against a rigid line", c.boundary),
-        ObstacleSpec::Circle { body_inside, .. } => format!(
-            "unilateral, `{}` against a rigid circle (body {})",
+        ObstacleSpec::Circle {
+            body_inside, lobes, ..
+        } => format!(
+            "unilateral, `{}` against a rigid circle (body {}{})",
             c.boundary,
-            if *body_inside { "inside" } else { "outside" }
+            if *body_inside { "inside" } else { "outside" },
+            lobes.map_or(String::new(), |l| format!(
+                ", {} lobes of {:e}, turning once per period",
+                l.count, l.amplitude
+            ))
+        ),
+        ObstacleSpec::Body { group } => format!(
+            "unilateral, `{}` against the boundary `{group}` of another body",
+            c.boundary
         ),
     }
 }

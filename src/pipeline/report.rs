@@ -134,9 +134,11 @@ impl History {
 
     /// The history at `times` of the displacement `u(j, dof)` at instant j (read at the probe
     /// and contact nodes only), with the multipliers λ(t_j) where there is contact (`None`:
-    /// none) and the law's c (harmonic balance) or none (time marching).
+    /// none) and the law's c (harmonic balance) or none (time marching); ω times the gaps of
+    /// a moving obstacle.
     fn new(
         model: &Model,
+        omega: f64,
         times: Vec<f64>,
         u: impl Fn(usize, usize) -> f64,
         lambda: impl Fn(usize) -> Option<Vec<f64>>,
@@ -145,7 +147,7 @@ impl History {
         let mut probe_means: Vec<[Vec<f64>; 2]> =
             vec![[Vec::new(), Vec::new()]; model.probes.len()];
         let (mut contact, mut gap_scale) = (Vec::new(), 0.0f64);
-        for j in 0..times.len() {
+        for (j, &t) in times.iter().enumerate() {
             for ((_, nodes), means) in model.probes.iter().zip(&mut probe_means) {
                 let n = nodes.len().max(1) as f64;
                 let moved = nodes
@@ -157,7 +159,8 @@ impl History {
                 }
             }
             if let Some(l) = lambda(j) {
-                let terms: Vec<(f64, f64)> = normal_terms(model, |d| u(j, d)).collect();
+                let g0 = gaps_at(model, omega, t);
+                let terms: Vec<(f64, f64)> = normal_terms(model, &g0, |d| u(j, d)).collect();
                 let scale = terms.iter().map(|(nu, g0)| nu.abs() + g0.abs());
                 gap_scale = scale.fold(gap_scale, f64::max);
                 let gaps = terms.into_iter().map(gap).collect();
@@ -175,10 +178,13 @@ impl History {
 
 /// The dofs a history reads: both components of every probe and contact node, ascending.
 fn history_dofs(model: &Model) -> Vec<usize> {
-    let contact = model.contact.as_ref().map_or(&[][..], |c| &c.set.nodes[..]);
+    let contact = model
+        .contact
+        .as_ref()
+        .map_or(Vec::new(), |c| c.set.touched_nodes());
     let probes = model.probes.iter().flat_map(|(_, nodes)| nodes);
     let mut dofs: Vec<usize> = probes
-        .chain(contact)
+        .chain(&contact)
         .flat_map(|&n| [2 * n, 2 * n + 1])
         .collect();
     dofs.sort_unstable();
@@ -196,7 +202,12 @@ fn harmonic_balance_contact(
 ) -> Option<ContactState> {
     let lambda = solution.multipliers_at(t)?;
     let c = solution.contact.as_ref().map(|c| c.c);
-    Some(ContactState::new(contact_gaps(model, u), &lambda, c))
+    let omega = 2.0 * std::f64::consts::PI / solution.period();
+    Some(ContactState::new(
+        contact_gaps(model, omega, t, u),
+        &lambda,
+        c,
+    ))
 }
 
 impl Sampled {
@@ -252,6 +263,7 @@ impl Sampled {
         let c = solution.contact.as_ref().map(|c| c.c);
         let history = History::new(
             model,
+            2.0 * std::f64::consts::PI / period,
             times.clone(),
             at,
             |j| solution.multipliers_at(times[j]),
@@ -293,6 +305,7 @@ impl Sampled {
         });
         let history = History::new(
             model,
+            model.system.omega,
             result.times.clone(),
             |j, d| frames[j].displacement[d],
             |j| frames[j].contact_force.clone(),
@@ -309,7 +322,8 @@ impl Sampled {
     }
 
     /// Every file of the run but the summary: the VTU series and its `.pvd`, `probes.csv`,
-    /// and for contact scenes `contact.csv`, `obstacle.vtu` + `obstacle.pvd` and (time
+    /// and for contact scenes `contact.csv`, `obstacle.vtu` + `obstacle.pvd` (a rigid
+    /// obstacle) and (time
     /// marching) `contact_steps.csv`. Returns what the series found on the way. Each frame
     /// written is reported to `reporter` (task `WRITE_TASK`).
     pub fn write(
@@ -327,12 +341,15 @@ impl Sampled {
             write_contact_history(&dir.join("contact.csv"), model, &h.times, &h.contact)?;
             let outline =
                 obstacle_outline(&model.mesh, &super::model::obstacle(&spec.obstacle), &c.set);
-            write_lines_vtu(
-                &dir.join("obstacle.vtu"),
-                &outline.points,
-                &outline.segments,
-            )?;
-            write_pvd(&dir.join("obstacle.pvd"), &[(0.0, "obstacle.vtu".into())])?;
+            // A body obstacle is in the mesh itself: no outline.
+            if !outline.points.is_empty() {
+                write_lines_vtu(
+                    &dir.join("obstacle.vtu"),
+                    &outline.points,
+                    &outline.segments,
+                )?;
+                write_pvd(&dir.join("obstacle.pvd"), &[(0.0, "obstacle.vtu".into())])?;
+            }
         }
         if let Some(steps) = &self.steps {
             let rows: Vec<Vec<f64>> = steps
@@ -358,14 +375,21 @@ fn vector3(u: &[f64]) -> Vec<f64> {
     u.chunks(2).flat_map(|c| [c[0], c[1], 0.0]).collect()
 }
 
-/// Normal gap B u − g0 of every contact node for a displacement on all dofs.
-pub fn contact_gaps(model: &Model, u: &[f64]) -> Vec<f64> {
-    contact_gaps_with(model, |d| u[d])
+/// Normal gap B u − g0(t) of every contact row for a displacement on all dofs at time t
+/// (fundamental ω).
+pub fn contact_gaps(model: &Model, omega: f64, t: f64, u: &[f64]) -> Vec<f64> {
+    let g0 = gaps_at(model, omega, t);
+    normal_terms(model, &g0, |d| u[d]).map(gap).collect()
 }
 
-/// `contact_gaps` with the displacement of dof d given by `u(d)`.
-fn contact_gaps_with(model: &Model, u: impl Fn(usize) -> f64) -> Vec<f64> {
-    normal_terms(model, u).map(gap).collect()
+/// The obstacle's gaps g0(t) of every contact row (none without contact).
+fn gaps_at(model: &Model, omega: f64, t: f64) -> Vec<f64> {
+    let Some(c) = &model.contact else {
+        return Vec::new();
+    };
+    let mut g0 = vec![0.0; c.operator.nodes()];
+    c.operator.gap_at(omega, t, &mut g0);
+    g0
 }
 
 /// The gap g = n·u − g0 from its two terms (n·u, g0).
@@ -373,20 +397,27 @@ fn gap((nu, g0): (f64, f64)) -> f64 {
     nu - g0
 }
 
-/// The two terms of every contact node's gap B u − g0: (n·u, g0) (none without contact).
+/// The two terms of every contact row's gap B u − g0: ((B u)_i, g0_i), (B u)_i = n_i·u of the
+/// node, less n_i·Σ N_a u_a of a target body's nodes, with the gaps `gaps` (none without
+/// contact).
 fn normal_terms<'m>(
     model: &'m Model,
+    gaps: &'m [f64],
     u: impl Fn(usize) -> f64 + 'm,
 ) -> impl Iterator<Item = (f64, f64)> + 'm {
     let set = model.contact.as_ref().map(|c| &c.set);
-    let nodes = set.map_or(&[][..], |s| &s.nodes[..]);
     let normals = set.map_or(&[][..], |s| &s.normals[..]);
-    let gaps = set.map_or(&[][..], |s| &s.gaps[..]);
-    nodes
+    normals
         .iter()
-        .zip(normals)
         .zip(gaps)
-        .map(move |((&n, nrm), &g0)| (nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1), g0))
+        .enumerate()
+        .map(move |(i, (nrm, &g0))| {
+            let rows = set.into_iter().flat_map(move |s| s.row_nodes(i));
+            let bu = rows
+                .map(|(n, w)| w * (nrm[0] * u(2 * n) + nrm[1] * u(2 * n + 1)))
+                .sum();
+            (bu, g0)
+        })
 }
 
 /// The pressure [Pa] of contact node i (in `ContactSet::nodes` order) carrying `force` [N]:
@@ -449,7 +480,6 @@ fn write_frame(
     s: &Snapshot,
     fields: &[FieldName],
 ) -> Result<String> {
-    let nn = model.mesh.nodes.len();
     let want = |f: FieldName| fields.contains(&f);
     let mut points = Vec::new();
     for (field, name, values) in [
@@ -465,43 +495,68 @@ fn write_frame(
             });
         }
     }
-    if let (true, Some(c), Some(state)) = (
-        want(FieldName::Contact),
-        &model.contact,
-        sampled.frame_contact.get(j),
-    ) {
-        let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
-        let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
-        let mut status = vec![-1.0; nn];
-        for (i, &n) in c.set.nodes.iter().enumerate() {
-            opening[n] = -state.gap[i];
-            force[n] = state.force[i];
-            series[n] = state.series[i];
-            pressure[n] = nodal_pressure(model, i, state.force[i]);
-            status[n] = if state.closed(i, sampled.closed_tolerance) {
-                1.0
-            } else {
-                0.0
-            };
-        }
-        for (name, values) in [
-            ("contact_opening", opening),
-            ("contact_force", force),
-            ("contact_pressure", pressure),
-            ("contact_status", status),
-            ("contact_force_series", series),
-        ] {
-            points.push(Field {
-                name: name.into(),
-                components: 1,
-                values,
-            });
-        }
+    if let (true, Some(state)) = (want(FieldName::Contact), sampled.frame_contact.get(j)) {
+        points.extend(contact_fields(model, state, sampled.closed_tolerance));
     }
     let cells = stress_fields(model, &s.displacement, fields);
     let name = format!("frame_{j:04}.vtu");
     write_vtu(&dir.join(&name), &model.mesh, &points, &cells)?;
     Ok(name)
+}
+
+/// The contact point fields of one frame: opening, law force, pressure, status (1 closed, 0
+/// open, −1 not a contact node) and series force at the contact nodes. On a target body's
+/// nodes: the reaction of each row shared by the weights N_a ≥ 0 at its closest point
+/// (normalized; a quadratic edge's negative corner weight gets none, so the field stays a
+/// pressure ≥ 0 with the same total), the smallest opening of the rows that touch the node,
+/// and status 1 where that reaction presses and that opening is within the tolerance.
+fn contact_fields(model: &Model, state: &ContactState, closed_tolerance: f64) -> Vec<Field> {
+    let Some(c) = &model.contact else {
+        return Vec::new();
+    };
+    let nn = model.mesh.nodes.len();
+    let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
+    let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
+    let mut status = vec![-1.0; nn];
+    let closed = |i: usize| f64::from(u8::from(state.closed(i, closed_tolerance)));
+    for (i, &n) in c.set.nodes.iter().enumerate() {
+        opening[n] = -state.gap[i];
+        force[n] = state.force[i];
+        series[n] = state.series[i];
+        pressure[n] = nodal_pressure(model, i, state.force[i]);
+        status[n] = closed(i);
+    }
+    for &a in &c.set.target_nodes {
+        opening[a] = f64::INFINITY;
+    }
+    for (i, targets) in c.set.targets.iter().enumerate() {
+        let total: f64 = targets.iter().map(|&(_, w)| w.max(0.0)).sum();
+        for &(a, w) in targets {
+            let share = w.max(0.0) / total;
+            force[a] += share * state.force[i];
+            series[a] += share * state.series[i];
+            opening[a] = opening[a].min(-state.gap[i]);
+        }
+    }
+    for (&a, &length) in c.set.target_nodes.iter().zip(&c.set.target_tributary) {
+        let area = length * model.material.thickness;
+        pressure[a] = if area > 0.0 { force[a] / area } else { 0.0 };
+        status[a] = f64::from(u8::from(force[a] > 0.0 && opening[a] <= closed_tolerance));
+    }
+    [
+        ("contact_opening", opening),
+        ("contact_force", force),
+        ("contact_pressure", pressure),
+        ("contact_status", status),
+        ("contact_force_series", series),
+    ]
+    .into_iter()
+    .map(|(name, values)| Field {
+        name: name.into(),
+        components: 1,
+        values,
+    })
+    .collect()
 }
 
 /// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`); the

@@ -145,34 +145,35 @@ fn cell_quality(p: &Pipeline, mesh: &Mesh2d, warnings: &mut Vec<String>) -> Resu
     Ok(longest)
 }
 
-/// Every node's root in the union of the cells sharing nodes (a node of no cell is its own).
-fn part_roots(mesh: &Mesh2d) -> Vec<usize> {
-    let mut parent: Vec<usize> = (0..mesh.nodes.len()).collect();
-    fn find(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    for cell in &mesh.cells {
-        let a = find(&mut parent, cell.nodes[0]);
-        for &n in &cell.nodes[1..] {
-            let b = find(&mut parent, n);
-            parent[b] = a;
-        }
-    }
-    (0..parent.len()).map(|i| find(&mut parent, i)).collect()
-}
-
 /// The number of connected parts of the cells and one node of each part.
 fn parts(mesh: &Mesh2d) -> Vec<(usize, usize)> {
-    let roots_of = part_roots(mesh);
+    let roots_of = mesh.part_roots();
     let mut roots: std::collections::BTreeMap<usize, (usize, usize)> = Default::default();
     for (i, cell) in mesh.cells.iter().enumerate() {
         roots.entry(roots_of[cell.nodes[0]]).or_insert((0, i)).0 += 1;
     }
     roots.into_values().collect()
+}
+
+/// Whether the scene's contact is between two bodies and every part of the mesh holds a node
+/// of its boundary or of its target (the parts are the bodies that contact joins).
+fn contact_joins_parts(p: &Pipeline, mesh: &Mesh2d) -> bool {
+    let Some(c) = &p.contact else {
+        return false;
+    };
+    let crate::config::ObstacleSpec::Body { group } = &c.obstacle else {
+        return false;
+    };
+    let roots_of = mesh.part_roots();
+    let touched: std::collections::BTreeSet<usize> = [&c.boundary, group]
+        .into_iter()
+        .filter_map(|g| mesh.node_groups.get(g))
+        .flatten()
+        .map(|&n| roots_of[n])
+        .collect();
+    mesh.cells
+        .iter()
+        .all(|cell| touched.contains(&roots_of[cell.nodes[0]]))
 }
 
 /// The highest harmonic a load or a prescribed motion excites.
@@ -205,7 +206,7 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
     let mut warnings = Vec::new();
     let longest = cell_quality(p, mesh, &mut warnings)?;
     let found = parts(mesh);
-    if found.len() > 1 && !p.geometry.allow_disconnected {
+    if found.len() > 1 && !p.geometry.allow_disconnected && !contact_joins_parts(p, mesh) {
         let list: Vec<String> = found
             .iter()
             .map(|&(cells, first)| {
@@ -556,7 +557,7 @@ fn check_thickness(p: &Pipeline, mesh: &Mesh2d) -> Option<String> {
 /// The rigid-body motions that the held dofs leave free, per connected part of the mesh (the
 /// part named by its cells and a node when there are several), described.
 pub fn free_rigid_motions(p: &Pipeline, mesh: &Mesh2d) -> Vec<(String, Vec<String>)> {
-    let roots = part_roots(mesh);
+    let roots = mesh.part_roots();
     let mut held = vec![[false; 2]; mesh.nodes.len()];
     for g in &p.boundaries.fixed {
         for &n in mesh.node_groups.get(g).into_iter().flatten() {

@@ -10,7 +10,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::model::{Effects, Model};
-use super::report::{truncated_law_force, History, Sampled};
+use super::report::{truncated_law_force, Sampled};
 use super::resonance::ResonanceCheck;
 use super::times::StageTimes;
 use crate::config::Pipeline;
@@ -189,6 +189,9 @@ impl EffectsSummary {
     pub fn describe(&self) -> String {
         let e = &self.effects;
         let mut loads = Vec::new();
+        if let Some(g) = e.gravity {
+            loads.push(format!("gravity [{:e}, {:e}]", g[0], g[1]));
+        }
         if e.static_load {
             loads.push("static load".to_string());
         }
@@ -205,9 +208,13 @@ impl EffectsSummary {
             e.damping
                 .as_ref()
                 .map_or("no damping".into(), |d| format!("damping {d}")),
-            e.contact
-                .as_ref()
-                .map_or("no contact".into(), |c| format!("contact {c}")),
+            e.contact.as_ref().map_or("no contact".into(), |c| {
+                let moving = harmonics_phrase(&e.gap_harmonics, "of the gap");
+                format!(
+                    "contact {c}{}",
+                    moving.map_or(String::new(), |m| format!(", {m}"))
+                )
+            }),
             format!("{} mass", e.mass.name()),
         ];
         let mut solve = Vec::new();
@@ -551,13 +558,12 @@ fn half_range(series: &[f64]) -> f64 {
 /// first-harmonic amplitude of each component of the probe's mean displacement.
 pub fn probe_amplitudes(
     model: &Model,
-    history: &History,
+    probe_means: &[[Vec<f64>; 2]],
     harmonics: usize,
 ) -> BTreeMap<String, ProbeAmplitudes> {
-    let count = history.times.len().max(1) as f64;
-    let top = harmonics
-        .min((history.times.len() / 2).saturating_sub(1))
-        .max(1);
+    let samples = probe_means.first().map_or(0, |m| m[0].len());
+    let count = samples.max(1) as f64;
+    let top = harmonics.min((samples / 2).saturating_sub(1)).max(1);
     let amplitude = |series: &[f64], k: usize| -> f64 {
         let (mut a, mut b) = (0.0, 0.0);
         for (j, s) in series.iter().enumerate() {
@@ -574,7 +580,7 @@ pub fn probe_amplitudes(
     model
         .probes
         .iter()
-        .zip(&history.probe_means)
+        .zip(probe_means)
         .map(|((name, _), [x, y])| {
             let (px, hx) = measure(x);
             let (py, hy) = measure(y);
@@ -628,7 +634,7 @@ pub fn harmonic_balance(
     Summary {
         linear_residuals: Some(solution.residuals.clone()),
         contact,
-        probes: probe_amplitudes(model, history, p.harmonic_balance.harmonics),
+        probes: probe_amplitudes(model, &history.probe_means, p.harmonic_balance.harmonics),
         warnings: solution.warnings.clone(),
         max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(
@@ -682,7 +688,12 @@ pub fn transient(
         .collect();
     Summary {
         contact,
-        probes: probe_amplitudes(model, &sampled.history, p.harmonic_balance.harmonics),
+        probes: probe_amplitudes(
+            model,
+            &every_step_probe_means(model, result)
+                .unwrap_or_else(|| sampled.history.probe_means.clone()),
+            p.harmonic_balance.harmonics,
+        ),
         warnings,
         transient: Some(TransientInfo {
             dt: result.dt,
@@ -705,6 +716,31 @@ pub fn transient(
             None,
         )
     }
+}
+
+/// Each probe group's mean (u_x, u_y) at every step of the marched period, from the march's
+/// probe record (whose dofs are the probe nodes' free ones, in order): the frames alone alias
+/// the harmonics of an impact above half their count. `None` where a probe dof is held.
+fn every_step_probe_means(model: &Model, result: &TransientResult) -> Option<Vec<[Vec<f64>; 2]>> {
+    let dofs = &model.system.dofs;
+    let mut next = 0;
+    let mut means = Vec::new();
+    for (_, nodes) in &model.probes {
+        let steps = result.probe_history.first()?.len();
+        let mut mean = [vec![0.0; steps], vec![0.0; steps]];
+        for &n in nodes {
+            for (c, series) in mean.iter_mut().enumerate() {
+                dofs.free_index(2 * n + c)?;
+                let history = result.probe_history.get(next)?;
+                next += 1;
+                for (m, u) in series.iter_mut().zip(history) {
+                    *m += u / nodes.len() as f64;
+                }
+            }
+        }
+        means.push(mean);
+    }
+    (next == result.probe_history.len()).then_some(means)
 }
 
 /// `transient.stopped` of a march an interruption stopped `steps` steps into the period after

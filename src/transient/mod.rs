@@ -60,10 +60,27 @@ pub struct InitialState {
     pub velocity: Vec<f64>,
 }
 
-/// Unilateral rows: B u − g0 ≤ 0, λ ≤ 0, complementary; the force on the body is Bᵀλ.
+/// Unilateral rows: B u − g0(t) ≤ 0, λ ≤ 0, complementary; the force on the body is Bᵀλ.
+/// g0(t) = g0 + Σ_k Re(ĝ_k e^{ikωt}) (a moving or out-of-round obstacle; no harmonics: fixed).
+#[derive(Clone, Copy)]
 pub struct ContactRows<'a> {
     pub b: &'a Csc,
     pub g0: &'a [f64],
+    pub gap_harmonics: &'a std::collections::BTreeMap<usize, Vec<faer::c64>>,
+    pub omega: f64,
+}
+
+impl ContactRows<'_> {
+    /// g0(t) into `out`.
+    fn gap_at(&self, t: f64, out: &mut [f64]) {
+        out.copy_from_slice(self.g0);
+        for (&k, z) in self.gap_harmonics {
+            let rotor = faer::c64::from_polar(1.0, k as f64 * self.omega * t);
+            for (o, z) in out.iter_mut().zip(z) {
+                *o += (z * rotor).re;
+            }
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -285,8 +302,8 @@ struct Condensation<'a> {
     k: &'a Csc,
     /// Per dof: massless.
     is_z: Vec<bool>,
-    /// The contact rows' initial gaps when the contact acts on the massless dofs.
-    condensed_g0: Option<&'a [f64]>,
+    /// Whether the contact rows act on the massless dofs.
+    condensed_contact: bool,
     /// Massless dofs.
     z: Vec<usize>,
     /// K_zz⁻¹ (dense).
@@ -318,13 +335,13 @@ fn contact_rows(problem: &TransientProblem, is_z: &[bool]) -> Result<Vec<Vec<(us
 }
 
 impl<'a> Condensation<'a> {
-    /// K_zz⁻¹, B_z and W for the massless dofs (none: `None`); `condensed_g0`: the contact
-    /// rows' gaps when they act on the massless dofs.
+    /// K_zz⁻¹, B_z and W for the massless dofs (none: `None`); `condensed_contact`: the
+    /// contact rows act on the massless dofs.
     fn new(
         k: &'a Csc,
         is_z: &[bool],
         rows: &[Vec<(usize, f64)>],
-        condensed_g0: Option<&'a [f64]>,
+        condensed_contact: bool,
     ) -> Result<Option<Self>> {
         let z: Vec<usize> = (0..is_z.len()).filter(|&i| is_z[i]).collect();
         if z.is_empty() {
@@ -356,7 +373,7 @@ impl<'a> Condensation<'a> {
         Ok(Some(Condensation {
             k,
             is_z: is_z.to_vec(),
-            condensed_g0,
+            condensed_contact,
             z,
             kzz_inv,
             bz,
@@ -368,7 +385,8 @@ impl<'a> Condensation<'a> {
     /// proportional damping: K_z·(u + βu̇) = f_z + B_zᵀλ is static in w = u + βu̇, and u_z
     /// follows from w_z by backward Euler, u_z' = s w_z + (1 − s) u_z with s = 1/(1 + β/Δt).
     /// `w` holds u + βu̇ on the massive dofs; `uz_old` the massless dofs' last values; the
-    /// result goes to `out`'s massless dofs, and the contact multipliers to `contact`.
+    /// result goes to `out`'s massless dofs, and the contact multipliers (against the gaps
+    /// `contact.g0`) to `contact`.
     fn condense(
         &self,
         w: &[f64],
@@ -392,7 +410,8 @@ impl<'a> Condensation<'a> {
         }
         let mut wz = &self.kzz_inv * &rhs;
         let old = DVector::from_iterator(nz, self.z.iter().map(|&j| uz_old[j]));
-        if let Some(g0) = self.condensed_g0 {
+        if self.condensed_contact {
+            let g0 = &contact.g0;
             let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
             let gap = &self.bz * &predicted;
             let q: Vec<f64> = (0..g0.len()).map(|i| gap[i] - g0[i]).collect();
@@ -415,6 +434,8 @@ impl<'a> Condensation<'a> {
 struct ContactState {
     lambda: Vec<f64>,
     active: Vec<bool>,
+    /// The gaps g0(t) of the step being solved.
+    g0: Vec<f64>,
 }
 
 /// What the last period records: states at the output samples, probes and total force at
@@ -788,7 +809,7 @@ struct Stepper<'a> {
     product: RowPairs,
     is_z: Vec<bool>,
     rows: Vec<Vec<(usize, f64)>>,
-    g0: Option<&'a [f64]>,
+    gaps: Option<ContactRows<'a>>,
     condensation: Option<Condensation<'a>>,
     lumped_w: Option<DMatrix<f64>>,
     /// The update of a massive dof is v = keep·v_half + push_i·r with push_i =
@@ -874,8 +895,8 @@ impl<'a> Stepper<'a> {
         let nc = problem.contact.as_ref().map_or(0, |c| c.g0.len());
         let rows = contact_rows(problem, &is_z)?;
         let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
-        let g0 = problem.contact.as_ref().map(|c| c.g0);
-        let condensation = Condensation::new(k, &is_z, &rows, g0.filter(|_| condensed_contact))?;
+        let gaps = problem.contact;
+        let condensation = Condensation::new(k, &is_z, &rows, condensed_contact)?;
         let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
         let damp = alpha * dt / 2.0;
         let push = (0..n)
@@ -893,7 +914,7 @@ impl<'a> Stepper<'a> {
             product,
             is_z,
             rows,
-            g0,
+            gaps,
             condensation,
             lumped_w,
             push,
@@ -925,8 +946,10 @@ impl<'a> Stepper<'a> {
             contact: ContactState {
                 lambda: vec![0.0; nc],
                 active: vec![false; nc],
+                g0: vec![0.0; nc],
             },
         };
+        self.gaps_at(0.0, &mut s.contact.g0);
         if let Some(init) = &problem.initial {
             if init.displacement.len() != n || init.velocity.len() != n {
                 return Err(Error::Model(
@@ -973,6 +996,7 @@ impl<'a> Stepper<'a> {
         for ((((un, &u), &v), &push), (&f, (&ku, &kv))) in lanes.zip(loads) {
             *un = u + dt * (self.keep * v + push * (f - ku - beta * kv));
         }
+        self.gaps_at((index + 1) as f64 * dt, &mut s.contact.g0);
         if let Some(w) = &self.lumped_w {
             self.forward_increment(w, s)?;
         }
@@ -1000,10 +1024,19 @@ impl<'a> Stepper<'a> {
         Ok(())
     }
 
+    /// The contact gaps g0(t) into `out` (fixed gaps are written once, at t = 0).
+    fn gaps_at(&self, t: f64, out: &mut [f64]) {
+        if let Some(g) = &self.gaps {
+            if t == 0.0 || !g.gap_harmonics.is_empty() {
+                g.gap_at(t, out);
+            }
+        }
+    }
+
     /// Forward-increment multipliers on massive contact dofs: remove the predicted
     /// penetration of u_next.
     fn forward_increment(&self, w: &DMatrix<f64>, s: &mut MarchState) -> Result<()> {
-        let (rows, g0) = (&self.rows, self.g0.unwrap_or(&[]));
+        let (rows, g0) = (&self.rows, &s.contact.g0);
         let q: Vec<f64> = (0..rows.len())
             .map(|a| rows[a].iter().map(|&(d, v)| v * s.u_next[d]).sum::<f64>() - g0[a])
             .collect();

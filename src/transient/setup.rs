@@ -84,6 +84,8 @@ impl<'a> Marching<'a> {
             contact: self.contact.map(|c| ContactRows {
                 b: &c.b_free,
                 g0: &c.g0,
+                gap_harmonics: &c.gap_harmonics,
+                omega: self.system.omega,
             }),
             period: self.period(),
             probes: self.probes.clone(),

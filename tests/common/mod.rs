@@ -178,7 +178,7 @@ pub fn hb_probe_amplitudes(
     harmonics: usize,
 ) -> std::collections::BTreeMap<String, pipeline::summary::ProbeAmplitudes> {
     let sampled = pipeline::report::Sampled::harmonic_balance_history(model, solution, 1, 64);
-    pipeline::summary::probe_amplitudes(model, &sampled.history, harmonics)
+    pipeline::summary::probe_amplitudes(model, &sampled.history.probe_means, harmonics)
 }
 
 /// The monodromy of ÿ + α ẏ + k(t) y = 0, k piecewise constant over `segments` (stiffness,

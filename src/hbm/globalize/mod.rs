@@ -39,12 +39,16 @@ use advice::*;
 use attempts::*;
 use levels::*;
 
-/// The linear gap r = B z_lin + B_p u_p − g0 δ_k0 as real coefficients, node-major.
+/// Per harmonic k, one phasor per dof or row.
+type Phasors = BTreeMap<usize, Vec<c64>>;
+
+/// The linear gap r = B z_lin + B_p u_p − g̃0 as real coefficients, node-major: g̃0 is g0 at
+/// k = 0 and the obstacle's gap harmonics ĝ_k, times the basis' projection factor γ_k.
 pub(super) fn linear_gap(
     op: &ContactOperator,
     harmonics: usize,
-    free: &BTreeMap<usize, Vec<c64>>,
-    motion: &BTreeMap<usize, Vec<c64>>,
+    (free, motion): (&Phasors, &Phasors),
+    basis: &crate::hbm::basis::TimeBasis,
 ) -> Vec<f64> {
     let (nc, m) = (op.nodes(), 2 * harmonics + 1);
     let mut r = vec![0.0; nc * m];
@@ -55,8 +59,14 @@ pub(super) fn linear_gap(
                 *a += b;
             }
         }
+        let moving = op.gap_harmonics.get(&k);
+        let gamma = basis.load_factor(k).unwrap_or(c64::new(1.0, 0.0));
         for (i, z) in bz.into_iter().enumerate() {
-            let g0 = if k == 0 { op.g0[i] } else { 0.0 };
+            let g0 = match (k, moving) {
+                (0, _) => c64::new(op.g0[i], 0.0),
+                (_, Some(g)) => g[i] * gamma,
+                _ => c64::new(0.0, 0.0),
+            };
             fourier::set_phasor(&mut r[i * m..(i + 1) * m], k, z - g0);
         }
     }
