@@ -440,16 +440,7 @@ fn validate_prescribed(path: &Path, i: usize, p: RawPrescribed) -> Result<Prescr
 fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpec> {
     let field = format!("boundaries.loads[{i}]");
     group_name(path, &format!("{field}.group"), &l.group)?;
-    let ks: Vec<usize> = l.harmonics.iter().map(|h| h.k).collect();
-    check_harmonic_indices(path, &field, &ks)?;
-    if let Some(s) = l.static_part {
-        finite_all(path, &format!("{field}.static"), &s)?;
-    }
-    for h in &l.harmonics {
-        let at = |part: &str| format!("{field}.harmonics (k = {}).{part}", h.k);
-        finite_all(path, &at("cos"), &h.cos)?;
-        finite_all(path, &at("sin"), &h.sin)?;
-    }
+    let signal = vector_signal(path, &field, l.static_part, &l.harmonics)?;
     if l.static_part.is_none() && l.harmonics.is_empty() {
         return Err(config_error(
             path,
@@ -465,10 +456,31 @@ fn validate_load(path: &Path, i: usize, l: RawLoad) -> Result<LoadSpec> {
             RawLoadKind::Traction => LoadKind::Traction,
             RawLoadKind::Force => LoadKind::Force,
         },
-        signal: Signal {
-            static_part: l.static_part.unwrap_or([0.0; 2]),
-            harmonics: l.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
-        },
+        signal,
+    })
+}
+
+/// A vector signal's static part and harmonics at `field`: distinct harmonic indices, finite
+/// values.
+fn vector_signal(
+    path: &Path,
+    field: &str,
+    static_part: Option<[f64; 2]>,
+    harmonics: &[RawHarmonic2],
+) -> Result<Signal<2>> {
+    let ks: Vec<usize> = harmonics.iter().map(|h| h.k).collect();
+    check_harmonic_indices(path, field, &ks)?;
+    if let Some(s) = static_part {
+        finite_all(path, &format!("{field}.static"), &s)?;
+    }
+    for h in harmonics {
+        let at = |part: &str| format!("{field}.harmonics (k = {}).{part}", h.k);
+        finite_all(path, &at("cos"), &h.cos)?;
+        finite_all(path, &at("sin"), &h.sin)?;
+    }
+    Ok(Signal {
+        static_part: static_part.unwrap_or([0.0; 2]),
+        harmonics: harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
     })
 }
 
@@ -629,20 +641,7 @@ fn validate_obstacle_motion(
     if matches!(obstacle, ObstacleSpec::Body { .. }) {
         return Err(config_error(path, format!("{field}: a `body` obstacle is an elastic body; move it by its own loads or boundaries.prescribed, not by {field}")));
     }
-    let ks: Vec<usize> = m.harmonics.iter().map(|h| h.k).collect();
-    check_harmonic_indices(path, field, &ks)?;
-    if let Some(s) = m.static_part {
-        finite_all(path, &format!("{field}.static"), &s)?;
-    }
-    for h in &m.harmonics {
-        let at = |part: &str| format!("{field}.harmonics (k = {}).{part}", h.k);
-        finite_all(path, &at("cos"), &h.cos)?;
-        finite_all(path, &at("sin"), &h.sin)?;
-    }
-    Ok(Signal {
-        static_part: m.static_part.unwrap_or([0.0; 2]),
-        harmonics: m.harmonics.iter().map(|h| (h.k, h.cos, h.sin)).collect(),
-    })
+    vector_signal(path, field, m.static_part, &m.harmonics)
 }
 
 fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
