@@ -462,6 +462,7 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
         &["harmonic_balance.basis={spline: {degree: 3, segments: 33}}"],
     ),
     ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
+    ("boundaries.rotation", &["boundaries.rotation={speed: 1.0}"]),
     (
         "contact.obstacle.circle.lobes",
         &["contact.obstacle={circle: {center: [0.0, 0.0], radius: 1.0, lobes: {count: 1, amplitude: 0.0}}}"],

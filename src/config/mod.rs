@@ -131,6 +131,17 @@ pub struct Boundaries {
     pub loads: Vec<LoadSpec>,
     /// Gravity's acceleration [x, y] (a static body force ρg), if any.
     pub gravity: Option<[f64; 2]>,
+    /// Rotation about an axis normal to the plane (the rotating frame), if any.
+    pub rotation: Option<Rotation>,
+}
+
+/// The rotating frame: speed Ω [rad/s] about `center`, and which of its effects are simulated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rotation {
+    pub speed: f64,
+    pub center: [f64; 2],
+    pub centrifugal: bool,
+    pub spin_softening: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

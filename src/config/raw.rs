@@ -158,6 +158,35 @@ pub(super) struct RawBoundaries {
     /// body force ρg on every cell, a static load. Default: none.
     #[serde(default)]
     pub(super) gravity: Option<[f64; 2]>,
+    /// The body turns at a constant speed about an axis normal to the plane and is described
+    /// in the turning frame: the centrifugal force and the spin softening it brings. Default:
+    /// not turning.
+    #[serde(default)]
+    pub(super) rotation: Option<RawRotation>,
+}
+
+/// Rotation about an axis normal to the plane, in the rotating frame.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "Rotation")]
+pub(super) struct RawRotation {
+    /// The rotation speed Ω, in rad/s, ≥ 0. Required.
+    pub(super) speed: f64,
+    /// The axis' point [x, y], a length. Default: [0, 0].
+    #[serde(default)]
+    pub(super) center: [f64; 2],
+    /// The centrifugal body force ρΩ²r, a static load (r from the axis, undeformed).
+    /// Default: true.
+    #[serde(default)]
+    pub(super) centrifugal: Option<bool>,
+    /// The spin softening −Ω²M added to the stiffness (the centrifugal force follows the
+    /// displacement), which lowers every in-plane natural frequency: ω² − Ω². Default: true.
+    #[serde(default)]
+    pub(super) spin_softening: Option<bool>,
+    /// The Coriolis (gyroscopic) force 2ΩMJu̇: not simulated yet, so true is refused.
+    /// Default: false.
+    #[serde(default)]
+    pub(super) coriolis: bool,
 }
 
 /// A displacement component.

@@ -9,7 +9,8 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{
-    BasisSpec, ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline, PlaneModelSpec,
+    BasisSpec, ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline,
+    PlaneModelSpec, Rotation,
 };
 use crate::contact::geometry::{build_contact_set, ContactScene, ContactSet, Obstacle};
 use crate::contact::mass::{redistribute_mass, Redistribution};
@@ -57,6 +58,9 @@ pub struct Effects {
     /// Gravity's acceleration [x, y] (a static body force), if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gravity: Option<[f64; 2]>,
+    /// The rotating frame, in words: speed, axis and the effects simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<String>,
     /// Harmonics of the gap that a moving or out-of-round obstacle excites (H covers them).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub gap_harmonics: Vec<usize>,
@@ -208,7 +212,9 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         None => None,
     };
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
+    let stiffness = spin_softened(stiffness, &mass.matrix, p.boundaries.rotation);
     let (inputs, prescribed_motion) = harmonic_inputs(p, &mesh, &material, &dofs)?;
+    let inputs = with_body_forces(p, &mesh, &mass.matrix, &dofs, inputs);
     let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
     let rayleigh = p
         .damping
@@ -251,6 +257,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         damping: rayleigh.map(|(a, b)| format!("Rayleigh: alpha = {a:e} 1/s, beta = {b:e} s")),
         contact: p.contact.as_ref().map(describe_contact),
         gravity: p.boundaries.gravity,
+        rotation: p.boundaries.rotation.map(describe_rotation),
         gap_harmonics: contact.as_ref().map_or(Vec::new(), |c| {
             c.operator.gap_harmonics.keys().copied().collect()
         }),
@@ -344,6 +351,64 @@ fn mass(
     })
 }
 
+/// K − Ω²M: the spin softening of a rotating frame (the model's own mass), where simulated.
+fn spin_softened(stiffness: Triplets, mass: &Triplets, rotation: Option<Rotation>) -> Triplets {
+    match rotation {
+        Some(r) if r.spin_softening => {
+            let mut k = stiffness;
+            let w2 = r.speed * r.speed;
+            k.entries
+                .extend(mass.entries.iter().map(|&(i, j, m)| (i, j, -w2 * m)));
+            k
+        }
+        _ => stiffness,
+    }
+}
+
+/// The static body forces added to harmonic 0: gravity M g and the centrifugal force
+/// M Ω² (x − c), with the model's own mass (consistent, lumped or redistributed: the same
+/// resultant and moment, and the inertia the dynamics use).
+fn with_body_forces(
+    p: &Pipeline,
+    mesh: &Mesh2d,
+    mass: &Triplets,
+    dofs: &DofMap,
+    mut inputs: BTreeMap<usize, HarmonicInput>,
+) -> BTreeMap<usize, HarmonicInput> {
+    let mut field = vec![0.0; 2 * mesh.nodes.len()];
+    let mut any = false;
+    if let Some(g) = p.boundaries.gravity {
+        for f in field.chunks_mut(2) {
+            f[0] += g[0];
+            f[1] += g[1];
+        }
+        any = true;
+    }
+    if let Some(r) = p.boundaries.rotation.filter(|r| r.centrifugal) {
+        let w2 = r.speed * r.speed;
+        for (x, f) in mesh.nodes.iter().zip(field.chunks_mut(2)) {
+            f[0] += w2 * (x[0] - r.center[0]);
+            f[1] += w2 * (x[1] - r.center[1]);
+        }
+        any = true;
+    }
+    if !any {
+        return inputs;
+    }
+    let force = mass.mul_vec(&field);
+    let target = &mut inputs
+        .entry(0)
+        .or_insert_with(|| HarmonicInput {
+            force: vec![c64::new(0.0, 0.0); dofs.free.len()],
+            motion: vec![c64::new(0.0, 0.0); dofs.prescribed.len()],
+        })
+        .force;
+    for (i, &d) in dofs.free.iter().enumerate() {
+        target[i] += c64::new(force[d], 0.0);
+    }
+    inputs
+}
+
 /// The loads' and prescribed motions' complex amplitudes per harmonic (z = a − i b for
 /// a cos + b sin), and whether any motion is prescribed.
 fn harmonic_inputs(
@@ -376,16 +441,6 @@ fn harmonic_inputs(
             if cos.iter().chain(&sin).any(|&v| v != 0.0) {
                 add(k, cos, sin);
             }
-        }
-    }
-    if let Some(g) = p.boundaries.gravity {
-        // ρg on every cell: the consistent mass times g at every node (Σ N_a = 1).
-        let mass = fem::assemble_mass(mesh, material, MassKind::Consistent)?;
-        let field: Vec<f64> = (0..mesh.nodes.len()).flat_map(|_| g).collect();
-        let weight = mass.mul_vec(&field);
-        let target = &mut inputs.entry(0).or_insert_with(|| zero.clone()).force;
-        for (i, &d) in dofs.free.iter().enumerate() {
-            target[i] += c64::new(weight[d], 0.0);
         }
     }
     let mut prescribed_motion = false;
@@ -512,6 +567,24 @@ fn gap_harmonics(spec: &ContactSpec, set: &ContactSet) -> BTreeMap<usize, Vec<c6
     }
     out.retain(|_, z| z.iter().any(|v| v.norm() > 0.0));
     out
+}
+
+/// How the summary names the rotating frame.
+fn describe_rotation(r: Rotation) -> String {
+    let mut effects = Vec::new();
+    if r.centrifugal {
+        effects.push("centrifugal force");
+    }
+    if r.spin_softening {
+        effects.push("spin softening");
+    }
+    format!(
+        "{:e} rad/s about ({:e}, {:e}): {}; no Coriolis",
+        r.speed,
+        r.center[0],
+        r.center[1],
+        effects.join(", ")
+    )
 }
 
 /// How the summary names the scene's contact.

@@ -192,6 +192,9 @@ impl EffectsSummary {
         if let Some(g) = e.gravity {
             loads.push(format!("gravity [{:e}, {:e}]", g[0], g[1]));
         }
+        if let Some(r) = &e.rotation {
+            loads.push(format!("rotation {r}"));
+        }
         if e.static_load {
             loads.push("static load".to_string());
         }
