@@ -225,8 +225,8 @@ fn a_blade_passing_a_three_lobed_casing_is_struck_at_multiples_of_three_and_agre
     assert_eq!(effects["gap_harmonics"], serde_json::json!([3]));
 }
 
-/// TEST GOAL: a gap harmonic above H, and `contact.motion` on an elastic body, are refused
-/// naming the key and the fix.
+/// TEST GOAL: a gap harmonic above H or beyond what a spline basis carries, and
+/// `contact.motion` on an elastic body, are refused naming the key and the fix.
 #[test]
 fn gap_harmonics_beyond_h_and_motion_of_a_body_are_refused_naming_the_key() {
     let lobes = "contact.obstacle={circle: {center: [0.0, 0.0], radius: 0.2001, body_inside: true, lobes: {count: 12, amplitude: 1.0e-5}}}";
@@ -239,6 +239,20 @@ fn gap_harmonics_beyond_h_and_motion_of_a_body_are_refused_naming_the_key() {
     );
     let r = common::hbcontact(&[
         "check",
+        "pipelines/strip_wall.yaml",
+        "--set",
+        "harmonic_balance.basis={spline: {degree: 3, segments: 33}}",
+        "--set",
+        "contact.motion={harmonics: [{k: 20, cos: [1.0e-8, 0.0]}]}",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot carry harmonic k = 20 of the obstacle's gap"),
+        "{err}"
+    );
+    let r = common::hbcontact(&[
+        "check",
         "tests/data/two_strips.yaml",
         "--set",
         "contact.motion={harmonics: [{k: 1, cos: [1.0e-7, 0.0]}]}",
@@ -246,4 +260,45 @@ fn gap_harmonics_beyond_h_and_motion_of_a_body_are_refused_naming_the_key() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(2), "{err}");
     assert!(err.contains("contact.motion: a `body` obstacle"), "{err}");
+}
+
+/// TEST GOAL: a study runs over an obstacle's lobe amplitude (tests/data/lobe_amplitude.yaml,
+/// the turning blade of blade_lobed_casing.yaml at 110, 120, 130 µm): every point succeeds,
+/// the mean contact force grows with the amplitude (measured 831, 942, 1053 N), and the
+/// shipped amplitude's point equals a plain run of the shipped scene to 1e-9.
+#[test]
+fn a_study_over_the_lobe_amplitude_presses_harder_with_deeper_lobes() {
+    let out = common::temp_out("lobe-amplitude-study");
+    let out_arg = out.display().to_string();
+    let r = common::hbcontact(&["study", "tests/data/lobe_amplitude.yaml", "--out", &out_arg]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (mean, status) = (col("mean_contact_force"), col("status"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    let forces: Vec<f64> = rows
+        .iter()
+        .map(|r| {
+            assert_eq!(r[status], "ok", "{r:?}");
+            r[mean].parse().unwrap()
+        })
+        .collect();
+    println!("mean contact force over the lobe amplitude: {forces:?}");
+    assert!(forces[0] < forces[1] && forces[1] < forces[2], "{forces:?}");
+    let shipped = run(
+        "run",
+        "pipelines/blade_lobed_casing.yaml",
+        "lobe-shipped",
+        &[],
+    );
+    let s = common::read_json(&shipped.join("summary.json"));
+    let plain = number(&s, "/contact/mean_contact_force");
+    assert!(
+        relative(forces[1], plain) < 1e-9,
+        "{} vs {plain}",
+        forces[1]
+    );
 }

@@ -861,6 +861,20 @@ pub fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
             format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the loads: use more than {} segments (several times more for accuracy)", 2 * k),
         ));
     }
+    let gap = p.contact.iter().flat_map(|c| {
+        let moving = c.motion.iter().flat_map(|m| &m.harmonics).map(|h| h.0);
+        let lobes = match &c.obstacle {
+            crate::config::ObstacleSpec::Circle { lobes: Some(l), .. } => Some(l.count),
+            _ => None,
+        };
+        moving.chain(lobes)
+    });
+    if let Some(k) = gap.max().filter(|&k| 2 * k >= segments) {
+        return Err(config_error(
+            path,
+            format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the obstacle's gap (contact.motion or lobes): use more than {} segments (several times more for accuracy)", 2 * k),
+        ));
+    }
     Ok(())
 }
 
