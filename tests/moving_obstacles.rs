@@ -9,28 +9,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-/// `hbcontact COMMAND PIPELINE --out output/test-runs/TAG --set …`: the output folder.
-fn run(command: &str, pipeline: &str, tag: &str, sets: &[&str]) -> std::path::PathBuf {
-    let out = common::temp_out(tag);
-    let out_arg = out.display().to_string();
-    let mut args = vec![command, pipeline, "--out", &out_arg];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    let r = common::hbcontact(&args);
-    assert!(
-        r.status.success(),
-        "{tag}: {}",
-        String::from_utf8_lossy(&r.stderr)
-    );
-    out
-}
-
-fn number(v: &Value, pointer: &str) -> f64 {
-    v.pointer(pointer)
-        .and_then(Value::as_f64)
-        .unwrap_or_else(|| panic!("no number at {pointer}: {v}"))
-}
+use common::{json_number as number, run_cli as run};
 
 fn relative(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
@@ -150,17 +129,11 @@ fn a_moving_wall_agrees_with_the_time_marching_of_the_same_scene() {
     let tm = common::read_json(
         &run("transient", pipeline, "moving-wall-tm", &sets).join("summary.json"),
     );
-    for pointer in [
+    let pointers = [
         "/probes/probe/first_harmonic_x",
         "/contact/mean_contact_force",
-    ] {
-        let (a, b) = (number(&hb, pointer), number(&tm, pointer));
-        println!(
-            "{pointer}: harmonic balance {a:.6e}, marching {b:.6e} ({:+.3}%)",
-            100.0 * (a - b) / b
-        );
-        assert!(relative(a, b) < 1e-2, "{pointer}: {a:e} vs {b:e}");
-    }
+    ];
+    common::assert_agrees_with_marching(&hb, &tm, &pointers, 1e-2);
 }
 
 /// TEST GOAL: the blade of blade_casing.yaml, unloaded, turning once per period (100 Hz)

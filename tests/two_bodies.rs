@@ -8,6 +8,8 @@ use hbcontact::config::{load_pipeline, Pipeline};
 use hbcontact::pipeline::{self, Purpose};
 use serde_json::Value;
 
+use common::json_number as number;
+
 fn data(name: &str, overrides: &[&str]) -> Pipeline {
     let path = common::root()
         .join("tests/data")
@@ -19,27 +21,9 @@ fn data(name: &str, overrides: &[&str]) -> Pipeline {
 /// `hbcontact COMMAND tests/data/NAME.yaml --out output/test-runs/TAG` with `--set`s; the
 /// summary it wrote.
 fn summary_of(command: &str, name: &str, tag: &str, sets: &[&str]) -> Value {
-    let out = common::temp_out(tag);
     let pipeline = format!("tests/data/{name}.yaml");
-    let mut args = vec![command, &pipeline, "--out"];
-    let out_arg = out.display().to_string();
-    args.push(&out_arg);
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    let r = common::hbcontact(&args);
-    assert!(
-        r.status.success(),
-        "{tag}: {}",
-        String::from_utf8_lossy(&r.stderr)
-    );
+    let out = common::run_cli(command, &pipeline, tag, sets);
     common::read_json(&out.join("summary.json"))
-}
-
-fn number(v: &Value, pointer: &str) -> f64 {
-    v.pointer(pointer)
-        .and_then(Value::as_f64)
-        .unwrap_or_else(|| panic!("no number at {pointer}"))
 }
 
 fn relative(a: f64, b: f64) -> f64 {
@@ -188,17 +172,11 @@ fn a_strip_against_a_shorter_flexible_strip_agrees_with_its_time_marching() {
     ];
     let hb = summary_of("run", "two_strips", "two-bodies-hb", &sets);
     let tm = summary_of("transient", "two_strips", "two-bodies-tm", &sets);
-    for pointer in [
+    let pointers = [
         "/probes/probe/first_harmonic_x",
         "/contact/mean_contact_force",
-    ] {
-        let (a, b) = (number(&hb, pointer), number(&tm, pointer));
-        println!(
-            "{pointer}: harmonic balance {a:.6e}, time marching {b:.6e} ({:+.3}%)",
-            100.0 * (a - b) / b
-        );
-        assert!(relative(a, b) < 1e-2, "{pointer}: {a:e} vs {b:e}");
-    }
+    ];
+    common::assert_agrees_with_marching(&hb, &tm, &pointers, 1e-2);
     assert!(number(&tm, "/probes/probe_b/first_harmonic_x") > 0.0);
 }
 
@@ -263,10 +241,12 @@ fn each_body_keeps_its_mass_and_centre_and_both_contact_sides_are_massless() {
 /// in the mesh), and `check` names the target and how many of its nodes take the reaction.
 #[test]
 fn both_sides_carry_the_contact_fields_and_check_names_the_target() {
-    let out = common::temp_out("two-bodies-fields");
-    let dir = out.display().to_string();
-    let r = common::hbcontact(&["run", "tests/data/two_strips.yaml", "--out", &dir]);
-    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let out = common::run_cli(
+        "run",
+        "tests/data/two_strips.yaml",
+        "two-bodies-fields",
+        &[],
+    );
     assert!(!out.join("obstacle.vtu").exists());
     let s = common::read_json(&out.join("summary.json"));
     let tolerance = number(&s, "/contact/closed_opening_tolerance");
@@ -342,16 +322,8 @@ fn a_sweep_of_two_mirrored_strips_is_the_sweep_of_one_strip_against_the_wall() {
         "stability.check=false",
     ];
     let run = |name: &str, tag: &str| {
-        let out = common::temp_out(tag);
-        let out_arg = out.display().to_string();
         let pipeline = format!("tests/data/{name}.yaml");
-        let mut args = vec!["sweep", &pipeline, "--out", &out_arg];
-        for s in &sets {
-            args.extend(["--set", s]);
-        }
-        let r = common::hbcontact(&args);
-        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-        sweep_of(&out)
+        sweep_of(&common::run_cli("sweep", &pipeline, tag, &sets))
     };
     let (two_folds, two_rows) = run("two_strips", "two-bodies-sweep");
     let (one_folds, one_rows) = run("two_strips_wall", "two-bodies-sweep-wall");

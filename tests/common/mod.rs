@@ -203,3 +203,47 @@ pub fn rk4_monodromy(alpha: f64, segments: &[(f64, f64)], steps: usize) -> [[f64
     let ((y0, v0), (y1, v1)) = (column(1.0, 0.0), column(0.0, 1.0));
     [[y0, y1], [v0, v1]]
 }
+
+/// `hbcontact COMMAND PIPELINE --out output/test-runs/TAG --set S…`, asserted to exit 0: the
+/// output folder.
+pub fn run_cli(command: &str, pipeline: &str, tag: &str, sets: &[&str]) -> PathBuf {
+    let out = temp_out(tag);
+    let out_arg = out.display().to_string();
+    let mut args = vec![command, pipeline, "--out", &out_arg];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let r = hbcontact(&args);
+    assert!(
+        r.status.success(),
+        "{tag}: {}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    out
+}
+
+/// The number at `pointer` of a JSON document.
+pub fn json_number(v: &serde_json::Value, pointer: &str) -> f64 {
+    v.pointer(pointer)
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or_else(|| panic!("no number at {pointer}: {v}"))
+}
+
+/// Each of `pointers` in a harmonic-balance summary within `tolerance` (relative) of the
+/// time-marching one, printed.
+pub fn assert_agrees_with_marching(
+    hb: &serde_json::Value,
+    tm: &serde_json::Value,
+    pointers: &[&str],
+    tolerance: f64,
+) {
+    for pointer in pointers {
+        let (a, b) = (json_number(hb, pointer), json_number(tm, pointer));
+        let error = (a - b) / b;
+        println!(
+            "{pointer}: harmonic balance {a:.6e}, time marching {b:.6e} ({:+.3}%)",
+            100.0 * error
+        );
+        assert!(error.abs() < tolerance, "{pointer}: {a:e} vs {b:e}");
+    }
+}
