@@ -245,6 +245,21 @@ pub struct ContactSpec {
     pub motion: Option<Signal<2>>,
 }
 
+impl ContactSpec {
+    /// The harmonics the obstacle's gap varies at, each with the key that sets it: the
+    /// translation's (`contact.motion`) and a lobed circle's count.
+    pub fn gap_harmonics(&self) -> impl Iterator<Item = (&'static str, usize)> + '_ {
+        let moving = self.motion.iter().flat_map(|m| &m.harmonics);
+        let lobes = match &self.obstacle {
+            ObstacleSpec::Circle { lobes: Some(l), .. } => Some(l.count),
+            _ => None,
+        };
+        moving
+            .map(|h| ("contact.motion", h.0))
+            .chain(lobes.map(|k| ("contact.obstacle.circle.lobes", k)))
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct TransientSpec {
     /// Stop when two successive periods differ by less than this (relative).

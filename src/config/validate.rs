@@ -201,18 +201,8 @@ fn check_contact_harmonics(path: &Path, b: &Boundaries, c: &ContactSpec, h: usiz
             .iter()
             .map(move |x| (format!("boundaries.prescribed[{i}]"), x.0))
     });
-    let moving = c
-        .motion
-        .iter()
-        .flat_map(|m| &m.harmonics)
-        .map(|x| ("contact.motion".to_string(), x.0));
-    let lobes = match &c.obstacle {
-        ObstacleSpec::Circle { lobes: Some(l), .. } => {
-            Some(("contact.obstacle.circle.lobes".to_string(), l.count))
-        }
-        _ => None,
-    };
-    let all = loads.chain(motions).chain(moving).chain(lobes);
+    let gap = c.gap_harmonics().map(|(key, k)| (key.to_string(), k));
+    let all = loads.chain(motions).chain(gap);
     if let Some((field, k)) = all.max_by_key(|(_, k)| *k) {
         if k > h {
             return Err(config_error(

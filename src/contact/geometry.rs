@@ -121,11 +121,11 @@ fn retain_by<T>(v: &mut Vec<T>, keep: &[bool]) {
     v.retain(|_| flags.next().copied().unwrap_or(true));
 }
 
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+pub(super) fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [a[0] - b[0], a[1] - b[1]]
 }
 
-fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+pub(super) fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
     a[0] * b[0] + a[1] * b[1]
 }
 
@@ -183,8 +183,25 @@ struct Polyline {
     ends: Vec<[f64; 2]>,
 }
 
-fn same_point(a: [f64; 2], b: [f64; 2]) -> bool {
+pub(super) fn same_point(a: [f64; 2], b: [f64; 2]) -> bool {
     (a[0] - b[0]).abs() < 1e-14 && (a[1] - b[1]).abs() < 1e-14
+}
+
+/// The segment ends (given as each segment's two ends in turn) that one segment uses alone:
+/// the free ends of a curve.
+pub(super) fn free_ends(points: impl Iterator<Item = [f64; 2]>) -> Vec<[f64; 2]> {
+    let mut count: Vec<([f64; 2], usize)> = Vec::new();
+    for p in points {
+        match count.iter_mut().find(|(q, _)| same_point(*q, p)) {
+            Some(e) => e.1 += 1,
+            None => count.push((p, 1)),
+        }
+    }
+    count
+        .into_iter()
+        .filter(|(_, c)| *c == 1)
+        .map(|(p, _)| p)
+        .collect()
 }
 
 impl Polyline {
@@ -214,18 +231,7 @@ impl Polyline {
                 segments.push((p[0], p[1]));
             }
         }
-        let mut count: Vec<([f64; 2], usize)> = Vec::new();
-        for p in segments.iter().flat_map(|(a, b)| [*a, *b]) {
-            match count.iter_mut().find(|(q, _)| same_point(*q, p)) {
-                Some(e) => e.1 += 1,
-                None => count.push((p, 1)),
-            }
-        }
-        let ends = count
-            .into_iter()
-            .filter(|(_, c)| *c == 1)
-            .map(|(p, _)| p)
-            .collect();
+        let ends = free_ends(segments.iter().flat_map(|(a, b)| [*a, *b]));
         Ok(Polyline { segments, ends })
     }
 

@@ -39,12 +39,23 @@ impl ContactOperator {
 
     /// The gap g0(t) of every row at time t, the fundamental being ω.
     pub fn gap_at(&self, omega: f64, t: f64, out: &mut [f64]) {
-        out.copy_from_slice(&self.g0);
-        for (&k, z) in &self.gap_harmonics {
-            let rotor = c64::from_polar(1.0, k as f64 * omega * t);
-            for (o, z) in out.iter_mut().zip(z) {
-                *o += (z * rotor).re;
-            }
+        periodic_gap(&self.g0, &self.gap_harmonics, omega, t, out);
+    }
+}
+
+/// g0(t) = g0 + Σ_k Re(ĝ_k e^{ikωt}) of every row into `out`.
+pub fn periodic_gap(
+    g0: &[f64],
+    harmonics: &BTreeMap<usize, Vec<c64>>,
+    omega: f64,
+    t: f64,
+    out: &mut [f64],
+) {
+    out.copy_from_slice(g0);
+    for (&k, z) in harmonics {
+        let rotor = c64::from_polar(1.0, k as f64 * omega * t);
+        for (o, z) in out.iter_mut().zip(z) {
+            *o += (z * rotor).re;
         }
     }
 }

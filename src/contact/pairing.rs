@@ -21,16 +21,9 @@
 
 use std::collections::HashMap;
 
+use super::geometry::{dot, free_ends, same_point, sub};
 use crate::mesh::Mesh2d;
 use crate::{Error, Result};
-
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] - b[0], a[1] - b[1]]
-}
-
-fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
 
 fn unit(v: [f64; 2]) -> [f64; 2] {
     let l = dot(v, v).sqrt();
@@ -128,7 +121,7 @@ impl TargetSurface {
                 pieces.push(piece(p[0], p[1], None));
             }
         }
-        let ends = free_ends(&pieces);
+        let ends = free_ends(pieces.iter().flat_map(|p| [p.a, p.b]));
         Ok(TargetSurface { pieces, ends })
     }
 
@@ -198,24 +191,4 @@ fn weights(piece: &Piece, s: f64) -> Vec<(usize, f64)> {
         }
     };
     w.into_iter().filter(|&(_, v)| v != 0.0).collect()
-}
-
-fn same_point(a: [f64; 2], b: [f64; 2]) -> bool {
-    (a[0] - b[0]).abs() < 1e-14 && (a[1] - b[1]).abs() < 1e-14
-}
-
-/// The piece ends used by one piece only.
-fn free_ends(pieces: &[Piece]) -> Vec<[f64; 2]> {
-    let mut count: Vec<([f64; 2], usize)> = Vec::new();
-    for p in pieces.iter().flat_map(|p| [p.a, p.b]) {
-        match count.iter_mut().find(|(q, _)| same_point(*q, p)) {
-            Some(e) => e.1 += 1,
-            None => count.push((p, 1)),
-        }
-    }
-    count
-        .into_iter()
-        .filter(|(_, c)| *c == 1)
-        .map(|(p, _)| p)
-        .collect()
 }

@@ -861,14 +861,10 @@ pub fn check_spline_scene(path: &Path, p: &Pipeline) -> Result<()> {
             format!("harmonic_balance.basis.spline.segments = {segments} cannot carry harmonic k = {k} of the loads: use more than {} segments (several times more for accuracy)", 2 * k),
         ));
     }
-    let gap = p.contact.iter().flat_map(|c| {
-        let moving = c.motion.iter().flat_map(|m| &m.harmonics).map(|h| h.0);
-        let lobes = match &c.obstacle {
-            crate::config::ObstacleSpec::Circle { lobes: Some(l), .. } => Some(l.count),
-            _ => None,
-        };
-        moving.chain(lobes)
-    });
+    let gap = p
+        .contact
+        .iter()
+        .flat_map(|c| c.gap_harmonics().map(|(_, k)| k));
     if let Some(k) = gap.max().filter(|&k| 2 * k >= segments) {
         return Err(config_error(
             path,

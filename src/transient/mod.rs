@@ -73,13 +73,7 @@ pub struct ContactRows<'a> {
 impl ContactRows<'_> {
     /// g0(t) into `out`.
     fn gap_at(&self, t: f64, out: &mut [f64]) {
-        out.copy_from_slice(self.g0);
-        for (&k, z) in self.gap_harmonics {
-            let rotor = faer::c64::from_polar(1.0, k as f64 * self.omega * t);
-            for (o, z) in out.iter_mut().zip(z) {
-                *o += (z * rotor).re;
-            }
-        }
+        crate::contact::operator::periodic_gap(self.g0, self.gap_harmonics, self.omega, t, out);
     }
 }
 
