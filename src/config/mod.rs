@@ -316,7 +316,7 @@ impl Default for StabilitySpec {
 }
 
 /// Where time marching starts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum TransientStart {
     Rest,
     /// The harmonic-balance solution of the same discrete model, at t = 0.
@@ -324,15 +324,25 @@ pub enum TransientStart {
     /// The end state of the last time marching written to the same output directory
     /// (`end_state.json`): a brute-force sweep starts each frequency where the last ended.
     Previous,
+    /// A rigid offset and velocity of a group's nodes (`None`: every node), the rest at rest.
+    Rigid {
+        group: Option<String>,
+        displacement: [f64; 2],
+        velocity: [f64; 2],
+    },
+    /// An `end_state.json` of an earlier marching of the same model (resolved path).
+    State(PathBuf),
 }
 
 impl TransientStart {
     /// The name the pipeline and the summary use.
-    pub fn name(self) -> &'static str {
+    pub fn name(&self) -> &'static str {
         match self {
             TransientStart::Rest => "rest",
             TransientStart::HarmonicBalance => "harmonic_balance",
             TransientStart::Previous => "previous",
+            TransientStart::Rigid { .. } => "rigid",
+            TransientStart::State(_) => "state",
         }
     }
 }

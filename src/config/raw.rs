@@ -500,9 +500,16 @@ pub(super) struct RawTransient {
     /// Where the marching starts: `rest`; `harmonic_balance` (the harmonic-balance
     /// solution of the same discrete model at t = 0); or `previous` (the end state the last
     /// `hbcontact transient` of this pipeline wrote to its output directory, `end_state.json`:
-    /// a brute-force sweep changes the frequency and starts where the last run ended).
-    /// Default: `rest`.
-    #[serde(default)]
+    /// a brute-force sweep changes the frequency and starts where the last run ended);
+    /// `{rigid: {group, displacement: [x, y], velocity: [x, y]}}` (a rigid offset and velocity
+    /// of a group's nodes, or of every node, at t = 0); or `{state: FILE}` (an
+    /// `end_state.json` of an earlier `hbcontact transient` of the same mesh, relative to this
+    /// file). Default: `rest`.
+    #[serde(
+        default,
+        deserialize_with = "serde_yaml::with::singleton_map::deserialize"
+    )]
+    #[schemars(with = "Option<RawStart>")]
     pub(super) start: Option<RawStart>,
     /// With `start: harmonic_balance` or `previous`, scale the starting state by 1 + this (a perturbation
     /// that shows whether the state is kept or left), |·| ≤ 1. Default: 0.
@@ -544,13 +551,37 @@ pub(super) struct RawStability {
     pub(super) max_seconds: Option<f64>,
 }
 
-/// Where time marching starts.
-#[derive(Deserialize, JsonSchema, Clone, Copy)]
-#[serde(rename_all = "snake_case")]
+/// Where time marching starts: `rest`, `harmonic_balance`, `previous`, or a one-key mapping
+/// `{rigid: {group, displacement, velocity}}` or `{state: FILE}`.
+#[derive(Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub(super) enum RawStart {
     Rest,
     HarmonicBalance,
     Previous,
+    /// A rigid offset and velocity of a group's nodes (every node when no group is named) at
+    /// t = 0, the rest of the model at rest: a body thrown at a stop, an impact with a known
+    /// initial state.
+    Rigid(RawRigidStart),
+    /// An `end_state.json` that an earlier `hbcontact transient` of the same mesh and
+    /// boundary conditions wrote (any output directory), relative to this file.
+    State(PathBuf),
+}
+
+/// A rigid initial motion.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "RigidStart")]
+pub(super) struct RawRigidStart {
+    /// The physical group whose nodes move (a surface: a whole body). Default: every node.
+    #[serde(default)]
+    pub(super) group: Option<String>,
+    /// The offset [x, y] (lengths) added to the nodes' displacement at t = 0. Default: 0.
+    #[serde(default)]
+    pub(super) displacement: Option<[f64; 2]>,
+    /// The velocity [x, y] (lengths/s) of the nodes at t = 0. Default: 0.
+    #[serde(default)]
+    pub(super) velocity: Option<[f64; 2]>,
 }
 
 /// Settings of `hbcontact sweep`: the fundamental frequency runs from `from` to `to` along the

@@ -748,11 +748,7 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
         spec.courant = v;
     }
     if let Some(start) = t.start {
-        spec.start = match start {
-            RawStart::Rest => TransientStart::Rest,
-            RawStart::HarmonicBalance => TransientStart::HarmonicBalance,
-            RawStart::Previous => TransientStart::Previous,
-        };
+        spec.start = validate_start(path, start)?;
     }
     if let Some(v) = t.perturbation {
         if !(v.abs() <= 1.0) {
@@ -764,12 +760,51 @@ fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<Tr
         if spec.start == TransientStart::Rest && v != 0.0 {
             return Err(config_error(
                 path,
-                "transient.perturbation needs transient.start: harmonic_balance or previous (rest has nothing to perturb)".to_string(),
+                "transient.perturbation needs a transient.start other than rest (rest has nothing to perturb)".to_string(),
             ));
         }
         spec.perturbation = v;
     }
     Ok(spec)
+}
+
+fn validate_start(path: &Path, start: RawStart) -> Result<TransientStart> {
+    Ok(match start {
+        RawStart::Rest => TransientStart::Rest,
+        RawStart::HarmonicBalance => TransientStart::HarmonicBalance,
+        RawStart::Previous => TransientStart::Previous,
+        RawStart::Rigid(r) => {
+            let displacement = r.displacement.unwrap_or([0.0; 2]);
+            let velocity = r.velocity.unwrap_or([0.0; 2]);
+            for (key, v) in [("displacement", displacement), ("velocity", velocity)] {
+                if !v.iter().all(|x| x.is_finite()) {
+                    return Err(config_error(
+                        path,
+                        format!("transient.start.rigid.{key} = {v:?} must be finite"),
+                    ));
+                }
+            }
+            if r.group.as_deref() == Some("") {
+                return Err(config_error(
+                    path,
+                    "transient.start.rigid.group is empty: name a physical group, or leave the key out to move every node".to_string(),
+                ));
+            }
+            TransientStart::Rigid {
+                group: r.group,
+                displacement,
+                velocity,
+            }
+        }
+        RawStart::State(file) => {
+            let dir = path.parent().unwrap_or(Path::new("."));
+            TransientStart::State(if file.is_absolute() {
+                file
+            } else {
+                dir.join(file)
+            })
+        }
+    })
 }
 
 fn validate_stability(path: &Path, raw: Option<RawStability>) -> Result<StabilitySpec> {

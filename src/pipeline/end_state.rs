@@ -83,16 +83,27 @@ pub fn save(
 /// The state `transient.start: previous` starts from: `dir`/end_state.json, checked to belong
 /// to the same mesh and to have `free_dofs` entries, scaled by 1 + `transient.perturbation`.
 pub fn read(dir: &Path, p: &Pipeline, mesh: &MeshInfo, free_dofs: usize) -> Result<InitialState> {
-    let path = dir.join(FILE);
-    let input = |why: String| {
-        Error::Input(format!(
-            "{}: {why}; transient.start: previous starts from the end state an earlier \
-             `hbcontact transient` of this pipeline wrote there (run once with start: rest)",
-            path.display()
-        ))
-    };
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| input(format!("cannot read it ({e})")))?;
+    let hint = "transient.start: previous starts from the end state an earlier \
+                `hbcontact transient` of this pipeline wrote there (run once with start: rest)";
+    read_file(&dir.join(FILE), hint, p, mesh, free_dofs)
+}
+
+/// The state `transient.start: {state: FILE}` starts from, checked as `read`'s.
+pub fn read_named(path: &Path, p: &Pipeline, mesh: &MeshInfo, free: usize) -> Result<InitialState> {
+    let hint = "transient.start.state names an end_state.json that `hbcontact transient` \
+                wrote for the same mesh and boundary conditions";
+    read_file(path, hint, p, mesh, free)
+}
+
+fn read_file(
+    path: &Path,
+    hint: &str,
+    p: &Pipeline,
+    mesh: &MeshInfo,
+    free_dofs: usize,
+) -> Result<InitialState> {
+    let input = |why: String| Error::Input(format!("{}: {why}; {hint}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| input(format!("cannot read it ({e})")))?;
     let state: EndState =
         serde_json::from_str(&text).map_err(|e| input(format!("not an end state ({e})")))?;
     if state.mesh != mesh.msh {
@@ -119,9 +130,9 @@ pub fn read(dir: &Path, p: &Pipeline, mesh: &MeshInfo, free_dofs: usize) -> Resu
     {
         return Err(input("it holds values that are not finite".into()));
     }
-    let scale = 1.0 + p.transient.perturbation;
-    Ok(InitialState {
-        displacement: state.displacement.iter().map(|v| scale * v).collect(),
-        velocity: state.velocity.iter().map(|v| scale * v).collect(),
-    })
+    let start = InitialState {
+        displacement: state.displacement,
+        velocity: state.velocity,
+    };
+    Ok(start.scaled(1.0 + p.transient.perturbation))
 }

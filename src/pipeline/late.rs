@@ -225,6 +225,7 @@ fn describe(c: &Characterization, f: f64, prediction: Option<&Prediction>) -> St
     let over = format!("over the last {} periods", c.periods);
     let rho = c.fold_residuals.first().copied().unwrap_or(0.0);
     let what = match c.kind {
+        _ if c.periods < 2 => "not judged: one period marched cannot show whether it repeats (an impact or other single event; raise transient.max_periods to judge a steady state)".to_string(),
         Kind::Periodic if rho < characterize::REPEATS => {
             format!("T-periodic {over} (repeats within {:.1e} of its RMS)", rho)
         }

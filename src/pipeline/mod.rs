@@ -176,6 +176,29 @@ fn harmonic_balance_start(
     Ok((start, verdict))
 }
 
+/// A rigid offset and velocity of `nodes` on the free dofs, every other dof at rest.
+fn rigid_start(
+    dofs: &crate::fem::DofMap,
+    nodes: &[usize],
+    displacement: [f64; 2],
+    velocity: [f64; 2],
+) -> crate::transient::InitialState {
+    let n = dofs.free.len();
+    let mut start = crate::transient::InitialState {
+        displacement: vec![0.0; n],
+        velocity: vec![0.0; n],
+    };
+    for &node in nodes {
+        for c in 0..2 {
+            if let Some(i) = dofs.free_index(2 * node + c) {
+                start.displacement[i] = displacement[c];
+                start.velocity[i] = velocity[c];
+            }
+        }
+    }
+    start
+}
+
 /// The directory time-marching results go to: `--out`, else `output.directory` with
 /// `-transient` appended (`output/<name>-transient`), never over the harmonic-balance result.
 pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
@@ -202,8 +225,29 @@ pub fn run_transient(
         mesh_info,
         mut warnings,
     } = scene;
-    let (initial, floquet) = match p.transient.start {
+    let (initial, floquet) = match &p.transient.start {
         TransientStart::Rest => (None, None),
+        TransientStart::Rigid {
+            group,
+            displacement,
+            velocity,
+        } => {
+            let nodes = match group {
+                Some(g) => {
+                    model::node_group(p, &model.mesh, "transient.start.rigid.group", g)?.clone()
+                }
+                None => (0..model.mesh.nodes.len()).collect(),
+            };
+            let start = rigid_start(&model.system.dofs, &nodes, *displacement, *velocity);
+            (Some(start.scaled(1.0 + p.transient.perturbation)), None)
+        }
+        TransientStart::State(path) => {
+            let free = model.system.dofs.free.len();
+            (
+                Some(end_state::read_named(path, p, &mesh_info, free)?),
+                None,
+            )
+        }
         TransientStart::HarmonicBalance => {
             let (start, verdict) = harmonic_balance_start(p, &model, &mut stages, &mut warnings)?;
             (Some(start), verdict)

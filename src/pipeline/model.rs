@@ -117,7 +117,7 @@ pub fn missing_group(p: &Pipeline, field: &str, group: &str, mesh: &Mesh2d) -> E
     }
 }
 
-fn node_group<'m>(
+pub fn node_group<'m>(
     p: &Pipeline,
     mesh: &'m Mesh2d,
     field: &str,
@@ -162,6 +162,9 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
     }
     for g in &p.output.probes {
         node_group(p, mesh, "output.probes", g)?;
+    }
+    if let crate::config::TransientStart::Rigid { group: Some(g), .. } = &p.transient.start {
+        node_group(p, mesh, "transient.start.rigid.group", g)?;
     }
     if let Some(c) = &p.contact {
         node_group(p, mesh, "contact.boundary", &c.boundary)?;

@@ -515,15 +515,15 @@ fn march_from(
 /// The state time marching starts from: the harmonic-balance `solution`'s u and u̇ at t = 0
 /// on the free dofs, scaled by 1 + `perturbation`.
 pub fn marching_start(solution: &hbm::Solution, dofs: &DofMap, perturbation: f64) -> InitialState {
-    let scale = 1.0 + perturbation;
     let free = |derivative: u32| -> Vec<f64> {
         let all = solution.field_at(dofs, 0.0, derivative);
-        dofs.free.iter().map(|&d| scale * all[d]).collect()
+        dofs.free.iter().map(|&d| all[d]).collect()
     };
-    InitialState {
+    let start = InitialState {
         displacement: free(0),
         velocity: free(1),
-    }
+    };
+    start.scaled(1.0 + perturbation)
 }
 
 /// e: the L²(0, T) distance of the last period's displacements from the harmonic-balance

@@ -415,7 +415,7 @@ pub struct TransientInfo {
     pub converged: bool,
     /// Relative change between the last two periods.
     pub periodicity_error: f64,
-    /// `rest`, or `harmonic_balance` (`transient.start`).
+    /// `rest`, `harmonic_balance`, `previous`, `rigid` or `state` (`transient.start`).
     pub start: String,
     /// The relative perturbation of a harmonic-balance start (0 from rest).
     pub perturbation: f64,

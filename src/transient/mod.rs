@@ -60,6 +60,16 @@ pub struct InitialState {
     pub velocity: Vec<f64>,
 }
 
+impl InitialState {
+    /// The state times `scale` (a perturbation of a start).
+    pub fn scaled(self, scale: f64) -> Self {
+        InitialState {
+            displacement: self.displacement.iter().map(|v| scale * v).collect(),
+            velocity: self.velocity.iter().map(|v| scale * v).collect(),
+        }
+    }
+}
+
 /// Unilateral rows: B u − g0(t) ≤ 0, λ ≤ 0, complementary; the force on the body is Bᵀλ.
 /// g0(t) = g0 + Σ_k Re(ĝ_k e^{ikωt}) (a moving or out-of-round obstacle; no harmonics: fixed).
 #[derive(Clone, Copy)]
