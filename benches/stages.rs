@@ -129,6 +129,7 @@ fn main() {
             Some((0.5, 0.0)),
             2.0 * std::f64::consts::PI * 10.0,
             inputs,
+            None,
         ) {
             Ok(s) => s,
             Err(e) => {

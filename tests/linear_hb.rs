@@ -91,7 +91,16 @@ fn harmonic_balance_equals_a_direct_complex_solve_and_the_time_domain_equation()
             motion: vec![c64::new(0.0, 0.0); np],
         },
     )]);
-    let system = System::new(dofs.clone(), &k, &m, Some((alpha, beta)), omega, inputs).unwrap();
+    let system = System::new(
+        dofs.clone(),
+        &k,
+        &m,
+        Some((alpha, beta)),
+        omega,
+        inputs,
+        None,
+    )
+    .unwrap();
     let solution = hbm::solve(&system, None, &settings(1), &hbcontact::Silent).unwrap();
     assert_eq!(
         solution.harmonics(),

@@ -142,6 +142,8 @@ pub struct Rotation {
     pub center: [f64; 2],
     pub centrifugal: bool,
     pub spin_softening: bool,
+    /// The Coriolis force 2ΩMJu̇ (the sense of rotation matters: Ω > 0 counter-clockwise).
+    pub coriolis: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -159,8 +159,8 @@ pub(super) struct RawBoundaries {
     #[serde(default)]
     pub(super) gravity: Option<[f64; 2]>,
     /// The body turns at a constant speed about an axis normal to the plane and is described
-    /// in the turning frame: the centrifugal force and the spin softening it brings. Default:
-    /// not turning.
+    /// in the turning frame: the centrifugal force, the spin softening and (on request) the
+    /// Coriolis force it brings. Default: not turning.
     #[serde(default)]
     pub(super) rotation: Option<RawRotation>,
 }
@@ -170,7 +170,8 @@ pub(super) struct RawBoundaries {
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Rotation")]
 pub(super) struct RawRotation {
-    /// The rotation speed Ω, in rad/s, ≥ 0. Required.
+    /// The rotation speed Ω about +z, in rad/s: positive counter-clockwise (the sense
+    /// matters only to the Coriolis force). Required.
     pub(super) speed: f64,
     /// The axis' point [x, y], a length. Default: [0, 0].
     #[serde(default)]
@@ -183,8 +184,10 @@ pub(super) struct RawRotation {
     /// displacement), which lowers every in-plane natural frequency: ω² − Ω². Default: true.
     #[serde(default)]
     pub(super) spin_softening: Option<bool>,
-    /// The Coriolis (gyroscopic) force 2ΩMJu̇: not simulated yet, so true is refused.
-    /// Default: false.
+    /// The Coriolis (gyroscopic) force 2Ω ẑ × u̇ per unit mass, 2ΩMJu̇ in the velocity term:
+    /// it couples the in-plane directions and splits pairs of modes. Z_k is then not
+    /// symmetric (factored by LU), sweeps refuse it, and the stability check marches (Hill's
+    /// method does not take it yet). Default: false.
     #[serde(default)]
     pub(super) coriolis: bool,
 }

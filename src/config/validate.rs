@@ -395,25 +395,21 @@ fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
         prescribed,
         loads,
         gravity: b.gravity.filter(|g| *g != [0.0; 2]),
-        rotation: rotation.filter(|r| r.speed > 0.0 && (r.centrifugal || r.spin_softening)),
+        rotation: rotation
+            .filter(|r| r.speed != 0.0 && (r.centrifugal || r.spin_softening || r.coriolis)),
     })
 }
 
 fn validate_rotation(path: &Path, r: RawRotation) -> Result<Rotation> {
     let field = "boundaries.rotation";
     finite(path, &format!("{field}.speed"), r.speed)?;
-    if r.speed < 0.0 {
-        return Err(config_error(path, format!("{field}.speed = {} must be ≥ 0 (rad/s; the sense of rotation does not matter without Coriolis)", r.speed)));
-    }
     finite_all(path, &format!("{field}.center"), &r.center)?;
-    if r.coriolis {
-        return Err(config_error(path, format!("{field}.coriolis: the Coriolis force is not simulated yet; set it false (the centrifugal force and spin softening are)")));
-    }
     Ok(Rotation {
         speed: r.speed,
         center: r.center,
         centrifugal: r.centrifugal.unwrap_or(true),
         spin_softening: r.spin_softening.unwrap_or(true),
+        coriolis: r.coriolis,
     })
 }
 

@@ -573,7 +573,8 @@ impl LinearResponse {
         contact: Option<ContactSolution>,
         timings: Timings,
     ) -> Solution {
-        let complex = system.rayleigh.is_some() && self.free.keys().any(|&k| k > 0);
+        let complex = (system.rayleigh.is_some() || system.gyroscopic.is_some())
+            && self.free.keys().any(|&k| k > 0);
         Solution {
             omega: system.omega,
             basis: system.basis.clone(),

@@ -1,5 +1,7 @@
 //! The discrete linear system per harmonic: Dirichlet elimination, the dynamic stiffness
-//! Z_k = K + s_k D + q_k M with D = αM + βK, its factorizations (one symbolic analysis shared by
+//! Z_k = K + s_k (D + G) + q_k M with D = αM + βK and G the gyroscopic (Coriolis) matrix of a
+//! rotating frame, G = 2Ω M⊗J (J = [[0, −1], [1, 0]] per node pair, skew: Gᵀ = −G), its
+//! factorizations (one symbolic analysis shared by
 //! every harmonic), and the harmonic loads, including those that prescribed motion induces.
 //!
 //! The symbols s_k = iσ_k, q_k come from the time basis (`basis::TimeBasis::symbols`, their one
@@ -37,6 +39,10 @@ pub struct System {
     pub m_ff: Csc,
     pub k_fp: Csc,
     pub m_fp: Csc,
+    /// The Coriolis matrix G on the free dofs (on K's pattern) and its free–prescribed block,
+    /// with the frame's speed Ω: `None` without a Coriolis force. G makes Z_k non-symmetric,
+    /// so it is factored by LU only and the pencil of K and M (`pencil`) no longer holds.
+    pub gyroscopic: Option<Gyroscopic>,
     /// Harmonic index → load and prescribed motion (only the harmonics the scene excites).
     pub inputs: BTreeMap<usize, HarmonicInput>,
     /// The time basis (Fourier unless `with_basis` says otherwise).
@@ -51,6 +57,15 @@ pub struct System {
     plain: OnceLock<Arc<SchurPlan>>,
     /// Row sums of |K_ff| and |M_ff| (for ‖Z_k‖∞).
     row_sums: OnceLock<(Vec<f64>, Vec<f64>)>,
+}
+
+/// The Coriolis blocks of a rotating frame.
+#[derive(Clone)]
+pub struct Gyroscopic {
+    /// Ω [rad/s] about +z.
+    pub speed: f64,
+    pub g_ff: Csc,
+    pub g_fp: Csc,
 }
 
 /// A right-hand side and its solution.
@@ -91,6 +106,7 @@ impl System {
         rayleigh: Option<(f64, f64)>,
         omega: f64,
         inputs: BTreeMap<usize, HarmonicInput>,
+        gyroscopic: Option<(f64, &Triplets)>,
     ) -> Result<Self> {
         let (nf, np) = (dofs.free.len(), dofs.prescribed.len());
         if nf == 0 {
@@ -100,10 +116,20 @@ impl System {
         }
         let k = stiffness.block(dofs.free_map(), dofs.free_map(), nf, nf);
         let m = mass.block(dofs.free_map(), dofs.free_map(), nf, nf);
-        let mut common = Csc::on_common_pattern(&[&k, &m]).into_iter();
+        let g = gyroscopic.map(|(_, g)| g.block(dofs.free_map(), dofs.free_map(), nf, nf));
+        let blocks: Vec<&Csc> = [&k, &m].into_iter().chain(g.as_ref()).collect();
+        let mut common = Csc::on_common_pattern(&blocks).into_iter();
         let (k_ff, m_ff) = match (common.next(), common.next()) {
             (Some(k), Some(m)) => (k, m),
             _ => return Err(Error::Model("internal: common pattern".into())),
+        };
+        let gyroscopic = match (gyroscopic, common.next()) {
+            (Some((speed, g)), Some(g_ff)) => Some(Gyroscopic {
+                speed,
+                g_ff,
+                g_fp: g.block(dofs.free_map(), dofs.prescribed_map(), nf, np),
+            }),
+            _ => None,
         };
         let k_fp = stiffness.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
         let m_fp = mass.block(dofs.free_map(), dofs.prescribed_map(), nf, np);
@@ -115,6 +141,7 @@ impl System {
             m_ff,
             k_fp,
             m_fp,
+            gyroscopic,
             inputs,
             basis: TimeBasis::Fourier,
             pattern: OnceLock::new(),
@@ -217,17 +244,23 @@ impl System {
     pub fn dynamic_stiffness(&self, k: usize) -> (Csc, Option<Vec<f64>>) {
         let sym = self.symbols(k);
         let re = self.combination(1.0, sym.mass);
-        let im = self
-            .rayleigh
-            .filter(|_| sym.damping != 0.0)
-            .map(|(alpha, beta)| {
-                self.k_ff
-                    .values
-                    .iter()
-                    .zip(&self.m_ff.values)
-                    .map(|(kv, mv)| sym.damping * (beta * kv + alpha * mv))
-                    .collect()
-            });
+        let mut im: Option<Vec<f64>> =
+            self.rayleigh
+                .filter(|_| sym.damping != 0.0)
+                .map(|(alpha, beta)| {
+                    self.k_ff
+                        .values
+                        .iter()
+                        .zip(&self.m_ff.values)
+                        .map(|(kv, mv)| sym.damping * (beta * kv + alpha * mv))
+                        .collect()
+                });
+        if let Some(g) = self.gyroscopic.as_ref().filter(|_| sym.damping != 0.0) {
+            let im = im.get_or_insert_with(|| vec![0.0; g.g_ff.values.len()]);
+            for (v, gv) in im.iter_mut().zip(&g.g_ff.values) {
+                *v += sym.damping * gv;
+            }
+        }
         (re, im)
     }
 
@@ -250,6 +283,8 @@ impl System {
         options: &FactorOptions,
     ) -> Result<Factor> {
         let plan = match options.path {
+            // The LDLᵀ needs a symmetric Z_k; the Coriolis matrix is skew.
+            _ if self.gyroscopic.is_some() => None,
             FactorPath::Lu => None,
             FactorPath::Auto => self.ldlt_plan(b).filter(|p| p.preferred()),
             FactorPath::Ldlt => self.ldlt_plan(b),
@@ -387,7 +422,7 @@ impl System {
         let (a, b) = self.pencil(k);
         let (kk, mm) = (&self.k_ff, &self.m_ff);
         let zero = c64::new(0.0, 0.0);
-        (0..kk.ncols)
+        let mut out: Vec<c64> = (0..kk.ncols)
             .map(|j| {
                 let range = kk.col_ptr[j]..kk.col_ptr[j + 1];
                 let rows = &kk.row_idx[range.clone()];
@@ -399,14 +434,23 @@ impl System {
                 }
                 a * kx + b * mx
             })
-            .collect()
+            .collect();
+        // G is skew: row j of G is minus its column j.
+        if let Some(g) = &self.gyroscopic {
+            let s = c64::new(0.0, self.symbols(k).damping);
+            let gx = g.g_ff.mul_complex(x);
+            for (o, v) in out.iter_mut().zip(gx) {
+                *o += s * v;
+            }
+        }
+        out
     }
 
     /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = (∂q_k/∂ω) M + i(∂σ_k/∂ω)(αM + βK) (Fourier:
     /// −2k²ω M + ik(αM + βK)): how the dynamic stiffness of harmonic k acting on the state
     /// changes with ω (the sweep's R_ω).
     pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
-        let mut out = self.pencil_rate_times(k, (&self.k_ff, &self.m_ff), x);
+        let mut out = self.pencil_rate_times(k, true, x);
         if let Some(fp) = self.motion_rate(k, motion) {
             for (o, v) in out.iter_mut().zip(fp) {
                 *o += v;
@@ -419,20 +463,34 @@ impl System {
     /// motion is zero, so nothing moves with ω).
     pub fn motion_rate(&self, k: usize, motion: &[c64]) -> Option<Vec<c64>> {
         let moves = motion.iter().any(|z| z.norm() > 0.0);
-        moves.then(|| self.pencil_rate_times(k, (&self.k_fp, &self.m_fp), motion))
+        moves.then(|| self.pencil_rate_times(k, false, motion))
     }
 
-    /// (∂q_k/∂ω) M x + i(∂σ_k/∂ω)(αM + βK) x for the stiffness and mass blocks `(kk, mm)`.
-    fn pencil_rate_times(&self, k: usize, (kk, mm): (&Csc, &Csc), x: &[c64]) -> Vec<c64> {
+    /// (∂q_k/∂ω) M x + i(∂σ_k/∂ω)(αM + βK + G) x with the free–free blocks (`free`) or the
+    /// free–prescribed ones.
+    fn pencil_rate_times(&self, k: usize, free: bool, x: &[c64]) -> Vec<c64> {
+        let (kk, mm) = match free {
+            true => (&self.k_ff, &self.m_ff),
+            false => (&self.k_fp, &self.m_fp),
+        };
         let sym = self.symbols(k);
         let (alpha, beta) = self.damping_at(&sym);
         let (kx, mx) = (kk.mul_complex(x), mm.mul_complex(x));
-        kx.iter()
+        let mut out: Vec<c64> = kx
+            .iter()
             .zip(&mx)
             .map(|(&kv, &mv)| {
                 mv * sym.mass_rate + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha)
             })
-            .collect()
+            .collect();
+        if let Some(g) = &self.gyroscopic {
+            let block = if free { &g.g_ff } else { &g.g_fp };
+            let rate = c64::new(0.0, sym.damping_rate);
+            for (o, v) in out.iter_mut().zip(block.mul_complex(x)) {
+                *o += rate * v;
+            }
+        }
+        out
     }
 
     /// The right-hand side of harmonic k: f_k − Z_k,fp u_p,k, times the basis' load factor γ_k
@@ -453,6 +511,12 @@ impl System {
                 let real = c64::new(kr[i] + sym.mass * mr[i], ki[i] + sym.mass * mi[i]);
                 let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
                 rhs[i] -= real + c64::new(0.0, sym.damping) * damp;
+            }
+            if let Some(g) = &self.gyroscopic {
+                let gu = g.g_fp.mul_complex(&input.motion);
+                for (r, v) in rhs.iter_mut().zip(gu) {
+                    *r -= c64::new(0.0, sym.damping) * v;
+                }
             }
         }
         if let Some(gamma) = self.basis.load_factor(k) {
@@ -477,9 +541,14 @@ impl System {
             (rk, rm)
         });
         let (s, q) = (sym.damping.abs(), sym.mass.abs());
+        // |G| has M's row sums times 2|Ω| (G = 2Ω M⊗J).
+        let gyro = self
+            .gyroscopic
+            .as_ref()
+            .map_or(0.0, |g| 2.0 * g.speed.abs());
         rk.iter()
             .zip(rm)
-            .map(|(rk, rm)| rk * (1.0 + s * beta) + rm * (q + s * alpha))
+            .map(|(rk, rm)| rk * (1.0 + s * beta) + rm * (q + s * (alpha + gyro)))
             .fold(0.0, f64::max)
     }
 

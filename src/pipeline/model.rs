@@ -216,6 +216,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     };
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
     let stiffness = spin_softened(stiffness, &mass.matrix, p.boundaries.rotation);
+    let coriolis = gyroscopic(&mass.matrix, p.boundaries.rotation);
     let (inputs, prescribed_motion) = harmonic_inputs(p, &mesh, &material, &dofs)?;
     let inputs = with_body_forces(p, &mesh, &mass.matrix, &dofs, inputs);
     let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
@@ -228,8 +229,17 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
         .map(|(&k, _)| k)
         .collect();
-    let system = System::new(dofs, &stiffness, &mass.matrix, rayleigh, omega, inputs)?
-        .with_basis(time_basis(p, purpose));
+    let gyro = coriolis.as_ref().map(|(speed, g)| (*speed, g));
+    let system = System::new(
+        dofs,
+        &stiffness,
+        &mass.matrix,
+        rayleigh,
+        omega,
+        inputs,
+        gyro,
+    )?
+    .with_basis(time_basis(p, purpose));
     let contact = contact_set.map(|set| {
         let mut operator = contact_operator(&set, &system.dofs);
         if let Some(spec) = &p.contact {
@@ -366,6 +376,22 @@ fn spin_softened(stiffness: Triplets, mass: &Triplets, rotation: Option<Rotation
         }
         _ => stiffness,
     }
+}
+
+/// The Coriolis matrix G = 2Ω M⊗J of the rotating frame, where simulated: the force 2Ω ẑ × u̇
+/// per unit mass, so the row of node a's x holds −2Ω M_ab at node b's y and the row of a's y
+/// +2Ω M_ab at b's x (M's x–x and y–y blocks are equal; G is skew).
+fn gyroscopic(mass: &Triplets, rotation: Option<Rotation>) -> Option<(f64, Triplets)> {
+    let r = rotation.filter(|r| r.coriolis)?;
+    let w2 = 2.0 * r.speed;
+    let mut g = Triplets::new(mass.n);
+    for &(i, j, m) in &mass.entries {
+        if i % 2 == 0 && j % 2 == 0 {
+            g.push(i, j + 1, -w2 * m);
+            g.push(i + 1, j, w2 * m);
+        }
+    }
+    Some((r.speed, g))
 }
 
 /// The static body forces added to harmonic 0: gravity M g and the centrifugal force
@@ -581,8 +607,12 @@ fn describe_rotation(r: Rotation) -> String {
     if r.spin_softening {
         effects.push("spin softening");
     }
+    if r.coriolis {
+        effects.push("Coriolis force");
+    }
+    let coriolis = if r.coriolis { "" } else { "; no Coriolis" };
     format!(
-        "{:e} rad/s about ({:e}, {:e}): {}; no Coriolis",
+        "{:e} rad/s about ({:e}, {:e}): {}{coriolis}",
         r.speed,
         r.center[0],
         r.center[1],

@@ -111,6 +111,12 @@ pub fn modes(
     for w in &scene.warnings {
         reporter.warning(w);
     }
+    if p.boundaries.rotation.is_some_and(|r| r.coriolis) {
+        reporter.warning(
+            "the modes are those of K − Ω²M and M: the Coriolis force, which splits pairs of \
+             modes of a turning body, is not in them",
+        );
+    }
     let (model, mesh_info) = (scene.model, scene.mesh_info);
     let modes = stages.run("modes", || natural_modes(&model, count))?;
     let staged = StagedDir::create(&out, "modes", options.replace)?;

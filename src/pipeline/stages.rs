@@ -295,10 +295,10 @@ fn march_verdict(
 /// now (exit 2) if it is beyond the machine (`transient::budget`). The estimate samples once
 /// per period, the march a few times: their steps per period differ by fewer than its samples.
 pub fn check_stability_march(p: &Pipeline, model: &Model) -> Result<()> {
-    if model.contact.is_none()
-        || !p.stability.check
-        || p.stability.method == StabilityMethod::Floquet
-    {
+    // A Coriolis scene is judged by marching whatever the method (`stability::by_floquet_state`).
+    let marches =
+        p.stability.method != StabilityMethod::Floquet || model.system.gyroscopic.is_some();
+    if model.contact.is_none() || !p.stability.check || !marches {
         return Ok(());
     }
     let settings = TransientSettings {

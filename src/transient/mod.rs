@@ -47,9 +47,21 @@ pub struct TransientProblem<'a> {
     pub probes: Vec<usize>,
     /// The state at t = 0 (`None`: rest).
     pub initial: Option<InitialState>,
+    /// The Coriolis force of a rotating frame (`None`: none).
+    pub coriolis: Option<Coriolis>,
     /// Stop early once this says the history so far decided the question (it gets the
     /// period-to-period changes and the departures, `TransientResult`).
     pub decided: Option<&'a Decided<'a>>,
+}
+
+/// The Coriolis force 2Ω m ẑ × u̇ on each node whose two dofs are free: Ω [rad/s] and the
+/// (x, y) free-dof pairs. With the lumped mass it couples only a node's own two dofs, so the
+/// trapezoidal rule on it (`Stepper::coriolis`) is a 2 × 2 solve per node: implicit, so it
+/// does not shorten the step, and it keeps the gyroscopic force workless as the exact one.
+#[derive(Clone, Debug)]
+pub struct Coriolis {
+    pub speed: f64,
+    pub pairs: Vec<(usize, usize)>,
 }
 
 /// A state to start the marching from: u and u̇ at t = 0 on the free dofs (the massless
@@ -820,6 +832,8 @@ struct Stepper<'a> {
     /// Δt / (m_i (1 + αΔt/2)); massless dofs get push 0 and a value the condensation then
     /// overwrites, so that the update runs over contiguous slices.
     push: Vec<f64>,
+    /// Ω Δt and the massive nodes' (x, y) free-dof pairs, with a Coriolis force.
+    coriolis: Option<(f64, Vec<(usize, usize)>)>,
     keep: f64,
     dt: f64,
     beta: f64,
@@ -902,6 +916,20 @@ impl<'a> Stepper<'a> {
         let gaps = problem.contact;
         let condensation = Condensation::new(k, &is_z, &rows, condensed_contact)?;
         let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
+        if lumped_w.is_some() && problem.coriolis.is_some() {
+            return Err(Error::Model(
+                "time marching with the Coriolis force needs massless contact nodes; remove \
+                 contact.mass: lumped (the default redistributes their mass)"
+                    .into(),
+            ));
+        }
+        let coriolis = problem.coriolis.as_ref().map(|c| {
+            let massive = |&&(x, y): &&(usize, usize)| mass[x] > 0.0 && mass[y] > 0.0;
+            (
+                c.speed * dt,
+                c.pairs.iter().filter(massive).copied().collect(),
+            )
+        });
         let damp = alpha * dt / 2.0;
         let push = (0..n)
             .map(|i| {
@@ -922,6 +950,7 @@ impl<'a> Stepper<'a> {
             condensation,
             lumped_w,
             push,
+            coriolis,
             keep: (1.0 - damp) / (1.0 + damp),
             dt,
             beta,
@@ -1000,6 +1029,7 @@ impl<'a> Stepper<'a> {
         for ((((un, &u), &v), &push), (&f, (&ku, &kv))) in lanes.zip(loads) {
             *un = u + dt * (self.keep * v + push * (f - ku - beta * kv));
         }
+        self.coriolis(s);
         self.gaps_at((index + 1) as f64 * dt, &mut s.contact.g0);
         if let Some(w) = &self.lumped_w {
             self.forward_increment(w, s)?;
@@ -1026,6 +1056,25 @@ impl<'a> Stepper<'a> {
             *v = (un - u) * inv_dt;
         }
         Ok(())
+    }
+
+    /// The Coriolis force on the step just predicted, by the trapezoidal rule per node: with
+    /// a = 1 + αΔt/2, c = ΩΔt and v₀ the velocity the step took without it,
+    /// (a I + c J) v⁺ = a v₀ − c J v⁻, J(x, y) = (−y, x), solved as
+    /// v⁺ = (a I − c J)(a v₀ − c J v⁻)/(a² + c²).
+    fn coriolis(&self, s: &mut MarchState) {
+        let Some((c, pairs)) = &self.coriolis else {
+            return;
+        };
+        let (a, dt) = (1.0 + self.damp, self.dt);
+        let det = a * a + c * c;
+        for &(x, y) in pairs {
+            let v0 = [(s.u_next[x] - s.u[x]) / dt, (s.u_next[y] - s.u[y]) / dt];
+            let r = [a * v0[0] + c * s.v_half[y], a * v0[1] - c * s.v_half[x]];
+            let v = [(a * r[0] + c * r[1]) / det, (a * r[1] - c * r[0]) / det];
+            s.u_next[x] = s.u[x] + dt * v[0];
+            s.u_next[y] = s.u[y] + dt * v[1];
+        }
     }
 
     /// The contact gaps g0(t) into `out` (fixed gaps are written once, at t = 0).
@@ -1092,6 +1141,7 @@ mod tests {
             period: 1.0,
             probes: vec![0],
             initial: None,
+            coriolis: None,
             decided: None,
         };
         let settings = TransientSettings {

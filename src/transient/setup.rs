@@ -4,7 +4,7 @@
 
 use faer::c64;
 
-use super::{ContactRows, TransientProblem};
+use super::{ContactRows, Coriolis, TransientProblem};
 use crate::contact::ContactOperator;
 use crate::hbm::{fourier, System};
 use crate::{Error, Result};
@@ -90,8 +90,20 @@ impl<'a> Marching<'a> {
             period: self.period(),
             probes: self.probes.clone(),
             initial: None,
+            coriolis: self.system.gyroscopic.as_ref().map(|g| Coriolis {
+                speed: g.speed,
+                pairs: self.node_pairs(),
+            }),
             decided: None,
         }
+    }
+
+    /// The (x, y) free-dof pairs of the nodes whose two dofs are free.
+    fn node_pairs(&self) -> Vec<(usize, usize)> {
+        let dofs = &self.system.dofs;
+        (0..dofs.free.iter().map(|d| d / 2 + 1).max().unwrap_or(0))
+            .filter_map(|n| Some((dofs.free_index(2 * n)?, dofs.free_index(2 * n + 1)?)))
+            .collect()
     }
 
     /// A free-dof state (derivative 0, 1, 2 of u) at time t on all dofs, with the
