@@ -3,7 +3,9 @@
 // x = L + 2 gap) are 2 gap apart; with LB = L (the default) B is A's mirror image about
 // x = L + gap; lcB (default lc) is B's element size, so B's face nodes need not face A's.
 // With second = 0, B is replaced by a rigid wall curve ("wall") at x = L + gap: the
-// mirror plane. Structured meshes (transfinite), so B's nodes mirror A's exactly.
+// mirror plane; with split in (0, 1) that wall is two segments meeting at y = split H,
+// "wall_low" and "wall_high" ("wall" is both). Structured meshes (transfinite), so B's nodes
+// mirror A's exactly.
 DefineConstant[
   L = {0.2, Name "Parameters/L"},
   H = {0.01, Name "Parameters/H"},
@@ -11,7 +13,8 @@ DefineConstant[
   lc = {0.0025, Name "Parameters/lc"},
   second = {1, Name "Parameters/second"},
   LB = {-1, Name "Parameters/LB"},
-  lcB = {-1, Name "Parameters/lcB"}
+  lcB = {-1, Name "Parameters/lcB"},
+  split = {-1, Name "Parameters/split"}
 ];
 If (LB <= 0)
   LB = L;
@@ -59,11 +62,23 @@ For side In {0 : second}
     Physical Surface("body_b") = {sf};
   EndIf
 EndFor
-If (second == 0)
+If (second == 0 && split <= 0)
   w = newp;
   Point(w) = {L + gap, -H / 2, 0, lc};
   Point(w + 1) = {L + gap, 1.5 * H, 0, lc};
   wl = newl;
   Line(wl) = {w, w + 1};
   Physical Curve("wall") = {wl};
+EndIf
+If (second == 0 && split > 0)
+  w = newp;
+  Point(w) = {L + gap, -H / 2, 0, lc};
+  Point(w + 1) = {L + gap, split * H, 0, lc};
+  Point(w + 2) = {L + gap, 1.5 * H, 0, lc};
+  wl = newl;
+  Line(wl) = {w, w + 1};
+  Line(wl + 1) = {w + 1, w + 2};
+  Physical Curve("wall") = {wl, wl + 1};
+  Physical Curve("wall_low") = {wl};
+  Physical Curve("wall_high") = {wl + 1};
 EndIf

@@ -35,7 +35,7 @@ fn shipped_pipelines_parse_with_their_values_and_defaults() {
     assert_eq!(p.harmonic_balance.solver.c_scale, 1.0);
     let c = p.contact.unwrap();
     assert_eq!(
-        c.obstacle,
+        c.pairs[0].obstacle,
         ObstacleSpec::Curve {
             group: "wall".into()
         }
@@ -44,7 +44,7 @@ fn shipped_pipelines_parse_with_their_values_and_defaults() {
     assert_eq!(p.output.frames, 32);
     assert!(p.output.fields.contains(&FieldName::Contact));
     let h = load_pipeline(&root().join("pipelines/half_disc.yaml"), &[]).unwrap();
-    match h.contact.unwrap().obstacle {
+    match h.contact.unwrap().pairs.remove(0).obstacle {
         ObstacleSpec::Line { normal, .. } => assert_eq!(normal, [0.0, 1.0]),
         o => panic!("{o:?}"),
     }
@@ -73,7 +73,7 @@ fn overrides_change_values_and_create_blocks() {
     assert_eq!(p.geometry.parameters["gap"], 1e-4);
     assert!(p.damping.is_none());
     assert_eq!(
-        p.contact.unwrap().obstacle,
+        p.contact.unwrap().pairs.remove(0).obstacle,
         ObstacleSpec::Circle {
             center: [0.0, 0.0],
             radius: 2.0,
@@ -472,6 +472,22 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
         &["contact.motion={static: [0.0, 0.0], harmonics: [{k: 1, cos: [0.0, 0.0], sin: [0.0, 0.0]}]}"],
     ),
     ("transient.perturbation", &["transient.start=harmonic_balance"]),
+    (
+        "contact.pairs",
+        &["contact={pairs: [{boundary: tip, obstacle: {curve: wall}, search_distance: 1.0, motion: {static: [0.0, 0.0], harmonics: [{k: 1, cos: [0.0, 0.0], sin: [0.0, 0.0]}]}}]}"],
+    ),
+    (
+        "contact.pairs.obstacle.line",
+        &["contact.pairs.0.obstacle={line: {point: [0.0, 0.0], normal: [-1.0, 0.0]}}"],
+    ),
+    (
+        "contact.pairs.obstacle.circle",
+        &["contact.pairs.0.obstacle={circle: {center: [0.0, 0.0], radius: 1.0}}"],
+    ),
+    (
+        "contact.pairs.obstacle.circle.lobes",
+        &["contact.pairs.0.obstacle={circle: {center: [0.0, 0.0], radius: 1.0, lobes: {count: 1, amplitude: 0.0}}}"],
+    ),
 ];
 
 /// Other keys a value just inside a bound needs to be valid as a whole (a step of 1 needs a
@@ -497,6 +513,14 @@ const BOUNDS_INSIDE_COMPANIONS: &[(&str, &[&str])] = &[
     ),
     (
         "contact.obstacle.circle.lobes.count",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+    (
+        "contact.pairs.motion.harmonics.k",
+        &["harmonic_balance.harmonics=1000"],
+    ),
+    (
+        "contact.pairs.obstacle.circle.lobes.count",
         &["harmonic_balance.harmonics=1000"],
     ),
 ];
@@ -544,6 +568,11 @@ const BOUNDS_RELATIONAL: &[(&str, &str, &[&str])] = &[
         "contact.motion.harmonics.k",
         "at most once",
         &["contact.motion.harmonics=[{k: 1}, {k: 1}]"],
+    ),
+    (
+        "contact.pairs.motion.harmonics.k",
+        "at most once",
+        &["contact.pairs.0.motion.harmonics=[{k: 1}, {k: 1}]"],
     ),
 ];
 

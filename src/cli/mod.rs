@@ -287,6 +287,27 @@ fn show_newton_log(log: &[IterationLog]) {
 }
 
 /// `check`'s findings: the mesh, its groups and the contact candidates.
+/// One pair's lines of `check` (scenes with several pairs).
+fn show_pair_check(p: &crate::pipeline::PairCheck) {
+    outln!(
+        "{} `{}`: {} of {} boundary nodes face the obstacle",
+        p.key,
+        p.boundary,
+        p.nodes,
+        p.candidates
+    );
+    let [off, far] = p.dropped;
+    outln!("  dropped: {off} off the obstacle, {far} beyond the search distance");
+    outln!("  smallest initial gap {:.3e} m", p.smallest_gap);
+    if let Some((group, nodes)) = &p.target {
+        outln!("  against `{group}` of another body: {nodes} of its nodes take the reaction");
+    }
+    if p.penetrated_nodes > 0 {
+        let (n, depth) = (p.penetrated_nodes, p.deepest_penetration);
+        outln!("  {n} start inside it, the deepest by {depth:.3e} m");
+    }
+}
+
 pub fn show_check(report: &CheckReport) {
     let m = &report.mesh;
     outln!(
@@ -308,6 +329,12 @@ pub fn show_check(report: &CheckReport) {
             g.edges,
             g.cells
         );
+    }
+    if report.contact_pairs.len() > 1 {
+        for pair in &report.contact_pairs {
+            show_pair_check(pair);
+        }
+        return;
     }
     if let (Some(kept), Some(candidates)) = (report.contact_nodes, report.contact_candidates) {
         outln!("contact: {kept} of {candidates} boundary nodes face the obstacle");

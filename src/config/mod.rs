@@ -234,31 +234,48 @@ pub enum ContactMass {
 
 #[derive(Clone, Debug)]
 pub struct ContactSpec {
+    /// The contact pairs (one for `contact.boundary` and `contact.obstacle`).
+    pub pairs: Vec<ContactPair>,
+    pub mass: ContactMass,
+    /// Accept nodes that start deeper inside the obstacle than a small strain of the body
+    /// (`pipeline::sanity::check_initial_penetration`).
+    pub allow_initial_penetration: bool,
+}
+
+/// One body boundary against one obstacle.
+#[derive(Clone, Debug)]
+pub struct ContactPair {
     /// The body boundary whose nodes are contact candidates.
     pub boundary: String,
     pub obstacle: ObstacleSpec,
     /// Candidates farther than this from the obstacle are dropped; `None` keeps all.
     pub search_distance: Option<f64>,
-    pub mass: ContactMass,
-    /// Accept nodes that start deeper inside the obstacle than a small strain of the body
-    /// (`pipeline::sanity::check_initial_penetration`).
-    pub allow_initial_penetration: bool,
     /// A rigid obstacle's translation d(t) (`None`: fixed).
     pub motion: Option<Signal<2>>,
+    /// The pipeline key of this pair: `contact` or `contact.pairs[i]`.
+    pub key: String,
 }
 
 impl ContactSpec {
-    /// The harmonics the obstacle's gap varies at, each with the key that sets it: the
-    /// translation's (`contact.motion`) and a lobed circle's count.
-    pub fn gap_harmonics(&self) -> impl Iterator<Item = (&'static str, usize)> + '_ {
+    /// The harmonics the obstacles' gaps vary at, each with the key that sets it (every
+    /// pair's, `ContactPair::gap_harmonics`).
+    pub fn gap_harmonics(&self) -> impl Iterator<Item = (String, usize)> + '_ {
+        self.pairs.iter().flat_map(ContactPair::gap_harmonics)
+    }
+}
+
+impl ContactPair {
+    /// The harmonics this pair's obstacle gap varies at, each with the key that sets it: the
+    /// translation's (`motion`) and a lobed circle's count.
+    pub fn gap_harmonics(&self) -> impl Iterator<Item = (String, usize)> + '_ {
         let moving = self.motion.iter().flat_map(|m| &m.harmonics);
         let lobes = match &self.obstacle {
             ObstacleSpec::Circle { lobes: Some(l), .. } => Some(l.count),
             _ => None,
         };
         moving
-            .map(|h| ("contact.motion", h.0))
-            .chain(lobes.map(|k| ("contact.obstacle.circle.lobes", k)))
+            .map(|h| (format!("{}.motion", self.key), h.0))
+            .chain(lobes.map(|k| (format!("{}.obstacle.circle.lobes", self.key), k)))
     }
 }
 

@@ -453,19 +453,25 @@ pub(super) enum RawMass {
     Lumped,
 }
 
-/// Frictionless unilateral contact of a body boundary with a rigid obstacle.
+/// Frictionless unilateral contact of body boundaries with rigid obstacles or other bodies:
+/// one pair (`boundary`, `obstacle`, `search_distance`, `motion`) or several (`pairs`).
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[schemars(rename = "Contact")]
 pub(super) struct RawContact {
-    /// The body's boundary curve group whose nodes may touch the obstacle. Required.
-    pub(super) boundary: String,
+    /// The body's boundary curve group whose nodes may touch the obstacle. Required unless
+    /// `pairs` is given.
+    #[serde(default)]
+    pub(super) boundary: Option<String>,
     /// The obstacle: `{curve: NAME}`, `{line: {point: [x, y], normal: [x, y]}}`,
     /// `{circle: {center: [x, y], radius: R, body_inside: BOOL}}` (rigid), or `{body: NAME}`
-    /// (a boundary curve of another meshed body). Required.
-    #[serde(with = "serde_yaml::with::singleton_map")]
-    #[schemars(with = "RawObstacle")]
-    pub(super) obstacle: RawObstacle,
+    /// (a boundary curve of another meshed body). Required unless `pairs` is given.
+    #[serde(
+        default,
+        deserialize_with = "serde_yaml::with::singleton_map::deserialize"
+    )]
+    #[schemars(with = "Option<RawObstacle>")]
+    pub(super) obstacle: Option<RawObstacle>,
     /// Drop candidate nodes whose initial gap exceeds this length, > 0. Default: keep all.
     #[serde(default)]
     pub(super) search_distance: Option<f64>,
@@ -480,6 +486,30 @@ pub(super) struct RawContact {
     /// A rigid obstacle's periodic translation (a shaker table, a moving stop): `{static: [x,
     /// y], harmonics: [{k, cos: [x, y], sin: [x, y]}]}`, lengths. Default: fixed. Not with a
     /// `body` obstacle (move that body by its own loads or supports).
+    #[serde(default)]
+    pub(super) motion: Option<RawObstacleMotion>,
+    /// Several contact pairs (a blade tip and its shroud, a joint's two faces, a beam between
+    /// two stops), each `{boundary, obstacle, search_distance, motion}` as above, in place of
+    /// the single pair's keys; `mass` and `allow_initial_penetration` hold for all.
+    #[serde(default)]
+    pub(super) pairs: Option<Vec<RawPair>>,
+}
+
+/// One contact pair of `contact.pairs`.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "ContactPair")]
+pub(super) struct RawPair {
+    /// The body's boundary curve group whose nodes may touch this obstacle. Required.
+    pub(super) boundary: String,
+    /// The obstacle, as `contact.obstacle`. Required.
+    #[serde(with = "serde_yaml::with::singleton_map")]
+    #[schemars(with = "RawObstacle")]
+    pub(super) obstacle: RawObstacle,
+    /// As `contact.search_distance`, for this pair. Default: keep all.
+    #[serde(default)]
+    pub(super) search_distance: Option<f64>,
+    /// As `contact.motion`, for this pair's rigid obstacle. Default: fixed.
     #[serde(default)]
     pub(super) motion: Option<RawObstacleMotion>,
 }

@@ -201,7 +201,7 @@ fn check_contact_harmonics(path: &Path, b: &Boundaries, c: &ContactSpec, h: usiz
             .iter()
             .map(move |x| (format!("boundaries.prescribed[{i}]"), x.0))
     });
-    let gap = c.gap_harmonics().map(|(key, k)| (key.to_string(), k));
+    let gap = c.gap_harmonics();
     let all = loads.chain(motions).chain(gap);
     if let Some((field, k)) = all.max_by_key(|(_, k)| *k) {
         if k > h {
@@ -616,8 +616,8 @@ fn validate_basis(path: &Path, basis: Option<RawBasis>) -> Result<BasisSpec> {
     Ok(BasisSpec::Spline { degree, segments })
 }
 
-fn validate_lobes(path: &Path, l: RawLobes, radius: f64) -> Result<Lobes> {
-    let field = "contact.obstacle.circle.lobes";
+fn validate_lobes(path: &Path, key: &str, l: RawLobes, radius: f64) -> Result<Lobes> {
+    let field = format!("{key}.obstacle.circle.lobes");
     if l.count == 0 || l.count > MAX_HARMONICS {
         return Err(config_error(path, format!("{field}.count = {} must be in 1..={MAX_HARMONICS} (the gap varies at harmonic `count`)", l.count)));
     }
@@ -640,39 +640,107 @@ fn validate_lobes(path: &Path, l: RawLobes, radius: f64) -> Result<Lobes> {
 
 fn validate_obstacle_motion(
     path: &Path,
+    key: &str,
     m: RawObstacleMotion,
     obstacle: &ObstacleSpec,
 ) -> Result<Signal<2>> {
-    let field = "contact.motion";
+    let field = format!("{key}.motion");
     if matches!(obstacle, ObstacleSpec::Body { .. }) {
         return Err(config_error(path, format!("{field}: a `body` obstacle is an elastic body; move it by its own loads or boundaries.prescribed, not by {field}")));
     }
-    vector_signal(path, field, m.static_part, &m.harmonics)
+    vector_signal(path, &field, m.static_part, &m.harmonics)
 }
 
 fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<ContactSpec>> {
     let Some(c) = contact else {
         return Ok(None);
     };
-    group_name(path, "contact.boundary", &c.boundary)?;
-    let obstacle = match c.obstacle {
+    let single = c.boundary.is_some() || c.obstacle.is_some();
+    let pairs = match (c.pairs, c.boundary, c.obstacle) {
+        (Some(_), _, _) if single || c.search_distance.is_some() || c.motion.is_some() => {
+            return Err(config_error(path, "contact: give either one pair (boundary, obstacle, search_distance, motion) or `pairs`, not both: move the single pair's keys into an entry of contact.pairs".to_string()));
+        }
+        (Some(raw), _, _) if raw.is_empty() => {
+            return Err(config_error(path, "contact.pairs is empty: give at least one {boundary, obstacle} pair, or remove the contact block".to_string()));
+        }
+        (Some(raw), _, _) => raw
+            .into_iter()
+            .enumerate()
+            .map(|(i, r)| validate_pair(path, format!("contact.pairs[{i}]"), r))
+            .collect::<Result<Vec<_>>>()?,
+        (None, Some(boundary), Some(obstacle)) => {
+            let raw = RawPair {
+                boundary,
+                obstacle,
+                search_distance: c.search_distance,
+                motion: c.motion,
+            };
+            vec![validate_pair(path, "contact".to_string(), raw)?]
+        }
+        (None, boundary, _) => {
+            let missing = if boundary.is_none() {
+                "boundary"
+            } else {
+                "obstacle"
+            };
+            return Err(config_error(path, format!("contact.{missing} is required (or give contact.pairs): name the body's boundary curve group and what it touches, e.g. `boundary: tip` and `obstacle: {{curve: wall}}`")));
+        }
+    };
+    Ok(Some(ContactSpec {
+        pairs,
+        allow_initial_penetration: c.allow_initial_penetration,
+        mass: match c.mass {
+            RawMass::Redistributed => ContactMass::Redistributed,
+            RawMass::Lumped => ContactMass::Lumped,
+        },
+    }))
+}
+
+/// One contact pair, its errors named by `key` (`contact` or `contact.pairs[i]`).
+fn validate_pair(path: &Path, key: String, c: RawPair) -> Result<ContactPair> {
+    group_name(path, &format!("{key}.boundary"), &c.boundary)?;
+    let obstacle = validate_obstacle(path, &key, c.obstacle, &c.boundary)?;
+    let motion = c
+        .motion
+        .map(|m| validate_obstacle_motion(path, &key, m, &obstacle))
+        .transpose()?;
+    if let Some(d) = c.search_distance {
+        positive(path, &format!("{key}.search_distance"), d)?;
+    }
+    Ok(ContactPair {
+        boundary: c.boundary,
+        obstacle,
+        search_distance: c.search_distance,
+        motion,
+        key,
+    })
+}
+
+fn validate_obstacle(
+    path: &Path,
+    key: &str,
+    obstacle: RawObstacle,
+    boundary: &str,
+) -> Result<ObstacleSpec> {
+    let field = |name: &str| format!("{key}.obstacle.{name}");
+    Ok(match obstacle {
         RawObstacle::Curve(group) => {
-            group_name(path, "contact.obstacle.curve", &group)?;
+            group_name(path, &field("curve"), &group)?;
             ObstacleSpec::Curve { group }
         }
         RawObstacle::Body(group) => {
-            group_name(path, "contact.obstacle.body", &group)?;
-            if group == c.boundary {
-                return Err(config_error(path, format!("contact.obstacle.body: `{group}` is the contact boundary itself; name the other body's boundary curve")));
+            group_name(path, &field("body"), &group)?;
+            if group == boundary {
+                return Err(config_error(path, format!("{}: `{group}` is the contact boundary itself; name the other body's boundary curve", field("body"))));
             }
             ObstacleSpec::Body { group }
         }
         RawObstacle::Line { point, normal } => {
-            finite_all(path, "contact.obstacle.line.point", &point)?;
-            finite_all(path, "contact.obstacle.line.normal", &normal)?;
+            finite_all(path, &field("line.point"), &point)?;
+            finite_all(path, &field("line.normal"), &normal)?;
             let len = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
             if !(len > 0.0) || !len.is_finite() {
-                return Err(config_error(path, "contact.obstacle.line.normal must be a non-zero vector (pointing out of the obstacle, toward the body)"));
+                return Err(config_error(path, format!("{} must be a non-zero vector (pointing out of the obstacle, toward the body)", field("line.normal"))));
             }
             ObstacleSpec::Line {
                 point,
@@ -686,32 +754,16 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
             lobes,
         } => ObstacleSpec::Circle {
             center: {
-                finite_all(path, "contact.obstacle.circle.center", &center)?;
+                finite_all(path, &field("circle.center"), &center)?;
                 center
             },
-            radius: positive(path, "contact.obstacle.circle.radius", radius)?,
+            radius: positive(path, &field("circle.radius"), radius)?,
             body_inside,
-            lobes: lobes.map(|l| validate_lobes(path, l, radius)).transpose()?,
+            lobes: lobes
+                .map(|l| validate_lobes(path, key, l, radius))
+                .transpose()?,
         },
-    };
-    let motion = c
-        .motion
-        .map(|m| validate_obstacle_motion(path, m, &obstacle))
-        .transpose()?;
-    if let Some(d) = c.search_distance {
-        positive(path, "contact.search_distance", d)?;
-    }
-    Ok(Some(ContactSpec {
-        boundary: c.boundary,
-        obstacle,
-        search_distance: c.search_distance,
-        allow_initial_penetration: c.allow_initial_penetration,
-        motion,
-        mass: match c.mass {
-            RawMass::Redistributed => ContactMass::Redistributed,
-            RawMass::Lumped => ContactMass::Lumped,
-        },
-    }))
+    })
 }
 
 fn validate_transient(path: &Path, transient: Option<RawTransient>) -> Result<TransientSpec> {

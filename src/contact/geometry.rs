@@ -40,7 +40,8 @@ pub struct ContactScene {
 
 #[derive(Clone, Debug)]
 pub struct ContactSet {
-    /// Mesh node indices of the kept candidates, sorted.
+    /// Mesh node indices of the kept candidates, sorted within each contact pair (a node of
+    /// two pairs has a row in each).
     pub nodes: Vec<usize>,
     /// Unit normals from the body toward (into) the obstacle.
     pub normals: Vec<[f64; 2]>,
@@ -92,6 +93,50 @@ impl ContactSet {
             retain_by(&mut self.target_tributary, &kept);
         }
         self.dropped_held += keep.iter().filter(|&&k| !k).count();
+    }
+
+    /// The sets of several contact pairs as one, their rows in order (a rigid pair's rows get
+    /// no targets; a target node several pairs touch keeps its largest tributary length).
+    pub fn concat(sets: &[ContactSet]) -> ContactSet {
+        let mut out = ContactSet {
+            nodes: Vec::new(),
+            normals: Vec::new(),
+            gaps: Vec::new(),
+            closest: Vec::new(),
+            tributary: Vec::new(),
+            candidates: 0,
+            dropped_off_obstacle: 0,
+            dropped_beyond_search: 0,
+            dropped_held: 0,
+            targets: Vec::new(),
+            target_nodes: Vec::new(),
+            target_tributary: Vec::new(),
+        };
+        let any_targets = sets.iter().any(|s| !s.targets.is_empty());
+        let mut tributary = std::collections::BTreeMap::new();
+        for s in sets {
+            out.nodes.extend(&s.nodes);
+            out.normals.extend(&s.normals);
+            out.gaps.extend(&s.gaps);
+            out.closest.extend(&s.closest);
+            out.tributary.extend(&s.tributary);
+            out.candidates += s.candidates;
+            out.dropped_off_obstacle += s.dropped_off_obstacle;
+            out.dropped_beyond_search += s.dropped_beyond_search;
+            out.dropped_held += s.dropped_held;
+            if any_targets {
+                match s.targets.is_empty() {
+                    true => out.targets.extend(s.nodes.iter().map(|_| Vec::new())),
+                    false => out.targets.extend(s.targets.iter().cloned()),
+                }
+            }
+            for (&a, &l) in s.target_nodes.iter().zip(&s.target_tributary) {
+                let t: &mut f64 = tributary.entry(a).or_insert(0.0);
+                *t = t.max(l);
+            }
+        }
+        (out.target_nodes, out.target_tributary) = tributary.into_iter().unzip();
+        out
     }
 
     /// The nodes of row i of B and their weights: (node_i, 1), then each target node's

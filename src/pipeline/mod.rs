@@ -26,6 +26,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{Pipeline, TransientStart};
+use crate::contact::geometry::{build_contact_set, ContactSet};
 use crate::output::staging::Replace;
 use crate::output::StagedDir;
 use crate::progress::Reporter;
@@ -312,6 +313,27 @@ fn check_marches(p: &Pipeline, mesh: &crate::mesh::Mesh2d, reporter: &dyn Report
     Ok(())
 }
 
+/// What `check` found on one contact pair.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct PairCheck {
+    /// The pair's pipeline key: `contact` or `contact.pairs[i]`.
+    pub key: String,
+    pub boundary: String,
+    /// Contact nodes kept, of the boundary's candidates.
+    pub nodes: usize,
+    pub candidates: usize,
+    /// Candidates dropped: off the obstacle, and farther than the search distance.
+    pub dropped: [usize; 2],
+    /// The smallest initial gap of the kept nodes (negative: penetration).
+    pub smallest_gap: f64,
+    /// Kept nodes that start inside the obstacle, and the deepest penetration (≥ 0).
+    pub penetrated_nodes: usize,
+    pub deepest_penetration: f64,
+    /// Against another body: its boundary group and how many of its nodes the rows touch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<(String, usize)>,
+}
+
 /// What `check` found.
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct CheckReport {
@@ -338,9 +360,13 @@ pub struct CheckReport {
     /// The smallest initial gap of the kept nodes (negative: penetration).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub smallest_gap: Option<f64>,
-    /// Against another body: its boundary group and how many of its nodes the pairs touch.
+    /// Against another body: its boundary group and how many of its nodes the pairs touch
+    /// (the first pair against a body).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<(String, usize)>,
+    /// Each contact pair's own counts (the fields above add them up over the pairs).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub contact_pairs: Vec<PairCheck>,
     /// The mesh's physical groups: name → what they hold.
     pub groups: std::collections::BTreeMap<String, GroupInfo>,
 }
@@ -366,11 +392,17 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
     }
     let (mesh, info) = (&scene.model.mesh, scene.mesh_info);
     // Every node of the contact group, held ones too (the model keeps the free ones).
-    let set = p
-        .contact
-        .as_ref()
-        .map(|spec| crate::contact::geometry::build_contact_set(mesh, &model::contact_scene(spec)))
-        .transpose()?;
+    let pairs = p.contact.as_ref().map_or(Ok(Vec::new()), |spec| {
+        spec.pairs
+            .iter()
+            .map(|pair| {
+                let set = build_contact_set(mesh, &model::contact_scene(pair))?;
+                Ok((pair, set))
+            })
+            .collect::<Result<Vec<_>>>()
+    })?;
+    let sets: Vec<ContactSet> = pairs.iter().map(|(_, s)| s.clone()).collect();
+    let set = (!pairs.is_empty()).then(|| ContactSet::concat(&sets));
     stages.run("check", || check_marches(p, mesh, reporter))?;
     let groups = mesh
         .node_groups
@@ -403,14 +435,32 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         smallest_gap: set
             .as_ref()
             .map(|s| s.gaps.iter().copied().fold(f64::INFINITY, f64::min)),
-        target: match (&p.contact, &set) {
-            (Some(c), Some(s)) => match &c.obstacle {
-                crate::config::ObstacleSpec::Body { group } => {
-                    Some((group.clone(), s.target_nodes.len()))
-                }
-                _ => None,
-            },
-            _ => None,
-        },
+        target: pairs.iter().find_map(|(pair, s)| target(pair, s)),
+        contact_pairs: pairs.iter().map(|(pair, s)| pair_check(pair, s)).collect(),
     })
+}
+
+/// A body obstacle's boundary and how many of its nodes the pair's rows touch.
+fn target(pair: &crate::config::ContactPair, set: &ContactSet) -> Option<(String, usize)> {
+    match &pair.obstacle {
+        crate::config::ObstacleSpec::Body { group } => {
+            Some((group.clone(), set.target_nodes.len()))
+        }
+        _ => None,
+    }
+}
+
+fn pair_check(pair: &crate::config::ContactPair, set: &ContactSet) -> PairCheck {
+    let (penetrated, deepest) = sanity::initial_penetration(set);
+    PairCheck {
+        key: pair.key.clone(),
+        boundary: pair.boundary.clone(),
+        nodes: set.nodes.len(),
+        candidates: set.candidates,
+        dropped: [set.dropped_off_obstacle, set.dropped_beyond_search],
+        smallest_gap: set.gaps.iter().copied().fold(f64::INFINITY, f64::min),
+        penetrated_nodes: penetrated,
+        deepest_penetration: deepest,
+        target: target(pair, set),
+    }
 }

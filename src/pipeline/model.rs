@@ -9,7 +9,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use crate::config::{
-    BasisSpec, ContactMass, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline,
+    BasisSpec, ContactMass, ContactPair, ContactSpec, LoadKind, LoadSpec, ObstacleSpec, Pipeline,
     PlaneModelSpec, Rotation,
 };
 use crate::contact::geometry::{build_contact_set, ContactScene, ContactSet, Obstacle};
@@ -68,7 +68,10 @@ pub struct Effects {
 }
 
 pub struct ContactModel {
+    /// Every pair's rows, in the order of `contact.pairs`.
     pub set: ContactSet,
+    /// Each pair's own set (its rows are consecutive in `set`, in this order).
+    pub pairs: Vec<ContactSet>,
     pub operator: ContactOperator,
     pub redistribution: Option<Redistribution>,
 }
@@ -166,14 +169,14 @@ pub fn check_groups(p: &Pipeline, mesh: &Mesh2d) -> Result<()> {
     if let crate::config::TransientStart::Rigid { group: Some(g), .. } = &p.transient.start {
         node_group(p, mesh, "transient.start.rigid.group", g)?;
     }
-    if let Some(c) = &p.contact {
-        node_group(p, mesh, "contact.boundary", &c.boundary)?;
-        match &c.obstacle {
+    for pair in p.contact.iter().flat_map(|c| &c.pairs) {
+        node_group(p, mesh, &format!("{}.boundary", pair.key), &pair.boundary)?;
+        match &pair.obstacle {
             ObstacleSpec::Curve { group } => {
-                node_group(p, mesh, "contact.obstacle.curve", group)?;
+                node_group(p, mesh, &format!("{}.obstacle.curve", pair.key), group)?;
             }
             ObstacleSpec::Body { group } => {
-                node_group(p, mesh, "contact.obstacle.body", group)?;
+                node_group(p, mesh, &format!("{}.obstacle.body", pair.key), group)?;
             }
             _ => {}
         }
@@ -205,15 +208,11 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let material = material(p);
     let stiffness = fem::assemble_stiffness(&mesh, &material)?;
     let dofs = dof_map(p, &mesh)?;
-    let contact_set = match &p.contact {
-        Some(spec) => {
-            let mut set = build_contact_set(&mesh, &contact_scene(spec))?;
-            set.drop_held(|d| dofs.free_index(d).is_some());
-            shift_gaps(spec, &mut set);
-            Some(set)
-        }
+    let pair_sets = match &p.contact {
+        Some(spec) => Some(contact_sets(spec, &mesh, &dofs)?),
         None => None,
     };
+    let contact_set = pair_sets.as_deref().map(ContactSet::concat);
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
     let stiffness = spin_softened(stiffness, &mass.matrix, p.boundaries.rotation);
     let coriolis = gyroscopic(&mass.matrix, p.boundaries.rotation);
@@ -240,14 +239,15 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         gyro,
     )?
     .with_basis(time_basis(p, purpose));
-    let contact = contact_set.map(|set| {
+    let contact = contact_set.zip(pair_sets).map(|(set, pairs)| {
         let mut operator = contact_operator(&set, &system.dofs);
         if let Some(spec) = &p.contact {
-            operator.gap_harmonics = gap_harmonics(spec, &set);
+            operator.gap_harmonics = all_gap_harmonics(spec, &pairs);
         }
         ContactModel {
             operator,
             set,
+            pairs,
             redistribution: mass.redistribution,
         }
     });
@@ -518,13 +518,45 @@ fn nodal_load(mesh: &Mesh2d, material: &Material, load: &LoadSpec, value: [f64; 
     }
 }
 
-/// The contact block as the contact module takes it.
-pub fn contact_scene(spec: &ContactSpec) -> ContactScene {
+/// A contact pair as the contact module takes it.
+pub fn contact_scene(pair: &ContactPair) -> ContactScene {
     ContactScene {
-        boundary: spec.boundary.clone(),
-        obstacle: obstacle(&spec.obstacle),
-        search_distance: spec.search_distance,
+        boundary: pair.boundary.clone(),
+        obstacle: obstacle(&pair.obstacle),
+        search_distance: pair.search_distance,
     }
+}
+
+/// Each pair's contact set: built, its held nodes dropped, its gaps shifted by a static
+/// obstacle offset.
+fn contact_sets(spec: &ContactSpec, mesh: &Mesh2d, dofs: &DofMap) -> Result<Vec<ContactSet>> {
+    spec.pairs
+        .iter()
+        .map(|pair| {
+            let mut set = build_contact_set(mesh, &contact_scene(pair))?;
+            set.drop_held(|d| dofs.free_index(d).is_some());
+            shift_gaps(pair, &mut set);
+            Ok(set)
+        })
+        .collect()
+}
+
+/// Every pair's gap harmonics (`gap_harmonics`) on the rows of all pairs (zero on the other
+/// pairs' rows).
+fn all_gap_harmonics(spec: &ContactSpec, sets: &[ContactSet]) -> BTreeMap<usize, Vec<c64>> {
+    let total: usize = sets.iter().map(|s| s.nodes.len()).sum();
+    let mut out: BTreeMap<usize, Vec<c64>> = BTreeMap::new();
+    let mut offset = 0;
+    for (pair, set) in spec.pairs.iter().zip(sets) {
+        for (k, rows) in gap_harmonics(pair, set) {
+            let all = out
+                .entry(k)
+                .or_insert_with(|| vec![c64::new(0.0, 0.0); total]);
+            all[offset..offset + rows.len()].copy_from_slice(&rows);
+        }
+        offset += set.nodes.len();
+    }
+    out
 }
 
 /// The pipeline's obstacle as the contact module takes it.
@@ -554,7 +586,7 @@ pub fn obstacle(spec: &ObstacleSpec) -> Obstacle {
 }
 
 /// A moving obstacle's constant offset d0 moves each gap by n_i·d0.
-fn shift_gaps(spec: &ContactSpec, set: &mut ContactSet) {
+fn shift_gaps(spec: &ContactPair, set: &mut ContactSet) {
     if let Some(d) = spec.motion.as_ref().map(|m| m.static_part) {
         for (g, n) in set.gaps.iter_mut().zip(&set.normals) {
             *g += n[0] * d[0] + n[1] * d[1];
@@ -566,7 +598,7 @@ fn shift_gaps(spec: &ContactSpec, set: &mut ContactSet) {
 /// gives n_i·d̂_k (d̂_k = cos_k − i sin_k); n lobes of amplitude δ turning once per period
 /// give ±δ e^{i(nθ_i + φ)} at k = n, θ_i the closest point's polar angle (+ for a body
 /// inside the circle, whose gap R(θ, t) − r grows with the radius; − outside).
-fn gap_harmonics(spec: &ContactSpec, set: &ContactSet) -> BTreeMap<usize, Vec<c64>> {
+fn gap_harmonics(spec: &ContactPair, set: &ContactSet) -> BTreeMap<usize, Vec<c64>> {
     let mut out: BTreeMap<usize, Vec<c64>> = BTreeMap::new();
     let nc = set.nodes.len();
     for &(k, cos, sin) in spec.motion.iter().flat_map(|m| &m.harmonics) {
@@ -620,8 +652,13 @@ fn describe_rotation(r: Rotation) -> String {
     )
 }
 
-/// How the summary names the scene's contact.
+/// How the summary names the scene's contact: each pair, joined by "; ".
 fn describe_contact(c: &ContactSpec) -> String {
+    let pairs: Vec<String> = c.pairs.iter().map(describe_pair).collect();
+    pairs.join("; ")
+}
+
+fn describe_pair(c: &ContactPair) -> String {
     match &c.obstacle {
         ObstacleSpec::Curve { group } => format!(
             "unilateral, `{}` against the rigid curve `{group}`",

@@ -64,19 +64,28 @@ pub fn write_run_plots(
     dir: &Path,
     model: &Model,
     sampled: &Sampled,
-    boundary: Option<&str>,
+    boundaries: &[&str],
     period: f64,
 ) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let mut figures = probe_figures(model, sampled, period);
-    if let (Some(_), Some(boundary)) = (&model.contact, boundary) {
+    if let Some(c) = &model.contact {
         if !sampled.history.contact.is_empty() {
             figures.push(("contact_force".into(), force_figure(sampled, period)));
-            let (fig, rows) = pressure_figure(model, sampled, boundary, period);
-            let header = ["node", "arc_length", "pressure", "force", "opening"];
-            let header: Vec<String> = header.iter().map(|h| h.to_string()).collect();
-            write_csv(&dir.join("contact_pressure.csv"), &header, &rows)?;
-            figures.push(("contact_pressure".into(), fig));
+            let mut offset = 0;
+            for (j, (pair, boundary)) in c.pairs.iter().zip(boundaries).enumerate() {
+                let rows = offset..offset + pair.nodes.len();
+                offset = rows.end;
+                let (fig, rows) = pressure_figure(model, sampled, boundary, rows, period);
+                let header = ["node", "arc_length", "pressure", "force", "opening"];
+                let header: Vec<String> = header.iter().map(|h| h.to_string()).collect();
+                let stem = match boundaries.len() {
+                    1 => "contact_pressure".to_string(),
+                    _ => format!("contact_pressure_{j}_{}", file_safe(boundary)),
+                };
+                write_csv(&dir.join(format!("{stem}.csv")), &header, &rows)?;
+                figures.push((stem, fig));
+            }
         }
     }
     let mut files = Vec::new();
@@ -148,12 +157,27 @@ fn force_figure(sampled: &Sampled, period: f64) -> Figure {
     }
 }
 
-/// `contact_pressure`: the pressure along the boundary at the instant of the largest total
-/// force, and its rows (node, s, p, F, opening) sorted by arc length.
+/// A group name as a file-name part: letters, digits, `-` and `_` kept, the rest `_`.
+fn file_safe(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// `contact_pressure`: the pressure along one pair's boundary (its contact rows `pair`) at
+/// the instant of the largest total force, and its rows (node, s, p, F, opening) sorted by
+/// arc length.
 fn pressure_figure(
     model: &Model,
     sampled: &Sampled,
     boundary: &str,
+    pair: std::ops::Range<usize>,
     period: f64,
 ) -> (Figure, Vec<Vec<f64>>) {
     let h = &sampled.history;
@@ -162,16 +186,20 @@ fn pressure_figure(
         .max_by(|&a, &b| totals[a].total_cmp(&totals[b]))
         .unwrap_or(0);
     let state = &h.contact[peak];
-    let nodes = model.contact.as_ref().map_or(&[][..], |c| &c.set.nodes[..]);
+    let nodes = model
+        .contact
+        .as_ref()
+        .map_or(&[][..], |c| &c.set.nodes[pair.clone()]);
     let s = arc_lengths(&model.mesh, boundary, nodes);
     let mut rows: Vec<Vec<f64>> = nodes
         .iter()
+        .zip(pair)
         .enumerate()
-        .map(|(i, &n)| {
+        .map(|(j, (&n, i))| {
             let f = state.force[i];
             vec![
                 n as f64,
-                s[i],
+                s[j],
                 nodal_pressure(model, i, f),
                 f,
                 -state.gap[i],

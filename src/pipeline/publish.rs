@@ -70,6 +70,11 @@ pub fn plots(
     dir: &Path,
     period: f64,
 ) -> Result<()> {
-    let boundary = p.contact.as_ref().map(|c| c.boundary.as_str());
-    plots::write_run_plots(dir, model, sampled, boundary, period).map(|_| ())
+    let boundaries: Vec<&str> = p
+        .contact
+        .iter()
+        .flat_map(|c| &c.pairs)
+        .map(|pair| pair.boundary.as_str())
+        .collect();
+    plots::write_run_plots(dir, model, sampled, &boundaries, period).map(|_| ())
 }

@@ -339,15 +339,16 @@ impl Sampled {
         write_probes(&dir.join("probes.csv"), model, h)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
             write_contact_history(&dir.join("contact.csv"), model, &h.times, &h.contact)?;
-            let outline =
-                obstacle_outline(&model.mesh, &super::model::obstacle(&spec.obstacle), &c.set);
-            // A body obstacle is in the mesh itself: no outline.
-            if !outline.points.is_empty() {
-                write_lines_vtu(
-                    &dir.join("obstacle.vtu"),
-                    &outline.points,
-                    &outline.segments,
-                )?;
+            // Every rigid obstacle's outline in one file; a body obstacle is in the mesh itself.
+            let (mut points, mut segments) = (Vec::new(), Vec::new());
+            for (pair, set) in spec.pairs.iter().zip(&c.pairs) {
+                let o = obstacle_outline(&model.mesh, &super::model::obstacle(&pair.obstacle), set);
+                let base = points.len();
+                segments.extend(o.segments.iter().map(|[a, b]| [a + base, b + base]));
+                points.extend(o.points);
+            }
+            if !points.is_empty() {
+                write_lines_vtu(&dir.join("obstacle.vtu"), &points, &segments)?;
                 write_pvd(&dir.join("obstacle.pvd"), &[(0.0, "obstacle.vtu".into())])?;
             }
         }
@@ -517,14 +518,19 @@ fn contact_fields(model: &Model, state: &ContactState, closed_tolerance: f64) ->
     let nn = model.mesh.nodes.len();
     let (mut opening, mut force) = (vec![0.0; nn], vec![0.0; nn]);
     let (mut pressure, mut series) = (vec![0.0; nn], vec![0.0; nn]);
-    let mut status = vec![-1.0; nn];
+    let mut status = vec![-1.0f64; nn];
     let closed = |i: usize| f64::from(u8::from(state.closed(i, closed_tolerance)));
+    // A node of several pairs gets the sum of their forces, the smallest opening and closed
+    // if any row is.
+    for &n in &c.set.nodes {
+        opening[n] = f64::INFINITY;
+    }
     for (i, &n) in c.set.nodes.iter().enumerate() {
-        opening[n] = -state.gap[i];
-        force[n] = state.force[i];
-        series[n] = state.series[i];
-        pressure[n] = nodal_pressure(model, i, state.force[i]);
-        status[n] = closed(i);
+        opening[n] = opening[n].min(-state.gap[i]);
+        force[n] += state.force[i];
+        series[n] += state.series[i];
+        pressure[n] += nodal_pressure(model, i, state.force[i]);
+        status[n] = status[n].max(closed(i));
     }
     for &a in &c.set.target_nodes {
         opening[a] = f64::INFINITY;

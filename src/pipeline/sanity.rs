@@ -158,14 +158,21 @@ fn parts(mesh: &Mesh2d) -> Vec<(usize, usize)> {
 /// Whether the scene's contact is between two bodies and every part of the mesh holds a node
 /// of its boundary or of its target (the parts are the bodies that contact joins).
 fn contact_joins_parts(p: &Pipeline, mesh: &Mesh2d) -> bool {
-    let Some(c) = &p.contact else {
+    let groups: Vec<&String> = p
+        .contact
+        .iter()
+        .flat_map(|c| &c.pairs)
+        .filter_map(|pair| match &pair.obstacle {
+            crate::config::ObstacleSpec::Body { group } => Some([&pair.boundary, group]),
+            _ => None,
+        })
+        .flatten()
+        .collect();
+    if groups.is_empty() {
         return false;
-    };
-    let crate::config::ObstacleSpec::Body { group } = &c.obstacle else {
-        return false;
-    };
+    }
     let roots_of = mesh.part_roots();
-    let touched: std::collections::BTreeSet<usize> = [&c.boundary, group]
+    let touched: std::collections::BTreeSet<usize> = groups
         .into_iter()
         .filter_map(|g| mesh.node_groups.get(g))
         .flatten()
@@ -783,9 +790,15 @@ pub fn check_penetration_of(
         .as_ref()
         .is_some_and(|c| c.allow_initial_penetration);
     if !allowed {
-        let boundary = p.contact.as_ref().map_or("", |c| c.boundary.as_str());
+        let boundaries: Vec<String> = p
+            .contact
+            .iter()
+            .flat_map(|c| &c.pairs)
+            .map(|pair| format!("`{}`", pair.boundary))
+            .collect();
+        let boundary = boundaries.join(", ");
         return Err(input(p, format!(
-            "{count} of {} contact nodes of `{boundary}` start inside the obstacle, the deepest by {depth:.3e} m (a strain of {strain:.2}% of the body's size {size:.3e} m, beyond small-strain elasticity's {}%): is the obstacle on the wrong side of the body (a line's normal points out of the obstacle toward the body; a circle's body_inside), or the geometry off by a unit or a sign? If the interference is meant (a preload), set contact.allow_initial_penetration: true",
+            "{count} of {} contact nodes of {boundary} start inside the obstacle, the deepest by {depth:.3e} m (a strain of {strain:.2}% of the body's size {size:.3e} m, beyond small-strain elasticity's {}%): is the obstacle on the wrong side of the body (a line's normal points out of the obstacle toward the body; a circle's body_inside), or the geometry off by a unit or a sign? If the interference is meant (a preload), set contact.allow_initial_penetration: true",
             set.gaps.len(),
             100.0 * SMALL_STRAIN
         )));
