@@ -275,3 +275,47 @@ fn a_study_over_the_lobe_amplitude_presses_harder_with_deeper_lobes() {
         forces[1]
     );
 }
+
+/// TEST GOAL: a study runs over the rotation speed of the turning blade (tests/data/
+/// rotation_speed.yaml: 90, 100, 110 rev/s, the drive frequency moving with it point by point,
+/// and with it the centrifugal force, the spin softening and the lobes' harmonic): every point
+/// succeeds, the mean contact force grows with the speed as the centrifugal force throws the
+/// tip outward (measured 907, 942, 982 N), and the 100 rev/s point equals a plain run of the
+/// shipped scene to 1e-9.
+#[test]
+fn a_study_over_the_rotation_speed_presses_the_tip_harder_as_it_turns_faster() {
+    let out = common::temp_out("rotation-speed-study");
+    let out_arg = out.display().to_string();
+    let r = common::hbcontact(&["study", "tests/data/rotation_speed.yaml", "--out", &out_arg]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (mean, status) = (col("mean_contact_force"), col("status"));
+    let forces: Vec<f64> = lines
+        .map(|l| {
+            let r: Vec<&str> = l.split(',').collect();
+            assert_eq!(r[status], "ok", "{r:?}");
+            r[mean].parse().unwrap()
+        })
+        .collect();
+    println!("mean contact force over the rotation speed: {forces:?}");
+    assert_eq!(forces.len(), 3);
+    assert!(forces[0] < forces[1] && forces[1] < forces[2], "{forces:?}");
+    let shipped = run(
+        "run",
+        "pipelines/blade_lobed_casing.yaml",
+        "speed-shipped",
+        &[],
+    );
+    let plain = number(
+        &common::read_json(&shipped.join("summary.json")),
+        "/contact/mean_contact_force",
+    );
+    assert!(
+        relative(forces[1], plain) < 1e-9,
+        "{} vs {plain}",
+        forces[1]
+    );
+}
