@@ -29,6 +29,22 @@ fn total_force(path: &Path) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The mean contact force of every point of a study's study.csv, each point asserted ok.
+fn mean_forces_of_study(out: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (mean, status) = (col("mean_contact_force"), col("status"));
+    lines
+        .map(|l| {
+            let r: Vec<&str> = l.split(',').collect();
+            assert_eq!(r[status], "ok", "{r:?}");
+            r[mean].parse().unwrap()
+        })
+        .collect()
+}
+
 /// |c_k| of a series over one period, sampled uniformly.
 fn spectrum(values: &[f64], top: usize) -> Vec<f64> {
     let n = values.len() as f64;
@@ -245,20 +261,8 @@ fn a_study_over_the_lobe_amplitude_presses_harder_with_deeper_lobes() {
     let out_arg = out.display().to_string();
     let r = common::hbcontact(&["study", "tests/data/lobe_amplitude.yaml", "--out", &out_arg]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (mean, status) = (col("mean_contact_force"), col("status"));
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 3);
-    let forces: Vec<f64> = rows
-        .iter()
-        .map(|r| {
-            assert_eq!(r[status], "ok", "{r:?}");
-            r[mean].parse().unwrap()
-        })
-        .collect();
+    let forces = mean_forces_of_study(&out);
+    assert_eq!(forces.len(), 3);
     println!("mean contact force over the lobe amplitude: {forces:?}");
     assert!(forces[0] < forces[1] && forces[1] < forces[2], "{forces:?}");
     let shipped = run(
@@ -288,18 +292,7 @@ fn a_study_over_the_rotation_speed_presses_the_tip_harder_as_it_turns_faster() {
     let out_arg = out.display().to_string();
     let r = common::hbcontact(&["study", "tests/data/rotation_speed.yaml", "--out", &out_arg]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (mean, status) = (col("mean_contact_force"), col("status"));
-    let forces: Vec<f64> = lines
-        .map(|l| {
-            let r: Vec<&str> = l.split(',').collect();
-            assert_eq!(r[status], "ok", "{r:?}");
-            r[mean].parse().unwrap()
-        })
-        .collect();
+    let forces = mean_forces_of_study(&out);
     println!("mean contact force over the rotation speed: {forces:?}");
     assert_eq!(forces.len(), 3);
     assert!(forces[0] < forces[1] && forces[1] < forces[2], "{forces:?}");

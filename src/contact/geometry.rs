@@ -95,23 +95,28 @@ impl ContactSet {
         self.dropped_held += keep.iter().filter(|&&k| !k).count();
     }
 
-    /// The sets of several contact pairs as one, their rows in order (a rigid pair's rows get
-    /// no targets; a target node several pairs touch keeps its largest tributary length).
-    pub fn concat(sets: &[ContactSet]) -> ContactSet {
-        let mut out = ContactSet {
+    /// A set without rows, of `candidates` boundary nodes.
+    fn empty(candidates: usize) -> ContactSet {
+        ContactSet {
             nodes: Vec::new(),
             normals: Vec::new(),
             gaps: Vec::new(),
             closest: Vec::new(),
             tributary: Vec::new(),
-            candidates: 0,
+            candidates,
             dropped_off_obstacle: 0,
             dropped_beyond_search: 0,
             dropped_held: 0,
             targets: Vec::new(),
             target_nodes: Vec::new(),
             target_tributary: Vec::new(),
-        };
+        }
+    }
+
+    /// The sets of several contact pairs as one, their rows in order (a rigid pair's rows get
+    /// no targets; a target node several pairs touch keeps its largest tributary length).
+    pub fn concat(sets: &[ContactSet]) -> ContactSet {
+        let mut out = ContactSet::empty(0);
         let any_targets = sets.iter().any(|s| !s.targets.is_empty());
         let mut tributary = std::collections::BTreeMap::new();
         for s in sets {
@@ -418,20 +423,7 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
         _ => None,
     };
     let outward = outward_normals(mesh, &spec.boundary);
-    let mut set = ContactSet {
-        nodes: Vec::new(),
-        normals: Vec::new(),
-        gaps: Vec::new(),
-        closest: Vec::new(),
-        tributary: Vec::new(),
-        candidates: candidates.len(),
-        dropped_off_obstacle: 0,
-        dropped_beyond_search: 0,
-        dropped_held: 0,
-        targets: Vec::new(),
-        target_nodes: Vec::new(),
-        target_tributary: Vec::new(),
-    };
+    let mut set = ContactSet::empty(candidates.len());
     let mut smallest_gap = f64::INFINITY;
     for &n in candidates {
         let x = mesh.nodes[n];

@@ -177,6 +177,50 @@ fn harmonic_balance_start(
     Ok((start, verdict))
 }
 
+/// Where `hbcontact transient` starts (`transient.start`) and, from a harmonic-balance state,
+/// that state's Floquet verdict.
+fn transient_start(
+    p: &Pipeline,
+    model: &Model,
+    mesh_info: &summary::MeshInfo,
+    out: &std::path::Path,
+    stages: &mut Stages,
+    warnings: &mut Vec<String>,
+) -> Result<(
+    Option<crate::transient::InitialState>,
+    Option<stability::Stability>,
+)> {
+    Ok(match &p.transient.start {
+        TransientStart::Rest => (None, None),
+        TransientStart::Rigid {
+            group,
+            displacement,
+            velocity,
+        } => {
+            let nodes = match group {
+                Some(g) => {
+                    model::node_group(p, &model.mesh, "transient.start.rigid.group", g)?.clone()
+                }
+                None => (0..model.mesh.nodes.len()).collect(),
+            };
+            let start = rigid_start(&model.system.dofs, &nodes, *displacement, *velocity);
+            (Some(start.scaled(1.0 + p.transient.perturbation)), None)
+        }
+        TransientStart::State(path) => {
+            let free = model.system.dofs.free.len();
+            (Some(end_state::read_named(path, p, mesh_info, free)?), None)
+        }
+        TransientStart::HarmonicBalance => {
+            let (start, verdict) = harmonic_balance_start(p, model, stages, warnings)?;
+            (Some(start), verdict)
+        }
+        TransientStart::Previous => {
+            let free = model.system.dofs.free.len();
+            (Some(end_state::read(out, p, mesh_info, free)?), None)
+        }
+    })
+}
+
 /// A rigid offset and velocity of `nodes` on the free dofs, every other dof at rest.
 fn rigid_start(
     dofs: &crate::fem::DofMap,
@@ -226,38 +270,8 @@ pub fn run_transient(
         mesh_info,
         mut warnings,
     } = scene;
-    let (initial, floquet) = match &p.transient.start {
-        TransientStart::Rest => (None, None),
-        TransientStart::Rigid {
-            group,
-            displacement,
-            velocity,
-        } => {
-            let nodes = match group {
-                Some(g) => {
-                    model::node_group(p, &model.mesh, "transient.start.rigid.group", g)?.clone()
-                }
-                None => (0..model.mesh.nodes.len()).collect(),
-            };
-            let start = rigid_start(&model.system.dofs, &nodes, *displacement, *velocity);
-            (Some(start.scaled(1.0 + p.transient.perturbation)), None)
-        }
-        TransientStart::State(path) => {
-            let free = model.system.dofs.free.len();
-            (
-                Some(end_state::read_named(path, p, &mesh_info, free)?),
-                None,
-            )
-        }
-        TransientStart::HarmonicBalance => {
-            let (start, verdict) = harmonic_balance_start(p, &model, &mut stages, &mut warnings)?;
-            (Some(start), verdict)
-        }
-        TransientStart::Previous => {
-            let free = model.system.dofs.free.len();
-            (Some(end_state::read(&out, p, &mesh_info, free)?), None)
-        }
-    };
+    let (initial, floquet) =
+        transient_start(p, &model, &mesh_info, &out, &mut stages, &mut warnings)?;
     let (marching, result) = {
         let _armed = options
             .keep_interrupted_march

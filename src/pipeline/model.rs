@@ -214,31 +214,19 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     };
     let contact_set = pair_sets.as_deref().map(ContactSet::concat);
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
-    let stiffness = spin_softened(stiffness, &mass.matrix, p.boundaries.rotation);
-    let coriolis = gyroscopic(&mass.matrix, p.boundaries.rotation);
     let (inputs, prescribed_motion) = harmonic_inputs(p, &mesh, &material, &dofs)?;
     let inputs = with_body_forces(p, &mesh, &mass.matrix, &dofs, inputs);
-    let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
-    let rayleigh = p
-        .damping
-        .map(|d| (d.alpha, d.beta))
-        .filter(|&(a, b)| a != 0.0 || b != 0.0);
     let excited: Vec<usize> = inputs
         .iter()
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
         .map(|(&k, _)| k)
         .collect();
-    let gyro = coriolis.as_ref().map(|(speed, g)| (*speed, g));
-    let system = System::new(
-        dofs,
-        &stiffness,
-        &mass.matrix,
-        rayleigh,
-        omega,
-        inputs,
-        gyro,
-    )?
-    .with_basis(time_basis(p, purpose));
+    let rayleigh = p
+        .damping
+        .map(|d| (d.alpha, d.beta))
+        .filter(|&(a, b)| a != 0.0 || b != 0.0);
+    let system = system(p, (dofs, stiffness, &mass.matrix), rayleigh, inputs)?
+        .with_basis(time_basis(p, purpose));
     let contact = contact_set.zip(pair_sets).map(|(set, pairs)| {
         let mut operator = contact_operator(&set, &system.dofs);
         if let Some(spec) = &p.contact {
@@ -285,6 +273,21 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         effects,
         probes,
     })
+}
+
+/// The per-harmonic system at the pipeline's frequency: the stiffness with the rotating
+/// frame's spin softening, and its Coriolis matrix where simulated.
+fn system(
+    p: &Pipeline,
+    (dofs, stiffness, mass): (DofMap, Triplets, &Triplets),
+    rayleigh: Option<(f64, f64)>,
+    inputs: BTreeMap<usize, HarmonicInput>,
+) -> Result<System> {
+    let stiffness = spin_softened(stiffness, mass, p.boundaries.rotation);
+    let coriolis = gyroscopic(mass, p.boundaries.rotation);
+    let gyro = coriolis.as_ref().map(|(speed, g)| (*speed, g));
+    let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
+    System::new(dofs, &stiffness, mass, rayleigh, omega, inputs, gyro)
 }
 
 /// Free and prescribed dofs: every dof of a cell's node is free unless `boundaries.fixed` or

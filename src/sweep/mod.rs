@@ -234,6 +234,20 @@ pub fn resume(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Re
     execute(p, options, true, reporter)
 }
 
+/// A sweep does not take the Coriolis force yet: refused (exit 2) naming the key.
+fn refuse_coriolis(p: &Pipeline) -> Result<()> {
+    if !p.boundaries.rotation.is_some_and(|r| r.coriolis) {
+        return Ok(());
+    }
+    Err(Error::Config {
+        path: p.source.clone(),
+        message: "boundaries.rotation.coriolis: a sweep does not take the Coriolis force yet \
+                  (its reduced frames and its Floquet checks assume a symmetric Z_k); set it \
+                  false, or solve the frequencies one by one with `run` or a `study`"
+            .into(),
+    })
+}
+
 fn execute(
     p: &Pipeline,
     options: &RunOptions,
@@ -246,15 +260,7 @@ fn execute(
             "the pipeline has no `sweep` block: add one, e.g. `sweep: {from: 1100, to: 1400}` (Hz)"
                 .into(),
     })?;
-    if p.boundaries.rotation.is_some_and(|r| r.coriolis) {
-        return Err(Error::Config {
-            path: p.source.clone(),
-            message: "boundaries.rotation.coriolis: a sweep does not take the Coriolis force yet \
-                      (its reduced frames and its Floquet checks assume a symmetric Z_k); set it \
-                      false, or solve the frequencies one by one with `run` or a `study`"
-                .into(),
-        });
-    }
+    refuse_coriolis(p)?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
     let (scene, mut stages) = pipeline::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
