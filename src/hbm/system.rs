@@ -1,8 +1,8 @@
 //! The discrete linear system per harmonic: Dirichlet elimination, the dynamic stiffness
 //! Z_k = K + s_k (D + G) + q_k M with D = αM + βK and G the gyroscopic (Coriolis) matrix of a
 //! rotating frame, G = 2Ω M⊗J (J = [[0, −1], [1, 0]] per node pair, skew: Gᵀ = −G), its
-//! factorizations (one symbolic analysis shared by
-//! every harmonic), and the harmonic loads, including those that prescribed motion induces.
+//! factorizations (one symbolic analysis shared by every harmonic), and the harmonic loads,
+//! including those that prescribed motion induces.
 //!
 //! The symbols s_k = iσ_k, q_k come from the time basis (`basis::TimeBasis::symbols`, their one
 //! home): Fourier gives s_k = ikω, q_k = −k²ω² (Z_k = K − k²ω²M + ikωD); a spline basis gives
@@ -435,7 +435,7 @@ impl System {
                 a * kx + b * mx
             })
             .collect();
-        // G is skew: row j of G is minus its column j.
+        // G is not symmetric: its own product, not the column gather above.
         if let Some(g) = &self.gyroscopic {
             let s = c64::new(0.0, self.symbols(k).damping);
             let gx = g.g_ff.mul_complex(x);
@@ -446,7 +446,7 @@ impl System {
         out
     }
 
-    /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = (∂q_k/∂ω) M + i(∂σ_k/∂ω)(αM + βK) (Fourier:
+    /// ∂Z_k/∂ω x + ∂Z_k,fp/∂ω u_p with ∂Z_k/∂ω = (∂q_k/∂ω) M + i(∂σ_k/∂ω)(αM + βK + G) (Fourier:
     /// −2k²ω M + ik(αM + βK)): how the dynamic stiffness of harmonic k acting on the state
     /// changes with ω (the sweep's R_ω).
     pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
