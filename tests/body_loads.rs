@@ -268,8 +268,9 @@ fn the_coriolis_force_moves_the_lobed_casing_response_alike_in_harmonic_balance_
 }
 
 /// TEST GOAL: where the Coriolis force is not taken yet it is refused or said, never
-/// silently dropped: a sweep refuses it naming the key (exit 2), and a contact run's
-/// stability verdict comes from the marching, with the reason in the warnings.
+/// silently dropped: a contact sweep on reduced frames refuses it naming the key (exit 2),
+/// and a contact run's stability verdict comes from the marching, with the reason in the
+/// warnings.
 #[test]
 fn the_coriolis_force_is_refused_by_sweeps_and_judged_by_marching() {
     let r = common::hbcontact(&[

@@ -186,8 +186,8 @@ pub(super) struct RawRotation {
     pub(super) spin_softening: Option<bool>,
     /// The Coriolis (gyroscopic) force 2Ω ẑ × u̇ per unit mass, 2ΩMJu̇ in the velocity term:
     /// it couples the in-plane directions and splits pairs of modes. Z_k is then not
-    /// symmetric (factored by LU), sweeps refuse it, and the stability check marches (Hill's
-    /// method does not take it yet). Default: false.
+    /// symmetric (factored by LU), a contact sweep needs `sweep.reduced_frames: false`, and
+    /// the stability check marches (Hill's method does not take it yet). Default: false.
     #[serde(default)]
     pub(super) coriolis: bool,
 }

@@ -190,6 +190,7 @@ impl FloquetModel {
     /// The reduction of `system` (free dofs, diagonal mass with massless contact dofs) for
     /// the contact operator `b` (n_c × free) and the contact nodes `nodes` that may close.
     pub fn new(system: &System, b: &Csc, nodes: &[usize]) -> Result<FloquetModel> {
+        refuse_gyroscopic(system)?;
         let (k, m) = (&system.k_ff, &system.m_ff);
         let massless = massless_dofs(m)?;
         check_massless_contact(b, &massless)?;
@@ -392,6 +393,20 @@ pub fn closed_nodes<'a>(segments: impl IntoIterator<Item = &'a Segment>) -> Vec<
     nodes.sort_unstable();
     nodes.dedup();
     nodes
+}
+
+/// The modal Floquet models (this one and Hill's) keep each mode's damping to itself; the
+/// Coriolis force couples the modes, so a gyroscopic system is refused (its states are then
+/// judged by marching).
+pub fn refuse_gyroscopic(system: &System) -> Result<()> {
+    match system.gyroscopic {
+        Some(_) => Err(Error::Model(
+            "the Floquet models (Hill's and the monodromy's modal reduction) do not take the \
+             Coriolis force yet"
+                .into(),
+        )),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]

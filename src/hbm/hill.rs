@@ -123,6 +123,7 @@ pub struct HillModel {
 impl HillModel {
     /// The `modes` lowest modes of `system` (free dofs) seen through the contact operator `b`.
     pub fn new(system: &System, b: &Csc, modes: usize) -> Result<HillModel> {
+        super::floquet::refuse_gyroscopic(system)?;
         let (k, m) = (&system.k_ff, &system.m_ff);
         let massive = (0..m.ncols)
             .filter(|&j| (m.col_ptr[j]..m.col_ptr[j + 1]).any(|p| m.values[p] != 0.0))

@@ -330,13 +330,7 @@ pub fn by_floquet_state(
     contact: &ContactSolution,
     segments: &[Segment],
 ) -> Result<Stability> {
-    if model.system.gyroscopic.is_some() {
-        return Err(Error::Model(
-            "the Floquet models (Hill's and the monodromy's modal reduction) do not take the \
-             Coriolis force yet"
-                .into(),
-        ));
-    }
+    floquet::refuse_gyroscopic(&model.system)?;
     match hill {
         Some(hill) if contact.compliance.is_some() => by_hill(hill, contact, omega),
         _ => by_floquet(model, segments, omega),

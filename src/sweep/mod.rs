@@ -234,16 +234,18 @@ pub fn resume(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Re
     execute(p, options, true, reporter)
 }
 
-/// A sweep does not take the Coriolis force yet: refused (exit 2) naming the key.
-fn refuse_coriolis(p: &Pipeline) -> Result<()> {
-    if !p.boundaries.rotation.is_some_and(|r| r.coriolis) {
+/// A contact sweep's reduced frames stand on the pencil of K and M, which the Coriolis force
+/// leaves: with it they are refused (exit 2) naming the key that turns them off.
+fn refuse_coriolis(p: &Pipeline, spec: &SweepSpec) -> Result<()> {
+    let coriolis = p.boundaries.rotation.is_some_and(|r| r.coriolis);
+    if !(coriolis && p.contact.is_some() && spec.reduced_frames) {
         return Ok(());
     }
     Err(Error::Config {
         path: p.source.clone(),
-        message: "boundaries.rotation.coriolis: a sweep does not take the Coriolis force yet \
-                  (its reduced frames and its Floquet checks assume a symmetric Z_k); set it \
-                  false, or solve the frequencies one by one with `run` or a `study`"
+        message: "boundaries.rotation.coriolis: the sweep's reduced frames assume a symmetric \
+                  Z_k, which the Coriolis force is not; set sweep.reduced_frames: false (exact \
+                  frames take it; the points are then judged by time marching)"
             .into(),
     })
 }
@@ -260,7 +262,7 @@ fn execute(
             "the pipeline has no `sweep` block: add one, e.g. `sweep: {from: 1100, to: 1400}` (Hz)"
                 .into(),
     })?;
-    refuse_coriolis(p)?;
+    refuse_coriolis(p, &spec)?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
     let (scene, mut stages) = pipeline::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
