@@ -48,6 +48,25 @@ fn contacts(steps: &[(f64, f64)]) -> Vec<(f64, f64)> {
     out
 }
 
+/// The contact intervals of `steps`, the first asserted to begin at `start` (within one step)
+/// and to last `tau` (within 1%, counting its last step).
+fn assert_first_contact(steps: &[(f64, f64)], start: f64, tau: f64) -> Vec<(f64, f64)> {
+    let dt = steps[1].0 - steps[0].0;
+    let hits = contacts(steps);
+    assert!(!hits.is_empty(), "no contact");
+    assert!(
+        (hits[0].0 - start).abs() < 1.5 * dt,
+        "first impact {} against {start} (step {dt:e} s)",
+        hits[0].0
+    );
+    let duration = hits[0].1 - hits[0].0 + dt;
+    assert!(
+        relative(duration, tau) < 0.01,
+        "contact {duration:e} s against 2L/c {tau:e} s"
+    );
+    hits
+}
+
 /// The median of the force while in contact.
 fn plateau(steps: &[(f64, f64)], during: (f64, f64)) -> f64 {
     let mut f: Vec<f64> = steps
@@ -98,23 +117,12 @@ fn a_bar_dropped_under_gravity_meets_the_stop_and_rebounds_as_the_wave_theory_sa
         2.0 * L / (E / RHO).sqrt(),
     );
     let steps = contact_steps(&dir);
-    let dt = steps[1].0 - steps[0].0;
-    let hits = contacts(&steps);
-    println!("contacts {hits:?}, step {dt:e} s; t1 {t1:e}, tau {tau:e}, v0 {v0:e}");
+    let hits = assert_first_contact(&steps, t1, tau);
+    println!("contacts {hits:?}; t1 {t1:e}, tau {tau:e}, v0 {v0:e}");
     assert_eq!(
         hits.len(),
         2,
         "one impact, one rebound, a second impact: {hits:?}"
-    );
-    assert!(
-        (hits[0].0 - t1).abs() < 1.5 * dt,
-        "first impact {} against {t1}",
-        hits[0].0
-    );
-    let duration = hits[0].1 - hits[0].0 + dt;
-    assert!(
-        relative(duration, tau) < 0.01,
-        "contact {duration:e} s against 2L/c {tau:e} s"
     );
     let force = plateau(&steps, hits[0]);
     let expected = RHO * (E / RHO).sqrt() * v0 * H;
@@ -136,20 +144,8 @@ fn a_bar_thrown_by_a_rigid_start_leaves_the_stop_after_two_wave_transits_with_it
 ) {
     let dir = run("transient", "tests/data/thrown_bar.yaml", "thrown-bar", &[]);
     let tau = 2.0 * L / (E / RHO).sqrt();
-    let steps = contact_steps(&dir);
-    let dt = steps[1].0 - steps[0].0;
-    let hits = contacts(&steps);
+    let hits = assert_first_contact(&contact_steps(&dir), 1e-5, tau);
     assert_eq!(hits.len(), 1, "{hits:?}");
-    assert!(
-        (hits[0].0 - 1e-5).abs() < 1.5 * dt,
-        "impact at {}",
-        hits[0].0
-    );
-    let duration = hits[0].1 - hits[0].0 + dt;
-    assert!(
-        relative(duration, tau) < 0.01,
-        "contact {duration:e} s, 2L/c {tau:e} s"
-    );
     let probes = probes_x(&dir);
     for column in [1, 2] {
         let before: Vec<(f64, f64)> = probes

@@ -406,17 +406,22 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
     }
     let (mesh, info) = (&scene.model.mesh, scene.mesh_info);
     // Every node of the contact group, held ones too (the model keeps the free ones).
-    let pairs = p.contact.as_ref().map_or(Ok(Vec::new()), |spec| {
-        spec.pairs
-            .iter()
-            .map(|pair| {
-                let set = build_contact_set(mesh, &model::contact_scene(pair))?;
-                Ok((pair, set))
-            })
-            .collect::<Result<Vec<_>>>()
-    })?;
-    let sets: Vec<ContactSet> = pairs.iter().map(|(_, s)| s.clone()).collect();
-    let set = (!pairs.is_empty()).then(|| ContactSet::concat(&sets));
+    let pairs = p
+        .contact
+        .iter()
+        .flat_map(|spec| &spec.pairs)
+        .map(|pair| {
+            let set = build_contact_set(mesh, &model::contact_scene(pair))?;
+            Ok(pair_check(pair, &set))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    // The totals over the pairs (`None` without contact).
+    let total = |f: &dyn Fn(&PairCheck) -> usize| {
+        (!pairs.is_empty()).then(|| pairs.iter().map(f).sum::<usize>())
+    };
+    let extreme = |f: &dyn Fn(&PairCheck) -> f64, pick: fn(f64, f64) -> f64, from: f64| {
+        (!pairs.is_empty()).then(|| pairs.iter().map(f).fold(from, pick))
+    };
     stages.run("check", || check_marches(p, mesh, reporter))?;
     let groups = mesh
         .node_groups
@@ -439,18 +444,16 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
         gmsh,
         groups,
         mesh: info,
-        contact_nodes: set.as_ref().map(|s| s.nodes.len()),
-        contact_candidates: set.as_ref().map(|s| s.candidates),
-        penetrated_nodes: set.as_ref().map(|s| sanity::initial_penetration(s).0),
-        deepest_penetration: set.as_ref().map(|s| sanity::initial_penetration(s).1),
-        contact_dropped: set
-            .as_ref()
-            .map(|s| [s.dropped_off_obstacle, s.dropped_beyond_search]),
-        smallest_gap: set
-            .as_ref()
-            .map(|s| s.gaps.iter().copied().fold(f64::INFINITY, f64::min)),
-        target: pairs.iter().find_map(|(pair, s)| target(pair, s)),
-        contact_pairs: pairs.iter().map(|(pair, s)| pair_check(pair, s)).collect(),
+        contact_nodes: total(&|c| c.nodes),
+        contact_candidates: total(&|c| c.candidates),
+        penetrated_nodes: total(&|c| c.penetrated_nodes),
+        deepest_penetration: extreme(&|c| c.deepest_penetration, f64::max, 0.0),
+        contact_dropped: total(&|c| c.dropped[0])
+            .zip(total(&|c| c.dropped[1]))
+            .map(|(a, b)| [a, b]),
+        smallest_gap: extreme(&|c| c.smallest_gap, f64::min, f64::INFINITY),
+        target: pairs.iter().find_map(|c| c.target.clone()),
+        contact_pairs: pairs,
     })
 }
 

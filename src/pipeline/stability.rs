@@ -330,7 +330,6 @@ pub fn by_floquet_state(
     contact: &ContactSolution,
     segments: &[Segment],
 ) -> Result<Stability> {
-    floquet::refuse_gyroscopic(&model.system)?;
     match hill {
         Some(hill) if contact.compliance.is_some() => by_hill(hill, contact, omega),
         _ => by_floquet(model, segments, omega),
