@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use hbcontact::config::load_pipeline;
-use hbcontact::pipeline::{self, RunOptions, Summary};
+use hbcontact::pipeline::{self, RunOptions, Stage, Summary};
 use hbcontact::Silent;
 
 /// The probe's axial first-harmonic amplitude (smooth in H, unlike the peak).
@@ -102,7 +102,7 @@ fn main() {
         let a = probe_amplitude(&s);
         let err = (a - a_ref).abs() / a_ref;
         let st = &s.stage_seconds;
-        let share = |k: &str| 100.0 * st.get(k) / st.total();
+        let share = |k: Stage| 100.0 * st.get(k) / st.total();
         let iterations = s
             .contact
             .as_ref()
@@ -110,11 +110,11 @@ fn main() {
             .map_or(0, |c| c.newton_iterations);
         println!(
             "{h:>4} {a:>10.4e} {err:>10.2e} {secs:>9.3} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8} {:>14.1}",
-            share("factor"),
-            share("reduce"),
-            share("newton"),
-            share("recover"),
-            share("write"),
+            share(Stage::Factor),
+            share(Stage::Reduce),
+            share(Stage::Newton),
+            share(Stage::Recover),
+            share(Stage::Write),
             iterations,
             t_transient / secs
         );

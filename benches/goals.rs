@@ -22,7 +22,7 @@ use hbcontact::hbm::system::{FactorOptions, FactorPath};
 use hbcontact::hbm::System;
 use hbcontact::linalg::schur::{SchurPlan, BLOCKED_SOLVE_WEIGHT, SCHUR_SLOWDOWN};
 use hbcontact::linalg::{Csc, Factor};
-use hbcontact::pipeline::{self, Purpose, RunOptions, Stages, Summary};
+use hbcontact::pipeline::{self, Purpose, RunOptions, Stage, Stages, Summary};
 use hbcontact::Silent;
 
 fn root() -> PathBuf {
@@ -269,12 +269,12 @@ fn whole() {
     );
     println!(
         "{wall:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>6}",
-        st.get("mesh"),
-        st.get("factor"),
-        st.get("reduce"),
-        st.get("newton"),
-        st.get("recover"),
-        st.get("write"),
+        st.get(Stage::Mesh),
+        st.get(Stage::Factor),
+        st.get(Stage::Reduce),
+        st.get(Stage::Newton),
+        st.get(Stage::Recover),
+        st.get(Stage::Write),
         iterations(&s),
     );
     println!("(second of two runs, mesh cached, without the stability check; factor includes G_k where the LDLᵀ was chosen)");
@@ -303,9 +303,9 @@ fn patch() {
         println!(
             "{h:>4} {:>6} {:>8.3} {:>8.3} {:>8.3} {wall:>8.2} {:>14.6e} {:>14.6e}",
             iterations(&s),
-            st.get("factor"),
-            st.get("newton"),
-            st.get("knob_check"),
+            st.get(Stage::Factor),
+            st.get(Stage::Newton),
+            st.get(Stage::KnobCheck),
             c.map_or(f64::NAN, |c| c.peak_contact_force),
             c.map_or(f64::NAN, |c| c.mean_contact_force),
         );
@@ -333,14 +333,14 @@ fn run(file: &str, sets: &[String], tag: &str) -> Option<(Summary, f64)> {
 
 /// The solve stages (assembly to recovery: no meshing, resonance or stability checks, or
 /// writing) of a run; the knob check is part of the solve, apart from its Newton.
-const SOLVE_STAGES: [&str; 7] = [
-    "assemble",
-    "factor",
-    "linear_solve",
-    "reduce",
-    "newton",
-    "knob_check",
-    "recover",
+const SOLVE_STAGES: [Stage; 7] = [
+    Stage::Assemble,
+    Stage::Factor,
+    Stage::LinearSolve,
+    Stage::Reduce,
+    Stage::Newton,
+    Stage::KnobCheck,
+    Stage::Recover,
 ];
 
 /// The knob check's second c and the change there ("c/3 0.68%", "3c 0.45%", or "none" where
@@ -411,7 +411,7 @@ fn strip() {
                 )
             })
             .map(|(s, _)| {
-                let solve: f64 = SOLVE_STAGES.iter().map(|k| s.stage_seconds.get(k)).sum();
+                let solve: f64 = SOLVE_STAGES.iter().map(|&k| s.stage_seconds.get(k)).sum();
                 (solve, s)
             })
             .collect();
@@ -424,15 +424,15 @@ fn strip() {
         let slowest = runs.last().map_or(f64::NAN, |r| r.0);
         println!(
             "{h:>3} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {:>9.3} {solve:>9.3} {prototype:>10.2} {:>9.1}× {:>8} {:>11.0}% {:>13.0}% {:>6}   (solve {fastest:.3}–{slowest:.3} s over {} runs)",
-            st.get("assemble"),
-            st.get("factor"),
-            st.get("newton"),
-            st.get("knob_check"),
-            st.get("recover"),
+            st.get(Stage::Assemble),
+            st.get(Stage::Factor),
+            st.get(Stage::Newton),
+            st.get(Stage::KnobCheck),
+            st.get(Stage::Recover),
             prototype / solve,
             "≥ 10×",
-            100.0 * st.get("newton") / solve,
-            100.0 * (st.get("newton") + st.get("knob_check")) / solve,
+            100.0 * st.get(Stage::Newton) / solve,
+            100.0 * (st.get(Stage::Newton) + st.get(Stage::KnobCheck)) / solve,
             iterations(s),
             runs.len(),
         );

@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use hbcontact::config::load_pipeline;
-use hbcontact::pipeline::{self, RunOptions, Summary};
+use hbcontact::pipeline::{self, RunOptions, Stage, Summary};
 use hbcontact::Silent;
 
 fn main() {
@@ -91,9 +91,9 @@ fn main() {
         println!(
             "| {name} | {unknowns} | {:.2} | {:.2} / {:.2} / {:.2} | {} | {} | {} | {:.4} |",
             t.total(),
-            t.get("factor"),
-            t.get("newton"),
-            t.get("write"),
+            t.get(Stage::Factor),
+            t.get(Stage::Newton),
+            t.get(Stage::Write),
             error(amplitude(&s), amplitude(&marching)),
             error(c.mean_contact_force, reference.mean_contact_force),
             error(c.peak_contact_force, reference.peak_contact_force),

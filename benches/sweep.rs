@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use hbcontact::pipeline::load_pipeline;
-use hbcontact::pipeline::{self, RunOptions};
+use hbcontact::pipeline::{self, RunOptions, Stage};
 use hbcontact::Silent;
 
 fn main() {
@@ -47,7 +47,9 @@ fn main() {
         q.harmonic_balance.frequency = 1500.0;
         q.stability.check = false;
         match pipeline::run(&q, &options("cold", true), &Silent) {
-            Ok(r) => cold = r.summary.stage_seconds.total() - r.summary.stage_seconds.get("mesh"),
+            Ok(r) => {
+                cold = r.summary.stage_seconds.total() - r.summary.stage_seconds.get(Stage::Mesh)
+            }
             Err(e) => return eprintln!("cold run: {e}"),
         }
     }
@@ -57,7 +59,7 @@ fn main() {
         Err(e) => return eprintln!("sweep: {e}"),
     };
     let wall = t.elapsed().as_secs_f64();
-    let sweep = s.stage_seconds.get("sweep");
+    let sweep = s.stage_seconds.get(Stage::Sweep);
     let per_point = sweep / s.points as f64;
     let t = &s.solver_seconds;
     let share = |v: f64| 100.0 * v / sweep;
@@ -79,8 +81,8 @@ fn main() {
     );
     println!(
         "stability check (a separate stage): {:.1} s for {checked} checked points, {:.2} s each",
-        s.stage_seconds.get("stability"),
-        s.stage_seconds.get("stability") / checked.max(1) as f64
+        s.stage_seconds.get(Stage::Stability),
+        s.stage_seconds.get(Stage::Stability) / checked.max(1) as f64
     );
     println!(
         "sets of factorizations: {sets} ({:.1} per point); points per minute {:.0}",
@@ -96,7 +98,7 @@ fn main() {
         Ok(r) => r.summary,
         Err(e) => return eprintln!("factored sweep: {e}"),
     };
-    let factored_point = factored.stage_seconds.get("sweep") / factored.points as f64;
+    let factored_point = factored.stage_seconds.get(Stage::Sweep) / factored.points as f64;
     let r = &s.reduced_frames;
     println!(
         "reduced model: r = {}, {} frames, {} points re-solved on factorizations; every frame factored instead (`sweep.reduced_frames: false`): {factored_point:.3} s per point, {:.2}x a cold run, {:.2}x the reduced frames' point",

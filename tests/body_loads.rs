@@ -295,3 +295,26 @@ fn the_coriolis_force_is_refused_by_sweeps_and_judged_by_marching() {
     assert!(err.contains("Coriolis force yet"), "{err}");
     assert!(err.contains("judged by time marching"), "{err}");
 }
+
+/// TEST GOAL: the rotation speed is given once: a fixed `speed` or `turns_per_period` (the
+/// speed following the frequency); both, or neither, are refused (exit 2) naming the two keys
+/// and the file.
+#[test]
+fn a_rotation_speed_given_twice_or_not_at_all_is_refused_naming_both_keys() {
+    for rotation in [
+        "boundaries.rotation={speed: 100.0, turns_per_period: 1.0}",
+        "boundaries.rotation={center: [0.0, 0.0]}",
+    ] {
+        let r = common::hbcontact(&[
+            "check",
+            "pipelines/blade_lobed_casing.yaml",
+            "--set",
+            rotation,
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{rotation}: {err}");
+        for needle in ["blade_lobed_casing.yaml", "`speed`", "`turns_per_period`"] {
+            assert!(err.contains(needle), "{rotation}: {err}");
+        }
+    }
+}

@@ -464,6 +464,10 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
     ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
     ("boundaries.rotation", &["boundaries.rotation={speed: 1.0}"]),
     (
+        "boundaries.rotation.turns_per_period",
+        &["boundaries.rotation={turns_per_period: 1.0}"],
+    ),
+    (
         "contact.obstacle.circle.lobes",
         &["contact.obstacle={circle: {center: [0.0, 0.0], radius: 1.0, lobes: {count: 1, amplitude: 0.0}}}"],
     ),

@@ -401,7 +401,7 @@ fn grazing_contact_converges_with_a_tiny_active_set() {
 
 /// TEST GOAL: a tip preloaded 1 µm into the wall stays closed at every sample of every node
 /// (contact fraction 1), its mean contact force is the static force of the strip pushed back
-/// by 1 µm, E/(1−ν²)·H·|g0|/L (plane strain, uniaxial stress), within 1% (measured 0.17%: the
+/// by 1 µm, E/(1−ν²)·H·|g0|/L (plane strain, uniaxial stress), within 0.35% (measured 0.17%: the
 /// clamp's restraint of the lateral contraction), and no knob warning fires on the
 /// vanishing vibration of closed nodes.
 #[test]
@@ -415,7 +415,7 @@ fn preloaded_contact_stays_closed_all_period_and_carries_the_static_force() {
         "mean force against the static estimate: {d:.2e}; warnings {:?}",
         r.warnings()
     );
-    assert!(d < 1e-2, "{d:e}");
+    assert!(d < 3.5e-3, "{d:e}");
     assert!(r.warnings().is_empty(), "{:?}", r.warnings());
 }
 
@@ -457,7 +457,7 @@ fn a_pressed_contact_patch_converges_at_forty_harmonics_and_agrees_with_five() {
 }
 
 /// TEST GOAL: the half-disc with about 300 contact nodes (contact size 1 mm) converges, and
-/// its mean contact force is within 1% of the 2 mm mesh's at the same H (measured 2.4e-3).
+/// its mean contact force is within 0.5% of the 2 mm mesh's at the same H (measured 2.4e-3).
 #[test]
 fn hundreds_of_contact_nodes_converge_and_agree_with_the_coarser_mesh() {
     let fine = run(&pipeline("fine_mesh"), "fine", &[]);
@@ -471,7 +471,7 @@ fn hundreds_of_contact_nodes_converge_and_agree_with_the_coarser_mesh() {
     let force = "/contact/mean_contact_force";
     let d = relative(fine.number(force), coarse.number(force));
     eprintln!("{kept} contact nodes; mean force against lc_contact = 2 mm: {d:.2e}");
-    assert!(d < 1e-2, "{d:e}");
+    assert!(d < 5e-3, "{d:e}");
 }
 
 // ---------------------------------------------------------------------------------------
@@ -535,13 +535,25 @@ fn undamped_cantilever_at_its_natural_frequency_stops_naming_damping() {
 }
 
 /// TEST GOAL: the strip without any damping, 1.6% below its first axial mode, either
-/// converges (finite output) or stops with exit 4 naming damping.beta.
+/// converges or stops with exit 4 naming damping.beta; converged, its state is the limit of
+/// vanishing damping: the probe's first harmonic and the mean contact force equal those of
+/// the same scene at β = 1e-10 s (ζ = 2e-6) to 1e-6 (measured 1.4e-8 and 8.8e-9).
 #[test]
 fn undamped_contact_near_resonance_converges_or_names_damping() {
     let r = run(&pipeline("undamped_contact"), "undamped-contact", &[]);
     if r.ok() {
-        eprintln!("converged, probe {:e}", r.probe_x());
-        assert!(r.probe_x() > 0.0);
+        let light = run(
+            &pipeline("undamped_contact"),
+            "undamped-contact-light",
+            &["damping={alpha: 0.0, beta: 1.0e-10}"],
+        );
+        let force = "/contact/mean_contact_force";
+        let (dx, df) = (
+            relative(r.probe_x(), light.probe_x()),
+            relative(r.number(force), light.number(force)),
+        );
+        eprintln!("converged; against β = 1e-10: probe {dx:.1e}, mean force {df:.1e}");
+        assert!(dx < 1e-6 && df < 1e-6, "{dx:e} {df:e}");
     } else {
         assert_eq!(r.code(), Some(4), "{}", r.stderr);
         assert!(r.stderr.contains("damping.beta"), "{}", r.stderr);

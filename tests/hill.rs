@@ -169,7 +169,10 @@ fn hill_dense_and_arnoldi_keep_the_same_copies_near_a_period_doubling() {
     let contact = solution.contact.as_ref().unwrap();
     let b = &model.contact.as_ref().unwrap().operator.b_free;
     let full = HillModel::new(&model.system, b, hbcontact::hbm::hill::MODES).unwrap();
-    let hill = full.truncated(full.modes_for(solution.omega, contact.harmonics));
+    let hill = full.truncated(
+        full.modes_for(solution.omega, contact.harmonics),
+        solution.omega,
+    );
     let compliance = contact.compliance.as_ref().expect("the solve keeps G_k");
     let law = SampledLaw::of(contact);
     let [dense, arnoldi] = [Eigen::Dense, Eigen::Arnoldi].map(|eigen| {

@@ -281,7 +281,7 @@ fn a_study_over_the_lobe_amplitude_presses_harder_with_deeper_lobes() {
 }
 
 /// TEST GOAL: a study runs over the rotation speed of the turning blade (tests/data/
-/// rotation_speed.yaml: 90, 100, 110 rev/s, the drive frequency moving with it point by point,
+/// rotation_speed.yaml: 90, 100, 110 rev/s, `turns_per_period: 1` moving the speed with the frequency,
 /// and with it the centrifugal force, the spin softening and the lobes' harmonic): every point
 /// succeeds, the mean contact force grows with the speed as the centrifugal force throws the
 /// tip outward (measured 907, 942, 982 N), and the 100 rev/s point equals a plain run of the

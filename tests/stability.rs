@@ -4,7 +4,7 @@
 mod common;
 
 use hbcontact::pipeline::stability::{Method, Verdict};
-use hbcontact::pipeline::RunOptions;
+use hbcontact::pipeline::{RunOptions, Stage};
 use hbcontact::sweep;
 use hbcontact::Silent;
 
@@ -82,7 +82,7 @@ fn linear_scene_is_judged_by_its_damping_and_the_check_can_be_turned_off() {
     let s = run("cantilever", &[], "stability-linear");
     let v = s.stability.expect("a verdict");
     assert_eq!((v.verdict, v.method), (Verdict::Stable, Method::Linear));
-    assert_eq!(s.stage_seconds.get("stability"), 0.0);
+    assert_eq!(s.stage_seconds.get(Stage::Stability), 0.0);
     let s = run(
         "strip_sweep",
         &["geometry.parameters.lc=0.025", "stability.check=false"],
@@ -90,7 +90,7 @@ fn linear_scene_is_judged_by_its_damping_and_the_check_can_be_turned_off() {
     );
     let v = s.stability.expect("a verdict");
     assert_eq!(v.verdict, Verdict::NotChecked);
-    assert_eq!(s.stage_seconds.get("stability"), 0.0);
+    assert_eq!(s.stage_seconds.get(Stage::Stability), 0.0);
 }
 
 /// TEST GOAL: along the strip's stiffened resonance (5% damping) the verdicts follow the

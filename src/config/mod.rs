@@ -138,12 +138,39 @@ pub struct Boundaries {
 /// The rotating frame: speed Ω [rad/s] about `center`, and which of its effects are simulated.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rotation {
-    pub speed: f64,
+    pub speed: RotationSpeed,
     pub center: [f64; 2],
     pub centrifugal: bool,
     pub spin_softening: bool,
     /// The Coriolis force 2ΩMJu̇ (the sense of rotation matters: Ω > 0 counter-clockwise).
     pub coriolis: bool,
+}
+
+/// How fast the frame turns: at a fixed speed, or tied to the fundamental frequency.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RotationSpeed {
+    /// Ω [rad/s], whatever the frequency.
+    Fixed(f64),
+    /// Ω = τ ω: τ turns per period (a sweep sweeps the speed with the frequency).
+    TurnsPerPeriod(f64),
+}
+
+impl Rotation {
+    /// Ω [rad/s] at the fundamental frequency `frequency_hz`.
+    pub fn speed_at(&self, frequency_hz: f64) -> f64 {
+        match self.speed {
+            RotationSpeed::Fixed(w) => w,
+            RotationSpeed::TurnsPerPeriod(t) => t * 2.0 * std::f64::consts::PI * frequency_hz,
+        }
+    }
+
+    /// τ when the speed follows the frequency (Ω = τ ω).
+    pub fn turns_per_period(&self) -> Option<f64> {
+        match self.speed {
+            RotationSpeed::Fixed(_) => None,
+            RotationSpeed::TurnsPerPeriod(t) => Some(t),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

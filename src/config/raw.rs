@@ -171,8 +171,16 @@ pub(super) struct RawBoundaries {
 #[schemars(rename = "Rotation")]
 pub(super) struct RawRotation {
     /// The rotation speed Ω about +z, in rad/s: positive counter-clockwise (the sense
-    /// matters only to the Coriolis force). Required.
-    pub(super) speed: f64,
+    /// matters only to the Coriolis force). Give this or `turns_per_period`.
+    #[serde(default)]
+    pub(super) speed: Option<f64>,
+    /// The speed tied to the fundamental frequency f: Ω = 2π f × this (1: one period is one
+    /// turn, so a lobed casing or an engine-order load excites harmonic n of Ω). A sweep then
+    /// sweeps the rotation speed with the frequency, and the centrifugal force, the spin
+    /// softening and the Coriolis force follow it. Give this or `speed`; negative turns
+    /// clockwise.
+    #[serde(default)]
+    pub(super) turns_per_period: Option<f64>,
     /// The axis' point [x, y], a length. Default: [0, 0].
     #[serde(default)]
     pub(super) center: [f64; 2],

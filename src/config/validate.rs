@@ -395,17 +395,36 @@ fn validate_boundaries(path: &Path, b: RawBoundaries) -> Result<Boundaries> {
         prescribed,
         loads,
         gravity: b.gravity.filter(|g| *g != [0.0; 2]),
-        rotation: rotation
-            .filter(|r| r.speed != 0.0 && (r.centrifugal || r.spin_softening || r.coriolis)),
+        rotation: rotation.filter(|r| {
+            r.speed_at(1.0) != 0.0 && (r.centrifugal || r.spin_softening || r.coriolis)
+        }),
     })
 }
 
 fn validate_rotation(path: &Path, r: RawRotation) -> Result<Rotation> {
     let field = "boundaries.rotation";
-    finite(path, &format!("{field}.speed"), r.speed)?;
+    let speed = match (r.speed, r.turns_per_period) {
+        (Some(w), None) => {
+            finite(path, &format!("{field}.speed"), w)?;
+            RotationSpeed::Fixed(w)
+        }
+        (None, Some(t)) => {
+            finite(path, &format!("{field}.turns_per_period"), t)?;
+            RotationSpeed::TurnsPerPeriod(t)
+        }
+        (w, _) => {
+            let what = if w.is_some() { "both" } else { "neither" };
+            return Err(Error::Config {
+                path: path.to_path_buf(),
+                message: format!(
+                    "{field}: {what} of `speed` and `turns_per_period` given; give one: `speed` (rad/s) for a fixed speed, `turns_per_period` (e.g. 1) for a speed that follows the frequency"
+                ),
+            });
+        }
+    };
     finite_all(path, &format!("{field}.center"), &r.center)?;
     Ok(Rotation {
-        speed: r.speed,
+        speed,
         center: r.center,
         centrifugal: r.centrifugal.unwrap_or(true),
         spin_softening: r.spin_softening.unwrap_or(true),

@@ -137,6 +137,10 @@ fn start_block(system: &System, b: &Csc, harmonics: usize) -> Vec<Vec<f64>> {
         }
         push_parts(&mut out, loads);
     }
+    // A speed that follows ω moves harmonic 0's load along M(x − c).
+    if let Some(unit) = system.spin.as_ref().and_then(|s| s.centrifugal.clone()) {
+        push_parts(&mut out, vec![unit]);
+    }
     out
 }
 

@@ -118,6 +118,9 @@ pub struct HillModel {
     e: DMatrix<f64>,
     alpha: f64,
     beta: f64,
+    /// (τ, Ω_ref) of a spin-softened frame whose speed follows ω: θ_j at ω is
+    /// θ_j + Ω_ref² − τ²ω² (the modes of K + sM are those of K, shifted by s).
+    spin: Option<(f64, f64)>,
 }
 
 impl HillModel {
@@ -136,11 +139,13 @@ impl HillModel {
             crate::linalg::dot(&rows[i], &found[j].1)
         });
         let (alpha, beta) = system.rayleigh.unwrap_or((0.0, 0.0));
+        let spin = system.spin.as_ref().filter(|s| s.softening);
         Ok(HillModel {
             theta,
             e,
             alpha,
             beta,
+            spin: spin.map(|s| (s.turns, s.reference)),
         })
     }
 
@@ -151,6 +156,7 @@ impl HillModel {
             e,
             alpha,
             beta,
+            spin: None,
         }
     }
 
@@ -159,14 +165,24 @@ impl HillModel {
         self.theta.len()
     }
 
-    /// The same model keeping its `r` lowest modes dynamic.
-    pub fn truncated(&self, r: usize) -> HillModel {
+    /// The shift of every θ_j at ω (zero unless the speed follows ω).
+    fn shift(&self, omega: f64) -> f64 {
+        self.spin.map_or(0.0, |(turns, reference)| {
+            reference.powi(2) - (turns * omega).powi(2)
+        })
+    }
+
+    /// The model at ω keeping its `r` lowest modes dynamic (a following speed's spin
+    /// softening applied at ω).
+    pub fn truncated(&self, r: usize, omega: f64) -> HillModel {
         let r = r.min(self.dim());
+        let shift = self.shift(omega);
         HillModel {
-            theta: self.theta[..r].to_vec(),
+            theta: self.theta[..r].iter().map(|t| t + shift).collect(),
             e: self.e.columns(0, r).into_owned(),
             alpha: self.alpha,
             beta: self.beta,
+            spin: None,
         }
     }
 
@@ -174,10 +190,11 @@ impl HillModel {
     /// `BAND`·ω (at least `MIN_MODES`), within the budget 2rM ≤ `ORDER`.
     pub fn modes_for(&self, omega: f64, harmonics: usize) -> usize {
         let m = 2 * harmonics + 1;
+        let shift = self.shift(omega);
         let in_band = self
             .theta
             .iter()
-            .filter(|&&t| t.max(0.0).sqrt() <= BAND * omega)
+            .filter(|&&t| (t + shift).max(0.0).sqrt() <= BAND * omega)
             .count();
         let budget = (ORDER / (2 * m)).max(1);
         in_band.max(MIN_MODES).min(budget).min(self.dim())

@@ -44,7 +44,7 @@ use crate::{Error, Result};
 pub use problem::ReducedProblem;
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings};
 pub use solution::{Complementarity, ContactSolution, Snapshot, Solution, Timings};
-pub use system::{HarmonicInput, System};
+pub use system::{HarmonicInput, Spin, System};
 
 #[derive(Clone, Debug)]
 pub struct HbSettings {

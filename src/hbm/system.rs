@@ -4,6 +4,13 @@
 //! factorizations (one symbolic analysis shared by every harmonic), and the harmonic loads,
 //! including those that prescribed motion induces.
 //!
+//! A frame whose speed follows ω (Ω = τω, `Spin`) is built at Ω_ref = τω_ref: K holds
+//! K₀ − Ω_ref²M, G holds 2Ω_ref M⊗J and harmonic 0's load the centrifugal force Ω_ref² M(x − c).
+//! At another ω the stiffness is K + s M with s = Ω_ref² − Ω², so its Rayleigh damping
+//! αM + β(K + sM) moves α by βs; G scales by Ω/Ω_ref; the load gains (Ω² − Ω_ref²) M(x − c).
+//! Every harmonic is then Z_k = a K + b M + c G with (`System::coefficients`)
+//! a = 1 + iσ_kβ, b = q_k + s + iσ_k(α + βs), c = iσ_k Ω/Ω_ref (s = 0, Ω = Ω_ref otherwise).
+//!
 //! The symbols s_k = iσ_k, q_k come from the time basis (`basis::TimeBasis::symbols`, their one
 //! home): Fourier gives s_k = ikω, q_k = −k²ω² (Z_k = K − k²ω²M + ikωD); a spline basis gives
 //! its per-discrete-frequency symbols, and scales loads and prescribed motion by its
@@ -43,6 +50,8 @@ pub struct System {
     /// with the frame's speed Ω: `None` without a Coriolis force. G makes Z_k non-symmetric,
     /// so it is factored by LU only and the pencil of K and M (`pencil`) no longer holds.
     pub gyroscopic: Option<Gyroscopic>,
+    /// A rotating frame whose speed follows ω (`None`: a fixed speed, or none).
+    pub spin: Option<Spin>,
     /// Harmonic index → load and prescribed motion (only the harmonics the scene excites).
     pub inputs: BTreeMap<usize, HarmonicInput>,
     /// The time basis (Fourier unless `with_basis` says otherwise).
@@ -66,6 +75,54 @@ pub struct Gyroscopic {
     pub speed: f64,
     pub g_ff: Csc,
     pub g_fp: Csc,
+}
+
+/// A rotating frame turning τ times per period (Ω = τω), whose matrices were built at
+/// Ω_ref = `reference`.
+#[derive(Clone, Debug)]
+pub struct Spin {
+    /// τ, turns per period.
+    pub turns: f64,
+    /// Ω_ref [rad/s], the speed K, G and the loads were built at.
+    pub reference: f64,
+    /// Whether K holds the spin softening −Ω_ref²M.
+    pub softening: bool,
+    /// M(x − c) on the free dofs, the centrifugal force per Ω² (`None`: not simulated).
+    pub centrifugal: Option<Vec<c64>>,
+}
+
+impl Spin {
+    /// Ω at ω.
+    pub fn speed(&self, omega: f64) -> f64 {
+        self.turns * omega
+    }
+
+    /// The stiffness shift s = Ω_ref² − Ω² at ω and ds/dω (zero without spin softening).
+    fn shift(&self, omega: f64) -> (f64, f64) {
+        match self.softening {
+            true => (
+                self.reference.powi(2) - self.speed(omega).powi(2),
+                -2.0 * self.turns * self.turns * omega,
+            ),
+            false => (0.0, 0.0),
+        }
+    }
+
+    /// Ω/Ω_ref at ω and its derivative in ω (G's scale).
+    fn scale(&self, omega: f64) -> (f64, f64) {
+        (
+            self.speed(omega) / self.reference,
+            self.turns / self.reference,
+        )
+    }
+}
+
+/// Z_k = a K + b M + c G (G at its reference speed), or the coefficients' rates in ω.
+#[derive(Clone, Copy, Debug)]
+pub struct Coefficients {
+    pub a: c64,
+    pub b: c64,
+    pub c: c64,
 }
 
 /// A right-hand side and its solution.
@@ -142,6 +199,7 @@ impl System {
             k_fp,
             m_fp,
             gyroscopic,
+            spin: None,
             inputs,
             basis: TimeBasis::Fourier,
             pattern: OnceLock::new(),
@@ -149,6 +207,43 @@ impl System {
             plain: OnceLock::new(),
             row_sums: OnceLock::new(),
         })
+    }
+
+    /// The same system with a speed that follows ω.
+    pub fn with_spin(mut self, spin: Option<Spin>) -> Self {
+        self.spin = spin;
+        self
+    }
+
+    /// The same system as a fixed-speed model at ω (`omega` set; a following speed's
+    /// matrices and centrifugal load rebuilt at Ω(ω)), for the consumers that take K, G and
+    /// the loads as they stand (time marching).
+    pub fn at_frequency(&self, omega: f64) -> System {
+        let mut out = self.clone();
+        out.omega = omega;
+        let Some(spin) = out.spin.take() else {
+            return out;
+        };
+        let (s, _) = spin.shift(omega);
+        out.k_ff = self.combination(1.0, s);
+        out.k_fp = out.k_fp.plus_scaled(&out.m_fp, s);
+        if let Some(g) = out.gyroscopic.as_mut() {
+            let (scale, _) = spin.scale(omega);
+            g.speed *= scale;
+            g.g_ff.values.iter_mut().for_each(|v| *v *= scale);
+            g.g_fp.values.iter_mut().for_each(|v| *v *= scale);
+        }
+        if let (Some(unit), Some(input)) = (&spin.centrifugal, out.inputs.get_mut(&0)) {
+            let grow = spin.speed(omega).powi(2) - spin.reference.powi(2);
+            input
+                .force
+                .iter_mut()
+                .zip(unit)
+                .for_each(|(f, u)| *f += u * grow);
+        }
+        // The caches stand on K's values (row sums) or only its pattern (kept).
+        out.row_sums = OnceLock::new();
+        out
     }
 
     /// The same system on another time basis.
@@ -171,30 +266,50 @@ impl System {
         self.basis.symbols(k, self.omega)
     }
 
-    /// Z_k = a K + b M: (a, b) = (1 + i s_k β, q_k + i s_k α) at this ω (Rayleigh damping
-    /// keeps every harmonic in the pencil of K and M; a reduced model of it serves them all).
+    /// Z_k = a K + b M: (a, b) = (1 + iσ_kβ, q_k + s + iσ_k(α + βs)) at this ω (Rayleigh
+    /// damping keeps every harmonic in the pencil of K and M; a reduced model of it serves
+    /// them all). Without the Coriolis matrix (c = 0) this is all of Z_k.
     pub fn pencil(&self, k: usize) -> (c64, c64) {
         self.pencil_at(k, self.omega)
     }
 
-    /// ∂(a, b)/∂ω of `pencil`: (i s_k' β, q_k' + i s_k' α).
+    /// ∂(a, b)/∂ω of `pencil`.
     pub fn pencil_rate(&self, k: usize) -> (c64, c64) {
-        let sym = self.symbols(k);
-        let (alpha, beta) = self.damping_at(&sym);
-        (
-            c64::new(0.0, sym.damping_rate * beta),
-            c64::new(sym.mass_rate, sym.damping_rate * alpha),
-        )
+        let r = self.coefficient_rates(k, self.omega);
+        (r.a, r.b)
     }
 
     /// `pencil` at another ω.
     pub fn pencil_at(&self, k: usize, omega: f64) -> (c64, c64) {
+        let c = self.coefficients(k, omega);
+        (c.a, c.b)
+    }
+
+    /// (a, b, c) of Z_k = a K + b M + c G at ω (the module header's formulas).
+    pub fn coefficients(&self, k: usize, omega: f64) -> Coefficients {
         let sym = self.basis.symbols(k, omega);
-        let (alpha, beta) = self.damping_at(&sym);
-        (
-            c64::new(1.0, sym.damping * beta),
-            c64::new(sym.mass, sym.damping * alpha),
-        )
+        let (alpha_s, beta) = self.damping_shifted(&sym, omega);
+        let (s, _) = self.shift(omega);
+        let (g, _) = self.spin.as_ref().map_or((1.0, 0.0), |sp| sp.scale(omega));
+        Coefficients {
+            a: c64::new(1.0, sym.damping * beta),
+            b: c64::new(sym.mass + s, sym.damping * alpha_s),
+            c: c64::new(0.0, sym.damping * g),
+        }
+    }
+
+    /// ∂(a, b, c)/∂ω of `coefficients`.
+    pub fn coefficient_rates(&self, k: usize, omega: f64) -> Coefficients {
+        let sym = self.basis.symbols(k, omega);
+        let (alpha_s, beta) = self.damping_shifted(&sym, omega);
+        let (_, ds) = self.shift(omega);
+        let (g, dg) = self.spin.as_ref().map_or((1.0, 0.0), |sp| sp.scale(omega));
+        let damping = sym.damping_rate * alpha_s + sym.damping * beta * ds;
+        Coefficients {
+            a: c64::new(0.0, sym.damping_rate * beta),
+            b: c64::new(sym.mass_rate + ds, damping),
+            c: c64::new(0.0, sym.damping_rate * g + sym.damping * dg),
+        }
     }
 
     /// (a K + b M)⁻¹ x for real columns `x`: the plain LDLᵀ, or the LU where it fails.
@@ -220,6 +335,18 @@ impl System {
         out
     }
 
+    /// The spin's stiffness shift s and ds/dω at ω (zero without a following speed).
+    fn shift(&self, omega: f64) -> (f64, f64) {
+        self.spin.as_ref().map_or((0.0, 0.0), |sp| sp.shift(omega))
+    }
+
+    /// (α + βs, β) where the damping term acts, else zero: the Rayleigh damping of the
+    /// stiffness K + sM at ω.
+    fn damping_shifted(&self, sym: &Symbols, omega: f64) -> (f64, f64) {
+        let (alpha, beta) = self.damping_at(sym);
+        (alpha + beta * self.shift(omega).0, beta)
+    }
+
     /// (α, β) where the damping term acts (s_k ≠ 0), else zero.
     fn damping_at(&self, sym: &Symbols) -> (f64, f64) {
         self.rayleigh
@@ -242,23 +369,23 @@ impl System {
     /// Z_k as (real part, imaginary part on the same pattern); `None` imaginary when undamped
     /// or s_k = 0.
     pub fn dynamic_stiffness(&self, k: usize) -> (Csc, Option<Vec<f64>>) {
+        let c = self.coefficients(k, self.omega);
         let sym = self.symbols(k);
-        let re = self.combination(1.0, sym.mass);
-        let mut im: Option<Vec<f64>> =
-            self.rayleigh
-                .filter(|_| sym.damping != 0.0)
-                .map(|(alpha, beta)| {
-                    self.k_ff
-                        .values
-                        .iter()
-                        .zip(&self.m_ff.values)
-                        .map(|(kv, mv)| sym.damping * (beta * kv + alpha * mv))
-                        .collect()
-                });
-        if let Some(g) = self.gyroscopic.as_ref().filter(|_| sym.damping != 0.0) {
+        let re = self.combination(c.a.re, c.b.re);
+        // σ(βK + α_s M) entry by entry (α_s = α + βs).
+        let (alpha, beta) = self.damping_shifted(&sym, self.omega);
+        let mut im: Option<Vec<f64>> = self.rayleigh.filter(|_| sym.damping != 0.0).map(|_| {
+            self.k_ff
+                .values
+                .iter()
+                .zip(&self.m_ff.values)
+                .map(|(kv, mv)| sym.damping * (beta * kv + alpha * mv))
+                .collect()
+        });
+        if let Some(g) = self.gyroscopic.as_ref().filter(|_| c.c.im != 0.0) {
             let im = im.get_or_insert_with(|| vec![0.0; g.g_ff.values.len()]);
             for (v, gv) in im.iter_mut().zip(&g.g_ff.values) {
-                *v += sym.damping * gv;
+                *v += c.c.im * gv;
             }
         }
         (re, im)
@@ -437,7 +564,7 @@ impl System {
             .collect();
         // G is not symmetric: its own product, not the column gather above.
         if let Some(g) = &self.gyroscopic {
-            let s = c64::new(0.0, self.symbols(k).damping);
+            let s = self.coefficients(k, self.omega).c;
             let gx = g.g_ff.mul_complex(x);
             for (o, v) in out.iter_mut().zip(gx) {
                 *o += s * v;
@@ -451,7 +578,7 @@ impl System {
     /// changes with ω (the sweep's R_ω).
     pub fn omega_derivative(&self, k: usize, x: &[c64], motion: &[c64]) -> Vec<c64> {
         let mut out = self.pencil_rate_times(k, true, x);
-        if let Some(fp) = self.motion_rate(k, motion) {
+        if let Some(fp) = self.input_rate(k, motion) {
             for (o, v) in out.iter_mut().zip(fp) {
                 *o += v;
             }
@@ -459,35 +586,51 @@ impl System {
         out
     }
 
-    /// The prescribed motion's part of `omega_derivative`, ∂Z_k,fp/∂ω u_p (`None` when the
-    /// motion is zero, so nothing moves with ω).
-    pub fn motion_rate(&self, k: usize, motion: &[c64]) -> Option<Vec<c64>> {
+    /// The inputs' part of `omega_derivative`, ∂Z_k,fp/∂ω u_p − ∂f_k/∂ω (the prescribed
+    /// motion, and the centrifugal force of a speed that follows ω); `None` when neither
+    /// moves with ω.
+    pub fn input_rate(&self, k: usize, motion: &[c64]) -> Option<Vec<c64>> {
         let moves = motion.iter().any(|z| z.norm() > 0.0);
-        moves.then(|| self.pencil_rate_times(k, false, motion))
+        let mut out = moves.then(|| self.pencil_rate_times(k, false, motion));
+        let spin = self.spin.as_ref().filter(|_| k == 0);
+        if let Some((sp, unit)) = spin.and_then(|sp| Some((sp, sp.centrifugal.as_ref()?))) {
+            let gamma = self.basis.load_factor(0).unwrap_or(c64::new(1.0, 0.0));
+            let rate = 2.0 * sp.turns * sp.speed(self.omega) * gamma;
+            let out = out.get_or_insert_with(|| vec![c64::new(0.0, 0.0); unit.len()]);
+            out.iter_mut().zip(unit).for_each(|(o, u)| *o -= u * rate);
+        }
+        out
     }
 
-    /// (∂q_k/∂ω) M x + i(∂σ_k/∂ω)(αM + βK + G) x with the free–free blocks (`free`) or the
-    /// free–prescribed ones.
+    /// (a' K + b' M + c' G) x with the free–free blocks (`free`) or the free–prescribed
+    /// ones, (a', b', c') = `coefficient_rates`.
     fn pencil_rate_times(&self, k: usize, free: bool, x: &[c64]) -> Vec<c64> {
         let (kk, mm) = match free {
             true => (&self.k_ff, &self.m_ff),
             false => (&self.k_fp, &self.m_fp),
         };
+        let r = self.coefficient_rates(k, self.omega);
         let sym = self.symbols(k);
-        let (alpha, beta) = self.damping_at(&sym);
+        let (alpha, beta) = self.damping_shifted(&sym, self.omega);
+        // r.b = (q_k' + s') + i(σ_k'α_s + σ_kβs'): the last term apart, the products in the
+        // order they had without a following speed.
+        let extra = c64::new(0.0, r.b.im - sym.damping_rate * alpha);
         let (kx, mx) = (kk.mul_complex(x), mm.mul_complex(x));
         let mut out: Vec<c64> = kx
             .iter()
             .zip(&mx)
             .map(|(&kv, &mv)| {
-                mv * sym.mass_rate + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha)
+                let v = mv * r.b.re + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha);
+                match self.spin {
+                    Some(_) => v + extra * mv,
+                    None => v,
+                }
             })
             .collect();
         if let Some(g) = &self.gyroscopic {
             let block = if free { &g.g_ff } else { &g.g_fp };
-            let rate = c64::new(0.0, sym.damping_rate);
             for (o, v) in out.iter_mut().zip(block.mul_complex(x)) {
-                *o += rate * v;
+                *o += r.c * v;
             }
         }
         out
@@ -501,21 +644,29 @@ impl System {
             return vec![c64::new(0.0, 0.0); nf];
         };
         let mut rhs = input.force.clone();
+        let spin = self.spin.as_ref().filter(|_| k == 0);
+        if let Some((sp, unit)) = spin.and_then(|sp| Some((sp, sp.centrifugal.as_ref()?))) {
+            let grow = sp.speed(self.omega).powi(2) - sp.reference.powi(2);
+            rhs.iter_mut().zip(unit).for_each(|(r, u)| *r += u * grow);
+        }
         if input.motion.iter().any(|z| z.norm() > 0.0) {
+            let c = self.coefficients(k, self.omega);
             let sym = self.symbols(k);
-            let (re, im): (Vec<f64>, Vec<f64>) = input.motion.iter().map(|z| (z.re, z.im)).unzip();
+            let (alpha, beta) = self.damping_shifted(&sym, self.omega);
+            let u = &input.motion;
+            let (re, im): (Vec<f64>, Vec<f64>) = u.iter().map(|z| (z.re, z.im)).unzip();
             let (kr, ki) = (self.k_fp.mul_vec(&re), self.k_fp.mul_vec(&im));
             let (mr, mi) = (self.m_fp.mul_vec(&re), self.m_fp.mul_vec(&im));
-            let (alpha, beta) = self.damping_at(&sym);
+            let q = c.b.re;
             for i in 0..nf {
-                let real = c64::new(kr[i] + sym.mass * mr[i], ki[i] + sym.mass * mi[i]);
+                let real = c64::new(kr[i] + q * mr[i], ki[i] + q * mi[i]);
                 let damp = c64::new(beta * kr[i] + alpha * mr[i], beta * ki[i] + alpha * mi[i]);
                 rhs[i] -= real + c64::new(0.0, sym.damping) * damp;
             }
             if let Some(g) = &self.gyroscopic {
-                let gu = g.g_fp.mul_complex(&input.motion);
+                let gu = g.g_fp.mul_complex(u);
                 for (r, v) in rhs.iter_mut().zip(gu) {
-                    *r -= c64::new(0.0, sym.damping) * v;
+                    *r -= c.c * v;
                 }
             }
         }
@@ -527,8 +678,7 @@ impl System {
 
     /// An upper bound of ‖Z_k‖∞ from the row sums of |K| and |M| (summed once).
     pub fn norm_inf(&self, k: usize) -> f64 {
-        let sym = self.symbols(k);
-        let (alpha, beta) = self.damping_at(&sym);
+        let c = self.coefficients(k, self.omega);
         let (rk, rm) = self.row_sums.get_or_init(|| {
             let n = self.k_ff.nrows;
             let (mut rk, mut rm) = (vec![0.0; n], vec![0.0; n]);
@@ -540,15 +690,16 @@ impl System {
             }
             (rk, rm)
         });
-        let (s, q) = (sym.damping.abs(), sym.mass.abs());
-        // |G| has M's row sums times 2|Ω| (G = 2Ω M⊗J).
+        // |G| has M's row sums times 2|Ω_ref| (G = 2Ω_ref M⊗J).
         let gyro = self
             .gyroscopic
             .as_ref()
             .map_or(0.0, |g| 2.0 * g.speed.abs());
+        let l1 = |z: c64| z.re.abs() + z.im.abs();
+        let (ca, cm) = (l1(c.a), l1(c.b) + c.c.im.abs() * gyro);
         rk.iter()
             .zip(rm)
-            .map(|(rk, rm)| rk * (1.0 + s * beta) + rm * (q + s * (alpha + gyro)))
+            .map(|(rk, rm)| rk * ca + rm * cm)
             .fold(0.0, f64::max)
     }
 

@@ -133,6 +133,19 @@ impl Csc {
         self.values.len()
     }
 
+    /// self + s·other (same shape), on the union of their patterns.
+    pub fn plus_scaled(&self, other: &Csc, s: f64) -> Csc {
+        let mut entries = Vec::with_capacity(self.nnz() + other.nnz());
+        for (m, scale) in [(self, 1.0), (other, s)] {
+            for j in 0..m.ncols {
+                for p in m.col_ptr[j]..m.col_ptr[j + 1] {
+                    entries.push((m.row_idx[p], j, scale * m.values[p]));
+                }
+            }
+        }
+        Csc::from_entries(self.nrows, self.ncols, &entries)
+    }
+
     /// y = A x.
     pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
         let mut y = vec![0.0; self.nrows];

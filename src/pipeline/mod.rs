@@ -39,7 +39,7 @@ pub use scene::{open, prepare, Scene};
 pub use stages::{hb_settings, Stages};
 use summary::MeshInfo;
 pub use summary::{summary_schema, Summary};
-pub use times::StageTimes;
+pub use times::{Stage, StageTimes};
 
 /// Options from the command line.
 #[derive(Clone, Debug, Default)]
@@ -100,17 +100,17 @@ pub fn run_scene(
         mesh_info,
         mut warnings,
     } = scene;
-    stages.run("check", || stages::check_stability_march(p, &model))?;
+    stages.run(Stage::Check, || stages::check_stability_march(p, &model))?;
     stages::touch_solve_memory(p, &model);
     let resonance = stages::resonance(&model, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
-    stages.run("check", || finite_solution(&solution))?;
+    stages.run(Stage::Check, || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
     let stability = stages::stability(p, &model, &solution, &mut stages)?;
     warnings.extend(stability.warning());
     let staged = StagedDir::create(&out, "run", options.replace)?;
     let (level, reporter) = (options.write, stages.reporter);
-    let (mut summary, sampled) = stages.run("write", || {
+    let (mut summary, sampled) = stages.run(Stage::Write, || {
         let info = mesh_info.clone();
         let at = staged.path();
         let written = publish::harmonic_balance(p, (&model, info), &solution, level, at, reporter)?;
@@ -121,7 +121,7 @@ pub fn run_scene(
     })?;
     if publish::plotting(p, level) {
         let (plots, period) = (staged.path().join("plots"), 1.0 / summary.frequency_hz);
-        stages.run("plots", || {
+        stages.run(Stage::Plots, || {
             publish::plots(p, (&model, &sampled), &plots, period)
         })?;
     }
@@ -159,8 +159,8 @@ fn harmonic_balance_start(
     warnings: &mut Vec<String>,
 ) -> Result<(crate::transient::InitialState, Option<stability::Stability>)> {
     let solution = stages::solve(p, model, stages)?;
-    stages.run("check", || finite_solution(&solution))?;
-    let verdict = match stages.run("stability", || {
+    stages.run(Stage::Check, || finite_solution(&solution))?;
+    let verdict = match stages.run(Stage::Stability, || {
         Ok(late::floquet_of_start(p, model, &solution))
     })? {
         Some(Ok(v)) => Some(v),
@@ -280,7 +280,7 @@ pub fn run_transient(
     };
     let staged = StagedDir::create(&out, "transient", options.replace)?;
     let full = options.write == WriteLevel::Full;
-    let (mut summary, sampled, signals) = stages.run("write", || {
+    let (mut summary, sampled, signals) = stages.run(Stage::Write, || {
         let sampled = Sampled::transient(&model, &marching, &result);
         if full {
             let (contact, fields) = (p.contact.as_ref(), &p.output.fields);
@@ -303,7 +303,7 @@ pub fn run_transient(
     if publish::plotting(p, options.write) {
         let dir = staged.path().join("plots");
         let f = p.harmonic_balance.frequency;
-        stages.run("plots", || {
+        stages.run(Stage::Plots, || {
             publish::plots(p, (&model, &sampled), &dir, 1.0 / f)?;
             plots::write_late_plots(&dir, &signals, f).map(|_| ())
         })?;
@@ -422,7 +422,7 @@ pub fn check(p: &Pipeline, options: &RunOptions, reporter: &dyn Reporter) -> Res
     let extreme = |f: &dyn Fn(&PairCheck) -> f64, pick: fn(f64, f64) -> f64, from: f64| {
         (!pairs.is_empty()).then(|| pairs.iter().map(f).fold(from, pick))
     };
-    stages.run("check", || check_marches(p, mesh, reporter))?;
+    stages.run(Stage::Check, || check_marches(p, mesh, reporter))?;
     let groups = mesh
         .node_groups
         .iter()

@@ -18,7 +18,7 @@ use crate::contact::{contact_operator, ContactOperator};
 use crate::fem::DofMap;
 use crate::fem::{self, MassKind, Material, PlaneModel};
 use crate::hbm::basis::{SplineBasis, TimeBasis};
-use crate::hbm::{fourier, HarmonicInput, System};
+use crate::hbm::{fourier, HarmonicInput, Spin, System};
 use crate::linalg::Triplets;
 use crate::mesh::Mesh2d;
 use crate::{Error, Result};
@@ -225,7 +225,7 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .damping
         .map(|d| (d.alpha, d.beta))
         .filter(|&(a, b)| a != 0.0 || b != 0.0);
-    let system = system(p, (dofs, stiffness, &mass.matrix), rayleigh, inputs)?
+    let system = system(p, &mesh, (dofs, stiffness, &mass.matrix), rayleigh, inputs)?
         .with_basis(time_basis(p, purpose));
     let contact = contact_set.zip(pair_sets).map(|(set, pairs)| {
         let mut operator = contact_operator(&set, &system.dofs);
@@ -258,7 +258,10 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         damping: rayleigh.map(|(a, b)| format!("Rayleigh: alpha = {a:e} 1/s, beta = {b:e} s")),
         contact: p.contact.as_ref().map(describe_contact),
         gravity: p.boundaries.gravity,
-        rotation: p.boundaries.rotation.map(describe_rotation),
+        rotation: p
+            .boundaries
+            .rotation
+            .map(|r| describe_rotation(r, p.harmonic_balance.frequency)),
         gap_harmonics: contact.as_ref().map_or(Vec::new(), |c| {
             c.operator.gap_harmonics.keys().copied().collect()
         }),
@@ -279,15 +282,26 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
 /// frame's spin softening, and its Coriolis matrix where simulated.
 fn system(
     p: &Pipeline,
+    mesh: &Mesh2d,
     (dofs, stiffness, mass): (DofMap, Triplets, &Triplets),
     rayleigh: Option<(f64, f64)>,
     inputs: BTreeMap<usize, HarmonicInput>,
 ) -> Result<System> {
-    let stiffness = spin_softened(stiffness, mass, p.boundaries.rotation);
-    let coriolis = gyroscopic(mass, p.boundaries.rotation);
+    let f = p.harmonic_balance.frequency;
+    let speed = p.boundaries.rotation.map(|r| (r, r.speed_at(f)));
+    let stiffness = spin_softened(stiffness, mass, speed);
+    let coriolis = gyroscopic(mass, speed);
     let gyro = coriolis.as_ref().map(|(speed, g)| (*speed, g));
-    let omega = 2.0 * std::f64::consts::PI * p.harmonic_balance.frequency;
-    System::new(dofs, &stiffness, mass, rayleigh, omega, inputs, gyro)
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let spin = speed.and_then(|(r, reference)| {
+        Some(Spin {
+            turns: r.turns_per_period()?,
+            reference,
+            softening: r.spin_softening,
+            centrifugal: centrifugal_unit(p, mesh, mass, &dofs),
+        })
+    });
+    Ok(System::new(dofs, &stiffness, mass, rayleigh, omega, inputs, gyro)?.with_spin(spin))
 }
 
 /// Free and prescribed dofs: every dof of a cell's node is free unless `boundaries.fixed` or
@@ -367,12 +381,17 @@ fn mass(
     })
 }
 
-/// K − Ω²M: the spin softening of a rotating frame (the model's own mass), where simulated.
-fn spin_softened(stiffness: Triplets, mass: &Triplets, rotation: Option<Rotation>) -> Triplets {
+/// K − Ω²M: the spin softening of a rotating frame at Ω (the model's own mass), where
+/// simulated.
+fn spin_softened(
+    stiffness: Triplets,
+    mass: &Triplets,
+    rotation: Option<(Rotation, f64)>,
+) -> Triplets {
     match rotation {
-        Some(r) if r.spin_softening => {
+        Some((r, speed)) if r.spin_softening => {
             let mut k = stiffness;
-            let w2 = r.speed * r.speed;
+            let w2 = speed * speed;
             k.entries
                 .extend(mass.entries.iter().map(|&(i, j, m)| (i, j, -w2 * m)));
             k
@@ -384,9 +403,9 @@ fn spin_softened(stiffness: Triplets, mass: &Triplets, rotation: Option<Rotation
 /// The Coriolis matrix G = 2Ω M⊗J of the rotating frame, where simulated: the force 2Ω ẑ × u̇
 /// per unit mass, so the row of node a's x holds −2Ω M_ab at node b's y and the row of a's y
 /// +2Ω M_ab at b's x (M's x–x and y–y blocks are equal; G is skew).
-fn gyroscopic(mass: &Triplets, rotation: Option<Rotation>) -> Option<(f64, Triplets)> {
-    let r = rotation.filter(|r| r.coriolis)?;
-    let w2 = 2.0 * r.speed;
+fn gyroscopic(mass: &Triplets, rotation: Option<(Rotation, f64)>) -> Option<(f64, Triplets)> {
+    let (_, speed) = rotation.filter(|(r, _)| r.coriolis)?;
+    let w2 = 2.0 * speed;
     let mut g = Triplets::new(mass.n);
     for &(i, j, m) in &mass.entries {
         if i % 2 == 0 && j % 2 == 0 {
@@ -394,7 +413,7 @@ fn gyroscopic(mass: &Triplets, rotation: Option<Rotation>) -> Option<(f64, Tripl
             g.push(i + 1, j, w2 * m);
         }
     }
-    Some((r.speed, g))
+    Some((speed, g))
 }
 
 /// The static body forces added to harmonic 0: gravity M g and the centrifugal force
@@ -407,27 +426,21 @@ fn with_body_forces(
     dofs: &DofMap,
     mut inputs: BTreeMap<usize, HarmonicInput>,
 ) -> BTreeMap<usize, HarmonicInput> {
-    let mut field = vec![0.0; 2 * mesh.nodes.len()];
-    let mut any = false;
+    let mut forces = Vec::new();
     if let Some(g) = p.boundaries.gravity {
-        for f in field.chunks_mut(2) {
-            f[0] += g[0];
-            f[1] += g[1];
-        }
-        any = true;
+        forces.push(free_mass_times(mesh, mass, dofs, |_| g));
     }
-    if let Some(r) = p.boundaries.rotation.filter(|r| r.centrifugal) {
-        let w2 = r.speed * r.speed;
-        for (x, f) in mesh.nodes.iter().zip(field.chunks_mut(2)) {
-            f[0] += w2 * (x[0] - r.center[0]);
-            f[1] += w2 * (x[1] - r.center[1]);
-        }
-        any = true;
+    if let Some((r, unit)) = p
+        .boundaries
+        .rotation
+        .zip(centrifugal_unit(p, mesh, mass, dofs))
+    {
+        let w2 = r.speed_at(p.harmonic_balance.frequency).powi(2);
+        forces.push(unit.iter().map(|u| u * w2).collect());
     }
-    if !any {
+    if forces.is_empty() {
         return inputs;
     }
-    let force = mass.mul_vec(&field);
     let target = &mut inputs
         .entry(0)
         .or_insert_with(|| HarmonicInput {
@@ -435,10 +448,40 @@ fn with_body_forces(
             motion: vec![c64::new(0.0, 0.0); dofs.prescribed.len()],
         })
         .force;
-    for (i, &d) in dofs.free.iter().enumerate() {
-        target[i] += c64::new(force[d], 0.0);
+    for force in forces {
+        target.iter_mut().zip(force).for_each(|(t, f)| *t += f);
     }
     inputs
+}
+
+/// M (x − c) on the free dofs: the centrifugal force per Ω² (`None` when not simulated).
+fn centrifugal_unit(
+    p: &Pipeline,
+    mesh: &Mesh2d,
+    mass: &Triplets,
+    dofs: &DofMap,
+) -> Option<Vec<c64>> {
+    let r = p.boundaries.rotation.filter(|r| r.centrifugal)?;
+    let c = r.center;
+    Some(free_mass_times(mesh, mass, dofs, |x| {
+        [x[0] - c[0], x[1] - c[1]]
+    }))
+}
+
+/// M a on the free dofs for the nodal acceleration field a(x).
+fn free_mass_times(
+    mesh: &Mesh2d,
+    mass: &Triplets,
+    dofs: &DofMap,
+    field: impl Fn([f64; 2]) -> [f64; 2],
+) -> Vec<c64> {
+    let values: Vec<f64> = mesh
+        .nodes
+        .iter()
+        .flat_map(|x| field([x[0], x[1]]))
+        .collect();
+    let force = mass.mul_vec(&values);
+    dofs.free.iter().map(|&d| c64::new(force[d], 0.0)).collect()
 }
 
 /// The loads' and prescribed motions' complex amplitudes per harmonic (z = a − i b for
@@ -634,7 +677,7 @@ fn gap_harmonics(spec: &ContactPair, set: &ContactSet) -> BTreeMap<usize, Vec<c6
 }
 
 /// How the summary names the rotating frame.
-fn describe_rotation(r: Rotation) -> String {
+fn describe_rotation(r: Rotation, frequency_hz: f64) -> String {
     let mut effects = Vec::new();
     if r.centrifugal {
         effects.push("centrifugal force");
@@ -646,9 +689,12 @@ fn describe_rotation(r: Rotation) -> String {
         effects.push("Coriolis force");
     }
     let coriolis = if r.coriolis { "" } else { "; no Coriolis" };
+    let follows = r.turns_per_period().map_or(String::new(), |t| {
+        format!(" ({t:e} turns per period: follows the frequency)")
+    });
     format!(
-        "{:e} rad/s about ({:e}, {:e}): {}{coriolis}",
-        r.speed,
+        "{:e} rad/s{follows} about ({:e}, {:e}): {}{coriolis}",
+        r.speed_at(frequency_hz),
         r.center[0],
         r.center[1],
         effects.join(", ")

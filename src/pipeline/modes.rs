@@ -16,7 +16,7 @@ use serde::Serialize;
 use super::model::{MassModel, Model, Purpose};
 use super::stages;
 use super::summary::{sizes, MeshInfo, Sizes};
-use super::times::StageTimes;
+use super::times::{Stage, StageTimes};
 use super::RunOptions;
 use crate::config::Pipeline;
 use crate::fem::modes::{effective_mass, free_mass, lowest_modes, rayleigh_damping_ratio};
@@ -118,9 +118,9 @@ pub fn modes(
         );
     }
     let (model, mesh_info) = (scene.model, scene.mesh_info);
-    let modes = stages.run("modes", || natural_modes(&model, count))?;
+    let modes = stages.run(Stage::Modes, || natural_modes(&model, count))?;
     let staged = StagedDir::create(&out, "modes", options.replace)?;
-    let mut summary = stages.run("write", || {
+    let mut summary = stages.run(Stage::Write, || {
         let infos = write_mode_shapes(staged.path(), &model, &modes)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
         Ok(modes_summary(p, mesh_info, &model, infos))

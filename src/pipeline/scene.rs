@@ -13,6 +13,7 @@ use super::model::{build, Model, Purpose};
 use super::sanity;
 use super::stages::{self, Stages};
 use super::summary::MeshInfo;
+use super::times::Stage;
 use super::RunOptions;
 use crate::config::Pipeline;
 use crate::output::staging;
@@ -46,10 +47,12 @@ pub fn open<'a>(
 /// for `purpose`, and check the initial penetration of the contact nodes.
 pub fn prepare(p: &Pipeline, out: &Path, purpose: Purpose, stages: &mut Stages) -> Result<Scene> {
     let (mesh, mesh_info) = stages::mesh(p, out, stages)?;
-    let mut warnings = stages.run("check", || sanity::check_mesh(p, &mesh))?;
-    warnings.extend(stages.run("check", || sanity::check_supports(p, &mesh, purpose))?);
-    let model = stages.run("assemble", || build(p, mesh, purpose))?;
-    warnings.extend(stages.run("check", || sanity::check_initial_penetration(p, &model))?);
+    let mut warnings = stages.run(Stage::Check, || sanity::check_mesh(p, &mesh))?;
+    warnings.extend(stages.run(Stage::Check, || sanity::check_supports(p, &mesh, purpose))?);
+    let model = stages.run(Stage::Assemble, || build(p, mesh, purpose))?;
+    warnings.extend(stages.run(Stage::Check, || {
+        sanity::check_initial_penetration(p, &model)
+    })?);
     Ok(Scene {
         model,
         mesh_info,

@@ -353,7 +353,9 @@ pub fn by_hill(hill: &HillModel, contact: &ContactSolution, omega: f64) -> Resul
         crate::Error::Model("internal: the state carries no compliance for Hill's method".into())
     })?;
     let r = hill.modes_for(omega, contact.harmonics);
-    let m = hill.truncated(r).multipliers(compliance, contact, omega)?;
+    let m = hill
+        .truncated(r, omega)
+        .multipliers(compliance, contact, omega)?;
     let mut verdict = verdict_of(&m, r, omega);
     verdict.reason = format!(
         "{}; Hill's method on the harmonic-balance model itself (H = {}, N = {}, {r} modes dynamic): the verdict of the state at this H",
@@ -437,8 +439,7 @@ pub fn by_marching(
             "internal: marching needs a diagonal mass".into(),
         ));
     };
-    let mut system = marching_model.system.clone();
-    system.omega = omega;
+    let system = marching_model.system.at_frequency(omega);
     let contact = marching_model.contact.as_ref().map(|c| &c.operator);
     let solution = match harmonic_balance_state(p, &system, contact, start, reporter) {
         Ok(s) => s,

@@ -9,7 +9,7 @@ use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
 use super::stability::{self, Stability};
 use super::summary::{MeshInfo, Summary};
-use super::times::StageTimes;
+use super::times::{Stage, StageTimes};
 use crate::config::{BasisSpec, Pipeline, StabilityMethod};
 use crate::hbm::{self, HbSettings, Solution};
 use crate::mesh::{self, Mesh2d};
@@ -37,17 +37,17 @@ impl<'a> Stages<'a> {
         }
     }
 
-    /// Run stage `name`: timed, announced, its error in context.
-    pub fn run<T>(&mut self, name: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    /// Run `stage`: timed, announced, its error in context.
+    pub fn run<T>(&mut self, stage: Stage, f: impl FnOnce() -> Result<T>) -> Result<T> {
         let pipeline = self.pipeline;
         self.times
-            .time(name, self.reporter, f)
-            .map_err(|e| e.in_stage(pipeline, name))
+            .time(stage, self.reporter, f)
+            .map_err(|e| e.in_stage(pipeline, stage.name()))
     }
 
-    /// `e` in the context of stage `name`.
-    pub fn context(&self, name: &str, e: Error) -> Error {
-        e.in_stage(self.pipeline, name)
+    /// `e` in the context of `stage`.
+    pub fn context(&self, stage: Stage, e: Error) -> Error {
+        e.in_stage(self.pipeline, stage.name())
     }
 }
 
@@ -81,23 +81,23 @@ pub fn mesh(p: &Pipeline, out: &Path, stages: &mut Stages) -> Result<(Mesh2d, Me
     let cache_dir = mesh_cache_dir(out);
     let (request, limits) = mesh_request(p);
     let reporter = stages.reporter;
-    let mut meshed = stages.run("mesh", || {
+    let mut meshed = stages.run(Stage::Mesh, || {
         mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
     })?;
     crate::output::staging::mark_kept(&cache_dir, "mesh-cache")?;
-    let first = stages.run("read", || Ok(mesh::msh::read_msh(&meshed.msh)))?;
+    let first = stages.run(Stage::Read, || Ok(mesh::msh::read_msh(&meshed.msh)))?;
     let mesh = match first {
         // A cached mesh that passed its checksum but does not read (a damaged write) is made
         // again, once; a mesh the pipeline names itself is never touched.
         Err(e) if meshed.cache_hit && meshed.msh.starts_with(&cache_dir) => {
             reporter.warning(&format!("{e}: meshing again"));
             mesh::gmsh::evict(&meshed.msh);
-            meshed = stages.run("mesh", || {
+            meshed = stages.run(Stage::Mesh, || {
                 mesh::gmsh::mesh_geometry_with(&request, &limits, &cache_dir, reporter)
             })?;
-            stages.run("read", || mesh::msh::read_msh(&meshed.msh))?
+            stages.run(Stage::Read, || mesh::msh::read_msh(&meshed.msh))?
         }
-        other => other.map_err(|e| stages.context("read", e))?,
+        other => other.map_err(|e| stages.context(Stage::Read, e))?,
     };
     let info = MeshInfo {
         geometry: p.geometry.file.clone(),
@@ -137,24 +137,24 @@ pub fn hb_settings(p: &Pipeline) -> HbSettings {
 /// Harmonic balance on the model; the solver's own phases go into the stage times (its
 /// reporter hears the whole solve as the stage `solve`).
 pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solution> {
-    stages.reporter.stage("solve");
+    stages.reporter.stage(Stage::Solve.name());
     let start = std::time::Instant::now();
     let contact = model.contact.as_ref().map(|c| &c.operator);
     let solution = hbm::solve(&model.system, contact, &hb_settings(p), stages.reporter)
-        .map_err(|e| stages.context("solve", e))?;
+        .map_err(|e| stages.context(Stage::Solve, e))?;
     // The line `[solve] 0.05 s`; the summary holds the solve's phases instead.
     let seconds = start.elapsed().as_secs_f64();
-    stages.reporter.stage_done("solve", seconds);
+    stages.reporter.stage_done(Stage::Solve.name(), seconds);
     let t = &solution.timings;
     for (name, secs) in [
-        ("factor", t.factor),
-        ("linear_solve", t.linear_solve),
-        ("reduce", t.reduce),
-        ("newton", t.newton),
-        ("knob_check", t.knob_check),
-        ("recover", t.recover),
+        (Stage::Factor, t.factor),
+        (Stage::LinearSolve, t.linear_solve),
+        (Stage::Reduce, t.reduce),
+        (Stage::Newton, t.newton),
+        (Stage::KnobCheck, t.knob_check),
+        (Stage::Recover, t.recover),
     ] {
-        stages.times.push(name, secs);
+        stages.times.add(name, secs);
     }
     Ok(solution)
 }
@@ -170,7 +170,7 @@ pub fn touch_solve_memory(p: &Pipeline, model: &Model) {
 /// harmonic, and warnings for those within a half-power band. A check that fails does not
 /// stop the run: it becomes a warning.
 pub fn resonance(model: &Model, stages: &mut Stages) -> (Option<ResonanceCheck>, Vec<String>) {
-    match stages.run("resonance", || super::resonance::check(model)) {
+    match stages.run(Stage::Resonance, || super::resonance::check(model)) {
         Ok((check, warnings)) => (Some(check), warnings),
         Err(e) => (None, vec![format!("the resonance check failed: {e}")]),
     }
@@ -190,7 +190,7 @@ pub fn march<'m>(
     };
     let contact = model.contact.as_ref().map(|c| &c.operator);
     let marching = Marching::new(&model.system, diag, contact, &probe_nodes(model))
-        .map_err(|e| stages.context("march", e))?;
+        .map_err(|e| stages.context(Stage::March, e))?;
     let settings = TransientSettings {
         courant: p.transient.courant,
         periodic_tolerance: p.transient.periodic_tolerance,
@@ -198,7 +198,7 @@ pub fn march<'m>(
         samples_per_period: p.output.frames,
     };
     let reporter = stages.reporter;
-    let result = stages.run("march", || {
+    let result = stages.run(Stage::March, || {
         let mut problem = marching.problem();
         problem.initial = initial;
         transient::run_to_periodic(&problem, &settings, reporter)
@@ -231,7 +231,7 @@ pub fn stability(
     };
     let floquet = match spec.method {
         StabilityMethod::March => None,
-        _ => Some(stages.run("stability", || {
+        _ => Some(stages.run(Stage::Stability, || {
             floquet_verdict(model, solution, contact, &segments)
         })),
     };
@@ -270,7 +270,7 @@ fn march_verdict(
 ) -> Result<Stability> {
     let spec = &p.stability;
     let reporter = stages.reporter;
-    stages.run("stability", || {
+    stages.run(Stage::Stability, || {
         let marching = build(p, model.mesh.clone(), Purpose::Transient)?;
         let verdict = stability::by_marching(
             p,

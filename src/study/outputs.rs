@@ -13,6 +13,7 @@
 //! amplitudes kept for the displacement L2 error.
 
 use super::super::pipeline::stability::Verdict;
+use super::super::pipeline::Stage;
 use super::super::pipeline::Summary;
 
 /// One tabulated quantity.
@@ -189,11 +190,11 @@ impl Output {
             Output::FreeDofs => s.sizes.free_dofs as f64,
             Output::WallTime => {
                 let st = &s.stage_seconds;
-                st.total() - st.get("mesh")
+                st.total() - st.get(Stage::Mesh)
             }
             Output::SolveTime => {
                 let st = &s.stage_seconds;
-                st.total() - st.get("mesh") - st.get("write")
+                st.total() - st.get(Stage::Mesh) - st.get(Stage::Write)
             }
             Output::Stable => match s.stability.as_ref().map(|st| st.verdict) {
                 Some(Verdict::Stable) => 1.0,

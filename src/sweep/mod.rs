@@ -42,7 +42,7 @@ use crate::output::StagedDir;
 use crate::pipeline::report::Sampled;
 use crate::pipeline::stability::{self, Stability};
 use crate::pipeline::summary::MeshInfo;
-use crate::pipeline::{self, build, hb_settings, Model, Purpose, RunOptions, Stages};
+use crate::pipeline::{self, build, hb_settings, Model, Purpose, RunOptions, Stage, Stages};
 use crate::progress::{Reporter, Silent};
 use crate::study::outputs::Output;
 use crate::study::table::csv_number;
@@ -295,12 +295,12 @@ fn execute(
     );
     stages
         .times
-        .push("sweep", clock.elapsed().as_secs_f64() - judging);
+        .add(Stage::Sweep, clock.elapsed().as_secs_f64() - judging);
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
-    stages.run("stability", || {
+    stages.run(Stage::Stability, || {
         judge_points(p, &model, &mut writer, &starts, &folds, reporter)
     })?;
-    stages.times.add("stability", judging);
+    stages.times.add(Stage::Stability, judging);
     let (timings, reduced, stopped, failure) = match ended {
         Ok(outcome) => (
             outcome.timings,
@@ -309,10 +309,10 @@ fn execute(
             None,
         ),
         // Nothing found at all (the first point failed): nothing to keep.
-        Err(e) if writer.seen() == 0 => return Err(stages.context("sweep", e)),
+        Err(e) if writer.seen() == 0 => return Err(stages.context(Stage::Sweep, e)),
         Err(e) => (Default::default(), Default::default(), None, Some(e)),
     };
-    let failure = failure.or(stopped).map(|e| stages.context("sweep", e));
+    let failure = failure.or(stopped).map(|e| stages.context(Stage::Sweep, e));
     let ended = Ended {
         warnings,
         timings,
@@ -349,7 +349,7 @@ fn summarize(
     stages: &mut Stages,
 ) -> Result<(SweepSummary, Option<Error>)> {
     let folds = writer.folds(spec);
-    let (written, missing) = stages.run("points", || writer.write_points(&folds))?;
+    let (written, missing) = stages.run(Stage::Points, || writer.write_points(&folds))?;
     ended.warnings.extend(missing);
     let basis = crate::pipeline::model::time_basis(p, crate::pipeline::Purpose::HarmonicBalance);
     ended
@@ -389,12 +389,12 @@ fn write(
     mut summary: SweepSummary,
     mut stages: Stages,
 ) -> Result<(PathBuf, SweepSummary)> {
-    stages.run("write", || {
+    stages.run(Stage::Write, || {
         writer.write_pvd()?;
         write_text(&staged.path().join("sweep.csv"), &csv(&summary))
     })?;
     if p.output.plots {
-        stages.run("plots", || plot::write_plots(staged.path(), &summary))?;
+        stages.run(Stage::Plots, || plot::write_plots(staged.path(), &summary))?;
     }
     summary.stage_seconds = stages.times;
     write_json(&staged.path().join("sweep.json"), &summary)?;
@@ -686,6 +686,14 @@ fn by_floquet(
     reporter: &dyn Reporter,
 ) -> Option<Vec<Stability>> {
     let op = &model.contact.as_ref()?.operator;
+    if model.system.spin.is_some() {
+        reporter.warning(
+            "no Floquet multipliers by the monodromy: its model is built at one rotation speed \
+             and boundaries.rotation.turns_per_period moves it with the frequency; the points \
+             are judged by time marching instead",
+        );
+        return None;
+    }
     let nodes = floquet::closed_nodes(segments.iter().flatten().flatten());
     let reduced = match floquet::FloquetModel::new(&model.system, &op.b_free, &nodes) {
         Ok(r) => r,

@@ -333,7 +333,7 @@ fn gap_rate(
         let lam = node_phasors(x, m, k);
         if let crate::linalg::Factor::Modal(f) = lu {
             // On the reduced space: no product with K or M.
-            let load_rate = system.motion_rate(k, &linear.motion[&k]);
+            let load_rate = system.input_rate(k, &linear.motion[&k]);
             let bdz = f.contact_rate(&lam, system.pencil_rate(k), load_rate.as_deref());
             for (i, v) in bdz.into_iter().enumerate() {
                 set_phasor(&mut dg[i * m..(i + 1) * m], k, v);
