@@ -820,6 +820,60 @@ fn paraview_opens_warps_and_renders_the_series() {
     assert!(std::fs::metadata(&png)
         .map(|m| m.len() > 10_000)
         .unwrap_or(false));
+    // The run's own view.py renders its two views (von Mises, contact pressure) headless.
+    let picture = out.with_extension("view.png");
+    let mut last = None;
+    for attempt in 0..3u64 {
+        std::thread::sleep(std::time::Duration::from_millis(700 * attempt));
+        let o = std::process::Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1280x1024x24", "pvbatch"])
+            .arg(out.join("view.py"))
+            .arg(&picture)
+            .output()
+            .expect("xvfb-run runs");
+        let ok = o.status.success();
+        last = Some(o);
+        if ok {
+            break;
+        }
+    }
+    let o = last.expect("an attempt");
+    assert!(
+        o.status.success(),
+        "view.py: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let size = std::fs::metadata(&picture).map_or(0, |m| m.len());
+    assert!(size > 10_000, "view.py's picture: {size} bytes");
+}
+
+/// TEST GOAL: every run that writes its series writes view.py, the ParaView script that
+/// opens it at true scale with the obstacle: with the contact-pressure view in a contact
+/// scene and without it in a linear one.
+#[test]
+fn a_run_writes_a_paraview_script_that_opens_its_series() {
+    for (pipeline, contact) in [
+        ("pipelines/half_disc.yaml", true),
+        ("pipelines/quickstart.yaml", false),
+    ] {
+        let out = common::temp_out(if contact {
+            "view-contact"
+        } else {
+            "view-linear"
+        });
+        run_ok(&["run", pipeline, "--quiet", "--out", out.to_str().unwrap()]);
+        let script = std::fs::read_to_string(out.join("view.py")).expect("view.py");
+        let flag = format!("CONTACT = {}", if contact { "True" } else { "False" });
+        assert!(script.contains(&flag), "{pipeline}: no `{flag}`");
+        for needle in [
+            "series.pvd",
+            "obstacle.pvd",
+            "warp.ScaleFactor = 1.0",
+            "-screen 0 1280x1024x24",
+        ] {
+            assert!(script.contains(needle), "{pipeline}: no `{needle}`");
+        }
+    }
 }
 
 /// Bad input: a clear error, the documented exit code, no panic, nothing half-written.

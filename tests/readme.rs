@@ -1,5 +1,5 @@
-//! The README's tour is true as written: every command it shows runs, and prints what the
-//! README says it prints.
+//! The README's tour and the tutorials (docs/tutorials.md) are true as written: every command
+//! they show runs, and prints what they say it prints.
 //!
 //! Conventions of README.md (and of any Markdown file `run_console_blocks` is given):
 //! - ```` ```console ```` blocks are run. A line starting with `$ ` is a command, the lines
@@ -23,8 +23,11 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-/// Where `output/tour/` goes while the test runs (relative to the repository root).
+/// Where `output/tour/` goes while the README's commands run (relative to the repository
+/// root); each document has its own, so their tests may run side by side.
 const SCRATCH: &str = "output/test-runs/readme";
+/// The tutorials' scratch folder.
+const TUTORIALS_SCRATCH: &str = "output/test-runs/tutorials";
 const TOUR: &str = "output/tour/";
 
 /// A fenced block: its info string, its lines, and the Markdown before it.
@@ -213,8 +216,8 @@ fn unmatched(expected: &[String], stdout: &str, stderr: &str) -> Vec<String> {
 }
 
 /// The command line's arguments after the program, with `output/tour/` moved to the scratch
-/// folder.
-fn arguments(command: &str) -> Result<Vec<String>, String> {
+/// folder `scratch`.
+fn arguments(command: &str, scratch: &str) -> Result<Vec<String>, String> {
     if command.contains(['"', '\'', '|', '>', '<', ';', '&', '$']) {
         return Err(format!(
             "`{command}`: no quoting, pipes or redirections, please"
@@ -227,21 +230,21 @@ fn arguments(command: &str) -> Result<Vec<String>, String> {
     }
     Ok(words
         .map(|w| match w.strip_prefix(TOUR) {
-            Some(rest) => format!("{SCRATCH}/{rest}"),
+            Some(rest) => format!("{scratch}/{rest}"),
             None => w.to_string(),
         })
         .collect())
 }
 
 /// Runs `step` and returns what is wrong with its output (empty: nothing).
-fn run_step(step: &Step) -> Result<Vec<String>, String> {
-    let args = arguments(&step.command)?;
+fn run_step(step: &Step, scratch: &str) -> Result<Vec<String>, String> {
+    let args = arguments(&step.command, scratch)?;
     let out = Command::new(env!("CARGO_BIN_EXE_hbcontact"))
         .args(&args)
         .current_dir(common::root())
         .output()
         .map_err(|e| format!("`{}` did not start: {e}", step.command))?;
-    let back = |s: &[u8]| String::from_utf8_lossy(s).replace(&format!("{SCRATCH}/"), TOUR);
+    let back = |s: &[u8]| String::from_utf8_lossy(s).replace(&format!("{scratch}/"), TOUR);
     let (stdout, stderr) = (back(&out.stdout), back(&out.stderr));
     if !out.status.success() {
         return Err(format!(
@@ -280,16 +283,16 @@ fn excerpt_problems(block: &Block, root: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Runs every console block of the Markdown file `doc`; returns the commands run and the
-/// problems found.
-fn run_console_blocks(doc: &str) -> (usize, Vec<String>) {
+/// Runs every console block of the Markdown file `doc`, its `output/tour/` in `scratch`;
+/// returns the commands run and the problems found.
+fn run_console_blocks(doc: &str, scratch: &str) -> (usize, Vec<String>) {
     let root = common::root();
     let text = std::fs::read_to_string(root.join(doc)).expect("the document reads");
     let blocks = match fenced_blocks(&text) {
         Ok(b) => b,
         Err(e) => return (0, vec![format!("{doc}: {e}")]),
     };
-    let _ = std::fs::remove_dir_all(root.join(SCRATCH));
+    let _ = std::fs::remove_dir_all(root.join(scratch));
     let (mut ran, mut problems) = (0, Vec::new());
     for block in &blocks {
         match block.info.as_str() {
@@ -297,7 +300,7 @@ fn run_console_blocks(doc: &str) -> (usize, Vec<String>) {
                 Ok(steps) => {
                     for step in &steps {
                         ran += 1;
-                        match run_step(step) {
+                        match run_step(step, scratch) {
                             Ok(p) => problems.extend(p),
                             Err(e) => problems.push(e),
                         }
@@ -317,8 +320,20 @@ fn run_console_blocks(doc: &str) -> (usize, Vec<String>) {
 
 #[test]
 fn every_readme_command_runs_and_prints_the_numbers_the_readme_shows() {
-    let (ran, problems) = run_console_blocks("README.md");
+    let (ran, problems) = run_console_blocks("README.md", SCRATCH);
     assert!(ran >= 8, "only {ran} commands found: is the parser broken?");
+    assert!(problems.is_empty(), "{}", problems.join("\n\n"));
+}
+
+/// TEST GOAL: the tutorials (docs/tutorials.md) are true as written: every command runs and
+/// prints what the tutorial shows, under the README's conventions.
+#[test]
+fn every_tutorial_command_runs_and_prints_what_the_tutorial_shows() {
+    let (ran, problems) = run_console_blocks("docs/tutorials.md", TUTORIALS_SCRATCH);
+    assert!(
+        ran >= 10,
+        "only {ran} commands found: is the parser broken?"
+    );
     assert!(problems.is_empty(), "{}", problems.join("\n\n"));
 }
 
@@ -402,9 +417,9 @@ fn expected_lines_are_found_in_order_in_either_stream() {
 #[test]
 fn tour_outputs_go_to_the_scratch_folder_and_other_programs_are_refused() {
     assert_eq!(
-        arguments("hbcontact run p.yaml --out output/tour/x").unwrap(),
+        arguments("hbcontact run p.yaml --out output/tour/x", SCRATCH).unwrap(),
         ["run", "p.yaml", "--out", "output/test-runs/readme/x"]
     );
-    assert!(arguments("rm -rf output").is_err());
-    assert!(arguments("hbcontact run p.yaml > log").is_err());
+    assert!(arguments("rm -rf output", SCRATCH).is_err());
+    assert!(arguments("hbcontact run p.yaml > log", SCRATCH).is_err());
 }

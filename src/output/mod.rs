@@ -1,7 +1,9 @@
 //! Writing results: VTU snapshots and `.pvd` collections for ParaView (`vtu`), CSV time
-//! histories and JSON summaries (`tables`), all staged in a temporary directory that is renamed
+//! histories and JSON summaries (`tables`), a ParaView script opening the series (`paraview`),
+//! all staged in a temporary directory that is renamed
 //! into place only when complete (`staging`).
 
+pub mod paraview;
 pub mod plot;
 pub mod staging;
 pub mod tables;

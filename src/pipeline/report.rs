@@ -335,6 +335,7 @@ impl Sampled {
         reporter: &dyn Reporter,
     ) -> Result<SeriesWritten> {
         let written = write_series(dir, model, self, fields, reporter)?;
+        crate::output::paraview::write_view_script(dir, model.contact.is_some())?;
         let h = &self.history;
         write_probes(&dir.join("probes.csv"), model, h)?;
         if let (Some(c), Some(spec)) = (&model.contact, spec) {
