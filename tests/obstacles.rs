@@ -382,8 +382,9 @@ fn curve_obstacle_keeps_nodes_facing_it_and_drops_nodes_off_its_ends() {
 
 /// TEST GOAL: a curve obstacle from a gmsh geometry (tests/data/short_wall.geo, order 2, so the
 /// wall is meshed as 3-node line elements): a slanted wall covering only the upper part of the
-/// body's right face keeps the nodes facing it, with gaps equal to the distance to the wall's
-/// line, and drops the others as off the obstacle.
+/// body's right face keeps the corners of its quadratic edges facing it, with gaps equal to
+/// the mortar average of the distances to the wall's line over each corner's row, and drops
+/// the others as off the obstacle.
 ///
 /// ```text
 ///   y=0.5 ┌──────┐  ╱       body [0, 1] × [0, 0.5], contact boundary `right` (x = 1)
@@ -424,9 +425,15 @@ fn curve_obstacle_meshed_by_gmsh_matches_the_wall_line() {
         (b[1] - a[1]) / norm([0.1, 0.5]),
     ];
     let nrm = [t[1], -t[0]];
+    let distance = |x: [f64; 2]| (a[0] - x[0]) * nrm[0] + (a[1] - x[1]) * nrm[1];
     for (i, &n) in set.nodes.iter().enumerate() {
         let x = mesh.nodes[n];
-        let expected = (a[0] - x[0]) * nrm[0] + (a[1] - x[1]) * nrm[1];
+        // The law acts on the corners of the quadratic edges, each gap the mortar average of
+        // its row's nodes' distances (the weights sum to 1).
+        let row: Vec<(usize, f64)> = set.row_nodes(i).collect();
+        let total: f64 = row.iter().map(|&(_, w)| w).sum();
+        assert!((total - 1.0).abs() < 1e-12, "row weights sum to {total}");
+        let expected: f64 = row.iter().map(|&(j, w)| w * distance(mesh.nodes[j])).sum();
         assert!(
             (set.gaps[i] - expected).abs() < 1e-12,
             "node at {x:?}: gap {} vs {expected}",
@@ -438,8 +445,16 @@ fn curve_obstacle_meshed_by_gmsh_matches_the_wall_line() {
         let s = (x[0] - a[0]) * t[0] + (x[1] - a[1]) * t[1];
         assert!(s >= 0.0, "node at {x:?} does not face the wall");
     }
-    // The dropped ones are exactly the nodes whose perpendicular foot falls before the wall.
-    let right = &mesh.node_groups["right"];
+    // The dropped ones are exactly the corners whose perpendicular foot falls before the wall.
+    let middles: Vec<usize> = mesh.edge_groups["right"]
+        .iter()
+        .map(|e| e.nodes[2])
+        .collect();
+    let right: Vec<usize> = mesh.node_groups["right"]
+        .iter()
+        .copied()
+        .filter(|n| !middles.contains(n))
+        .collect();
     let facing = right
         .iter()
         .filter(|&&n| {

@@ -203,7 +203,7 @@ fn a_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
 /// TEST GOAL: the cantilever on its stop in quadratic elements (2 through the depth): f1
 /// within 0.5% of Euler–Bernoulli, and the same stiffened resonance as the linear mesh.
 #[test]
-#[ignore = "issue #45: passes the corner at 216.86 Hz (fold 216.855 Hz) and a second one, then at 216.72 Hz (point 274) runs back onto its own curve in a tangle of kinks; see docs/verification.md, User scenes"]
+#[ignore = "issue #45: with the mortar corner law (2026-11-28) folds at 218.25, 216.81 (three within 3 mHz), 221.67, 222.96 and 216.71 Hz, then at 216.72 Hz (point 293) runs back onto its own curve (points 265-266) in a tangle of kinks; see docs/verification.md, User scenes"]
 fn a_quadratic_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
     let name = "cantilever_stop_p2";
     let f1 = driven_mode(name, 1, 1);
@@ -237,7 +237,7 @@ fn a_clamped_beam_between_two_stops_hardens_and_folds_above_f1() {
 
 /// TEST GOAL: the clamped beam between its stops in quadratic elements: f1 within 0.5% of
 /// Euler–Bernoulli (332.2 against 333.1 Hz) and the same hardening fold (measured
-/// 360.6 Hz = 1.085 f1).
+/// 360.5 Hz = 1.085 f1, the law on the corners with mortar-weighted gaps).
 #[test]
 fn a_quadratic_clamped_beam_between_two_stops_hardens_and_folds_above_f1() {
     let name = "clamped_stops_p2";
@@ -310,7 +310,8 @@ fn assert_vibro_impact_bar(name: &str) {
 }
 
 /// TEST GOAL: the vibro-impact bar in quadratic elements (one through the depth): the same
-/// fold (measured 2724.6 Hz against 2722.6 Hz on linear triangles).
+/// fold (measured 2719.4 Hz, the law on the corners with mortar-weighted gaps, against
+/// 2722.6 Hz on linear triangles).
 #[test]
 fn a_quadratic_vibro_impact_bar_folds_between_f1_and_the_bilinear_four_thirds() {
     assert_vibro_impact_bar("vibro_impact_bar_p2");

@@ -51,7 +51,8 @@ pub struct ContactSet {
     pub closest: Vec<[f64; 2]>,
     /// Boundary length attributed to each node: pressure = force / (tributary × thickness).
     /// 2-node edges give half their length to each end; 3-node edges their consistent weights
-    /// (1/6, 1/6, 2/3 of the length to end, end, middle).
+    /// (1/6, 1/6, 2/3 of the length to end, end, middle), or against a rigid obstacle, where
+    /// the law acts on the corners (`mortar`), half of each adjacent edge (∫φ_a ds).
     pub tributary: Vec<f64>,
     /// Nodes of the boundary group.
     pub candidates: usize,
@@ -63,6 +64,10 @@ pub struct ContactSet {
     /// Per kept node, the target body's nodes and their weights N_a at the closest point
     /// (B's row is n on the node and −N_a n on each target node); empty for a rigid obstacle.
     pub targets: Vec<Vec<(usize, f64)>>,
+    /// Per kept node of a boundary of 3-node edges against a rigid obstacle, the middle nodes
+    /// of its edges and their mortar weights w_m (`mortar_weights`; the node itself takes
+    /// 1 − Σ w_m); empty when no row has any.
+    pub mortar: Vec<Vec<(usize, f64)>>,
     /// The target boundary's nodes any row touches (sorted) and their tributary lengths.
     pub target_nodes: Vec<usize>,
     pub target_tributary: Vec<f64>,
@@ -84,6 +89,9 @@ impl ContactSet {
         retain_by(&mut self.gaps, &keep);
         retain_by(&mut self.closest, &keep);
         retain_by(&mut self.tributary, &keep);
+        if !self.mortar.is_empty() {
+            retain_by(&mut self.mortar, &keep);
+        }
         if !self.targets.is_empty() {
             retain_by(&mut self.targets, &keep);
             let used: std::collections::BTreeSet<usize> =
@@ -108,6 +116,7 @@ impl ContactSet {
             dropped_beyond_search: 0,
             dropped_held: 0,
             targets: Vec::new(),
+            mortar: Vec::new(),
             target_nodes: Vec::new(),
             target_tributary: Vec::new(),
         }
@@ -118,6 +127,7 @@ impl ContactSet {
     pub fn concat(sets: &[ContactSet]) -> ContactSet {
         let mut out = ContactSet::empty(0);
         let any_targets = sets.iter().any(|s| !s.targets.is_empty());
+        let any_mortar = sets.iter().any(|s| !s.mortar.is_empty());
         let mut tributary = std::collections::BTreeMap::new();
         for s in sets {
             out.nodes.extend(&s.nodes);
@@ -129,10 +139,15 @@ impl ContactSet {
             out.dropped_off_obstacle += s.dropped_off_obstacle;
             out.dropped_beyond_search += s.dropped_beyond_search;
             out.dropped_held += s.dropped_held;
-            if any_targets {
-                match s.targets.is_empty() {
-                    true => out.targets.extend(s.nodes.iter().map(|_| Vec::new())),
-                    false => out.targets.extend(s.targets.iter().cloned()),
+            for (any, own, all) in [
+                (any_targets, &s.targets, &mut out.targets),
+                (any_mortar, &s.mortar, &mut out.mortar),
+            ] {
+                if any {
+                    match own.is_empty() {
+                        true => all.extend(s.nodes.iter().map(|_| Vec::new())),
+                        false => all.extend(own.iter().cloned()),
+                    }
                 }
             }
             for (&a, &l) in s.target_nodes.iter().zip(&s.target_tributary) {
@@ -144,20 +159,28 @@ impl ContactSet {
         out
     }
 
-    /// The nodes of row i of B and their weights: (node_i, 1), then each target node's
-    /// (a, −N_a); B's entries are these weights times n_i.
+    /// The nodes of row i of B and their weights: (node_i, 1 − Σ w_m) and each middle
+    /// node's (m, w_m) of a mortar row, then each target node's (a, −N_a); B's entries are
+    /// these weights times n_i.
     pub fn row_nodes(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
         let targets = self.targets.get(i).map_or(&[][..], |t| &t[..]);
-        std::iter::once((self.nodes[i], 1.0)).chain(targets.iter().map(|&(a, w)| (a, -w)))
+        let mortar = self.mortar.get(i).map_or(&[][..], |m| &m[..]);
+        let own = 1.0 - mortar.iter().map(|&(_, w)| w).sum::<f64>();
+        std::iter::once((self.nodes[i], own))
+            .chain(mortar.iter().copied())
+            .chain(targets.iter().map(|&(a, w)| (a, -w)))
     }
 
-    /// Every node a row of B touches (the contact nodes and the target nodes), sorted.
+    /// Every node a row of B touches (the contact nodes, the middle nodes of mortar rows and
+    /// the target nodes), sorted.
     pub fn touched_nodes(&self) -> Vec<usize> {
+        let middles = self.mortar.iter().flatten().map(|&(m, _)| m);
         let mut all: Vec<usize> = self
             .nodes
             .iter()
             .chain(&self.target_nodes)
             .copied()
+            .chain(middles)
             .collect();
         all.sort_unstable();
         all.dedup();
@@ -409,6 +432,89 @@ fn closest_point(
     })
 }
 
+/// A corner's middle nodes and their mortar weights.
+type MortarRow = Vec<(usize, f64)>;
+
+/// A node's closest obstacle point, the normal into the obstacle and (against a body) the
+/// target weights.
+type Projection = ([f64; 2], [f64; 2], Option<Vec<(usize, f64)>>);
+
+/// The mortar weights of a boundary of 3-node edges (docs/method.md, "Quadratic elements"):
+/// the law acts on the corners, each corner a's gap the average of the edge's gap over its
+/// halves of the adjacent edges with the linear hat φ_a, g_a = Σ_j w_j g_j with
+/// w_j = ∫φ_a N_j ds / ∫φ_a ds (∫φ_a N_a = L/6, ∫φ_a N_m = L/3, ∫φ_a N_b = 0 on an edge of
+/// length L, ∫φ_a = L/2): the corner takes 1/3 and each adjacent middle node (L_e/3)/Σ(L/2).
+struct Mortar {
+    middles: std::collections::HashSet<usize>,
+    /// Per corner, its edges' middle nodes and their weights.
+    weights: HashMap<usize, Vec<(usize, f64)>>,
+    /// Per corner, ∫φ_a ds: half of each adjacent edge (its force over this is a pressure).
+    tributary: HashMap<usize, f64>,
+}
+
+impl Mortar {
+    /// Corner `n`'s row (its middle nodes' weights), its weighted gap and ∫φ_a ds, from its
+    /// own gap and each middle node's (`gap_of`; `None`: the middle node does not face the
+    /// obstacle, and its weight stays with the corner).
+    fn row(
+        &self,
+        n: usize,
+        own_gap: f64,
+        gap_of: impl Fn(usize) -> Result<Option<f64>>,
+    ) -> Result<(MortarRow, f64, f64)> {
+        let mut row = Vec::new();
+        let mut gap = own_gap;
+        for &(m, w) in self.weights.get(&n).map_or(&[][..], |v| &v[..]) {
+            if let Some(g) = gap_of(m)? {
+                gap += w * (g - own_gap);
+                row.push((m, w));
+            }
+        }
+        Ok((row, gap, self.tributary.get(&n).copied().unwrap_or(0.0)))
+    }
+}
+
+/// The mortar weights of `edges` (`None` when none has 3 nodes: a linear boundary keeps its
+/// node-wise law).
+fn mortar_weights(mesh: &Mesh2d, edges: &[Edge]) -> Option<Mortar> {
+    if !edges.iter().any(|e| e.nodes.len() == 3) {
+        return None;
+    }
+    let length = |p: [f64; 2], q: [f64; 2]| dot(sub(q, p), sub(q, p)).sqrt();
+    let mut mortar = Mortar {
+        middles: edges
+            .iter()
+            .filter_map(|e| e.nodes.get(2).copied())
+            .collect(),
+        weights: HashMap::new(),
+        tributary: HashMap::new(),
+    };
+    let mut raw: HashMap<usize, Vec<(usize, f64)>> = HashMap::new();
+    for e in edges {
+        let (a, b) = (e.nodes[0], e.nodes[1]);
+        let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
+        let (len, middle) = match e.nodes.get(2) {
+            Some(&m) => (
+                length(pa, mesh.nodes[m]) + length(mesh.nodes[m], pb),
+                Some(m),
+            ),
+            None => (length(pa, pb), None),
+        };
+        for corner in [a, b] {
+            *mortar.tributary.entry(corner).or_insert(0.0) += 0.5 * len;
+            if let Some(m) = middle {
+                raw.entry(corner).or_default().push((m, len / 3.0));
+            }
+        }
+    }
+    for (corner, entries) in raw {
+        let total = mortar.tributary.get(&corner).copied().unwrap_or(1.0);
+        let weights = entries.into_iter().map(|(m, v)| (m, v / total)).collect();
+        mortar.weights.insert(corner, weights);
+    }
+    Some(mortar)
+}
+
 /// Build the candidates' normals and gaps (and, against a body, the target weights).
 pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSet> {
     let body = mesh.body_nodes();
@@ -423,11 +529,18 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
         _ => None,
     };
     let outward = outward_normals(mesh, &spec.boundary);
-    let mut set = ContactSet::empty(candidates.len());
+    // A rigid obstacle against 3-node edges: the law on the corners, mortar-weighted.
+    let mortar = match target {
+        None => mortar_weights(mesh, edges),
+        Some(_) => None,
+    };
+    let is_middle = |n: &usize| mortar.as_ref().is_some_and(|m| m.middles.contains(n));
+    let corners = candidates.iter().filter(|n| !is_middle(n)).count();
+    let mut set = ContactSet::empty(corners);
     let mut smallest_gap = f64::INFINITY;
-    for &n in candidates {
+    let project = |n: usize| -> Result<Option<Projection>> {
         let x = mesh.nodes[n];
-        let found = match &target {
+        Ok(match &target {
             Some(t) => t
                 .project(x, outward.get(&n).copied())
                 .map(|p| (p.closest, p.normal, Some(p.weights))),
@@ -439,12 +552,28 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
                 outward.get(&n).copied(),
             )?
             .map(|(c, nrm)| (c, nrm, None)),
-        };
-        let Some((closest, normal, weights)) = found else {
+        })
+    };
+    for &n in candidates.iter().filter(|n| !is_middle(n)) {
+        let x = mesh.nodes[n];
+        let Some((mut closest, normal, weights)) = project(n)? else {
             set.dropped_off_obstacle += 1;
             continue;
         };
-        let gap = dot(sub(closest, x), normal);
+        let mut gap = dot(sub(closest, x), normal);
+        let mut tributary_n = tributary.get(&n).copied().unwrap_or(0.0);
+        let mut mortar_row = None;
+        if let Some(m) = &mortar {
+            let gap_of = |j: usize| {
+                let found = project(j)?;
+                Ok(found.map(|(c, nrm, _)| dot(sub(c, mesh.nodes[j]), nrm)))
+            };
+            let row;
+            (row, gap, tributary_n) = m.row(n, gap, gap_of)?;
+            mortar_row = Some(row);
+            // The corner's point at the weighted gap (x + g n still holds).
+            closest = [x[0] + gap * normal[0], x[1] + gap * normal[1]];
+        }
         smallest_gap = smallest_gap.min(gap);
         if spec.search_distance.is_some_and(|limit| gap > limit) {
             set.dropped_beyond_search += 1;
@@ -454,12 +583,22 @@ pub fn build_contact_set(mesh: &Mesh2d, spec: &ContactScene) -> Result<ContactSe
         set.normals.push(normal);
         set.gaps.push(gap);
         set.closest.push(closest);
-        set.tributary
-            .push(tributary.get(&n).copied().unwrap_or(0.0));
+        set.tributary.push(tributary_n);
+        set.mortar.extend(mortar_row);
         if let Some(w) = weights {
             set.targets.push(w);
         }
     }
+    finished(mesh, spec, set, smallest_gap)
+}
+
+/// The set built, with its target nodes indexed; refused when no candidate is left.
+fn finished(
+    mesh: &Mesh2d,
+    spec: &ContactScene,
+    mut set: ContactSet,
+    smallest_gap: f64,
+) -> Result<ContactSet> {
     if set.nodes.is_empty() {
         return Err(Error::Input(format!(
             "contact: none of the {} nodes of `{}` faces the obstacle ({} off the obstacle, {} farther than search_distance; smallest gap {smallest_gap:e}): extend the obstacle, raise contact.search_distance, or check the geometry",
