@@ -822,22 +822,7 @@ fn paraview_opens_warps_and_renders_the_series() {
         .unwrap_or(false));
     // The run's own view.py renders its two views (von Mises, contact pressure) headless.
     let picture = out.with_extension("view.png");
-    let mut last = None;
-    for attempt in 0..3u64 {
-        std::thread::sleep(std::time::Duration::from_millis(700 * attempt));
-        let o = std::process::Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1280x1024x24", "pvbatch"])
-            .arg(out.join("view.py"))
-            .arg(&picture)
-            .output()
-            .expect("xvfb-run runs");
-        let ok = o.status.success();
-        last = Some(o);
-        if ok {
-            break;
-        }
-    }
-    let o = last.expect("an attempt");
+    let o = common::pvbatch_script(&out.join("view.py"), &[picture.as_os_str()], &[], 3);
     assert!(
         o.status.success(),
         "view.py: {}",

@@ -121,9 +121,21 @@ pub fn paraview_available() -> bool {
 }
 
 /// tests/scripts/paraview_check.py under `xvfb-run -a pvbatch` with `args` and `env`, up to
-/// `attempts` times a little apart (xvfb-run -a can race for a display with other runs' X
-/// servers on a busy machine); the last attempt's output.
+/// `attempts` times a little apart (`pvbatch_script`); the last attempt's output.
 pub fn render_with_paraview(
+    args: &[&std::ffi::OsStr],
+    env: &[(&str, &str)],
+    attempts: u64,
+) -> Output {
+    let script = root().join("tests/scripts/paraview_check.py");
+    pvbatch_script(&script, args, env, attempts)
+}
+
+/// The pvbatch script `script` under `xvfb-run -a` (a 24-bit screen) with `args` and `env`,
+/// up to `attempts` times a little apart (xvfb-run -a can race for a display with other runs'
+/// X servers on a busy machine); the last attempt's output.
+pub fn pvbatch_script(
+    script: &Path,
     args: &[&std::ffi::OsStr],
     env: &[(&str, &str)],
     attempts: u64,
@@ -135,9 +147,9 @@ pub fn render_with_paraview(
             std::thread::sleep(std::time::Duration::from_millis(pause));
         }
         let o = Command::new("xvfb-run")
-            .args(["-a", "-s", "-screen 0 1024x768x24", "pvbatch"])
+            .args(["-a", "-s", "-screen 0 1280x1024x24", "pvbatch"])
             .envs(env.iter().copied())
-            .arg(root().join("tests/scripts/paraview_check.py"))
+            .arg(script)
             .args(args)
             .output()
             .expect("xvfb-run runs");
