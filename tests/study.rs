@@ -1068,7 +1068,7 @@ fn study_csv_writes_integers_as_integers() {
     for f in column(&rows, "peak_contact_force") {
         assert!(f.parse::<f64>().is_ok_and(|v| v > 0.0), "{f:?}");
     }
-    use hbcontact::study::table::csv_number;
+    use hbcontact::output::tables::csv_number;
     assert_eq!(csv_number(8.0), "8");
     assert_eq!(csv_number(-3.0), "-3");
     assert_eq!(csv_number(1000.0), "1000");

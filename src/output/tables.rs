@@ -34,3 +34,17 @@ pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Resul
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, text)
 }
+
+/// A number as the CSV writes it: an integer as an integer (`8`, `1000`), any other value in
+/// its shortest round-trip form (`1.5e-7`), empty for NaN.
+pub fn csv_number(v: f64) -> String {
+    /// Integers below this are exact in an f64 and read better written out.
+    const WHOLE: f64 = 1e15;
+    if v.is_finite() && v.fract() == 0.0 && v.abs() < WHOLE {
+        format!("{}", v as i64)
+    } else if v.is_finite() {
+        format!("{v:e}")
+    } else {
+        String::new()
+    }
+}

@@ -9,6 +9,7 @@ pub mod end_state;
 pub mod late;
 pub mod model;
 pub mod modes;
+pub mod outputs;
 pub mod plots;
 pub mod publish;
 pub mod report;

@@ -33,13 +33,14 @@ use serde::Serialize;
 
 use super::displacement::{read_amplitudes, relative_l2};
 use super::execute::Execution;
-use super::outputs::Output;
 use super::plan::{point_dir, Mode};
 use super::spec::{Accuracy, Design, Ladder, Reference, Study, WriteLevel};
-use super::table::{csv_field, csv_number, slug, warnings_field, Row, Staged};
+use super::table::{csv_field, slug, warnings_field, Row, Staged};
 use crate::config::Pipeline;
 use crate::output::plot::{tick, Axis, Figure};
+use crate::output::tables::csv_number;
 use crate::output::tables::write_json;
+use crate::pipeline::outputs::Output;
 use crate::{Error, Result};
 
 /// The measures compared by value, in table order.

@@ -39,11 +39,11 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::outputs::Output;
 use super::plan::{describe, point_dir, Mode, Point};
 use crate::config::Pipeline;
 use crate::output::tables::write_json;
 use crate::pipeline::modes::natural_modes;
+use crate::pipeline::outputs::Output;
 use crate::pipeline::stability::Verdict;
 use crate::pipeline::{self, stages, Purpose, RunOptions, Stages, Summary, WriteLevel};
 use crate::progress::{Reporter, Silent};

@@ -15,7 +15,6 @@
 pub mod accuracy;
 pub mod displacement;
 pub mod execute;
-pub mod outputs;
 pub mod plan;
 pub mod slurm;
 pub mod spec;
@@ -24,8 +23,8 @@ pub mod table;
 use std::collections::HashSet;
 use std::path::PathBuf;
 
+pub use crate::pipeline::outputs::Output;
 pub use execute::Execution;
-pub use outputs::Output;
 pub use spec::{load_study, parse_study, study_schema, Study};
 
 use crate::progress::Reporter;

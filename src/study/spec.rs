@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use schemars::JsonSchema;
 use serde::Deserialize;
 
-use super::outputs::Output;
 use crate::error::excerpt;
+use crate::pipeline::outputs::Output;
 use crate::{Error, Result};
 
 /// A parameter study over one pipeline: which keys vary, over which values, and what to

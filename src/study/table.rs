@@ -15,11 +15,12 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::execute::{read_record, results_files, Execution, PointRecord, Recorded};
-use super::outputs::Output;
 use super::plan::Point;
 use super::spec::{Design, Parameter, Study, Value};
 use crate::output::plot::{tick, Axis, Figure, HeatMap};
+use crate::output::tables::csv_number;
 use crate::output::tables::write_json;
+use crate::pipeline::outputs::Output;
 use crate::{Error, Result};
 
 /// One row of the table.
@@ -82,20 +83,6 @@ pub fn csv_field(s: &str) -> String {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
-    }
-}
-
-/// A number as the CSV writes it: an integer as an integer (`8`, `1000`), any other value in
-/// its shortest round-trip form (`1.5e-7`), empty for NaN.
-pub fn csv_number(v: f64) -> String {
-    /// Integers below this are exact in an f64 and read better written out.
-    const WHOLE: f64 = 1e15;
-    if v.is_finite() && v.fract() == 0.0 && v.abs() < WHOLE {
-        format!("{}", v as i64)
-    } else if v.is_finite() {
-        format!("{v:e}")
-    } else {
-        String::new()
     }
 }
 

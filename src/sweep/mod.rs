@@ -13,7 +13,7 @@
 //! its last point (`resume`).
 //!
 //! Each point's outputs are read from the same typed `Summary` a single-frequency `run`
-//! produces at that frequency (`study::outputs` names them), so a sweep point and a run agree
+//! produces at that frequency (`pipeline::outputs` names them), so a sweep point and a run agree
 //! by construction.
 
 pub mod bifurcations;
@@ -37,15 +37,15 @@ use crate::hbm::floquet::{self, Crossing};
 use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::ContactSolution;
+use crate::output::tables::csv_number;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
+use crate::pipeline::outputs::Output;
 use crate::pipeline::report::Sampled;
 use crate::pipeline::stability::{self, Stability};
 use crate::pipeline::summary::MeshInfo;
 use crate::pipeline::{self, build, hb_settings, Model, Purpose, RunOptions, Stage, Stages};
 use crate::progress::{Reporter, Silent};
-use crate::study::outputs::Output;
-use crate::study::table::csv_number;
 use crate::{Error, Result};
 use bifurcations::BifurcationReport;
 

@@ -12,9 +12,9 @@
 //! `peak_memory` (the run's peak resident memory) and, for accuracy rungs, the harmonic
 //! amplitudes kept for the displacement L2 error.
 
-use super::super::pipeline::stability::Verdict;
-use super::super::pipeline::Stage;
-use super::super::pipeline::Summary;
+use super::stability::Verdict;
+use super::Stage;
+use super::Summary;
 
 /// One tabulated quantity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
