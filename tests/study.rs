@@ -613,7 +613,14 @@ fn string_valued_parameters_vary_keys_whose_values_are_words() {
         ["redistributed", "lumped"],
         "tick labels left to right"
     );
-    assert_eq!(plot.circles.len(), 4, "two gaps × two mass models");
+    // Two gaps × two mass models, in the two series' colours (the warned points' markers,
+    // a third colour, sit over some of them: `study_plots_mark_the_points_whose_run_warned`).
+    let series = plot
+        .circles
+        .iter()
+        .filter(|c| c.2 == "#1F77B4" || c.2 == "#D62728")
+        .count();
+    assert_eq!(series, 4, "two gaps × two mass models");
     let (gaps, masses) = (
         column(&rows, "geometry.parameters.gap"),
         column(&rows, "contact.mass"),
@@ -1277,4 +1284,55 @@ fn accuracy_without_ladders_climbs_the_harmonics_with_contact_and_the_element_or
     let spec = from_ladders(&strip, &[], one(), Reference::Transient, Some(named)).unwrap();
     assert_eq!(spec.out, named);
     assert_eq!(spec.point_count(), 2, "one rung and the marched reference");
+}
+
+/// TEST GOAL: a study's plots mark the points whose run warned (their legend entry
+/// `table::WARNED`, one marker per such point over the curve), and only where some did: the
+/// cantilever on its stop at f1 over the stop's distance (studies/cantilever_gap.yaml, every
+/// point warned of the half-power band) has them; the linear bracket over its drive frequency,
+/// whose runs warn of nothing, has none.
+#[test]
+fn study_plots_mark_the_points_whose_run_warned() {
+    use hbcontact::study::table::WARNED;
+    let out = common::temp_out("study-warned-marks");
+    run_ok(&[
+        "study",
+        "studies/cantilever_gap.yaml",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let warned = text.lines().skip(1).filter(|l| !l.ends_with(',')).count();
+    assert_eq!(warned, 4, "every point warned:\n{text}");
+    let svg = std::fs::read_to_string(out.join("plots/probe_first_harmonic_vs_stop_distance.svg"))
+        .unwrap();
+    assert!(svg.contains(WARNED), "no `{WARNED}` legend");
+    // One line series (no markers) and the warned points: their markers and the legend's.
+    let circles = svg.matches("<circle").count();
+    assert!(
+        circles > warned,
+        "{circles} circles for {warned} warned points"
+    );
+
+    let dir = common::temp_out("study-unwarned-marks");
+    std::fs::create_dir_all(&dir).unwrap();
+    let study = dir.join("study.yaml");
+    let pipeline = common::root().join("pipelines/quickstart.yaml");
+    let body = "parameters:\n  - {key: harmonic_balance.frequency, values: [400.0, 500.0, 600.0]}\noutputs: [probe_first_harmonic]\n";
+    std::fs::write(
+        &study,
+        format!("name: quiet\npipeline: {}\n{body}", pipeline.display()),
+    )
+    .unwrap();
+    let plain = dir.join("out");
+    run_study(&study, &plain);
+    let text = std::fs::read_to_string(plain.join("study.csv")).unwrap();
+    assert!(
+        text.lines().skip(1).all(|l| l.ends_with(',')),
+        "no point warned:\n{text}"
+    );
+    let svg =
+        std::fs::read_to_string(plain.join("plots/probe_first_harmonic_vs_frequency.svg")).unwrap();
+    assert!(!svg.contains(WARNED), "a mark without a warning");
 }

@@ -71,19 +71,25 @@ const NAMED: [(Output, &str, &str); 17] = [
     (Output::Multiplier, "multiplier", "-"),
 ];
 
+/// A point's response: the probe's amplitude and range, the contact forces and fraction (what
+/// every sweep row tabulates, and the first of a study's default outputs).
+pub const RESPONSE: [Output; 5] = [
+    Output::ProbeFirstHarmonic,
+    Output::ProbePeakToPeak,
+    Output::PeakContactForce,
+    Output::MeanContactForce,
+    Output::ContactFraction,
+];
+
 impl Output {
-    /// The default outputs of a study.
+    /// The default outputs of a study: the response, the largest stress and the cost.
     pub fn defaults() -> Vec<Output> {
-        vec![
-            Output::ProbeFirstHarmonic,
-            Output::ProbePeakToPeak,
-            Output::PeakContactForce,
-            Output::MeanContactForce,
-            Output::ContactFraction,
+        let cost = [
             Output::MaxVonMises,
             Output::NewtonIterations,
             Output::WallTime,
-        ]
+        ];
+        RESPONSE.into_iter().chain(cost).collect()
     }
 
     /// Every name a study accepts (for messages and docs).

@@ -157,8 +157,11 @@ fn parameter_axis(p: &Parameter) -> Axis {
     }
 }
 
+/// The legend of the points whose run warned (study.csv's `warnings` says of what).
+pub const WARNED: &str = "warned (study.csv says of what)";
+
 /// The plots of one output against each parameter (and its heat map when both parameters of
-/// a two-parameter grid are numeric), into `dir`. A parameter with string values is a
+/// a two-parameter grid are numeric), into `dir`, the points whose run warned marked. A parameter with string values is a
 /// categorical axis (its values as tick labels); in a two-parameter grid it also names the
 /// lines of the plot against the other.
 fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Vec<PathBuf>> {
@@ -191,6 +194,15 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
             fig = fig.line(o.name(), rows.iter().map(point).collect());
         } else {
             fig = fig.scatter("points", rows.iter().map(point).collect());
+        }
+        // Points whose run warned, marked over their curve: their values need the warning read.
+        let warned: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| !r.warnings().is_empty())
+            .map(point)
+            .collect();
+        if !warned.is_empty() {
+            fig = fig.scatter(WARNED, warned);
         }
         let stem = dir.join(format!("{}_vs_{}", o.name(), slug(&p.label)));
         fig.save(&stem)?;

@@ -51,15 +51,9 @@ use bifurcations::BifurcationReport;
 
 pub use points::WrittenPoint;
 
-/// The outputs every sweep tabulates.
+/// The outputs every sweep tabulates (`pipeline::outputs::RESPONSE`).
 pub fn outputs() -> Vec<Output> {
-    vec![
-        Output::ProbeFirstHarmonic,
-        Output::ProbePeakToPeak,
-        Output::PeakContactForce,
-        Output::MeanContactForce,
-        Output::ContactFraction,
-    ]
+    crate::pipeline::outputs::RESPONSE.to_vec()
 }
 
 /// One row of sweep.csv.
