@@ -17,19 +17,17 @@ fn run_sweep(name: &str, overrides: &[&str], tag: &str) -> SweepSummary {
     result.summary
 }
 
-/// The probe's first-harmonic amplitude of a single-frequency `run` at `hz`.
-fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
+/// The summary of a single-frequency `run` at `hz` (summary only).
+fn run_at(name: &str, overrides: &[&str], hz: f64, tag: &str) -> pipeline::Summary {
     let mut all: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     all.push(format!("harmonic_balance.frequency={hz}"));
     let refs: Vec<&str> = all.iter().map(String::as_str).collect();
-    let p = common::scene(name, &refs);
-    let options = RunOptions {
-        out: Some(common::temp_out(tag)),
-        write: hbcontact::pipeline::WriteLevel::Summary,
-        ..Default::default()
-    };
-    let r = pipeline::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
-    common::first_probe_harmonic(&r.summary)
+    common::run_summary(name, &refs, tag)
+}
+
+/// The probe's first-harmonic amplitude of a single-frequency `run` at `hz`.
+fn single_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
+    common::first_probe_harmonic(&run_at(name, overrides, hz, tag))
 }
 
 /// The checks a linear sweep of the cantilever shares with its basis: the peak row lies within
@@ -721,10 +719,7 @@ fn a_sweep_in_the_rotation_speed_resonates_where_the_turning_frame_puts_the_mode
 
 /// The mean contact force of a single-frequency run at `hz`, summary only.
 fn mean_force_of_run(name: &str, overrides: &[&str], hz: f64, tag: &str) -> f64 {
-    let mut all: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    all.push(format!("harmonic_balance.frequency={hz}"));
-    let refs: Vec<&str> = all.iter().map(String::as_str).collect();
-    let s = common::run_summary(name, &refs, tag);
+    let s = run_at(name, overrides, hz, tag);
     s.contact.expect("a contact scene").mean_contact_force
 }
 

@@ -342,20 +342,24 @@ impl Polyline {
     }
 }
 
+/// An edge's length: end to end, or through its middle node (a 3-node edge as two pieces).
+fn edge_length(mesh: &Mesh2d, e: &Edge) -> f64 {
+    let length = |p: [f64; 2], q: [f64; 2]| dot(sub(q, p), sub(q, p)).sqrt();
+    let (pa, pb) = (mesh.nodes[e.nodes[0]], mesh.nodes[e.nodes[1]]);
+    match e.nodes.get(2) {
+        Some(&m) => length(pa, mesh.nodes[m]) + length(mesh.nodes[m], pb),
+        None => length(pa, pb),
+    }
+}
+
 /// Boundary length attributed to each node of the edges (see `ContactSet::tributary`).
 fn tributary_lengths(mesh: &Mesh2d, edges: &[Edge]) -> HashMap<usize, f64> {
     let mut tributary = HashMap::new();
     for e in edges {
-        let (pa, pb) = (mesh.nodes[e.nodes[0]], mesh.nodes[e.nodes[1]]);
-        let length = |p: [f64; 2], q: [f64; 2]| dot(sub(q, p), sub(q, p)).sqrt();
-        let (len, weights): (f64, &[f64]) = if e.nodes.len() == 3 {
-            let pm = mesh.nodes[e.nodes[2]];
-            (
-                length(pa, pm) + length(pm, pb),
-                &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
-            )
-        } else {
-            (length(pa, pb), &[0.5, 0.5])
+        let len = edge_length(mesh, e);
+        let weights: &[f64] = match e.nodes.len() {
+            3 => &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+            _ => &[0.5, 0.5],
         };
         for (&n, w) in e.nodes.iter().zip(weights) {
             *tributary.entry(n).or_insert(0.0) += w * len;
@@ -480,7 +484,6 @@ fn mortar_weights(mesh: &Mesh2d, edges: &[Edge]) -> Option<Mortar> {
     if !edges.iter().any(|e| e.nodes.len() == 3) {
         return None;
     }
-    let length = |p: [f64; 2], q: [f64; 2]| dot(sub(q, p), sub(q, p)).sqrt();
     let mut mortar = Mortar {
         middles: edges
             .iter()
@@ -491,16 +494,8 @@ fn mortar_weights(mesh: &Mesh2d, edges: &[Edge]) -> Option<Mortar> {
     };
     let mut raw: HashMap<usize, Vec<(usize, f64)>> = HashMap::new();
     for e in edges {
-        let (a, b) = (e.nodes[0], e.nodes[1]);
-        let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
-        let (len, middle) = match e.nodes.get(2) {
-            Some(&m) => (
-                length(pa, mesh.nodes[m]) + length(mesh.nodes[m], pb),
-                Some(m),
-            ),
-            None => (length(pa, pb), None),
-        };
-        for corner in [a, b] {
+        let (len, middle) = (edge_length(mesh, e), e.nodes.get(2).copied());
+        for corner in [e.nodes[0], e.nodes[1]] {
             *mortar.tributary.entry(corner).or_insert(0.0) += 0.5 * len;
             if let Some(m) = middle {
                 raw.entry(corner).or_default().push((m, len / 3.0));

@@ -38,7 +38,7 @@ use super::basis::TimeBasis;
 use super::floquet::Multipliers;
 use super::fourier::{cos_index, sin_index};
 use super::sampler::ContactSampler;
-use super::{ContactSolution, System};
+use super::{ContactSolution, Spin, System};
 use crate::linalg::Csc;
 use crate::{Error, Result};
 
@@ -118,9 +118,9 @@ pub struct HillModel {
     e: DMatrix<f64>,
     alpha: f64,
     beta: f64,
-    /// (τ, Ω_ref) of a spin-softened frame whose speed follows ω: θ_j at ω is
-    /// θ_j + Ω_ref² − τ²ω² (the modes of K + sM are those of K, shifted by s).
-    spin: Option<(f64, f64)>,
+    /// A frame whose speed follows ω (its centrifugal load left out): θ_j at ω is θ_j + s,
+    /// s = `Spin::shift` (the modes of K + sM are those of K).
+    spin: Option<Spin>,
 }
 
 impl HillModel {
@@ -139,13 +139,18 @@ impl HillModel {
             crate::linalg::dot(&rows[i], &found[j].1)
         });
         let (alpha, beta) = system.rayleigh.unwrap_or((0.0, 0.0));
-        let spin = system.spin.as_ref().filter(|s| s.softening);
+        let spin = system.spin.as_ref().map(|s| Spin {
+            turns: s.turns,
+            reference: s.reference,
+            softening: s.softening,
+            centrifugal: None,
+        });
         Ok(HillModel {
             theta,
             e,
             alpha,
             beta,
-            spin: spin.map(|s| (s.turns, s.reference)),
+            spin,
         })
     }
 
@@ -167,9 +172,7 @@ impl HillModel {
 
     /// The shift of every θ_j at ω (zero unless the speed follows ω).
     fn shift(&self, omega: f64) -> f64 {
-        self.spin.map_or(0.0, |(turns, reference)| {
-            reference.powi(2) - (turns * omega).powi(2)
-        })
+        self.spin.as_ref().map_or(0.0, |s| s.shift(omega).0)
     }
 
     /// The model at ω keeping its `r` lowest modes dynamic (a following speed's spin

@@ -98,7 +98,7 @@ impl Spin {
     }
 
     /// The stiffness shift s = Ω_ref² − Ω² at ω and ds/dω (zero without spin softening).
-    fn shift(&self, omega: f64) -> (f64, f64) {
+    pub(crate) fn shift(&self, omega: f64) -> (f64, f64) {
         match self.softening {
             true => (
                 self.reference.powi(2) - self.speed(omega).powi(2),
@@ -106,6 +106,16 @@ impl Spin {
             ),
             false => (0.0, 0.0),
         }
+    }
+
+    /// Ω² − Ω_ref², by which the centrifugal load M(x − c) grows from its built value, at ω,
+    /// and its derivative in ω, 2τΩ.
+    fn growth(&self, omega: f64) -> (f64, f64) {
+        let speed = self.speed(omega);
+        (
+            speed.powi(2) - self.reference.powi(2),
+            2.0 * self.turns * speed,
+        )
     }
 
     /// Ω/Ω_ref at ω and its derivative in ω (G's scale).
@@ -234,7 +244,7 @@ impl System {
             g.g_fp.values.iter_mut().for_each(|v| *v *= scale);
         }
         if let (Some(unit), Some(input)) = (&spin.centrifugal, out.inputs.get_mut(&0)) {
-            let grow = spin.speed(omega).powi(2) - spin.reference.powi(2);
+            let (grow, _) = spin.growth(omega);
             input
                 .force
                 .iter_mut()
@@ -592,14 +602,21 @@ impl System {
     pub fn input_rate(&self, k: usize, motion: &[c64]) -> Option<Vec<c64>> {
         let moves = motion.iter().any(|z| z.norm() > 0.0);
         let mut out = moves.then(|| self.pencil_rate_times(k, false, motion));
-        let spin = self.spin.as_ref().filter(|_| k == 0);
-        if let Some((sp, unit)) = spin.and_then(|sp| Some((sp, sp.centrifugal.as_ref()?))) {
+        if let Some((unit, (_, rate))) = self.centrifugal(k) {
             let gamma = self.basis.load_factor(0).unwrap_or(c64::new(1.0, 0.0));
-            let rate = 2.0 * sp.turns * sp.speed(self.omega) * gamma;
+            let rate = rate * gamma;
             let out = out.get_or_insert_with(|| vec![c64::new(0.0, 0.0); unit.len()]);
             out.iter_mut().zip(unit).for_each(|(o, u)| *o -= u * rate);
         }
         out
+    }
+
+    /// Harmonic k's centrifugal load per Ω², M(x − c), and `Spin::growth` at this ω, where a
+    /// following speed moves it (harmonic 0 only).
+    fn centrifugal(&self, k: usize) -> Option<(&[c64], (f64, f64))> {
+        let spin = self.spin.as_ref().filter(|_| k == 0)?;
+        let unit = spin.centrifugal.as_deref()?;
+        Some((unit, spin.growth(self.omega)))
     }
 
     /// (a' K + b' M + c' G) x with the free–free blocks (`free`) or the free–prescribed
@@ -612,19 +629,16 @@ impl System {
         let r = self.coefficient_rates(k, self.omega);
         let sym = self.symbols(k);
         let (alpha, beta) = self.damping_shifted(&sym, self.omega);
-        // r.b = (q_k' + s') + i(σ_k'α_s + σ_kβs'): the last term apart, the products in the
-        // order they had without a following speed.
-        let extra = c64::new(0.0, r.b.im - sym.damping_rate * alpha);
+        // r.b = (q_k' + s') + i(σ_k'α_s + σ_kβs'): the σ_kβs' term (zero without a following
+        // speed) apart, so the products keep the order they had before it.
+        let extra = c64::new(0.0, sym.damping * beta * self.shift(self.omega).1);
         let (kx, mx) = (kk.mul_complex(x), mm.mul_complex(x));
         let mut out: Vec<c64> = kx
             .iter()
             .zip(&mx)
             .map(|(&kv, &mv)| {
                 let v = mv * r.b.re + c64::new(0.0, sym.damping_rate) * (kv * beta + mv * alpha);
-                match self.spin {
-                    Some(_) => v + extra * mv,
-                    None => v,
-                }
+                v + extra * mv
             })
             .collect();
         if let Some(g) = &self.gyroscopic {
@@ -644,9 +658,7 @@ impl System {
             return vec![c64::new(0.0, 0.0); nf];
         };
         let mut rhs = input.force.clone();
-        let spin = self.spin.as_ref().filter(|_| k == 0);
-        if let Some((sp, unit)) = spin.and_then(|sp| Some((sp, sp.centrifugal.as_ref()?))) {
-            let grow = sp.speed(self.omega).powi(2) - sp.reference.powi(2);
+        if let Some((unit, (grow, _))) = self.centrifugal(k) {
             rhs.iter_mut().zip(unit).for_each(|(r, u)| *r += u * grow);
         }
         if input.motion.iter().any(|z| z.norm() > 0.0) {

@@ -215,7 +215,9 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
     let contact_set = pair_sets.as_deref().map(ContactSet::concat);
     let mass = mass(p, &mesh, &material, purpose, contact_set.as_ref())?;
     let (inputs, prescribed_motion) = harmonic_inputs(p, &mesh, &material, &dofs)?;
-    let inputs = with_body_forces(p, &mesh, &mass.matrix, &dofs, inputs);
+    let centrifugal = centrifugal_unit(p, &mesh, &mass.matrix, &dofs);
+    let body = (centrifugal.as_deref(), &mass.matrix);
+    let inputs = with_body_forces(p, &mesh, body, &dofs, inputs);
     let excited: Vec<usize> = inputs
         .iter()
         .filter(|(_, i)| i.force.iter().chain(&i.motion).any(|z| z.norm() != 0.0))
@@ -225,8 +227,14 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         .damping
         .map(|d| (d.alpha, d.beta))
         .filter(|&(a, b)| a != 0.0 || b != 0.0);
-    let system = system(p, &mesh, (dofs, stiffness, &mass.matrix), rayleigh, inputs)?
-        .with_basis(time_basis(p, purpose));
+    let system = system(
+        p,
+        centrifugal,
+        (dofs, stiffness, &mass.matrix),
+        rayleigh,
+        inputs,
+    )?
+    .with_basis(time_basis(p, purpose));
     let contact = contact_set.zip(pair_sets).map(|(set, pairs)| {
         let mut operator = contact_operator(&set, &system.dofs);
         if let Some(spec) = &p.contact {
@@ -279,10 +287,11 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
 }
 
 /// The per-harmonic system at the pipeline's frequency: the stiffness with the rotating
-/// frame's spin softening, and its Coriolis matrix where simulated.
+/// frame's spin softening, and its Coriolis matrix where simulated; a speed that follows
+/// the frequency keeps `centrifugal`, the load per Ω² (`centrifugal_unit`).
 fn system(
     p: &Pipeline,
-    mesh: &Mesh2d,
+    centrifugal: Option<Vec<c64>>,
     (dofs, stiffness, mass): (DofMap, Triplets, &Triplets),
     rayleigh: Option<(f64, f64)>,
     inputs: BTreeMap<usize, HarmonicInput>,
@@ -298,7 +307,7 @@ fn system(
             turns: r.turns_per_period()?,
             reference,
             softening: r.spin_softening,
-            centrifugal: centrifugal_unit(p, mesh, mass, &dofs),
+            centrifugal,
         })
     });
     Ok(System::new(dofs, &stiffness, mass, rayleigh, omega, inputs, gyro)?.with_spin(spin))
@@ -418,11 +427,12 @@ fn gyroscopic(mass: &Triplets, rotation: Option<(Rotation, f64)>) -> Option<(f64
 
 /// The static body forces added to harmonic 0: gravity M g and the centrifugal force
 /// M Ω² (x − c), with the model's own mass (consistent, lumped or redistributed: the same
-/// resultant and moment, and the inertia the dynamics use).
+/// resultant and moment, and the inertia the dynamics use); `centrifugal` is M (x − c)
+/// (`centrifugal_unit`).
 fn with_body_forces(
     p: &Pipeline,
     mesh: &Mesh2d,
-    mass: &Triplets,
+    (centrifugal, mass): (Option<&[c64]>, &Triplets),
     dofs: &DofMap,
     mut inputs: BTreeMap<usize, HarmonicInput>,
 ) -> BTreeMap<usize, HarmonicInput> {
@@ -430,11 +440,7 @@ fn with_body_forces(
     if let Some(g) = p.boundaries.gravity {
         forces.push(free_mass_times(mesh, mass, dofs, |_| g));
     }
-    if let Some((r, unit)) = p
-        .boundaries
-        .rotation
-        .zip(centrifugal_unit(p, mesh, mass, dofs))
-    {
+    if let Some((r, unit)) = p.boundaries.rotation.zip(centrifugal) {
         let w2 = r.speed_at(p.harmonic_balance.frequency).powi(2);
         forces.push(unit.iter().map(|u| u * w2).collect());
     }
