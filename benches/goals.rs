@@ -8,9 +8,11 @@
 //! - time per factorization against its flop count (the floor);
 //! - the product G v of a GMRES iteration, as the Newton does it against a dot product per row;
 //! - a pressed contact patch (the half-disc) at H = 10…80, where the harmonic-block
-//!   preconditioner serves the steps the node blocks stall on.
+//!   preconditioner serves the steps the node blocks stall on;
+//! - the cost of Coulomb friction against the frictionless solve of the same scene (the
+//!   friction block and the friction damper, H = 20 and 40).
 //!
-//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products | patch]`
+//! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products | patch | friction]`
 //! (default: all). Times
 //! come from one run on a shared machine: the ratios within a table are what to compare.
 
@@ -760,5 +762,44 @@ fn main() {
     }
     if want("patch") {
         patch();
+    }
+    if want("friction") {
+        friction();
+    }
+}
+
+/// Friction's cost: each scene at μ and frictionless, the Newton stage and the whole run,
+/// and the ratio (one run each, on this machine now).
+fn friction() {
+    println!("\n# Coulomb friction against the frictionless solve of the same scene");
+    println!("scene, H | Newton frictionless [s] | Newton with μ [s] | ratio | run frictionless [s] | run with μ [s] | ratio | energy per period [J]");
+    let scenes = [
+        ("pipelines/scenes/friction_block.yaml", "0.3"),
+        ("pipelines/scenes/friction_damper.yaml", "0.1"),
+    ];
+    for (file, mu) in scenes {
+        for h in [20, 40] {
+            let base = vec![format!("harmonic_balance.harmonics={h}")];
+            let mut with = base.clone();
+            with.push(format!("contact.friction.coefficient={mu}"));
+            let mut without = base;
+            without.push("contact.friction.coefficient=0".into());
+            let (Some((a, ta)), Some((b, tb))) = (
+                run(file, &without, "friction-off"),
+                run(file, &with, "friction-on"),
+            ) else {
+                continue;
+            };
+            let newton = |s: &Summary| s.stage_seconds.get(Stage::Newton);
+            let energy = b.contact.as_ref().and_then(|c| c.friction.as_ref());
+            println!(
+                "{file} μ = {mu}, H = {h} | {:.3} | {:.3} | {:.1} | {ta:.3} | {tb:.3} | {:.1} | {:.4e}",
+                newton(&a),
+                newton(&b),
+                newton(&b) / newton(&a).max(1e-6),
+                tb / ta,
+                energy.map_or(f64::NAN, |f| f.dissipated_energy_per_period),
+            );
+        }
     }
 }

@@ -462,6 +462,7 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
         &["harmonic_balance.basis={spline: {degree: 3, segments: 33}}"],
     ),
     ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
+    ("contact.friction", &["contact.friction={coefficient: 0.0}"]),
     ("boundaries.rotation", &["boundaries.rotation={speed: 1.0}"]),
     (
         "boundaries.rotation.turns_per_period",

@@ -164,6 +164,13 @@ fn show_headline(s: &Summary) {
             .unwrap_or_default();
         outln!("  contact force: peak {peak:.4e} N{change}, mean {mean:.4e} N");
     }
+    if let Some((energy, stick, slip)) = h.friction {
+        outln!(
+            "  friction: {energy:.4e} J dissipated per period; samples stuck {:.1}%, slipping {:.1}%",
+            100.0 * stick,
+            100.0 * slip
+        );
+    }
     if let Some(vm) = h.max_von_mises {
         outln!("  max von Mises: {vm:.4e} Pa");
     }

@@ -279,6 +279,8 @@ pub struct ContactPair {
     pub search_distance: Option<f64>,
     /// A rigid obstacle's translation d(t) (`None`: fixed).
     pub motion: Option<Signal<2>>,
+    /// The Coulomb friction coefficient μ (0: frictionless).
+    pub friction: f64,
     /// The pipeline key of this pair: `contact` or `contact.pairs[i]`.
     pub key: String,
 }

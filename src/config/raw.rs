@@ -496,11 +496,25 @@ pub(super) struct RawContact {
     /// `body` obstacle (move that body by its own loads or supports).
     #[serde(default)]
     pub(super) motion: Option<RawObstacleMotion>,
+    /// Coulomb friction `{coefficient: μ}` at every contact node (a pair's own `friction`
+    /// overrides it). Default: frictionless.
+    #[serde(default)]
+    pub(super) friction: Option<RawFriction>,
     /// Several contact pairs (a blade tip and its shroud, a joint's two faces, a beam between
-    /// two stops), each `{boundary, obstacle, search_distance, motion}` as above, in place of
-    /// the single pair's keys; `mass` and `allow_initial_penetration` hold for all.
+    /// two stops), each `{boundary, obstacle, search_distance, motion, friction}` as above, in
+    /// place of the single pair's keys; `mass`, `allow_initial_penetration` and `friction`
+    /// hold for all.
     #[serde(default)]
     pub(super) pairs: Option<Vec<RawPair>>,
+}
+
+/// Coulomb friction of a contact pair.
+#[derive(Clone, Copy, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+#[schemars(rename = "Friction")]
+pub(super) struct RawFriction {
+    /// The friction coefficient μ, in [0, 10]. Required.
+    pub(super) coefficient: f64,
 }
 
 /// One contact pair of `contact.pairs`.
@@ -520,6 +534,9 @@ pub(super) struct RawPair {
     /// As `contact.motion`, for this pair's rigid obstacle. Default: fixed.
     #[serde(default)]
     pub(super) motion: Option<RawObstacleMotion>,
+    /// As `contact.friction`, for this pair. Default: `contact.friction`.
+    #[serde(default)]
+    pub(super) friction: Option<RawFriction>,
 }
 
 /// Settings of `hbcontact transient`.

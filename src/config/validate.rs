@@ -163,6 +163,7 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     let contact = validate_contact(path, raw.contact)?;
     if let Some(c) = &contact {
         check_contact_harmonics(path, &boundaries, c, harmonic_balance.harmonics)?;
+        check_friction(path, &boundaries, c)?;
     }
     let transient = validate_transient(path, raw.transient)?;
     let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
@@ -184,6 +185,26 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         output,
     };
     Ok(pipeline)
+}
+
+/// Friction against a surface that slides past the contact nodes needs its sliding speed,
+/// which is not modelled: a lobed casing (its lobes turn past the body) and a circle in a
+/// turning frame (a casing at rest seen from the rotor) are refused with friction.
+fn check_friction(path: &Path, b: &Boundaries, c: &ContactSpec) -> Result<()> {
+    for pair in c.pairs.iter().filter(|p| p.friction > 0.0) {
+        let ObstacleSpec::Circle { lobes, .. } = &pair.obstacle else {
+            continue;
+        };
+        let why = if lobes.is_some() {
+            "a lobed casing turns past the body"
+        } else if b.rotation.is_some() {
+            "in boundaries.rotation's turning frame a casing at rest slides past the body"
+        } else {
+            continue;
+        };
+        return Err(config_error(path, format!("{}.friction: {why}, and the sliding speed that friction depends on is not modelled; remove the friction (or the {})", pair.key, if lobes.is_some() { "lobes" } else { "rotation" })));
+    }
+    Ok(())
 }
 
 /// A contact solve computes harmonics 0..H only: every harmonic a load, a motion or the
@@ -685,7 +706,13 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
         (Some(raw), _, _) => raw
             .into_iter()
             .enumerate()
-            .map(|(i, r)| validate_pair(path, format!("contact.pairs[{i}]"), r))
+            .map(|(i, r)| {
+                let r = RawPair {
+                    friction: r.friction.or(c.friction),
+                    ..r
+                };
+                validate_pair(path, format!("contact.pairs[{i}]"), r)
+            })
             .collect::<Result<Vec<_>>>()?,
         (None, Some(boundary), Some(obstacle)) => {
             let raw = RawPair {
@@ -693,6 +720,7 @@ fn validate_contact(path: &Path, contact: Option<RawContact>) -> Result<Option<C
                 obstacle,
                 search_distance: c.search_distance,
                 motion: c.motion,
+                friction: c.friction,
             };
             vec![validate_pair(path, "contact".to_string(), raw)?]
         }
@@ -726,11 +754,16 @@ fn validate_pair(path: &Path, key: String, c: RawPair) -> Result<ContactPair> {
     if let Some(d) = c.search_distance {
         positive(path, &format!("{key}.search_distance"), d)?;
     }
+    let friction = c.friction.map_or(0.0, |f| f.coefficient);
+    if !(0.0..=10.0).contains(&friction) {
+        return Err(config_error(path, format!("{key}.friction.coefficient = {friction} must be in [0, 10] (steel on steel is about 0.15–0.6)")));
+    }
     Ok(ContactPair {
         boundary: c.boundary,
         obstacle,
         search_distance: c.search_distance,
         motion,
+        friction,
         key,
     })
 }

@@ -8,4 +8,4 @@ pub mod mass;
 pub mod operator;
 pub mod pairing;
 
-pub use operator::{contact_operator, ContactOperator};
+pub use operator::{contact_operator, tangential_rows, ContactOperator, Tangential};

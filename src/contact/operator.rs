@@ -30,6 +30,21 @@ pub struct ContactOperator {
     /// The gap's harmonics ĝ_k (k ≥ 1, one phasor per row, x = Re(ĝ e^{ikωt})): empty for a
     /// fixed obstacle.
     pub gap_harmonics: BTreeMap<usize, Vec<c64>>,
+    /// Coulomb friction: the tangential rows and each node's coefficient (`None`:
+    /// frictionless).
+    pub tangential: Option<Tangential>,
+}
+
+/// The tangential rows of B: row i is t_i = ẑ × n_i at node i's dofs (with the same weights
+/// as its normal row), so (B_t u)_i is the node's tangential displacement relative to the
+/// obstacle; μ_i its friction coefficient.
+#[derive(Clone, Debug)]
+pub struct Tangential {
+    pub b_free: Csc,
+    pub b_prescribed: Csc,
+    pub coefficients: Vec<f64>,
+    /// The obstacle's tangential translation per row (k ≥ 1 phasors, as `gap_harmonics`).
+    pub motion: BTreeMap<usize, Vec<c64>>,
 }
 
 impl ContactOperator {
@@ -40,6 +55,38 @@ impl ContactOperator {
     /// The gap g0(t) of every row at time t, the fundamental being ω.
     pub fn gap_at(&self, omega: f64, t: f64, out: &mut [f64]) {
         periodic_gap(&self.g0, &self.gap_harmonics, omega, t, out);
+    }
+
+    /// With friction, the operator of the normal rows followed by the tangential rows (the
+    /// reduction of the frictional problem, `hbm::friction`): a zero initial tangential gap,
+    /// the obstacle's tangential translation as that row's gap harmonics.
+    pub fn stacked(&self) -> Option<ContactOperator> {
+        let t = self.tangential.as_ref()?;
+        let nc = self.nodes();
+        let mut gap_harmonics = BTreeMap::new();
+        for k in self.gap_harmonics.keys().chain(t.motion.keys()) {
+            let zero = vec![c64::new(0.0, 0.0); nc];
+            let mut row = self.gap_harmonics.get(k).unwrap_or(&zero).clone();
+            row.extend_from_slice(t.motion.get(k).unwrap_or(&zero));
+            gap_harmonics.insert(*k, row);
+        }
+        let mut g0 = self.g0.clone();
+        g0.resize(2 * nc, 0.0);
+        Some(ContactOperator {
+            b_free: self.b_free.stacked(&t.b_free),
+            b_prescribed: self.b_prescribed.stacked(&t.b_prescribed),
+            g0,
+            gap_harmonics,
+            tangential: None,
+        })
+    }
+
+    /// The rows the solver reduces to: the stacked ones with friction, else B itself.
+    pub fn reduction_rows(&self) -> std::borrow::Cow<'_, Csc> {
+        match &self.tangential {
+            Some(t) => std::borrow::Cow::Owned(self.b_free.stacked(&t.b_free)),
+            None => std::borrow::Cow::Borrowed(&self.b_free),
+        }
     }
 }
 
@@ -62,10 +109,35 @@ pub fn periodic_gap(
 
 /// B and g0 from the contact set's normals and gaps.
 pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
+    let (b_free, b_prescribed) = rows(set, dofs, |n| n);
+    ContactOperator {
+        b_free,
+        b_prescribed,
+        g0: set.gaps.clone(),
+        gap_harmonics: BTreeMap::new(),
+        tangential: None,
+    }
+}
+
+/// The tangential rows t_i = ẑ × n_i = (−n_y, n_x) of the contact set, with μ per node.
+pub fn tangential_rows(set: &ContactSet, dofs: &DofMap, coefficients: Vec<f64>) -> Tangential {
+    let (b_free, b_prescribed) = rows(set, dofs, |n| [-n[1], n[0]]);
+    Tangential {
+        b_free,
+        b_prescribed,
+        coefficients,
+        motion: BTreeMap::new(),
+    }
+}
+
+/// The rows `direction(n_i)` at each contact node's dofs (and its target's, weighted), split
+/// into free and prescribed columns.
+fn rows(set: &ContactSet, dofs: &DofMap, direction: impl Fn([f64; 2]) -> [f64; 2]) -> (Csc, Csc) {
     let (mut free, mut held) = (Vec::new(), Vec::new());
     for (i, normal) in set.normals.iter().enumerate() {
+        let vector = direction(*normal);
         for (n, w) in set.row_nodes(i) {
-            for (c, &component) in normal.iter().enumerate() {
+            for (c, &component) in vector.iter().enumerate() {
                 let d = 2 * n + c;
                 if let Some(f) = dofs.free_index(d) {
                     free.push((i, f, w * component));
@@ -76,10 +148,8 @@ pub fn contact_operator(set: &ContactSet, dofs: &DofMap) -> ContactOperator {
         }
     }
     let nc = set.nodes.len();
-    ContactOperator {
-        b_free: Csc::from_entries(nc, dofs.free.len(), &free),
-        b_prescribed: Csc::from_entries(nc, dofs.prescribed.len(), &held),
-        g0: set.gaps.clone(),
-        gap_harmonics: BTreeMap::new(),
-    }
+    (
+        Csc::from_entries(nc, dofs.free.len(), &free),
+        Csc::from_entries(nc, dofs.prescribed.len(), &held),
+    )
 }

@@ -22,6 +22,7 @@ pub mod continuation;
 pub mod floquet;
 pub mod fourier;
 pub mod frames;
+pub mod friction;
 mod globalize;
 pub mod hill;
 pub mod knobs;
@@ -43,7 +44,9 @@ use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use problem::ReducedProblem;
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings};
-pub use solution::{Complementarity, ContactSolution, Snapshot, Solution, Timings};
+pub use solution::{
+    Complementarity, ContactSolution, FrictionSolution, Snapshot, Solution, Timings,
+};
 pub use system::{HarmonicInput, Spin, System};
 
 #[derive(Clone, Debug)]
@@ -92,8 +95,26 @@ pub fn solve(
 ) -> Result<Solution> {
     let settings = &contact_settings(system, contact.is_some(), settings)?;
     let mut timings = Timings::default();
-    let (mut linear, problem) = prepare(system, contact, settings, reporter, &mut timings)?;
+    let stacked = contact.and_then(ContactOperator::stacked);
+    let reduction = stacked.as_ref().or(contact);
+    let (mut linear, problem) = prepare(system, reduction, settings, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
+        (Some(op), Some(problem)) if op.tangential.is_some() => {
+            let solution =
+                solve_frictional(system, op, &problem, settings, reporter, &mut timings)?;
+            let mut x = solution.multipliers.clone();
+            x.extend_from_slice(
+                solution
+                    .friction
+                    .as_ref()
+                    .map_or(&[][..], |f| &f.tangential),
+            );
+            let m = solution.coefficients();
+            timed(&mut timings.recover, || {
+                linear.recover(reduction.unwrap_or(op), &x, m)
+            });
+            Some(solution)
+        }
         (Some(op), Some(problem)) => {
             let solution =
                 solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?;
@@ -164,6 +185,74 @@ fn solve_contact_timed(
     timings.knob_check += solution.knob_check.seconds;
     timings.newton -= solution.knob_check.seconds;
     Ok(solution)
+}
+
+/// The frictional contact solve (`friction`) on the stacked problem: the frictionless solve
+/// of its normal rows (with all of `globalize`'s help), then the frictional Newton from it.
+fn solve_frictional(
+    system: &System,
+    op: &ContactOperator,
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    reporter: &dyn Reporter,
+    timings: &mut Timings,
+) -> Result<ContactSolution> {
+    if !matches!(system.basis, basis::TimeBasis::Fourier) {
+        return Err(Error::Input(
+            "contact.friction needs the Fourier time basis (harmonic_balance.basis: fourier): \
+             the slip velocity of a spline basis is not formed"
+                .into(),
+        ));
+    }
+    let normal = friction::normal_part(problem);
+    let mut frictionless = solve_contact_timed(system, op, &normal, settings, reporter, timings)?;
+    let coefficients = op
+        .tangential
+        .as_ref()
+        .map_or(Vec::new(), |t| t.coefficients.clone());
+    let full = problem.truncate(frictionless.harmonics);
+    let knobs = (settings.tolerance, settings.max_iterations);
+    let (outcome, change) = timed(&mut timings.newton, || {
+        friction::solve(&full, &coefficients, &frictionless, knobs)
+    });
+    if !outcome.converged {
+        return Err(Error::NotConverged(format!(
+            "the frictional contact solve did not converge at {:.6} Hz: {} after {} iterations \
+             (from the frictionless state, which converged). Lower contact.friction.coefficient \
+             to find where it stops, or raise damping",
+            system.omega / (2.0 * std::f64::consts::PI),
+            outcome.reason,
+            outcome.iterations
+        )));
+    }
+    let (nc, m) = (op.nodes(), full.coefficients());
+    let x = &outcome.multipliers;
+    let gaps = full.gap(x);
+    let normal = friction::normal_part(&full);
+    frictionless.complementarity =
+        measure_complementarity(&normal, &x[..nc * m], &gaps[..nc * m], frictionless.samples);
+    frictionless.multipliers = x[..nc * m].to_vec();
+    frictionless.gaps = gaps[..nc * m].to_vec();
+    frictionless.compliance = None;
+    let law = friction::Law {
+        coefficients: &coefficients,
+        c: frictionless.c,
+        tangential_scale: 1.0,
+    };
+    let states = friction::node_states(&full, &law, frictionless.samples, x);
+    let (shares, peak_force) = friction::statistics(&states);
+    frictionless.friction = Some(FrictionSolution {
+        coefficients,
+        tangential: x[nc * m..].to_vec(),
+        slips: gaps[nc * m..].to_vec(),
+        samples_change: change,
+        iterations: outcome.iterations,
+        shares,
+        peak_force,
+    });
+    frictionless.newton.multipliers = frictionless.multipliers.clone();
+    frictionless.newton.iterations += outcome.iterations;
+    Ok(frictionless)
 }
 
 /// The reduced problem of the scene with its damping scaled by `scale` (the damping

@@ -72,6 +72,48 @@ pub struct ContactSolution {
     /// G_k, the compliance per harmonic the state was solved with (`ReducedProblem`), for
     /// Hill's method (`hill`); `None` once a caller has no more use for it.
     pub compliance: Option<std::sync::Arc<Vec<Vec<c64>>>>,
+    /// The tangential part of a frictional solve (`None`: frictionless).
+    pub friction: Option<FrictionSolution>,
+}
+
+/// The tangential part of a frictional contact solution (`hbm::friction`).
+#[derive(Clone, Debug)]
+pub struct FrictionSolution {
+    /// μ per contact node.
+    pub coefficients: Vec<f64>,
+    /// λ_t coefficients, node-major (`fourier` layout), the tangential force on the body
+    /// along t = ẑ × n.
+    pub tangential: Vec<f64>,
+    /// w coefficients, the tangential displacement relative to the obstacle.
+    pub slips: Vec<f64>,
+    /// The largest change of the multipliers from N to 2N, relative to the largest.
+    pub samples_change: f64,
+    /// Newton iterations of the frictional solve (after the frictionless one).
+    pub iterations: usize,
+    /// Shares of (node, sample) pairs open, stuck and slipping at the solver's samples.
+    pub shares: [f64; 3],
+    /// Peak over the samples of |Σ_i λ_t,i|, the total tangential force [N].
+    pub peak_force: f64,
+}
+
+impl FrictionSolution {
+    /// Energy each node dissipates per period, E_i = −∫ λ_t ẇ dt = −π Σ_k k (α_k b_k − β_k
+    /// a_k) for λ_t = Σ α_k cos + β_k sin and w = Σ a_k cos + b_k sin (exact for the
+    /// series; independent of ω).
+    pub fn dissipation(&self, harmonics: usize) -> Vec<f64> {
+        let m = 2 * harmonics + 1;
+        (self
+            .tangential
+            .chunks_exact(m)
+            .zip(self.slips.chunks_exact(m)))
+        .map(|(l, w)| {
+            -std::f64::consts::PI
+                * (1..=harmonics)
+                    .map(|k| k as f64 * (l[2 * k - 1] * w[2 * k] - l[2 * k] * w[2 * k - 1]))
+                    .sum::<f64>()
+        })
+        .collect()
+    }
 }
 
 /// The detour a contact solve took where the direct one failed, in words (`None`: direct):
@@ -124,6 +166,7 @@ impl ContactSolution {
             },
             newton,
             compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
+            friction: None,
         }
     }
 

@@ -80,6 +80,31 @@ pub struct Csc {
 }
 
 impl Csc {
+    /// [self; below]: the rows of `below` appended after this matrix's (same columns).
+    pub fn stacked(&self, below: &Csc) -> Csc {
+        debug_assert_eq!(self.ncols, below.ncols);
+        let mut out = Csc {
+            nrows: self.nrows + below.nrows,
+            ncols: self.ncols,
+            col_ptr: vec![0],
+            row_idx: Vec::with_capacity(self.row_idx.len() + below.row_idx.len()),
+            values: Vec::with_capacity(self.values.len() + below.values.len()),
+        };
+        for j in 0..self.ncols {
+            let (a, b) = (
+                self.col_ptr[j]..self.col_ptr[j + 1],
+                below.col_ptr[j]..below.col_ptr[j + 1],
+            );
+            out.row_idx.extend_from_slice(&self.row_idx[a.clone()]);
+            out.values.extend_from_slice(&self.values[a]);
+            out.row_idx
+                .extend(below.row_idx[b.clone()].iter().map(|r| r + self.nrows));
+            out.values.extend_from_slice(&below.values[b]);
+            out.col_ptr.push(out.row_idx.len());
+        }
+        out
+    }
+
     /// Duplicates are summed in the order given. Linear in the entries: a counting sort by
     /// column, duplicates merged through a row-to-slot map, then each column's distinct rows
     /// (a dozen or two from an assembly) sorted (a global sort of the element triplets took

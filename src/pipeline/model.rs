@@ -14,7 +14,7 @@ use crate::config::{
 };
 use crate::contact::geometry::{build_contact_set, ContactScene, ContactSet, Obstacle};
 use crate::contact::mass::{redistribute_mass, Redistribution};
-use crate::contact::{contact_operator, ContactOperator};
+use crate::contact::{contact_operator, tangential_rows, ContactOperator, Tangential};
 use crate::fem::DofMap;
 use crate::fem::{self, MassKind, Material, PlaneModel};
 use crate::hbm::basis::{SplineBasis, TimeBasis};
@@ -235,23 +235,17 @@ pub fn build(p: &Pipeline, mesh: Mesh2d, purpose: Purpose) -> Result<Model> {
         inputs,
     )?
     .with_basis(time_basis(p, purpose));
-    let contact = contact_set.zip(pair_sets).map(|(set, pairs)| {
-        let mut operator = contact_operator(&set, &system.dofs);
-        if let Some(spec) = &p.contact {
-            operator.gap_harmonics = all_gap_harmonics(spec, &pairs);
-        }
-        ContactModel {
-            operator,
-            set,
-            pairs,
-            redistribution: mass.redistribution,
-        }
+    let contact = (contact_set.zip(pair_sets)).map(|(set, pairs)| ContactModel {
+        operator: operator(p, &set, &pairs, &system.dofs),
+        set,
+        pairs,
+        redistribution: mass.redistribution,
     });
     if let (Purpose::HarmonicBalance, Some(c)) = (purpose, &contact) {
         // The LDLᵀ's symbolic analysis, with the contact normals kept. The LU's (the
         // resonance check's shift-invert, and the fallback of a failed LDLᵀ) is done where
         // it is first needed: run beside this one, it slowed both on a 2-core machine.
-        system.schur_plan(&c.operator.b_free);
+        system.schur_plan(&c.operator.reduction_rows());
     }
     let probes = p
         .output
@@ -609,6 +603,53 @@ fn all_gap_harmonics(spec: &ContactSpec, sets: &[ContactSet]) -> BTreeMap<usize,
         offset += set.nodes.len();
     }
     out
+}
+
+/// B and g0 of the contact set, with the obstacles' gap harmonics and the friction rows.
+fn operator(
+    p: &Pipeline,
+    set: &ContactSet,
+    pairs: &[ContactSet],
+    dofs: &DofMap,
+) -> ContactOperator {
+    let mut operator = contact_operator(set, dofs);
+    if let Some(spec) = &p.contact {
+        operator.gap_harmonics = all_gap_harmonics(spec, pairs);
+        operator.tangential = friction_rows(spec, pairs, set, dofs);
+    }
+    operator
+}
+
+/// The tangential rows and μ per node where any pair has friction (`None`: frictionless),
+/// with each translating obstacle's tangential motion t·d(t).
+fn friction_rows(
+    spec: &ContactSpec,
+    sets: &[ContactSet],
+    all: &ContactSet,
+    dofs: &crate::fem::DofMap,
+) -> Option<Tangential> {
+    if spec.pairs.iter().all(|p| p.friction == 0.0) {
+        return None;
+    }
+    let coefficients = (spec.pairs.iter().zip(sets))
+        .flat_map(|(p, s)| std::iter::repeat_n(p.friction, s.nodes.len()))
+        .collect();
+    let mut rows = tangential_rows(all, dofs, coefficients);
+    let (total, mut offset) = (all.nodes.len(), 0);
+    for (pair, set) in spec.pairs.iter().zip(sets) {
+        for &(k, cos, sin) in pair.motion.iter().flat_map(|m| &m.harmonics) {
+            let row = (rows.motion.entry(k)).or_insert_with(|| vec![c64::new(0.0, 0.0); total]);
+            for (z, n) in row[offset..].iter_mut().zip(&set.normals) {
+                let t = [-n[1], n[0]];
+                *z += c64::new(
+                    t[0] * cos[0] + t[1] * cos[1],
+                    -(t[0] * sin[0] + t[1] * sin[1]),
+                );
+            }
+        }
+        offset += set.nodes.len();
+    }
+    Some(rows)
 }
 
 /// The pipeline's obstacle as the contact module takes it.

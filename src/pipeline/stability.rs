@@ -197,6 +197,17 @@ impl Stability {
         }
     }
 
+    /// A frictional state: undecided, its multipliers not formed.
+    pub fn frictional() -> Stability {
+        Stability {
+            reason: "not judged: the Floquet multipliers of a frictional state (whose \
+                     linearization changes between stick and slip) are not formed; \
+                     `hbcontact transient` marches it"
+                .into(),
+            ..Stability::blank(Method::None)
+        }
+    }
+
     /// A static state (H = 0): no motion to judge.
     pub fn static_state() -> Stability {
         Stability {
@@ -249,6 +260,10 @@ impl Stability {
                 "the harmonic-balance state is unstable: {}. The structure does not settle into it; a frequency sweep (`hbcontact sweep`) shows the stable branches, and `hbcontact transient` what it does instead",
                 self.reason
             )),
+            Verdict::Undecided if self.method == Method::None => Some(format!(
+                "the stability of the harmonic-balance state is undecided: {}",
+                self.reason
+            )),
             Verdict::Undecided => Some(format!(
                 "the stability of the harmonic-balance state is undecided: {}; raise stability.max_periods",
                 self.reason
@@ -270,6 +285,9 @@ pub fn shortcut(
 ) -> std::result::Result<Stability, Vec<Segment>> {
     if contact.harmonics == 0 {
         return Ok(Stability::static_state());
+    }
+    if contact.friction.is_some() {
+        return Ok(Stability::frictional());
     }
     let segments = floquet::segments(basis, omega, contact);
     if segments.len() == 1 {

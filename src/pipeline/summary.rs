@@ -106,6 +106,8 @@ pub struct Headline {
     pub warnings: usize,
     /// The stability verdict in a few words, when the state is not stable.
     pub stability: Option<String>,
+    /// Friction's energy per period [J] and stick and slip shares (frictional runs).
+    pub friction: Option<(f64, f64, f64)>,
     /// What the late response of a march is (time marching).
     pub late_response: Option<String>,
 }
@@ -133,6 +135,9 @@ impl Summary {
             wall_seconds: self.stage_seconds.total(),
             warnings: self.warnings.len(),
             stability: self.stability.as_ref().and_then(|s| s.headline()),
+            friction: contact
+                .and_then(|c| c.friction.as_ref())
+                .map(|f| (f.dissipated_energy_per_period, f.stick_share, f.slip_share)),
             late_response: self
                 .transient
                 .as_ref()
@@ -342,6 +347,89 @@ pub struct ContactSummary {
     /// The harmonic-balance contact solve (harmonic balance only).
     #[serde(flatten)]
     pub solver: Option<ContactSolve>,
+    /// Coulomb friction's result (`contact.friction`; absent when frictionless).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub friction: Option<FrictionSummary>,
+}
+
+/// The tangential result of a frictional run.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct FrictionSummary {
+    /// The largest friction coefficient of the contact pairs.
+    pub coefficient: f64,
+    /// Energy the contact nodes dissipate by friction per period, −Σ_i ∫ λ_t ẇ dt [J, for
+    /// the body's thickness; plane strain: per metre].
+    pub dissipated_energy_per_period: f64,
+    /// The same per second (energy per period × frequency) [W].
+    pub dissipated_power: f64,
+    /// The contact node that dissipates most, and its energy per period [J].
+    pub most_dissipating_node: Option<usize>,
+    pub most_dissipated_energy: f64,
+    /// Peak over the period of the total tangential force |Σ λ_t| [N].
+    pub peak_tangential_force: f64,
+    /// Shares of (contact node, solver sample) pairs open, stuck and slipping.
+    pub open_share: f64,
+    pub stick_share: f64,
+    pub slip_share: f64,
+    /// The largest change of the multipliers from N to 2N samples, relative to the largest
+    /// (harmonic balance).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples_change: Option<f64>,
+    /// Newton iterations of the frictional solve after the frictionless one (harmonic
+    /// balance).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub newton_iterations: Option<usize>,
+}
+
+impl FrictionSummary {
+    /// The summary of a frictional solution at `frequency` [Hz]; `nodes` the contact nodes'
+    /// mesh indices.
+    pub fn new(
+        f: &crate::hbm::FrictionSolution,
+        harmonics: usize,
+        frequency: f64,
+        nodes: &[usize],
+    ) -> FrictionSummary {
+        let energies = f.dissipation(harmonics);
+        let total: f64 = energies.iter().sum();
+        let most = (energies.iter().enumerate()).max_by(|a, b| a.1.total_cmp(b.1));
+        FrictionSummary {
+            coefficient: f.coefficients.iter().fold(0.0, |a: f64, &b| a.max(b)),
+            dissipated_energy_per_period: total,
+            dissipated_power: total * frequency,
+            most_dissipating_node: most.and_then(|(i, _)| nodes.get(i).copied()),
+            most_dissipated_energy: most.map_or(0.0, |(_, e)| *e),
+            peak_tangential_force: f.peak_force,
+            open_share: f.shares[0],
+            stick_share: f.shares[1],
+            slip_share: f.shares[2],
+            samples_change: Some(f.samples_change),
+            newton_iterations: Some(f.iterations),
+        }
+    }
+
+    /// The summary of the last marched period's friction (time marching: shares over
+    /// (row, time step) pairs; no node breakdown).
+    pub fn marched(
+        m: &crate::transient::MarchedFriction,
+        coefficient: f64,
+        frequency: f64,
+    ) -> FrictionSummary {
+        let all = m.counts.iter().sum::<usize>().max(1) as f64;
+        FrictionSummary {
+            coefficient,
+            dissipated_energy_per_period: m.energy,
+            dissipated_power: m.energy * frequency,
+            most_dissipating_node: None,
+            most_dissipated_energy: 0.0,
+            peak_tangential_force: m.peak_force,
+            open_share: m.counts[0] as f64 / all,
+            stick_share: m.counts[1] as f64 / all,
+            slip_share: m.counts[2] as f64 / all,
+            samples_change: None,
+            newton_iterations: None,
+        }
+    }
 }
 
 /// How the harmonic-balance contact solve went.
@@ -520,6 +608,7 @@ fn series_stats(sampled: &Sampled) -> ContactSummary {
         peak_change_from_half_h: None,
         contact_fraction: contact_fraction(sampled),
         solver: None,
+        friction: None,
     }
 }
 
@@ -631,6 +720,10 @@ pub fn harmonic_balance(
                 newton_log: c.newton.log.clone(),
                 knob_check: c.knob_check.clone(),
             }),
+            friction: c.friction.as_ref().map(|f| {
+                let nodes = model.contact.as_ref().map_or(&[][..], |m| &m.set.nodes[..]);
+                FrictionSummary::new(f, c.harmonics, frequency_of(p, solution), nodes)
+            }),
             ..series_stats(sampled)
         }
     });
@@ -662,11 +755,16 @@ pub fn transient(
     // Peak and mean from every step (`contact_steps.csv`), which the frames undersample.
     let contact = sampled.steps.as_ref().map(|steps| {
         let (peak, mean) = force_stats(&steps.total_force);
+        let coefficient =
+            (p.contact.iter().flat_map(|c| &c.pairs)).fold(0.0, |a: f64, c| a.max(c.friction));
+        let frequency = model.system.omega / (2.0 * std::f64::consts::PI);
         ContactSummary {
             peak_contact_force: peak,
             mean_contact_force: mean,
             max_sampled_penetration: sampled.history.max_penetration(),
             solver: None,
+            friction: (result.friction.as_ref())
+                .map(|m| FrictionSummary::marched(m, coefficient, frequency)),
             ..series_stats(sampled)
         }
     });

@@ -257,6 +257,7 @@ fn execute(
                 .into(),
     })?;
     refuse_coriolis(p, &spec)?;
+    crate::pipeline::refuse_friction(p, "sweep")?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
     let (scene, mut stages) = pipeline::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;

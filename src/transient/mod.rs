@@ -90,6 +90,8 @@ pub struct ContactRows<'a> {
     pub g0: &'a [f64],
     pub gap_harmonics: &'a std::collections::BTreeMap<usize, Vec<faer::c64>>,
     pub omega: f64,
+    /// Coulomb friction: the tangential rows B_t (one per contact row) and μ per row.
+    pub friction: Option<(&'a Csc, &'a [f64])>,
 }
 
 impl ContactRows<'_> {
@@ -108,6 +110,8 @@ pub struct TransientSettings {
 }
 
 pub struct TransientResult {
+    /// What friction did over the last whole period (frictional scenes).
+    pub friction: Option<MarchedFriction>,
     pub dt: f64,
     pub steps_per_period: usize,
     /// Whole periods marched.
@@ -328,6 +332,78 @@ struct Condensation<'a> {
     bz: DMatrix<f64>,
     /// W = B_z K_zz⁻¹ B_zᵀ.
     w: DMatrix<f64>,
+    /// With friction: B_t on z, the blocks W_nt, W_tn, W_tt of [B_z; B_t] K_zz⁻¹ [B_z; B_t]ᵀ
+    /// and μ per row.
+    friction: Option<CondensedFriction>,
+}
+
+/// The condensed tangential rows (`Condensation::friction`).
+struct CondensedFriction {
+    bt: DMatrix<f64>,
+    w_nt: DMatrix<f64>,
+    w_tn: DMatrix<f64>,
+    w_tt: DMatrix<f64>,
+    mu: Vec<f64>,
+}
+
+/// The frictional contact problem of one step by projected Gauss–Seidel over the nodes:
+/// find λ_n ≤ 0, λ_t with g = q + W_nn λ_n + W_nt λ_t ≤ 0 complementary to λ_n, and the slip
+/// increment s = p + W_tn λ_n + W_tt λ_t zero where |λ_t| < μ|λ_n| (stick), opposite to λ_t
+/// where |λ_t| = μ|λ_n| (slip). Each node's update is exact for its own rows with the
+/// others held: λ_n ← min(0, λ_n − g/W_nn,ii), then λ_t ← clamp(λ_t − s/W_tt,ii, ±μ|λ_n|).
+/// Warm-started from `lambda`.
+fn solve_frictional_step(
+    w: [&DMatrix<f64>; 4],
+    (q, p): (&[f64], &[f64]),
+    mu: &[f64],
+    (lambda_n, lambda_t): (&mut [f64], &mut [f64]),
+) -> Result<()> {
+    let [w_nn, w_nt, w_tn, w_tt] = w;
+    let nc = q.len();
+    for _ in 0..MAX_FRICTION_SWEEPS {
+        let mut delta = 0.0f64;
+        for i in 0..nc {
+            let mut g = q[i];
+            let mut slip = p[i];
+            for j in 0..nc {
+                g += w_nn[(i, j)] * lambda_n[j] + w_nt[(i, j)] * lambda_t[j];
+                slip += w_tn[(i, j)] * lambda_n[j] + w_tt[(i, j)] * lambda_t[j];
+            }
+            let n_new = (lambda_n[i] - g / w_nn[(i, i)]).min(0.0);
+            let slip = slip + w_tn[(i, i)] * (n_new - lambda_n[i]);
+            let bound = -mu[i] * n_new;
+            let t_new = (lambda_t[i] - slip / w_tt[(i, i)]).clamp(-bound, bound);
+            delta = delta.max((n_new - lambda_n[i]).abs().max((t_new - lambda_t[i]).abs()));
+            lambda_n[i] = n_new;
+            lambda_t[i] = t_new;
+        }
+        let scale = lambda_n.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        if delta <= 1e-13 * scale.max(f64::MIN_POSITIVE) {
+            return Ok(());
+        }
+    }
+    Err(Error::NotConverged(
+        "time marching: the frictional contact problem of a step did not converge (projected \
+         Gauss–Seidel); reduce transient.courant"
+            .into(),
+    ))
+}
+
+/// Sweeps the frictional step's Gauss–Seidel takes before giving up.
+const MAX_FRICTION_SWEEPS: usize = 20_000;
+
+/// Rows as small sparse vectors (dof, value) over the dofs they touch.
+type SparseRows = [Vec<(usize, f64)>];
+
+/// The rows of `b` (`count` of them) as small sparse vectors over the dofs they touch.
+fn sparse_rows(b: &Csc, count: usize) -> Vec<Vec<(usize, f64)>> {
+    let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); count];
+    for j in 0..b.ncols {
+        for p in b.col_ptr[j]..b.col_ptr[j + 1] {
+            rows[b.row_idx[p]].push((j, b.values[p]));
+        }
+    }
+    rows
 }
 
 /// Contact rows as small sparse vectors over the dofs they touch; all on massless dofs
@@ -336,12 +412,7 @@ fn contact_rows(problem: &TransientProblem, is_z: &[bool]) -> Result<Vec<Vec<(us
     let Some(c) = &problem.contact else {
         return Ok(Vec::new());
     };
-    let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); c.g0.len()];
-    for j in 0..c.b.ncols {
-        for p in c.b.col_ptr[j]..c.b.col_ptr[j + 1] {
-            rows[c.b.row_idx[p]].push((j, c.b.values[p]));
-        }
-    }
+    let rows = sparse_rows(c.b, c.g0.len());
     let on_z = rows.iter().flatten().filter(|(d, _)| is_z[*d]).count();
     let total = rows.iter().map(Vec::len).sum::<usize>();
     if on_z != 0 && on_z != total {
@@ -358,6 +429,7 @@ impl<'a> Condensation<'a> {
         is_z: &[bool],
         rows: &[Vec<(usize, f64)>],
         condensed_contact: bool,
+        friction: Option<(&SparseRows, &[f64])>,
     ) -> Result<Option<Self>> {
         let z: Vec<usize> = (0..is_z.len()).filter(|&i| is_z[i]).collect();
         if z.is_empty() {
@@ -386,6 +458,24 @@ impl<'a> Condensation<'a> {
             }
         }
         let w = &bz * &kzz_inv * bz.transpose();
+        let friction = friction.map(|(bt_rows, mu)| {
+            let mut bt = DMatrix::zeros(bt_rows.len(), z.len());
+            for (i, row) in bt_rows.iter().enumerate() {
+                for &(d, v) in row {
+                    if let Some(&a) = pos.get(&d) {
+                        bt[(i, a)] = v;
+                    }
+                }
+            }
+            let kbt = &kzz_inv * bt.transpose();
+            CondensedFriction {
+                w_nt: &bz * &kbt,
+                w_tn: &bt * &kzz_inv * bz.transpose(),
+                w_tt: &bt * &kbt,
+                bt,
+                mu: mu.to_vec(),
+            }
+        });
         Ok(Some(Condensation {
             k,
             is_z: is_z.to_vec(),
@@ -394,6 +484,7 @@ impl<'a> Condensation<'a> {
             kzz_inv,
             bz,
             w,
+            friction,
         }))
     }
 
@@ -426,7 +517,22 @@ impl<'a> Condensation<'a> {
         }
         let mut wz = &self.kzz_inv * &rhs;
         let old = DVector::from_iterator(nz, self.z.iter().map(|&j| uz_old[j]));
-        if self.condensed_contact {
+        if let (true, Some(fr)) = (self.condensed_contact, &self.friction) {
+            let g0 = &contact.g0;
+            let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
+            let gap = &self.bz * &predicted;
+            let q: Vec<f64> = (0..g0.len()).map(|i| gap[i] - g0[i]).collect();
+            let slip = &fr.bt * (&predicted - &old);
+            let scaled = [&self.w, &fr.w_nt, &fr.w_tn, &fr.w_tt].map(|m| m * s_weight);
+            let w = [&scaled[0], &scaled[1], &scaled[2], &scaled[3]];
+            let lambdas = (&mut contact.lambda[..], &mut contact.lambda_t[..]);
+            solve_frictional_step(w, (&q, slip.as_slice()), &fr.mu, lambdas)?;
+            let lam = DVector::from_iterator(g0.len(), contact.lambda.iter().copied());
+            let lam_t = DVector::from_iterator(g0.len(), contact.lambda_t.iter().copied());
+            wz += &self.kzz_inv * (self.bz.transpose() * lam + fr.bt.transpose() * lam_t);
+            let increment = &fr.bt * ((&wz * s_weight) + (&old * (1.0 - s_weight)) - &old);
+            contact.book_friction(increment.as_slice(), &fr.mu);
+        } else if self.condensed_contact {
             let g0 = &contact.g0;
             let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
             let gap = &self.bz * &predicted;
@@ -452,6 +558,40 @@ struct ContactState {
     active: Vec<bool>,
     /// The gaps g0(t) of the step being solved.
     g0: Vec<f64>,
+    /// With friction: the tangential multipliers, and what the period so far dissipated.
+    lambda_t: Vec<f64>,
+    period: MarchedFriction,
+}
+
+/// What friction did over one marched period: energy −Σ λ_t Δw, the peak of |Σ λ_t|, and
+/// the (row, step) pairs open, stuck and slipping.
+#[derive(Clone, Debug, Default)]
+pub struct MarchedFriction {
+    pub energy: f64,
+    pub peak_force: f64,
+    pub counts: [usize; 3],
+}
+
+impl ContactState {
+    /// Book one step's tangential increments `increment` (stick where below the round-off of
+    /// the step's largest one, and |λ_t| < μ|λ_n|).
+    fn book_friction(&mut self, increment: &[f64], mu: &[f64]) {
+        let p = &mut self.period;
+        let largest = increment.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for (i, (&lt, &dw)) in self.lambda_t.iter().zip(increment).enumerate() {
+            p.energy -= lt * dw;
+            let bound = -mu[i] * self.lambda[i];
+            let state = if self.lambda[i] >= 0.0 {
+                0
+            } else if lt.abs() < bound * (1.0 - 1e-9) || dw.abs() <= 1e-12 * largest {
+                1
+            } else {
+                2
+            };
+            p.counts[state] += 1;
+        }
+        p.peak_force = p.peak_force.max(self.lambda_t.iter().sum::<f64>().abs());
+    }
 }
 
 /// What the last period records: states at the output samples, probes and total force at
@@ -724,6 +864,7 @@ pub fn run_to_periodic(
         velocity: s.v_half.clone(),
     };
     let mut interrupted = None;
+    let mut friction = MarchedFriction::default();
     let stop_requested = stop_requested();
     while periods < settings.max_periods {
         let records = (&mut record, &mut late);
@@ -738,6 +879,7 @@ pub fn run_to_periodic(
             break;
         }
         periods += 1;
+        friction.clone_from(&s.contact.period);
         late.end_period();
         check_finite(&s.u, periods, dt, settings)?;
         end_state.displacement.copy_from_slice(&s.u);
@@ -775,6 +917,7 @@ pub fn run_to_periodic(
         contact_force: record.contact_force,
         probe_history: record.probe_history,
         total_contact_history: record.total_contact_history,
+        friction: problem.contact.and_then(|c| c.friction).map(|_| friction),
         late,
         wall_time: start.elapsed(),
     })
@@ -880,6 +1023,7 @@ impl<'a> Stepper<'a> {
         (record, late): (&mut LastPeriod, &mut late::LateRecord),
         (stop_requested, reporter, max_periods): (&dyn Fn() -> bool, &dyn Reporter, usize),
     ) -> Result<Option<usize>> {
+        s.contact.period = MarchedFriction::default();
         for step in 0..steps {
             if stop_requested() {
                 return Ok(Some(step));
@@ -914,7 +1058,19 @@ impl<'a> Stepper<'a> {
         let rows = contact_rows(problem, &is_z)?;
         let condensed_contact = nc > 0 && rows.iter().flatten().all(|(d, _)| is_z[*d]);
         let gaps = problem.contact;
-        let condensation = Condensation::new(k, &is_z, &rows, condensed_contact)?;
+        let friction_rows = match problem.contact.and_then(|c| c.friction) {
+            Some(_) if !condensed_contact => {
+                return Err(Error::Model(
+                    "time marching with friction needs massless contact nodes; remove \
+                     contact.mass: lumped (the default redistributes their mass)"
+                        .into(),
+                ))
+            }
+            Some((bt, mu)) => Some((sparse_rows(bt, nc), mu)),
+            None => None,
+        };
+        let friction = friction_rows.as_ref().map(|(r, mu)| (&r[..], *mu));
+        let condensation = Condensation::new(k, &is_z, &rows, condensed_contact, friction)?;
         let lumped_w = (nc > 0 && !condensed_contact).then(|| lumped_w(&rows, mass, dt, alpha));
         if lumped_w.is_some() && problem.coriolis.is_some() {
             return Err(Error::Model(
@@ -980,6 +1136,8 @@ impl<'a> Stepper<'a> {
                 lambda: vec![0.0; nc],
                 active: vec![false; nc],
                 g0: vec![0.0; nc],
+                lambda_t: vec![0.0; nc],
+                period: MarchedFriction::default(),
             },
         };
         self.gaps_at(0.0, &mut s.contact.g0);

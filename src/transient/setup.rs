@@ -44,6 +44,13 @@ impl<'a> Marching<'a> {
                     .into(),
             ));
         }
+        if contact.is_some_and(|c| c.tangential.as_ref().is_some_and(|t| !t.motion.is_empty())) {
+            return Err(Error::Model(
+                "time marching with friction against a moving obstacle is not modelled (its \
+                 tangential motion); harmonic balance (`hbcontact run`) takes it"
+                    .into(),
+            ));
+        }
         let loads: Vec<(usize, Vec<c64>)> =
             system.inputs.keys().map(|&k| (k, system.load(k))).collect();
         let omega = system.omega;
@@ -86,6 +93,10 @@ impl<'a> Marching<'a> {
                 g0: &c.g0,
                 gap_harmonics: &c.gap_harmonics,
                 omega: self.system.omega,
+                friction: c
+                    .tangential
+                    .as_ref()
+                    .map(|t| (&t.b_free, &t.coefficients[..])),
             }),
             period: self.period(),
             probes: self.probes.clone(),

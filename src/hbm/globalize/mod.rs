@@ -169,6 +169,7 @@ pub(super) fn solve_contact(
         complementarity,
         knob_check,
         compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
+        friction: None,
     })
 }
 
