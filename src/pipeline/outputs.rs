@@ -47,11 +47,16 @@ pub enum Output {
     Stable,
     /// The check's estimated largest Floquet multiplier modulus μ̂ (as sweep.csv's column).
     Multiplier,
+    /// Friction: the energy dissipated per period [J], the peak total tangential force [N]
+    /// and the share of (node, sample) pairs slipping (NaN when frictionless).
+    DissipatedEnergy,
+    PeakTangentialForce,
+    SlipShare,
 }
 
 /// The fixed names, in documentation order (`probe_harmonic_K` and `natural_frequency_K`
 /// come on top).
-const NAMED: [(Output, &str, &str); 17] = [
+const NAMED: [(Output, &str, &str); 20] = [
     (Output::ProbeFirstHarmonic, "probe_first_harmonic", "m"),
     (Output::ProbeFirstHarmonicX, "probe_first_harmonic_x", "m"),
     (Output::ProbeFirstHarmonicY, "probe_first_harmonic_y", "m"),
@@ -69,6 +74,9 @@ const NAMED: [(Output, &str, &str); 17] = [
     (Output::PeakMemory, "peak_memory", "MB"),
     (Output::Stable, "stable", "-"),
     (Output::Multiplier, "multiplier", "-"),
+    (Output::DissipatedEnergy, "dissipated_energy", "J"),
+    (Output::PeakTangentialForce, "peak_tangential_force", "N"),
+    (Output::SlipShare, "slip_share", "-"),
 ];
 
 /// A point's response: the probe's amplitude and range, the contact forces and fraction (what
@@ -173,6 +181,11 @@ impl Output {
         let probe =
             |f: &dyn Fn(&crate::pipeline::summary::ProbeAmplitudes) -> f64| p.map_or(f64::NAN, f);
         let contact = s.contact.as_ref();
+        let friction = |f: &dyn Fn(&crate::pipeline::summary::FrictionSummary) -> f64| {
+            contact
+                .and_then(|c| c.friction.as_ref())
+                .map_or(f64::NAN, f)
+        };
         match self {
             Output::ProbeFirstHarmonic => probe(&|a| a.first_harmonic()),
             Output::ProbeFirstHarmonicX => probe(&|a| a.first_harmonic_x),
@@ -194,6 +207,9 @@ impl Output {
                 .and_then(|c| c.solver.as_ref())
                 .map_or(f64::NAN, |c| c.newton_iterations as f64),
             Output::FreeDofs => s.sizes.free_dofs as f64,
+            Output::DissipatedEnergy => friction(&|f| f.dissipated_energy_per_period),
+            Output::PeakTangentialForce => friction(&|f| f.peak_tangential_force),
+            Output::SlipShare => friction(&|f| f.slip_share),
             Output::WallTime => {
                 let st = &s.stage_seconds;
                 st.total() - st.get(Stage::Mesh)

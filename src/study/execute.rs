@@ -342,6 +342,8 @@ fn check_output(o: &Output, v: f64) -> std::result::Result<(), String> {
         | Output::NaturalFrequency(_)
         | Output::PeakMemory
         | Output::Multiplier
+        | Output::PeakTangentialForce
+        | Output::SlipShare
             if v < 0.0 =>
         {
             Err("is negative, and this output is not".into())
@@ -405,6 +407,9 @@ fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>
         "free_dofs",
         "wall_time",
         "solve_time",
+        "dissipated_energy",
+        "peak_tangential_force",
+        "slip_share",
     ]
     .iter()
     .filter_map(|n| Output::parse(n).ok())
