@@ -703,7 +703,8 @@ pub(super) enum RawField {
     /// Cell data `von_mises`.
     VonMises,
     /// Point data `contact_opening`, `contact_force`, `contact_pressure`, `contact_status`,
-    /// `contact_force_series` (contact scenes).
+    /// `contact_force_series` (contact scenes), and with friction `contact_tangential_force`,
+    /// `contact_slip` (harmonic balance).
     Contact,
 }
 

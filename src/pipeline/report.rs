@@ -52,6 +52,9 @@ pub struct ContactState {
     /// −λ(t) [N]: harmonic balance the truncated Fourier series of the multipliers (may be
     /// negative, tension, near impacts); time marching the same as `force`.
     pub series: Vec<f64>,
+    /// With friction (harmonic balance): λ_t(t) [N] along t = ẑ × n, the series of the
+    /// tangential multipliers, and μ per node.
+    pub tangential: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl ContactState {
@@ -70,7 +73,20 @@ impl ContactState {
             gap,
             force,
             series: lambda.iter().map(|l| -l).collect(),
+            tangential: None,
         }
+    }
+
+    /// Per node: 1 slipping (|λ_t| at the cone μ|λ_n| to 0.1%), 0 stuck, −1 open (or
+    /// frictionless); `None` without friction.
+    fn slipping(&self, tolerance: f64) -> Option<Vec<f64>> {
+        let (t, mu) = self.tangential.as_ref()?;
+        let state = |i: usize| match self.closed(i, tolerance) {
+            false => -1.0,
+            true if t[i].abs() >= 0.999 * mu[i] * self.force[i] => 1.0,
+            true => 0.0,
+        };
+        Some((0..t.len()).map(state).collect())
     }
 
     /// Whether node i is closed: a pressing law force and an opening −g within `tolerance`.
@@ -203,11 +219,9 @@ fn harmonic_balance_contact(
     let lambda = solution.multipliers_at(t)?;
     let c = solution.contact.as_ref().map(|c| c.c);
     let omega = 2.0 * std::f64::consts::PI / solution.period();
-    Some(ContactState::new(
-        contact_gaps(model, omega, t, u),
-        &lambda,
-        c,
-    ))
+    let mut state = ContactState::new(contact_gaps(model, omega, t, u), &lambda, c);
+    state.tangential = solution.tangential_at(t);
+    Some(state)
 }
 
 impl Sampled {
@@ -550,20 +564,31 @@ fn contact_fields(model: &Model, state: &ContactState, closed_tolerance: f64) ->
         pressure[a] = if area > 0.0 { force[a] / area } else { 0.0 };
         status[a] = f64::from(u8::from(force[a] > 0.0 && opening[a] <= closed_tolerance));
     }
-    [
+    let mut fields = vec![
         ("contact_opening", opening),
         ("contact_force", force),
         ("contact_pressure", pressure),
         ("contact_status", status),
         ("contact_force_series", series),
-    ]
-    .into_iter()
-    .map(|(name, values)| Field {
-        name: name.into(),
-        components: 1,
-        values,
-    })
-    .collect()
+    ];
+    if let (Some((t, _)), Some(slip)) = (&state.tangential, state.slipping(closed_tolerance)) {
+        let mut tangential = vec![0.0; nn];
+        let mut slipping = vec![-1.0f64; nn];
+        for (i, &n) in c.set.nodes.iter().enumerate() {
+            tangential[n] += t[i];
+            slipping[n] = slipping[n].max(slip[i]);
+        }
+        fields.push(("contact_tangential_force", tangential));
+        fields.push(("contact_slip", slipping));
+    }
+    fields
+        .into_iter()
+        .map(|(name, values)| Field {
+            name: name.into(),
+            components: 1,
+            values,
+        })
+        .collect()
 }
 
 /// The cell fields of one frame that `fields` asks for (`stress`, `von_mises`); the
