@@ -252,7 +252,8 @@ fn a_study_over_the_friction_coefficient_finds_the_dampers_optimum_inside_its_ra
 /// the contact nodes, read back by meshio (an independent reader): the tangential force's
 /// series is within the cone μ × the law force everywhere to the series' truncation (the
 /// excess at most 5% of the peak tangential force; measured 3.0% at H = 20, where a node
-/// about to open rings), and some node slips in some frame and some sticks.
+/// about to open rings), and some node slips in some frame and some sticks; the run draws
+/// the hysteresis loop of the node that dissipates most (plots/friction_loop.svg).
 #[test]
 fn frictional_frames_carry_tangential_force_and_slip_within_the_cone() {
     let out = common::run_cli(
@@ -288,4 +289,6 @@ print(slip, stick, excess / peak)
         .collect();
     assert_eq!(v.len(), 3, "{text}");
     assert!(v[0] >= 1.0 && v[1] >= 1.0 && v[2] < 0.05, "{v:?}");
+    let svg = std::fs::read_to_string(out.join("plots/friction_loop.svg")).expect("the loop");
+    assert!(svg.contains("friction loop of contact node") && svg.contains("<polyline"));
 }

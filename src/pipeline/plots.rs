@@ -12,7 +12,10 @@
 //!   length s_i along the contact boundary [m] (`contact::geometry::arc_lengths`), at the
 //!   history instant of the largest total force (time marching: the output frame of the
 //!   largest total force; per-node forces are kept only at the frames), its values also in
-//!   `contact_pressure.csv`.
+//!   `contact_pressure.csv`;
+//! - `friction_loop` (frictional harmonic balance): the tangential force λ_t(t) against the
+//!   tangential displacement w(t) at the contact node that dissipates most, whose enclosed
+//!   area is its energy per period.
 //!
 //! Glossary: t/T time over the period T = 1/f; λ_i the contact multipliers (≤ 0 pressing);
 //! g_i the normal gap (> 0 penetrating); L_i the tributary boundary length of node i.
@@ -88,12 +91,37 @@ pub fn write_run_plots(
             }
         }
     }
+    if let Some(l) = &sampled.friction_loop {
+        figures.push(("friction_loop".into(), friction_loop_figure(l)));
+    }
     let mut files = Vec::new();
     for (stem, fig) in figures {
         fig.save(&dir.join(&stem))?;
         files.extend(["svg", "png"].map(|ext| dir.join(format!("{stem}.{ext}"))));
     }
     Ok(files)
+}
+
+/// The hysteresis loop λ_t(w) of the contact node that dissipates most (closed over the
+/// period); its area is the energy the node dissipates per period.
+fn friction_loop_figure(l: &super::report::FrictionLoop) -> Figure {
+    let mut points: Vec<(f64, f64)> = l
+        .slip
+        .iter()
+        .copied()
+        .zip(l.force.iter().copied())
+        .collect();
+    if let Some(&first) = points.first() {
+        points.push(first);
+    }
+    let title = format!(
+        "friction loop of contact node {}: {} J per period",
+        l.node,
+        tick(l.energy)
+    );
+    let x = Axis::linear("tangential displacement w relative to the obstacle [m]");
+    let y = Axis::linear("tangential force λ_t on the body [N]");
+    Figure::new(title, x, y).add(format!("node {}", l.node), points, style(l.slip.len()))
 }
 
 /// The probe plot's title: the group named once ("probe: …" for a group called `probe`,

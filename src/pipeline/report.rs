@@ -31,6 +31,43 @@ pub struct Sampled {
     /// The total pressing force at every time step of the last period (time marching only;
     /// written as `contact_steps.csv`).
     pub steps: Option<StepHistory>,
+    /// With friction (harmonic balance): the hysteresis loop of the contact node that
+    /// dissipates most.
+    pub friction_loop: Option<FrictionLoop>,
+}
+
+/// One contact node's tangential displacement w(t) relative to the obstacle and tangential
+/// force λ_t(t) at the history's times, and the energy it dissipates per period [J].
+pub struct FrictionLoop {
+    /// The node's mesh index.
+    pub node: usize,
+    pub slip: Vec<f64>,
+    pub force: Vec<f64>,
+    pub energy: f64,
+}
+
+impl FrictionLoop {
+    /// The loop of the node of `solution` that dissipates most, at `times`.
+    fn of(model: &Model, solution: &Solution, times: &[f64]) -> Option<FrictionLoop> {
+        let c = solution.contact.as_ref()?;
+        let f = c.friction.as_ref()?;
+        let m = c.coefficients();
+        let energies = f.dissipation(c.harmonics);
+        let (i, &energy) = (energies.iter().enumerate()).max_by(|a, b| a.1.total_cmp(b.1))?;
+        let node = *model.contact.as_ref()?.set.nodes.get(i)?;
+        let series = |coeffs: &[f64]| -> Vec<f64> {
+            let at = |&t: &f64| {
+                crate::hbm::sampler::evaluate(&solution.basis, coeffs, solution.omega, t)
+            };
+            times.iter().map(at).collect()
+        };
+        Some(FrictionLoop {
+            node,
+            slip: series(&f.slips[i * m..(i + 1) * m]),
+            force: series(&f.tangential[i * m..(i + 1) * m]),
+            energy,
+        })
+    }
 }
 
 /// The total pressing contact force −Σλ at every time step of the marched period.
@@ -287,6 +324,7 @@ impl Sampled {
             frames: Vec::new(),
             frame_contact: Vec::new(),
             closed_tolerance: history.closed_tolerance(),
+            friction_loop: FrictionLoop::of(model, solution, &times),
             history,
             steps: None,
         }
@@ -332,6 +370,7 @@ impl Sampled {
             closed_tolerance: history.closed_tolerance(),
             history,
             steps,
+            friction_loop: None,
         }
     }
 
