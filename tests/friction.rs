@@ -253,7 +253,8 @@ fn a_study_over_the_friction_coefficient_finds_the_dampers_optimum_inside_its_ra
 /// series is within the cone μ × the law force everywhere to the series' truncation (the
 /// excess at most 5% of the peak tangential force; measured 3.0% at H = 20, where a node
 /// about to open rings), and some node slips in some frame and some sticks; the run draws
-/// the hysteresis loop of the node that dissipates most (plots/friction_loop.svg).
+/// the hysteresis loop of the node that dissipates most (plots/friction_loop.svg). The
+/// nodes' `contact_friction_energy` sums to the summary's energy per period.
 #[test]
 fn frictional_frames_carry_tangential_force_and_slip_within_the_cone() {
     let out = common::run_cli(
@@ -266,6 +267,8 @@ fn frictional_frames_carry_tangential_force_and_slip_within_the_cone() {
 import glob, sys, meshio
 slip = stick = 0
 excess = peak = 0.0
+m0 = meshio.read(sys.argv[1] + '/frame_0000.vtu')
+total = float(m0.point_data['contact_friction_energy'].sum())
 for f in sorted(glob.glob(sys.argv[1] + '/frame_*.vtu')):
     m = meshio.read(f)
     t, n, s = (m.point_data[k] for k in ('contact_tangential_force', 'contact_force', 'contact_slip'))
@@ -275,7 +278,7 @@ for f in sorted(glob.glob(sys.argv[1] + '/frame_*.vtu')):
         peak = max(peak, abs(ti))
         slip += si == 1
         stick += si == 0
-print(slip, stick, excess / peak)
+print(slip, stick, excess / peak, total)
 "#;
     let r = std::process::Command::new(common::venv_python())
         .args(["-c", script, &out.display().to_string()])
@@ -287,7 +290,14 @@ print(slip, stick, excess / peak)
         .split_whitespace()
         .filter_map(|w| w.parse().ok())
         .collect();
-    assert_eq!(v.len(), 3, "{text}");
+    assert_eq!(v.len(), 4, "{text}");
+    let summary = common::read_json(&out.join("summary.json"));
+    let energy = common::json_number(&summary, "/contact/friction/dissipated_energy_per_period");
+    assert!(
+        ((v[3] - energy) / energy).abs() < 1e-9,
+        "{} vs {energy}",
+        v[3]
+    );
     assert!(v[0] >= 1.0 && v[1] >= 1.0 && v[2] < 0.05, "{v:?}");
     let svg = std::fs::read_to_string(out.join("plots/friction_loop.svg")).expect("the loop");
     assert!(svg.contains("friction loop of contact node") && svg.contains("<polyline"));

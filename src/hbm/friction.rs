@@ -516,8 +516,10 @@ pub fn normal_part(problem: &ReducedProblem) -> ReducedProblem {
 }
 
 /// The frictional solve from the frictionless solution `frictionless` (its λ_n, N and c):
-/// Newton from (λ_n, 0) at μ; where that fails, a continuation in μ from μ/16 by doublings.
-/// Returns the outcome (x = (λ_n, λ_t)) and the relative change of x from N to 2N.
+/// Newton from (λ_n, 0) at μ; where that fails, the continuation in μ (`continuation`); where
+/// that fails too, the continuation with a stiff c_t, polished at the plain one. Returns the
+/// outcome (x = (λ_n, λ_t)) and the relative change of x from N to 2N. Not bounded by
+/// `contact_solver.max_seconds` (the frictionless solve before it is).
 pub fn solve(
     problem: &ReducedProblem,
     coefficients: &[f64],

@@ -157,7 +157,12 @@ pub fn touch_factor_memory(
     settings: &HbSettings,
 ) {
     let Some(op) = contact else { return };
-    let Some(plan) = system.schur_plan(&op.b_free).filter(|p| p.preferred()) else {
+    // The rows the solve reduces to (with friction the stacked ones), whose plan the model
+    // built: another B would analyse anew.
+    let Some(plan) = system
+        .schur_plan(&op.reduction_rows())
+        .filter(|p| p.preferred())
+    else {
         return;
     };
     let count = contact_settings(system, true, settings)

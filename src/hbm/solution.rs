@@ -289,14 +289,15 @@ impl Solution {
         )
     }
 
-    /// With friction: the tangential multipliers λ_t at time t and μ per contact node.
-    pub fn tangential_at(&self, t: f64) -> Option<(Vec<f64>, Vec<f64>)> {
+    /// With friction: the tangential multipliers λ_t at time t, μ and the energy dissipated
+    /// per period, per contact node.
+    pub fn tangential_at(&self, t: f64) -> Option<[Vec<f64>; 3]> {
         let c = self.contact.as_ref()?;
         let f = c.friction.as_ref()?;
         let values = (f.tangential.chunks(c.coefficients()))
             .map(|coeffs| super::sampler::evaluate(&self.basis, coeffs, self.omega, t))
             .collect();
-        Some((values, f.coefficients.clone()))
+        Some([values, f.coefficients.clone(), f.dissipation(c.harmonics)])
     }
 
     /// Displacement, velocity, acceleration and contact multipliers at time t.

@@ -89,9 +89,9 @@ pub struct ContactState {
     /// −λ(t) [N]: harmonic balance the truncated Fourier series of the multipliers (may be
     /// negative, tension, near impacts); time marching the same as `force`.
     pub series: Vec<f64>,
-    /// With friction (harmonic balance): λ_t(t) [N] along t = ẑ × n, the series of the
-    /// tangential multipliers, and μ per node.
-    pub tangential: Option<(Vec<f64>, Vec<f64>)>,
+    /// With friction (harmonic balance), per node: λ_t(t) [N] along t = ẑ × n (the series of
+    /// the tangential multipliers), μ, and the energy dissipated per period [J].
+    pub tangential: Option<[Vec<f64>; 3]>,
 }
 
 impl ContactState {
@@ -117,7 +117,7 @@ impl ContactState {
     /// Per node: 1 slipping (|λ_t| at the cone μ|λ_n| to 0.1%), 0 stuck, −1 open (or
     /// frictionless); `None` without friction.
     fn slipping(&self, tolerance: f64) -> Option<Vec<f64>> {
-        let (t, mu) = self.tangential.as_ref()?;
+        let [t, mu, _] = self.tangential.as_ref()?;
         let state = |i: usize| match self.closed(i, tolerance) {
             false => -1.0,
             true if t[i].abs() >= 0.999 * mu[i] * self.force[i] => 1.0,
@@ -610,15 +610,17 @@ fn contact_fields(model: &Model, state: &ContactState, closed_tolerance: f64) ->
         ("contact_status", status),
         ("contact_force_series", series),
     ];
-    if let (Some((t, _)), Some(slip)) = (&state.tangential, state.slipping(closed_tolerance)) {
-        let mut tangential = vec![0.0; nn];
+    if let (Some([t, _, e]), Some(slip)) = (&state.tangential, state.slipping(closed_tolerance)) {
+        let (mut tangential, mut energy) = (vec![0.0; nn], vec![0.0; nn]);
         let mut slipping = vec![-1.0f64; nn];
         for (i, &n) in c.set.nodes.iter().enumerate() {
             tangential[n] += t[i];
+            energy[n] += e[i];
             slipping[n] = slipping[n].max(slip[i]);
         }
         fields.push(("contact_tangential_force", tangential));
         fields.push(("contact_slip", slipping));
+        fields.push(("contact_friction_energy", energy));
     }
     fields
         .into_iter()
