@@ -106,23 +106,19 @@ impl Maps {
 
     /// P x into `out`.
     fn sample(&self, x: &[f64], out: &mut [f64]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            *o = (0..x.len()).map(|b| self.p[(r, b)] * x[b]).sum();
-        }
+        mat_vec(&self.p, x, out);
     }
 
     /// Q s into `out`.
     fn project(&self, s: &[f64], out: &mut [f64]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            *o = (0..s.len()).map(|b| self.q[(r, b)] * s[b]).sum();
-        }
+        mat_vec(&self.q, s, out);
     }
 
     /// D x (the derivative divided by ω).
     fn derivative(&self, x: &[f64]) -> Vec<f64> {
-        (0..x.len())
-            .map(|r| (0..x.len()).map(|b| self.d[(r, b)] * x[b]).sum())
-            .collect()
+        let mut out = vec![0.0; x.len()];
+        mat_vec(&self.d, x, &mut out);
+        out
     }
 
     /// A(s) = Q diag(s) P.
@@ -140,6 +136,22 @@ impl Maps {
         );
         out
     }
+}
+
+/// out = A x for a dense A.
+fn mat_vec(a: &Mat<f64>, x: &[f64], out: &mut [f64]) {
+    for (r, o) in out.iter_mut().enumerate() {
+        *o = x.iter().enumerate().map(|(b, v)| a[(r, b)] * v).sum();
+    }
+}
+
+/// G in real form (rows·M square), for the Jacobian.
+fn real_compliance(problem: &ReducedProblem) -> Mat<f64> {
+    let m = problem.coefficients();
+    let dim = problem.nodes * m;
+    Mat::from_fn(dim, dim, |r, s| {
+        problem.real_entry(r / m, r % m, s / m, s % m)
+    })
 }
 
 /// The residual at one x, with the per-sample slopes its Jacobian needs.
@@ -194,24 +206,12 @@ struct Solver<'a> {
     problem: &'a ReducedProblem,
     law: &'a Law<'a>,
     maps: Maps,
-    /// G in real form (dim × dim), for the Jacobian.
-    g: Mat<f64>,
 }
 
 impl<'a> Solver<'a> {
     fn new(problem: &'a ReducedProblem, law: &'a Law<'a>, samples: usize) -> Solver<'a> {
         let maps = Maps::new(&problem.sampler(samples));
-        let (rows, m) = (problem.nodes, problem.coefficients());
-        let dim = rows * m;
-        let g = Mat::from_fn(dim, dim, |r, s| {
-            problem.real_entry(r / m, r % m, s / m, s % m)
-        });
-        Solver {
-            problem,
-            law,
-            maps,
-            g,
-        }
+        Solver { problem, law, maps }
     }
 
     fn nodes(&self) -> usize {
@@ -287,8 +287,8 @@ impl<'a> Solver<'a> {
         e
     }
 
-    /// J = I − E + c F G at `e`'s slopes (module header).
-    fn jacobian(&self, e: &Evaluation) -> Mat<f64> {
+    /// J = I − E + c F G at `e`'s slopes (module header), G in real form (`real_compliance`).
+    fn jacobian(&self, e: &Evaluation, g: &Mat<f64>) -> Mat<f64> {
         let (nc, m, n) = (
             self.nodes(),
             self.problem.coefficients(),
@@ -328,14 +328,14 @@ impl<'a> Solver<'a> {
                     j.as_mut().submatrix_mut(row, 0, m, dim),
                     Accum::Add,
                     f_block.as_ref(),
-                    self.g.as_ref().submatrix(col, 0, m, dim),
+                    g.as_ref().submatrix(col, 0, m, dim),
                     c,
                     Par::Seq,
                 );
             }
             if e.stuck[i] {
                 for s in 0..dim {
-                    j[(ti, s)] = c * self.g[(ti, s)];
+                    j[(ti, s)] = c * g[(ti, s)];
                 }
             }
         }
@@ -369,13 +369,16 @@ pub fn newton(
     let mut forced = 0;
     let mut reason = String::new();
     let mut iterations = 0;
+    // Formed at the first step: a start within the tolerance (the N-check's) needs none.
+    let mut g = None;
     while relative(&e) > tolerance {
         if iterations >= max_iterations {
             reason = format!("{max_iterations} Newton iterations were not enough");
             break;
         }
         iterations += 1;
-        let jac = solver.jacobian(&e);
+        let g = g.get_or_insert_with(|| real_compliance(problem));
+        let jac = solver.jacobian(&e, g);
         let rhs = Mat::from_fn(e.residual.len(), 1, |r, _| -e.residual[r]);
         let d = jac.partial_piv_lu().solve(&rhs);
         if (0..d.nrows()).any(|r| !d[(r, 0)].is_finite()) {

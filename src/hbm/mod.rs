@@ -233,7 +233,7 @@ fn solve_frictional(
     let (nc, m) = (op.nodes(), full.coefficients());
     let x = &outcome.multipliers;
     let gaps = full.gap(x);
-    let normal = friction::normal_part(&full);
+    let normal = normal.truncate(frictionless.harmonics);
     frictionless.complementarity =
         measure_complementarity(&normal, &x[..nc * m], &gaps[..nc * m], frictionless.samples);
     frictionless.multipliers = x[..nc * m].to_vec();

@@ -114,6 +114,12 @@ impl FrictionSolution {
         })
         .collect()
     }
+
+    /// The index of the contact node that dissipates most per period, and its energy.
+    pub fn most_dissipating(&self, harmonics: usize) -> Option<(usize, f64)> {
+        let energies = self.dissipation(harmonics);
+        (energies.into_iter().enumerate()).max_by(|a, b| a.1.total_cmp(&b.1))
+    }
 }
 
 /// The detour a contact solve took where the direct one failed, in words (`None`: direct):

@@ -255,10 +255,6 @@ pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
     })
 }
 
-/// `hbcontact transient`: explicit time marching from rest (or from the harmonic-balance
-/// state, `transient.start`) to the periodic state. With `keep_interrupted_march`, a march an
-/// interruption stops is written like a finished one, marked partial in the summary
-/// (`transient.stopped`), which the caller turns into exit code 130.
 /// The commands that do not model friction yet refuse a frictional pipeline (exit 2),
 /// naming the key.
 pub fn refuse_friction(p: &Pipeline, command: &str) -> Result<()> {
@@ -275,6 +271,10 @@ pub fn refuse_friction(p: &Pipeline, command: &str) -> Result<()> {
     }
 }
 
+/// `hbcontact transient`: explicit time marching from rest (or from the harmonic-balance
+/// state, `transient.start`) to the periodic state. With `keep_interrupted_march`, a march an
+/// interruption stops is written like a finished one, marked partial in the summary
+/// (`transient.stopped`), which the caller turns into exit code 130.
 pub fn run_transient(
     p: &Pipeline,
     options: &RunOptions,

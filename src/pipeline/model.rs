@@ -626,7 +626,7 @@ fn friction_rows(
     spec: &ContactSpec,
     sets: &[ContactSet],
     all: &ContactSet,
-    dofs: &crate::fem::DofMap,
+    dofs: &DofMap,
 ) -> Option<Tangential> {
     if spec.pairs.iter().all(|p| p.friction == 0.0) {
         return None;
@@ -640,16 +640,21 @@ fn friction_rows(
         for &(k, cos, sin) in pair.motion.iter().flat_map(|m| &m.harmonics) {
             let row = (rows.motion.entry(k)).or_insert_with(|| vec![c64::new(0.0, 0.0); total]);
             for (z, n) in row[offset..].iter_mut().zip(&set.normals) {
-                let t = [-n[1], n[0]];
-                *z += c64::new(
-                    t[0] * cos[0] + t[1] * cos[1],
-                    -(t[0] * sin[0] + t[1] * sin[1]),
-                );
+                *z += along([-n[1], n[0]], cos, sin);
             }
         }
         offset += set.nodes.len();
     }
     Some(rows)
+}
+
+/// The phasor (x = Re(z e^{ikωt})) of the component along `v` of a translation
+/// cos·cos kωt + sin·sin kωt.
+fn along(v: [f64; 2], cos: [f64; 2], sin: [f64; 2]) -> c64 {
+    c64::new(
+        v[0] * cos[0] + v[1] * cos[1],
+        -(v[0] * sin[0] + v[1] * sin[1]),
+    )
 }
 
 /// The pipeline's obstacle as the contact module takes it.
@@ -696,11 +701,8 @@ fn gap_harmonics(spec: &ContactPair, set: &ContactSet) -> BTreeMap<usize, Vec<c6
     let nc = set.nodes.len();
     for &(k, cos, sin) in spec.motion.iter().flat_map(|m| &m.harmonics) {
         let row = out.entry(k).or_insert_with(|| vec![c64::new(0.0, 0.0); nc]);
-        for (z, n) in row.iter_mut().zip(&set.normals) {
-            *z += c64::new(
-                n[0] * cos[0] + n[1] * cos[1],
-                -(n[0] * sin[0] + n[1] * sin[1]),
-            );
+        for (z, &n) in row.iter_mut().zip(&set.normals) {
+            *z += along(n, cos, sin);
         }
     }
     if let ObstacleSpec::Circle {

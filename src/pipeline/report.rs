@@ -52,8 +52,7 @@ impl FrictionLoop {
         let c = solution.contact.as_ref()?;
         let f = c.friction.as_ref()?;
         let m = c.coefficients();
-        let energies = f.dissipation(c.harmonics);
-        let (i, &energy) = (energies.iter().enumerate()).max_by(|a, b| a.1.total_cmp(b.1))?;
+        let (i, energy) = f.most_dissipating(c.harmonics)?;
         let node = *model.contact.as_ref()?.set.nodes.get(i)?;
         let series = |coeffs: &[f64]| -> Vec<f64> {
             let at = |&t: &f64| {

@@ -390,15 +390,14 @@ impl FrictionSummary {
         frequency: f64,
         nodes: &[usize],
     ) -> FrictionSummary {
-        let energies = f.dissipation(harmonics);
-        let total: f64 = energies.iter().sum();
-        let most = (energies.iter().enumerate()).max_by(|a, b| a.1.total_cmp(b.1));
+        let total: f64 = f.dissipation(harmonics).iter().sum();
+        let most = f.most_dissipating(harmonics);
         FrictionSummary {
             coefficient: f.coefficients.iter().fold(0.0, |a: f64, &b| a.max(b)),
             dissipated_energy_per_period: total,
             dissipated_power: total * frequency,
             most_dissipating_node: most.and_then(|(i, _)| nodes.get(i).copied()),
-            most_dissipated_energy: most.map_or(0.0, |(_, e)| *e),
+            most_dissipated_energy: most.map_or(0.0, |(_, e)| e),
             peak_tangential_force: f.peak_force,
             open_share: f.shares[0],
             stick_share: f.shares[1],

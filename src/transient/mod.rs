@@ -349,11 +349,13 @@ struct CondensedFriction {
 /// The frictional contact problem of one step by projected Gauss–Seidel over the nodes:
 /// find λ_n ≤ 0, λ_t with g = q + W_nn λ_n + W_nt λ_t ≤ 0 complementary to λ_n, and the slip
 /// increment s = p + W_tn λ_n + W_tt λ_t zero where |λ_t| < μ|λ_n| (stick), opposite to λ_t
-/// where |λ_t| = μ|λ_n| (slip). Each node's update is exact for its own rows with the
-/// others held: λ_n ← min(0, λ_n − g/W_nn,ii), then λ_t ← clamp(λ_t − s/W_tt,ii, ±μ|λ_n|).
+/// where |λ_t| = μ|λ_n| (slip), every W times `scale` (the massless dofs' backward-Euler
+/// weight). Each node's update is exact for its own rows with the others held:
+/// λ_n ← min(0, λ_n − g/W_nn,ii), then λ_t ← clamp(λ_t − s/W_tt,ii, ±μ|λ_n|).
 /// Warm-started from `lambda`.
 fn solve_frictional_step(
     w: [&DMatrix<f64>; 4],
+    scale: f64,
     (q, p): (&[f64], &[f64]),
     mu: &[f64],
     (lambda_n, lambda_t): (&mut [f64], &mut [f64]),
@@ -366,13 +368,13 @@ fn solve_frictional_step(
             let mut g = q[i];
             let mut slip = p[i];
             for j in 0..nc {
-                g += w_nn[(i, j)] * lambda_n[j] + w_nt[(i, j)] * lambda_t[j];
-                slip += w_tn[(i, j)] * lambda_n[j] + w_tt[(i, j)] * lambda_t[j];
+                g += scale * (w_nn[(i, j)] * lambda_n[j] + w_nt[(i, j)] * lambda_t[j]);
+                slip += scale * (w_tn[(i, j)] * lambda_n[j] + w_tt[(i, j)] * lambda_t[j]);
             }
-            let n_new = (lambda_n[i] - g / w_nn[(i, i)]).min(0.0);
-            let slip = slip + w_tn[(i, i)] * (n_new - lambda_n[i]);
+            let n_new = (lambda_n[i] - g / (scale * w_nn[(i, i)])).min(0.0);
+            let slip = slip + scale * w_tn[(i, i)] * (n_new - lambda_n[i]);
             let bound = -mu[i] * n_new;
-            let t_new = (lambda_t[i] - slip / w_tt[(i, i)]).clamp(-bound, bound);
+            let t_new = (lambda_t[i] - slip / (scale * w_tt[(i, i)])).clamp(-bound, bound);
             delta = delta.max((n_new - lambda_n[i]).abs().max((t_new - lambda_t[i]).abs()));
             lambda_n[i] = n_new;
             lambda_t[i] = t_new;
@@ -427,7 +429,7 @@ impl<'a> Condensation<'a> {
     fn new(
         k: &'a Csc,
         is_z: &[bool],
-        rows: &[Vec<(usize, f64)>],
+        rows: &SparseRows,
         condensed_contact: bool,
         friction: Option<(&SparseRows, &[f64])>,
     ) -> Result<Option<Self>> {
@@ -449,24 +451,22 @@ impl<'a> Condensation<'a> {
             return Err(Error::Model("time marching: the stiffness among the massless dofs is singular (a massless node without stiffness?)".into()));
         };
         let kzz_inv = chol.inverse();
-        let mut bz = DMatrix::zeros(rows.len(), z.len());
-        for (i, row) in rows.iter().enumerate() {
-            for &(d, v) in row {
-                if let Some(&a) = pos.get(&d) {
-                    bz[(i, a)] = v;
-                }
-            }
-        }
-        let w = &bz * &kzz_inv * bz.transpose();
-        let friction = friction.map(|(bt_rows, mu)| {
-            let mut bt = DMatrix::zeros(bt_rows.len(), z.len());
-            for (i, row) in bt_rows.iter().enumerate() {
+        // Rows restricted to z, dense.
+        let on_z = |rows: &SparseRows| {
+            let mut b = DMatrix::zeros(rows.len(), z.len());
+            for (i, row) in rows.iter().enumerate() {
                 for &(d, v) in row {
                     if let Some(&a) = pos.get(&d) {
-                        bt[(i, a)] = v;
+                        b[(i, a)] = v;
                     }
                 }
             }
+            b
+        };
+        let bz = on_z(rows);
+        let w = &bz * &kzz_inv * bz.transpose();
+        let friction = friction.map(|(bt_rows, mu)| {
+            let bt = on_z(bt_rows);
             let kbt = &kzz_inv * bt.transpose();
             CondensedFriction {
                 w_nt: &bz * &kbt,
@@ -517,34 +517,33 @@ impl<'a> Condensation<'a> {
         }
         let mut wz = &self.kzz_inv * &rhs;
         let old = DVector::from_iterator(nz, self.z.iter().map(|&j| uz_old[j]));
-        if let (true, Some(fr)) = (self.condensed_contact, &self.friction) {
+        if self.condensed_contact {
             let g0 = &contact.g0;
             let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
             let gap = &self.bz * &predicted;
             let q: Vec<f64> = (0..g0.len()).map(|i| gap[i] - g0[i]).collect();
-            let slip = &fr.bt * (&predicted - &old);
-            let scaled = [&self.w, &fr.w_nt, &fr.w_tn, &fr.w_tt].map(|m| m * s_weight);
-            let w = [&scaled[0], &scaled[1], &scaled[2], &scaled[3]];
-            let lambdas = (&mut contact.lambda[..], &mut contact.lambda_t[..]);
-            solve_frictional_step(w, (&q, slip.as_slice()), &fr.mu, lambdas)?;
-            let lam = DVector::from_iterator(g0.len(), contact.lambda.iter().copied());
-            let lam_t = DVector::from_iterator(g0.len(), contact.lambda_t.iter().copied());
-            wz += &self.kzz_inv * (self.bz.transpose() * lam + fr.bt.transpose() * lam_t);
-            let increment = &fr.bt * ((&wz * s_weight) + (&old * (1.0 - s_weight)) - &old);
-            contact.book_friction(increment.as_slice(), &fr.mu);
-        } else if self.condensed_contact {
-            let g0 = &contact.g0;
-            let predicted = (&wz * s_weight) + (&old * (1.0 - s_weight));
-            let gap = &self.bz * &predicted;
-            let q: Vec<f64> = (0..g0.len()).map(|i| gap[i] - g0[i]).collect();
-            let p = solve_lcp(&(&self.w * s_weight), &q, &mut contact.active)?;
-            for (l, pi) in contact.lambda.iter_mut().zip(&p) {
-                *l = -pi;
+            if let Some(fr) = &self.friction {
+                let slip = &fr.bt * (&predicted - &old);
+                let w = [&self.w, &fr.w_nt, &fr.w_tn, &fr.w_tt];
+                let lambdas = (&mut contact.lambda[..], &mut contact.lambda_t[..]);
+                solve_frictional_step(w, s_weight, (&q, slip.as_slice()), &fr.mu, lambdas)?;
+            } else {
+                let p = solve_lcp(&(&self.w * s_weight), &q, &mut contact.active)?;
+                for (l, pi) in contact.lambda.iter_mut().zip(&p) {
+                    *l = -pi;
+                }
             }
-            let lam = DVector::from_iterator(g0.len(), contact.lambda.iter().copied());
-            wz += &self.kzz_inv * (self.bz.transpose() * lam);
+            let mut force = self.bz.transpose() * DVector::from_column_slice(&contact.lambda);
+            if let Some(fr) = &self.friction {
+                force += fr.bt.transpose() * DVector::from_column_slice(&contact.lambda_t);
+            }
+            wz += &self.kzz_inv * force;
         }
         let uz = (&wz * s_weight) + (&old * (1.0 - s_weight));
+        if let Some(fr) = &self.friction {
+            let increment = &fr.bt * (&uz - &old);
+            contact.book_friction(increment.as_slice(), &fr.mu);
+        }
         for (a, &j) in self.z.iter().enumerate() {
             out[j] = uz[a];
         }
