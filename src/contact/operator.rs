@@ -52,6 +52,12 @@ impl ContactOperator {
         self.g0.len()
     }
 
+    /// The rows the contact problem is reduced to: the nodes', and as many tangential ones
+    /// with friction (`stacked`).
+    pub fn reduced_rows(&self) -> usize {
+        self.nodes() * if self.tangential.is_some() { 2 } else { 1 }
+    }
+
     /// The gap g0(t) of every row at time t, the fundamental being ω.
     pub fn gap_at(&self, omega: f64, t: f64, out: &mut [f64]) {
         periodic_gap(&self.g0, &self.gap_harmonics, omega, t, out);

@@ -39,6 +39,9 @@ const STEP_BUDGET: usize = 40;
 /// c_t of the attempt that looks for a stuck state, in units of c/H (`solve`).
 const STIFF_SCALE: f64 = 10.0;
 
+/// μ's scale in the bonded attempt of `solve`: every closed sample sticks.
+const BONDED: f64 = 1e6;
+
 /// Residual norms the non-monotone line search looks back over.
 const WINDOW: usize = 8;
 /// The shortest step the line search tries before taking it anyway.
@@ -341,6 +344,67 @@ impl<'a> Solver<'a> {
         }
         j
     }
+
+    /// R_ω = c F ∂g/∂ω at `e`'s slopes: the derivative of R in ω at fixed x, F the same
+    /// blocks as in `jacobian` (`dg` the gaps' rate, node-major as g).
+    fn rate(&self, e: &Evaluation, dg: &[f64]) -> Vec<f64> {
+        let (nc, m, n) = (
+            self.nodes(),
+            self.problem.coefficients(),
+            self.maps.p.nrows(),
+        );
+        let c = self.law.c;
+        let ct = self.law.tangential_c(self.problem.harmonics);
+        let mut out = vec![0.0; dg.len()];
+        let mut product = vec![0.0; m];
+        for i in 0..nc {
+            let samples = i * n..(i + 1) * n;
+            let (ni, ti) = (i * m..(i + 1) * m, (nc + i) * m..(nc + i + 1) * m);
+            let a_n = self.maps.block(&e.normal[samples.clone()]);
+            mat_vec(&a_n, &dg[ni.clone()], &mut product);
+            (out[ni.clone()].iter_mut().zip(&product)).for_each(|(o, p)| *o = c * p);
+            let a_t = self.maps.block(&e.stick[samples.clone()]);
+            mat_vec(&a_t, &self.maps.derivative(&dg[ti.clone()]), &mut product);
+            (out[ti.clone()].iter_mut().zip(&product)).for_each(|(o, p)| *o = ct * p);
+            let a_u = self.maps.block(&e.slip[samples]);
+            mat_vec(&a_u, &dg[ni], &mut product);
+            (out[ti.clone()].iter_mut().zip(&product)).for_each(|(o, p)| *o += c * p);
+            if e.stuck[i] {
+                out[ti.start] = c * dg[ti.start];
+            }
+        }
+        out
+    }
+}
+
+/// The residual R at x and its size relative to the force scale (the peak normal force, at
+/// least `force_floor`): what `newton` stops on.
+pub fn residual(
+    problem: &ReducedProblem,
+    law: &Law,
+    samples: usize,
+    x: &[f64],
+    force_floor: f64,
+) -> (Vec<f64>, f64) {
+    let e = Solver::new(problem, law, samples).evaluate(x.to_vec());
+    let relative = norm_inf(&e.residual) / e.peak.max(force_floor).max(f64::MIN_POSITIVE);
+    (e.residual, relative)
+}
+
+/// J = ∂R/∂x and R_ω = ∂R/∂ω at x, the latter from `dg`, the rate ∂g/∂ω at fixed x (the
+/// continuation's bordered corrector and tangent: the law holds no ω of its own, ẇ/ω being
+/// D w).
+pub fn linearization(
+    problem: &ReducedProblem,
+    law: &Law,
+    samples: usize,
+    x: &[f64],
+    dg: &[f64],
+) -> (Mat<f64>, Vec<f64>) {
+    let solver = Solver::new(problem, law, samples);
+    let e = solver.evaluate(x.to_vec());
+    let jac = solver.jacobian(&e, &real_compliance(problem));
+    (jac, solver.rate(&e, dg))
 }
 
 fn norm2(v: &[f64]) -> f64 {
@@ -363,7 +427,8 @@ pub fn newton(
 ) -> NewtonOutcome {
     let solver = Solver::new(problem, law, samples);
     let mut e = solver.evaluate(start);
-    let relative = |e: &Evaluation| norm_inf(&e.residual) / e.peak.max(force_floor);
+    let relative =
+        |e: &Evaluation| norm_inf(&e.residual) / e.peak.max(force_floor).max(f64::MIN_POSITIVE);
     let mut history = vec![norm2(&e.residual)];
     let mut log = Vec::new();
     let mut forced = 0;
@@ -503,6 +568,25 @@ fn continuation(
     }
 }
 
+/// The bonded start from `start` = (λ_n, ·): λ_t such that every node's tangential gap w
+/// vanishes at every harmonic, G_tt λ_t = −(r_t + G_tn λ_n) (the μ → ∞ limit's tangential
+/// force under the normal force λ_n). `None` where G_tt is singular.
+fn bonded_start(problem: &ReducedProblem, start: &[f64]) -> Option<Vec<f64>> {
+    let half = start.len() / 2;
+    let mut x = start.to_vec();
+    x[half..].fill(0.0);
+    let gap = problem.gap(&x);
+    let m = problem.coefficients();
+    let entry = |r: usize, s: usize| problem.real_entry(r / m, r % m, s / m, s % m);
+    let g_tt = Mat::from_fn(half, half, |r, s| entry(half + r, half + s));
+    let rhs = Mat::from_fn(half, 1, |r, _| -gap[half + r]);
+    let solved = g_tt.partial_piv_lu().solve(&rhs);
+    for (r, v) in x[half..].iter_mut().enumerate() {
+        *v = solved[(r, 0)];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
 /// The normal half of a frictional problem (rows 0..nc): the frictionless problem.
 pub fn normal_part(problem: &ReducedProblem) -> ReducedProblem {
     let (rows, m) = (problem.nodes, problem.coefficients());
@@ -546,7 +630,7 @@ pub fn solve(
             c: frictionless.c,
             tangential_scale,
         };
-        let budget = if scale < 1.0 || tangential_scale != 1.0 {
+        let budget = if scale != 1.0 || tangential_scale != 1.0 {
             max_iterations.min(STEP_BUDGET)
         } else {
             max_iterations
@@ -557,6 +641,23 @@ pub fn solve(
     let n = frictionless.samples;
     let mut outcome = run(1.0, n, start.clone());
     let mut spent = outcome.iterations;
+    if !outcome.converged {
+        // Where the sliding state ends below μ (a state sticking more), the bonded one is
+        // the nearer start.
+        // The bonded state's own Newton (μ scaled by `BONDED`, every closed sample stuck)
+        // first, from the bonded start, then the plain one from there.
+        if let Some(bonded) = bonded_start(problem, &start) {
+            let stuck = run(BONDED, n, bonded);
+            spent += stuck.iterations;
+            if stuck.converged {
+                let from_bonded = run(1.0, n, stuck.multipliers);
+                spent += from_bonded.iterations;
+                if from_bonded.converged {
+                    outcome = from_bonded;
+                }
+            }
+        }
+    }
     if !outcome.converged {
         outcome = continuation(&run, n, start.clone(), spent);
         spent = outcome.iterations;

@@ -210,7 +210,7 @@ fn solve_frictional(
         ));
     }
     let normal = friction::normal_part(problem);
-    let mut frictionless = solve_contact_timed(system, op, &normal, settings, reporter, timings)?;
+    let frictionless = solve_contact_timed(system, op, &normal, settings, reporter, timings)?;
     let coefficients = op
         .tangential
         .as_ref()
@@ -230,34 +230,50 @@ fn solve_frictional(
             outcome.iterations
         )));
     }
-    let (nc, m) = (op.nodes(), full.coefficients());
     let x = &outcome.multipliers;
+    let counts = (change, outcome.iterations);
+    let mut solution = with_friction(frictionless, &full, coefficients, x, counts);
+    solution.newton.iterations += outcome.iterations;
+    Ok(solution)
+}
+
+/// The contact solution at x = (λ_n, λ_t) of the stacked problem `full`: `normal`'s (its N,
+/// c, knob checks and Newton account) with the normal part's multipliers, gaps and
+/// complementarity taken from x, and the tangential result (`FrictionSolution`, its
+/// `samples_change` and `iterations` as given; NaN: the samples were not checked).
+pub(super) fn with_friction(
+    mut normal: ContactSolution,
+    full: &ReducedProblem,
+    coefficients: Vec<f64>,
+    x: &[f64],
+    (samples_change, iterations): (f64, usize),
+) -> ContactSolution {
+    let (m, samples) = (full.coefficients(), normal.samples);
+    let nc = full.nodes / 2;
     let gaps = full.gap(x);
-    let normal = normal.truncate(frictionless.harmonics);
-    frictionless.complementarity =
-        measure_complementarity(&normal, &x[..nc * m], &gaps[..nc * m], frictionless.samples);
-    frictionless.multipliers = x[..nc * m].to_vec();
-    frictionless.gaps = gaps[..nc * m].to_vec();
-    frictionless.compliance = None;
+    let part = friction::normal_part(full);
+    normal.complementarity = measure_complementarity(&part, &x[..nc * m], &gaps[..nc * m], samples);
+    normal.multipliers = x[..nc * m].to_vec();
+    normal.gaps = gaps[..nc * m].to_vec();
+    normal.compliance = None;
+    normal.newton.multipliers = normal.multipliers.clone();
     let law = friction::Law {
         coefficients: &coefficients,
-        c: frictionless.c,
+        c: normal.c,
         tangential_scale: 1.0,
     };
-    let states = friction::node_states(&full, &law, frictionless.samples, x);
+    let states = friction::node_states(full, &law, samples, x);
     let (shares, peak_force) = friction::statistics(&states);
-    frictionless.friction = Some(FrictionSolution {
+    normal.friction = Some(FrictionSolution {
         coefficients,
         tangential: x[nc * m..].to_vec(),
         slips: gaps[nc * m..].to_vec(),
-        samples_change: change,
-        iterations: outcome.iterations,
+        samples_change,
+        iterations,
         shares,
         peak_force,
     });
-    frictionless.newton.multipliers = frictionless.multipliers.clone();
-    frictionless.newton.iterations += outcome.iterations;
-    Ok(frictionless)
+    normal
 }
 
 /// The reduced problem of the scene with its damping scaled by `scale` (the damping

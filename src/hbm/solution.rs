@@ -86,7 +86,8 @@ pub struct FrictionSolution {
     pub tangential: Vec<f64>,
     /// w coefficients, the tangential displacement relative to the obstacle.
     pub slips: Vec<f64>,
-    /// The largest change of the multipliers from N to 2N, relative to the largest.
+    /// The largest change of the multipliers from N to 2N, relative to the largest (NaN:
+    /// not checked, a sweep's point after the first).
     pub samples_change: f64,
     /// Newton iterations of the frictional solve (after the frictionless one).
     pub iterations: usize,

@@ -255,22 +255,6 @@ pub fn transient_output_dir(p: &Pipeline, options: &RunOptions) -> PathBuf {
     })
 }
 
-/// The commands that do not model friction yet refuse a frictional pipeline (exit 2),
-/// naming the key.
-pub fn refuse_friction(p: &Pipeline, command: &str) -> Result<()> {
-    let frictional = p
-        .contact
-        .as_ref()
-        .and_then(|c| c.pairs.iter().find(|p| p.friction > 0.0));
-    match frictional {
-        Some(pair) => Err(crate::Error::Config {
-            path: p.source.clone(),
-            message: format!("{}.friction: `hbcontact {command}` does not model friction yet; `run`, `transient` and `study` do, or remove the friction", pair.key),
-        }),
-        None => Ok(()),
-    }
-}
-
 /// `hbcontact transient`: explicit time marching from rest (or from the harmonic-balance
 /// state, `transient.start`) to the periodic state. With `keep_interrupted_march`, a march an
 /// interruption stops is written like a finished one, marked partial in the summary

@@ -372,7 +372,7 @@ pub struct FrictionSummary {
     pub stick_share: f64,
     pub slip_share: f64,
     /// The largest change of the multipliers from N to 2N samples, relative to the largest
-    /// (harmonic balance).
+    /// (harmonic balance; a sweep checks its first point only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub samples_change: Option<f64>,
     /// Newton iterations of the frictional solve after the frictionless one (harmonic
@@ -402,7 +402,7 @@ impl FrictionSummary {
             open_share: f.shares[0],
             stick_share: f.shares[1],
             slip_share: f.shares[2],
-            samples_change: Some(f.samples_change),
+            samples_change: Some(f.samples_change).filter(|c| !c.is_nan()),
             newton_iterations: Some(f.iterations),
         }
     }

@@ -51,9 +51,20 @@ use bifurcations::BifurcationReport;
 
 pub use points::WrittenPoint;
 
-/// The outputs every sweep tabulates (`pipeline::outputs::RESPONSE`).
-pub fn outputs() -> Vec<Output> {
-    crate::pipeline::outputs::RESPONSE.to_vec()
+/// The outputs a sweep of `p` tabulates: the response (`pipeline::outputs::RESPONSE`), with
+/// friction the energy it dissipates per period, the peak tangential force and the slip share.
+pub fn outputs(p: &Pipeline) -> Vec<Output> {
+    let frictional = (p.contact.iter().flat_map(|c| &c.pairs)).any(|c| c.friction > 0.0);
+    let friction = [
+        Output::DissipatedEnergy,
+        Output::PeakTangentialForce,
+        Output::SlipShare,
+    ];
+    let friction = friction.into_iter().filter(|_| frictional);
+    crate::pipeline::outputs::RESPONSE
+        .into_iter()
+        .chain(friction)
+        .collect()
 }
 
 /// One row of sweep.csv.
@@ -61,7 +72,7 @@ pub fn outputs() -> Vec<Output> {
 pub struct SweepRow {
     pub index: usize,
     pub frequency_hz: f64,
-    /// The outputs of `outputs()`, in order (NaN, in JSON null, when the scene lacks one).
+    /// The outputs of `outputs(p)`, in order (NaN, in JSON null, when the scene lacks one).
     #[serde(deserialize_with = "nan_for_null")]
     pub values: Vec<f64>,
     pub corrector: Corrector,
@@ -257,7 +268,6 @@ fn execute(
                 .into(),
     })?;
     refuse_coriolis(p, &spec)?;
-    crate::pipeline::refuse_friction(p, "sweep")?;
     let out = output_dir(p, options);
     let saved = resuming.then(|| resume::read(&out, p, &spec)).transpose()?;
     let (scene, mut stages) = pipeline::open(p, &out, options, Purpose::HarmonicBalance, reporter)?;
@@ -358,7 +368,7 @@ fn summarize(
         harmonics: p.harmonic_balance.harmonics,
         basis: basis.describe(),
         points: writer.rows.len(),
-        columns: outputs().iter().map(Output::name).collect(),
+        columns: outputs(p).iter().map(Output::name).collect(),
         bifurcations: bifurcations::locate(&writer.rows, &folds),
         folds,
         stopped,
@@ -753,7 +763,7 @@ fn row(
     SweepRow {
         index: info.index,
         frequency_hz: info.omega / (2.0 * std::f64::consts::PI),
-        values: outputs().iter().map(|o| o.value(&summary, None)).collect(),
+        values: outputs(p).iter().map(|o| o.value(&summary, None)).collect(),
         corrector: info.corrector,
         newton_iterations: info.newton_iterations,
         factorizations: info.factorizations,

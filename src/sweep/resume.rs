@@ -167,7 +167,7 @@ pub fn read(out: &Path, p: &Pipeline, spec: &SweepSpec) -> Result<Saved> {
             path.display()
         )));
     };
-    check_rows(&path, &saved.rows)?;
+    check_rows(&path, &saved.rows, super::outputs(p).len())?;
     check_continuation(&path, &saved, state)?;
     check_history(&path, &saved, state, spec)?;
     check_lists(&path, &saved)?;
@@ -219,9 +219,8 @@ fn check_settings(path: &Path, saved: &Saved, p: &Pipeline, spec: &SweepSpec) ->
 
 /// Rows as the sweep writes them: at least one, row i with index i, finite positive
 /// frequencies, one value per output (finite or NaN), finite numbers elsewhere.
-fn check_rows(path: &Path, rows: &[SweepRow]) -> Result<()> {
+fn check_rows(path: &Path, rows: &[SweepRow], columns: usize) -> Result<()> {
     require(!rows.is_empty(), path, "rows", || "is empty".into())?;
-    let columns = super::outputs().len();
     for (i, r) in rows.iter().enumerate() {
         let field = |name: &str| format!("rows[{i}].{name}");
         require(r.index == i, path, &field("index"), || {
@@ -502,16 +501,19 @@ fn check_lists(path: &Path, saved: &Saved) -> Result<()> {
     Ok(())
 }
 
-/// The saved state fits the model: as many contact unknowns (nodes × (2H + 1), with
-/// H = ⌊S/2⌋ for a spline basis of S segments), and the scalars of a contact curve (c, F,
-/// N) or of a linear one (none).
+/// The saved state fits the model: as many contact unknowns (rows × (2H + 1), two rows a
+/// node with friction, H = ⌊S/2⌋ for a spline basis of S segments), and the scalars of a
+/// contact curve (c, F, N) or of a linear one (none).
 pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Result<()> {
     let h = match p.harmonic_balance.basis {
         crate::config::BasisSpec::Spline { segments, .. } => segments / 2,
         crate::config::BasisSpec::Fourier => p.harmonic_balance.harmonics,
     };
     let m = 2 * h + 1;
-    let want = model.contact.as_ref().map_or(0, |c| c.operator.nodes() * m);
+    let want = model
+        .contact
+        .as_ref()
+        .map_or(0, |c| c.operator.reduced_rows() * m);
     let have = saved.resume.as_ref().map_or(0, |s| s.multipliers.len());
     if have != want {
         return Err(refuse(format!(
@@ -549,7 +551,10 @@ fn check_reduced_model(
     } else {
         0
     };
-    let nodes = model.contact.as_ref().map_or(0, |c| c.operator.nodes());
+    let nodes = model
+        .contact
+        .as_ref()
+        .map_or(0, |c| c.operator.reduced_rows());
     if crate::hbm::continuation::reduced_model_pays(&model.system, nodes, harmonics, frequencies) {
         return Ok(());
     }

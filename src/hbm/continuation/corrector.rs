@@ -18,10 +18,7 @@ use faer::Mat;
 use super::{hz, norm, Continuation, Corrector, Frame};
 use crate::contact::ContactOperator;
 use crate::hbm::fourier::{node_phasors, set_phasor};
-use crate::hbm::reduced::{self, Evaluation, Residual};
-use crate::hbm::{
-    contact_part, globalize, step, HbSettings, LinearResponse, ReducedProblem, System,
-};
+use crate::hbm::{contact_part, globalize, HbSettings, LinearResponse, System};
 use crate::{Error, Result};
 
 /// |τ_ω| above which the corrector keeps ω fixed (the curve is a graph over ω there).
@@ -50,7 +47,7 @@ impl Continuation<'_> {
         // The last point lands on the end frequency itself where the curve crosses it.
         if landing && t[x_p.len()].abs() < GRAPH_SLOPE {
             let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
-            let o = reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            let o = self.newton_on(&frame.problem, x_p);
             if o.converged {
                 return Ok((
                     o.multipliers,
@@ -62,12 +59,12 @@ impl Continuation<'_> {
         }
         if t[x_p.len()].abs() >= GRAPH_SLOPE {
             let frame = self.frame(omega_p).map_err(|e| e.to_string())?;
-            let mut o = reduced::newton(&frame.problem, &self.newton, x_p, self.reporter);
+            let mut o = self.newton_on(&frame.problem, x_p);
             // Where the exact law's Newton cycles (where contact starts on a lightly damped
             // resonance, from the open state): the smoothing continuation, on the same
             // factorizations. It costs tens of Newton iterations, so steps longer than the
             // initial one are halved first, which is cheaper wherever it works.
-            if !o.converged && ds < self.s.step {
+            if !o.converged && ds < self.s.step && self.friction.is_none() {
                 let hb = HbSettings {
                     samples: self.newton.samples,
                     ..self.hb.clone()
@@ -161,21 +158,20 @@ impl Continuation<'_> {
             {
                 *m = r + shift * d;
             }
-            let residual = Residual::new(&model, &self.newton);
-            let e = residual.evaluate(x.clone());
-            if residual.relative(&e) <= self.newton.tolerance && iterations > 0 {
+            let (residual, relative) = self.residual_on(&model, &x);
+            if relative <= self.newton.tolerance && iterations > 0 {
                 break;
             }
             if iterations == MAX_CORRECTOR {
                 return Err("the chord corrector did not converge".into());
             }
             iterations += 1;
-            let (jac, r_omega) = self.linearization(&model, &residual, &e, &dg);
+            let (jac, r_omega) = self.linearize_on(&model, &x, &dg);
             (x, omega) =
-                self.bordered_update(&jac, &r_omega, t, &e.residual, (x, omega), (x_p, omega_p))?;
+                self.bordered_update(&jac, &r_omega, t, &residual, (x, omega), (x_p, omega_p))?;
         }
         let frame = self.frame(omega).map_err(|e| e.to_string())?;
-        let o = reduced::newton(&frame.problem, &self.newton, &x, self.reporter);
+        let o = self.newton_on(&frame.problem, &x);
         if !o.converged {
             return Err(format!("chord corrector, polish at ω*: {}", o.reason));
         }
@@ -205,15 +201,14 @@ impl Continuation<'_> {
         let (mut x, mut omega) = (x_p.to_vec(), omega_p);
         for iteration in 0..=MAX_CORRECTOR {
             let frame = self.frame(omega).map_err(|e| e.to_string())?;
-            let residual = Residual::new(&frame.problem, &self.newton);
-            let e = residual.evaluate(x.clone());
-            if residual.relative(&e) <= self.newton.tolerance && iteration > 0 {
+            let (residual, relative) = self.residual_on(&frame.problem, &x);
+            if relative <= self.newton.tolerance && iteration > 0 {
                 return Ok((x, frame, iteration));
             }
-            let dg = gap_rate(self.system, self.op, &frame.linear, &e.x, self.hb.harmonics);
-            let (jac, r_omega) = self.linearization(&frame.problem, &residual, &e, &dg);
+            let dg = gap_rate(self.system, self.op, &frame.linear, &x, self.hb.harmonics);
+            let (jac, r_omega) = self.linearize_on(&frame.problem, &x, &dg);
             (x, omega) =
-                self.bordered_update(&jac, &r_omega, t, &e.residual, (x, omega), (x_p, omega_p))?;
+                self.bordered_update(&jac, &r_omega, t, &residual, (x, omega), (x_p, omega_p))?;
         }
         Err(format!(
             "the arc-length corrector did not converge in {MAX_CORRECTOR} iterations"
@@ -249,29 +244,6 @@ impl Continuation<'_> {
         Ok((x, omega))
     }
 
-    /// J and R_ω = A c ∂g/∂ω at the evaluation `e` of `problem` (A the activity blocks).
-    fn linearization(
-        &self,
-        problem: &ReducedProblem,
-        residual: &Residual,
-        e: &Evaluation,
-        dg: &[f64],
-    ) -> (Mat<f64>, Vec<f64>) {
-        let m = problem.coefficients();
-        let blocks = step::activity_blocks(&residual.sampler, problem.nodes, &e.slopes);
-        let jac = step::dense_jacobian(problem, self.newton.c, &blocks);
-        let mut r_omega = vec![0.0; dg.len()];
-        for i in 0..problem.nodes {
-            let a_i = &blocks[i * m * m..(i + 1) * m * m];
-            for a in 0..m {
-                r_omega[i * m + a] = (0..m)
-                    .map(|b| a_i[a * m + b] * self.newton.c * dg[i * m + b])
-                    .sum();
-            }
-        }
-        (jac, r_omega)
-    }
-
     /// Solve [J F, R_ω Ω; τᵀ] d = rhs in the scaled unknowns.
     fn bordered_solve(
         &self,
@@ -294,10 +266,8 @@ impl Continuation<'_> {
 
     /// The unit tangent at the first point, oriented along `previous`.
     pub(super) fn tangent(&self, frame: &Frame, x: &[f64], previous: &[f64]) -> Result<Vec<f64>> {
-        let residual = Residual::new(&frame.problem, &self.newton);
-        let e = residual.evaluate(x.to_vec());
         let dg = gap_rate(self.system, self.op, &frame.linear, x, self.hb.harmonics);
-        let (jac, r_omega) = self.linearization(&frame.problem, &residual, &e, &dg);
+        let (jac, r_omega) = self.linearize_on(&frame.problem, x, &dg);
         let n = x.len();
         let rhs: Vec<f64> = (0..n).map(|_| 0.0).chain([1.0]).collect();
         let t = self

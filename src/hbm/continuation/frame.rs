@@ -13,7 +13,6 @@ use std::time::Instant;
 
 use super::{Continuation, Point};
 use crate::hbm::frames::{self, ReducedModel};
-use crate::hbm::reduced;
 use crate::hbm::{prepare_with, LinearResponse, ReducedProblem, Source, System};
 use crate::{Error, Result};
 
@@ -123,7 +122,7 @@ impl Continuation<'_> {
         self.reduced.replaced += 1;
         let exact = self.exact_frame(frame.omega).map_err(|e| e.to_string())?;
         self.enrich(&exact);
-        let o = reduced::newton(&exact.problem, &self.newton, &next.x, self.reporter);
+        let o = self.newton_on(&exact.problem, &next.x);
         if !o.converged {
             return Err(format!("the exact frame of a reduced point: {}", o.reason));
         }

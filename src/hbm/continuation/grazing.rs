@@ -13,7 +13,6 @@ use std::time::Instant;
 use super::frame::Frame;
 use super::stepping::JUMP;
 use super::{norm, Continuation, Corrector, Point, PointInfo};
-use crate::hbm::reduced;
 
 /// A point whose ‖λ‖ is below this fraction of the largest along the curve may be at a
 /// grazing corner (on the strip the contact force there is 0.1–0.2% of its largest, in mean).
@@ -57,7 +56,7 @@ impl Continuation<'_> {
         let clock = Instant::now();
         let frame = self.frame(p.omega + shift).ok()?;
         let open = vec![0.0; p.x.len()];
-        let o = reduced::newton(&frame.problem, &self.newton, &open, self.reporter);
+        let o = self.newton_on(&frame.problem, &open);
         if !o.converged || norm(&o.multipliers) > self.hb.tolerance * self.force {
             return None;
         }

@@ -25,6 +25,7 @@
 mod corrector;
 mod frame;
 mod grazing;
+mod law;
 mod linear;
 mod start;
 mod stepping;
@@ -34,7 +35,7 @@ use std::time::Instant;
 
 use super::frames::ReducedModel;
 use super::reduced::NewtonSettings;
-use super::{ContactSolution, HbSettings, Solution, System};
+use super::{ContactSolution, HbSettings, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
 use crate::progress::Reporter;
@@ -211,7 +212,11 @@ pub fn sweep(
     }
     let hb = &super::contact_settings(system, contact.is_some(), hb)?;
     match contact {
-        Some(op) => Continuation::start(system, op, hb, s, reporter)?.run(on_point),
+        // With friction the curve's unknowns are the stacked rows' (`ContactOperator::stacked`).
+        Some(op) => match op.stacked() {
+            Some(rows) => Continuation::start(system, (op, &rows), hb, s, reporter)?.run(on_point),
+            None => Continuation::start(system, (op, op), hb, s, reporter)?.run(on_point),
+        },
         None => linear::linear_sweep(system, hb, s, reporter, on_point),
     }
 }
@@ -232,7 +237,12 @@ impl Point {
 
 struct Continuation<'a> {
     system: &'a mut System,
+    /// The scene's contact operator, and the one the problem is reduced to (with friction its
+    /// normal rows followed by its tangential ones; else the same).
+    contact: &'a ContactOperator,
     op: &'a ContactOperator,
+    /// μ per contact node with friction (`law`).
+    friction: Option<Vec<f64>>,
     hb: &'a HbSettings,
     s: &'a SweepSettings,
     reporter: &'a dyn Reporter,
@@ -415,14 +425,34 @@ impl Continuation<'_> {
             multipliers: x.to_vec(),
             ..newton
         };
-        let contact =
-            ContactSolution::unchecked(problem, self.newton.samples, self.newton.c, newton);
+        let contact = self.point_solution(problem, newton);
         let m = problem.coefficients();
         let mut linear = frame.linear;
         super::timed(&mut self.timings.recover, || linear.recover(self.op, x, m));
         self.system.omega = frame.omega;
         let solution = linear.into_solution(self.system, Some(contact), Timings::default());
         on_point(info, &solution)
+    }
+}
+
+impl Continuation<'_> {
+    /// The contact solution of a point whose Newton account `newton` holds its unknowns
+    /// (the knob checks are the first point's); with friction, its tangential result too,
+    /// its samples not checked again.
+    fn point_solution(&self, problem: &ReducedProblem, newton: NewtonOutcome) -> ContactSolution {
+        let (samples, c) = (self.newton.samples, self.newton.c);
+        let Some(coefficients) = &self.friction else {
+            return ContactSolution::unchecked(problem, samples, c, newton);
+        };
+        let x = newton.multipliers.clone();
+        let part = super::friction::normal_part(problem);
+        let normal = NewtonOutcome {
+            multipliers: x[..part.linear_gap.len()].to_vec(),
+            ..newton
+        };
+        let normal = ContactSolution::unchecked(&part, samples, c, normal);
+        let counts = (f64::NAN, normal.newton.iterations);
+        super::with_friction(normal, problem, coefficients.clone(), &x, counts)
     }
 }
 

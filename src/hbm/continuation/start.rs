@@ -14,8 +14,10 @@ use super::corrector::MAX_CORRECTOR;
 use super::frame::Frame;
 use super::{hz, Continuation, ContinuationState, ReducedFrames, SweepSettings};
 use crate::contact::ContactOperator;
-use crate::hbm::reduced::{self, NewtonSettings};
-use crate::hbm::{solve_contact_timed, HbSettings, NewtonOutcome, System, Timings};
+use crate::hbm::reduced::NewtonSettings;
+use crate::hbm::{
+    solve_contact_timed, solve_frictional, HbSettings, NewtonOutcome, System, Timings,
+};
 use crate::progress::Reporter;
 use crate::{Error, Result};
 
@@ -24,7 +26,7 @@ impl<'a> Continuation<'a> {
     /// for the whole curve; a resumed one is taken as saved (`resume_at`).
     pub(super) fn start(
         system: &'a mut System,
-        op: &'a ContactOperator,
+        (contact, op): (&'a ContactOperator, &'a ContactOperator),
         hb: &'a HbSettings,
         s: &'a SweepSettings,
         reporter: &'a dyn Reporter,
@@ -38,7 +40,9 @@ impl<'a> Continuation<'a> {
         };
         let mut c = Continuation {
             system,
+            contact,
             op,
+            friction: contact.tangential.as_ref().map(|t| t.coefficients.clone()),
             hb,
             s,
             reporter,
@@ -66,18 +70,18 @@ impl<'a> Continuation<'a> {
     /// The first point of a new curve: the single-frequency solve at ω on factorizations.
     fn cold_start(&mut self, omega: f64) -> Result<()> {
         let frame = self.exact_frame(omega)?;
-        let first = solve_contact_timed(
-            self.system,
-            self.op,
-            &frame.problem,
-            self.hb,
-            self.reporter,
-            &mut self.timings,
-        )?;
+        let (system, problem) = (&*self.system, &frame.problem);
+        let (hb, reporter, timings) = (self.hb, self.reporter, &mut self.timings);
+        let first = match self.friction {
+            None => solve_contact_timed(system, self.op, problem, hb, reporter, timings)?,
+            Some(_) => solve_frictional(system, self.contact, problem, hb, reporter, timings)?,
+        };
         let norm = frame.problem.linear_gap.iter().map(|v| v * v).sum::<f64>();
         (self.newton.samples, self.newton.c) = (first.samples, first.c);
         self.force = (first.c * norm.sqrt()).max(f64::MIN_POSITIVE);
-        self.first = Some((first.multipliers, first.newton, frame));
+        let mut x = first.multipliers;
+        x.extend(first.friction.iter().flat_map(|f| f.tangential.iter()));
+        self.first = Some((x, first.newton, frame));
         Ok(())
     }
 
@@ -114,7 +118,7 @@ impl<'a> Continuation<'a> {
             )));
         }
         let frame = self.frame_from(r.omega, r.reduced_frame)?;
-        let o = resolve_saved(&frame, &self.newton, r, self.reporter)?;
+        let o = resolve_saved(&frame, r, self.newton_on(&frame.problem, &r.multipliers))?;
         self.factorizations = 1;
         self.first = Some((o.multipliers.clone(), o, frame));
         Ok(())
@@ -124,13 +128,7 @@ impl<'a> Continuation<'a> {
 /// The saved point checked on its frame by Newton from its own multipliers, which solve it
 /// (no iteration, the multipliers unchanged, on the frame they were solved on). One that does
 /// not solve again belongs to another scene, or was edited: bad input.
-fn resolve_saved(
-    frame: &Frame,
-    newton: &NewtonSettings,
-    r: &ContinuationState,
-    reporter: &dyn Reporter,
-) -> Result<NewtonOutcome> {
-    let o = reduced::newton(&frame.problem, newton, &r.multipliers, reporter);
+fn resolve_saved(frame: &Frame, r: &ContinuationState, o: NewtonOutcome) -> Result<NewtonOutcome> {
     if !o.converged || o.multipliers.len() != r.multipliers.len() {
         return Err(Error::Input(format!(
             "the saved point (sweep.json's `resume`) at {:.6} Hz does not solve again ({}): resume needs the scene the \
