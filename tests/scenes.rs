@@ -41,7 +41,8 @@ use hbcontact::Silent;
 const STEEL_E: f64 = 210.0e9;
 const STEEL_RHO: f64 = 7800.0;
 
-/// Column indices of `SweepRow::values` (`sweep::outputs()`).
+/// Column indices of `SweepRow::values` (`sweep::outputs`; a frictional sweep adds three
+/// columns after these).
 const AMPLITUDE: usize = 0;
 const PEAK_FORCE: usize = 2;
 const MEAN_FORCE: usize = 3;

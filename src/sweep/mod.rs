@@ -343,6 +343,26 @@ struct Ended<'a> {
     out: &'a std::path::Path,
 }
 
+/// One warning per reason for the points no method could judge (a frictional state's), with
+/// how many they are: their `stable` column is empty.
+fn unjudged_rows(verdicts: &[(usize, Stability)]) -> Vec<String> {
+    let mut reasons: Vec<(&str, usize)> = Vec::new();
+    let unjudged = verdicts.iter().map(|(_, v)| v);
+    let undecided = |v: &&Stability| v.verdict == stability::Verdict::Undecided;
+    for v in unjudged
+        .filter(|v| v.method == stability::Method::None)
+        .filter(undecided)
+    {
+        match reasons.iter_mut().find(|(r, _)| *r == v.reason) {
+            Some((_, count)) => *count += 1,
+            None => reasons.push((&v.reason, 1)),
+        }
+    }
+    (reasons.into_iter())
+        .map(|(reason, count)| format!("the stability of {count} points is undecided: {reason}"))
+        .collect()
+}
+
 /// The curve's summary: the folds, the point folders (written here, stage `points`), why
 /// it stopped; the failure handed back.
 fn summarize(
@@ -360,6 +380,7 @@ fn summarize(
     ended
         .warnings
         .extend(underdamped_rows(&writer.rows, &basis));
+    ended.warnings.extend(unjudged_rows(&writer.verdicts));
     let stopped = stop_report(spec, writer, ended.failure.as_ref(), ended.out, p);
     let summary = SweepSummary {
         name: p.name.clone(),
