@@ -10,7 +10,8 @@
 //! - a pressed contact patch (the half-disc) at H = 10…80, where the harmonic-block
 //!   preconditioner serves the steps the node blocks stall on;
 //! - the cost of Coulomb friction against the frictionless solve of the same scene (the
-//!   friction block and the friction damper, H = 20 and 40).
+//!   friction block and the friction damper, H = 20 and 40), and of a frictional sweep
+//!   (the block, the cantilever on its stop).
 //!
 //! `cargo bench --bench goals [-- strip | damping | paths | reduction | floor | whole | products | patch | friction]`
 //! (default: all). Times
@@ -801,5 +802,38 @@ fn friction() {
                 energy.map_or(f64::NAN, |f| f.dissipated_energy_per_period),
             );
         }
+    }
+    println!("\n# Sweeps with and without friction (the scene's own range; no stability check)");
+    println!("scene | points frictionless | seconds | points with μ | seconds | ratio per point");
+    let sweeps = [
+        ("pipelines/scenes/friction_block.yaml", "0.3"),
+        ("pipelines/scenes/cantilever_stop.yaml", "0.3"),
+    ];
+    for (file, mu) in sweeps {
+        let sweep = |mu: &str| {
+            let sets = [
+                format!("contact.friction.coefficient={mu}"),
+                "stability.check=false".into(),
+                "output.plots=false".into(),
+            ];
+            let p = pipeline_with(file, &sets)?;
+            let options = RunOptions {
+                out: Some(
+                    root()
+                        .join("output/bench-goals")
+                        .join(format!("sweep-{mu}")),
+                ),
+                ..Default::default()
+            };
+            let (result, secs) = seconds(|| hbcontact::sweep::run(&p, &options, &Silent));
+            result.ok().map(|r| (r.summary.points, secs))
+        };
+        let (Some((na, ta)), Some((nb, tb))) = (sweep("0"), sweep(mu)) else {
+            continue;
+        };
+        println!(
+            "{file} μ = {mu} | {na} | {ta:.2} | {nb} | {tb:.2} | {:.1}",
+            (tb / nb as f64) / (ta / na as f64)
+        );
     }
 }
