@@ -202,7 +202,7 @@ impl Stability {
         Stability {
             reason: "not judged: the Floquet multipliers of a frictional state (whose \
                      linearization changes between stick and slip) are not formed; \
-                     `hbcontact transient` marches it"
+                     `stability.method: march` judges it by time marching"
                 .into(),
             ..Stability::blank(Method::None)
         }
@@ -459,6 +459,9 @@ pub fn by_marching(
     };
     let system = marching_model.system.at_frequency(omega);
     let contact = marching_model.contact.as_ref().map(|c| &c.operator);
+    // A frictional state is solved anew on the marching model (a re-solve from a nearby
+    // state is the frictionless law's).
+    let start = start.filter(|s| s.friction.is_none());
     let solution = match harmonic_balance_state(p, &system, contact, start, reporter) {
         Ok(s) => s,
         Err(Error::NotConverged(why)) => return Ok(undecided_without_state(&why)),

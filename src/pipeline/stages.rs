@@ -210,8 +210,9 @@ pub fn march<'m>(
 /// Stage `stability`: the verdict on the harmonic-balance `solution` of `model`. Contact
 /// scenes: the Floquet multipliers of the state (`stability.method: floquet`, the default),
 /// time marching (`march`: a model of the same mesh with a diagonal mass from its own
-/// harmonic-balance state, solved from `solution`'s multipliers) or both; linear scenes
-/// judge by their damping, static states (H = 0) are not judged.
+/// harmonic-balance state, solved from `solution`'s multipliers) or both (a frictional
+/// state: marching alone, Floquet leaves it undecided); linear scenes judge by their
+/// damping, static states (H = 0) are not judged.
 pub fn stability(
     p: &Pipeline,
     model: &Model,
@@ -225,6 +226,10 @@ pub fn stability(
             _ => Stability::not_checked(),
         });
     };
+    // A frictional state has no Floquet multipliers here: marching judges it where asked.
+    if contact.friction.is_some() && spec.method != StabilityMethod::Floquet {
+        return march_verdict(p, model, contact, stages);
+    }
     let segments = match stability::shortcut(model, &solution.basis, solution.omega, contact) {
         Ok(verdict) => return Ok(verdict),
         Err(segments) => segments,
