@@ -27,6 +27,7 @@
 use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::Solve;
 use faer::{Accum, Mat, Par};
+use std::time::{Duration, Instant};
 
 use super::fourier::{cos_index, sin_index};
 use super::problem::ReducedProblem;
@@ -38,6 +39,10 @@ const STEP_BUDGET: usize = 40;
 
 /// c_t of the attempt that looks for a stuck state, in units of c/H (`solve`).
 const STIFF_SCALE: f64 = 10.0;
+
+/// What a frictional Newton says when its deadline passed (`solve`'s time budget,
+/// harmonic_balance.solver.max_seconds).
+pub const OUT_OF_TIME: &str = "the time budget harmonic_balance.solver.max_seconds ran out";
 
 /// μ's scale in the bonded attempt of `solve`: every closed sample sticks.
 const BONDED: f64 = 1e6;
@@ -417,13 +422,15 @@ fn norm_inf(v: &[f64]) -> f64 {
 
 /// Semi-smooth Newton on the frictional residual from `start` (2 nc M values), at N =
 /// `samples`, until ‖R‖∞ ≤ `tolerance` · force scale (the peak normal force, at least
-/// `force_floor`), globalized by a non-monotone backtracking line search on ‖R‖₂.
+/// `force_floor`), globalized by a non-monotone backtracking line search on ‖R‖₂. No
+/// iteration starts after `deadline` (the reason is then `OUT_OF_TIME`).
 pub fn newton(
     problem: &ReducedProblem,
     law: &Law,
     samples: usize,
     (tolerance, max_iterations, force_floor): (f64, usize, f64),
     start: Vec<f64>,
+    deadline: Option<Instant>,
 ) -> NewtonOutcome {
     let solver = Solver::new(problem, law, samples);
     let mut e = solver.evaluate(start);
@@ -439,6 +446,10 @@ pub fn newton(
     while relative(&e) > tolerance {
         if iterations >= max_iterations {
             reason = format!("{max_iterations} Newton iterations were not enough");
+            break;
+        }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            reason = OUT_OF_TIME.into();
             break;
         }
         iterations += 1;
@@ -556,7 +567,7 @@ fn continuation(
                 x = outcome.multipliers;
                 (at, step) = (scale, 2.0 * step);
             }
-            (false, _) if step <= 1.0 / 256.0 => {
+            (false, _) if step <= 1.0 / 256.0 || outcome.reason == OUT_OF_TIME => {
                 outcome.reason = format!(
                     "the continuation in the friction coefficient stopped at {at:.4} μ: {}",
                     outcome.reason
@@ -605,14 +616,16 @@ pub fn normal_part(problem: &ReducedProblem) -> ReducedProblem {
 /// The frictional solve from the frictionless solution `frictionless` (its λ_n, N and c):
 /// Newton from (λ_n, 0) at μ; where that fails, the continuation in μ (`continuation`); where
 /// that fails too, the continuation with a stiff c_t, polished at the plain one. Returns the
-/// outcome (x = (λ_n, λ_t)) and the relative change of x from N to 2N. Not bounded by
-/// `contact_solver.max_seconds` (the frictionless solve before it is).
+/// outcome (x = (λ_n, λ_t)) and the relative change of x from N to 2N. No Newton iteration
+/// starts after `max_seconds` (harmonic_balance.solver.max_seconds, counted from here; the
+/// frictionless solve before it has its own): the outcome's reason is then `OUT_OF_TIME`.
 pub fn solve(
     problem: &ReducedProblem,
     coefficients: &[f64],
     frictionless: &super::ContactSolution,
-    (tolerance, max_iterations): (f64, usize),
+    (tolerance, max_iterations, max_seconds): (f64, usize, f64),
 ) -> (NewtonOutcome, f64) {
+    let deadline = Instant::now() + Duration::from_secs_f64(max_seconds.clamp(0.0, 1e9));
     let m = problem.coefficients();
     let nc = problem.nodes / 2;
     let floor = frictionless
@@ -635,17 +648,18 @@ pub fn solve(
         } else {
             max_iterations
         };
-        newton(problem, &law, samples, (tolerance, budget, floor), start)
+        let knobs = (tolerance, budget, floor);
+        newton(problem, &law, samples, knobs, start, Some(deadline))
     };
+    let timed_out = |o: &NewtonOutcome| o.reason == OUT_OF_TIME;
     let run = |scale: f64, samples: usize, start: Vec<f64>| attempt(scale, samples, start, 1.0);
     let n = frictionless.samples;
     let mut outcome = run(1.0, n, start.clone());
     let mut spent = outcome.iterations;
-    if !outcome.converged {
+    if !outcome.converged && !timed_out(&outcome) {
         // Where the sliding state ends below μ (a state sticking more), the bonded one is
-        // the nearer start.
-        // The bonded state's own Newton (μ scaled by `BONDED`, every closed sample stuck)
-        // first, from the bonded start, then the plain one from there.
+        // the nearer start: its own Newton (μ scaled by `BONDED`, every closed sample stuck)
+        // from the bonded start, then the plain one from there.
         if let Some(bonded) = bonded_start(problem, &start) {
             let stuck = run(BONDED, n, bonded);
             spent += stuck.iterations;
@@ -658,11 +672,11 @@ pub fn solve(
             }
         }
     }
-    if !outcome.converged {
+    if !outcome.converged && Instant::now() < deadline {
         outcome = continuation(&run, n, start.clone(), spent);
         spent = outcome.iterations;
     }
-    if !outcome.converged {
+    if !outcome.converged && Instant::now() < deadline {
         // A state stuck at every sample is a root whatever c_t: the continuation with a
         // stiffer c_t reaches one where the plain one cycles on the sliding branch, and the
         // plain c_t then polishes it (the friction damper of pipelines/scenes at μ = 0.3,
@@ -706,4 +720,43 @@ pub fn statistics(states: &[NodeState]) -> ([f64; 3], f64) {
     let all = counts.iter().sum::<usize>().max(1) as f64;
     let shares = counts.map(|c| c as f64 / all);
     (shares, norm_inf(&total))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::c64;
+
+    /// One node pressed 1 µm into its obstacle and driven 1 µm along it (H = 1), compliance
+    /// 1e-9 m/N in both directions: μN = 300 N against a stuck force of 1 kN, so it slips.
+    fn pressed_and_driven() -> ReducedProblem {
+        let mut p = ReducedProblem::from_compliance(2, 1, |_, i, j| {
+            c64::new(if i == j { 1e-9 } else { 0.0 }, 0.0)
+        });
+        p.linear_gap = vec![1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0];
+        p
+    }
+
+    #[test]
+    fn a_frictional_newton_starts_no_iteration_after_its_deadline() {
+        let problem = pressed_and_driven();
+        let law = Law {
+            coefficients: &[0.3],
+            c: 1e9,
+            tangential_scale: 1.0,
+        };
+        let start = vec![0.0; 6];
+        let knobs = (1e-10, 50, 1.0);
+        let free = newton(&problem, &law, 16, knobs, start.clone(), None);
+        assert!(free.converged && free.iterations > 0, "{}", free.reason);
+        // Pressed: the mean normal force closes the 1 µm, −1 kN.
+        assert!(
+            (free.multipliers[0] + 1000.0).abs() < 1e-6,
+            "{:?}",
+            free.multipliers
+        );
+        let late = newton(&problem, &law, 16, knobs, start, Some(Instant::now()));
+        assert!(!late.converged && late.iterations == 0);
+        assert_eq!(late.reason, OUT_OF_TIME);
+    }
 }

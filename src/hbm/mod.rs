@@ -216,15 +216,26 @@ fn solve_frictional(
         .as_ref()
         .map_or(Vec::new(), |t| t.coefficients.clone());
     let full = problem.truncate(frictionless.harmonics);
-    let knobs = (settings.tolerance, settings.max_iterations);
+    let knobs = (
+        settings.tolerance,
+        settings.max_iterations,
+        settings.max_seconds,
+    );
     let (outcome, change) = timed(&mut timings.newton, || {
         friction::solve(&full, &coefficients, &frictionless, knobs)
     });
     if !outcome.converged {
+        let advice = if outcome.reason == friction::OUT_OF_TIME {
+            format!(
+                "raise harmonic_balance.solver.max_seconds (now {} s)",
+                settings.max_seconds
+            )
+        } else {
+            "lower contact.friction.coefficient to find where it stops, or raise damping".into()
+        };
         return Err(Error::NotConverged(format!(
             "the frictional contact solve did not converge at {:.6} Hz: {} after {} iterations \
-             (from the frictionless state, which converged). Lower contact.friction.coefficient \
-             to find where it stops, or raise damping",
+             (from the frictionless state, which converged); {advice}",
             system.omega / (2.0 * std::f64::consts::PI),
             outcome.reason,
             outcome.iterations

@@ -37,7 +37,7 @@ impl Continuation<'_> {
             Some(law) => {
                 let n = &self.newton;
                 let knobs = (n.tolerance, n.max_iterations, self.force_floor(problem));
-                friction::newton(problem, &law, n.samples, knobs, x.to_vec())
+                friction::newton(problem, &law, n.samples, knobs, x.to_vec(), None)
             }
         }
     }
