@@ -14,7 +14,9 @@
 //! ẇ/ω is the derivative of w on the Fourier basis, a rotation of each harmonic:
 //! (ẇ/ω)_k = i k w_k, i.e. (a_k, b_k) ↦ (k b_k, −k a_k). A node stuck at every sample leaves
 //! its mean tangential force undetermined (ẇ has no mean): its mean row is replaced by
-//! c w_0 = 0, the node stuck where the unloaded body has it (the bonded limit μ → ∞).
+//! `StuckRow`'s, c w_0 = 0 (the node held where the unloaded body has it, the bonded limit
+//! μ → ∞) while that state's force stays in the cone, else the force touching the cone on
+//! the side it would leave it.
 //!
 //! The semi-smooth Newton's Jacobian J = I − E + c F G is formed dense: per node the M × M
 //! blocks A(s) = Q diag(s) P of the normal slopes s_n (normal rows), of the stick indicator
@@ -170,8 +172,9 @@ pub struct Evaluation {
     normal: Vec<f64>,
     stick: Vec<f64>,
     slip: Vec<f64>,
-    /// Nodes stuck at every sample (their mean row is c w_0).
-    stuck: Vec<bool>,
+    /// Per node stuck at every sample, which side of its mean row (`StuckRow`) is taken;
+    /// `None` where it is not stuck at every sample.
+    stuck: Vec<Option<StuckRow>>,
     /// Peak |Λ_n| over nodes and samples.
     pub peak: f64,
 }
@@ -261,7 +264,7 @@ impl<'a> Solver<'a> {
             normal: vec![0.0; nc * n],
             stick: vec![0.0; nc * n],
             slip: vec![0.0; nc * n],
-            stuck: vec![false; nc],
+            stuck: vec![None; nc],
             peak: 0.0,
         };
         let (mut force_n, mut force_t) = (vec![0.0; n], vec![0.0; n]);
@@ -287,9 +290,10 @@ impl<'a> Solver<'a> {
             for (r, p) in e.residual[t..t + m].iter_mut().zip(&projected) {
                 *r -= p;
             }
-            e.stuck[i] = e.stick[i * n..(i + 1) * n].iter().all(|&s| s == 1.0);
-            if e.stuck[i] {
-                e.residual[t] = c * g[t];
+            if e.stick[i * n..(i + 1) * n].iter().all(|&s| s == 1.0) {
+                let (row, side) = StuckRow::at(c * g[t], mu, &s.lambda_t, &s.lambda_n);
+                e.residual[t] = row;
+                e.stuck[i] = Some(side);
             }
         }
         e
@@ -341,10 +345,29 @@ impl<'a> Solver<'a> {
                     Par::Seq,
                 );
             }
-            if e.stuck[i] {
-                for s in 0..dim {
-                    j[(ti, s)] = c * g[(ti, s)];
+            match e.stuck[i] {
+                Some(StuckRow::Held) => {
+                    for s in 0..dim {
+                        j[(ti, s)] = c * g[(ti, s)];
+                    }
                 }
+                Some(StuckRow::Touching { sample, upper }) => {
+                    // ∂(±λ_t,j − b_j)/∂x, b_j = μ max(0, −λ_n,j), signed so that the row is
+                    // λ_t,j − b_j (upper) or λ_t,j + b_j (lower).
+                    let mu = self.law.coefficients[i];
+                    let s = self.node_samples(&e.x, &self.problem.gap(&e.x), i);
+                    let closed = if s.lambda_n[sample] < 0.0 { mu } else { 0.0 };
+                    let along_n = if upper { closed } else { -closed };
+                    for col in 0..dim {
+                        j[(ti, col)] = 0.0;
+                    }
+                    for b in 0..m {
+                        let p = self.maps.p[(sample, b)];
+                        j[(ti, ti + b)] = p;
+                        j[(ti, ni + b)] = along_n * p;
+                    }
+                }
+                None => {}
             }
         }
         j
@@ -374,11 +397,72 @@ impl<'a> Solver<'a> {
             let a_u = self.maps.block(&e.slip[samples]);
             mat_vec(&a_u, &dg[ni], &mut product);
             (out[ti.clone()].iter_mut().zip(&product)).for_each(|(o, p)| *o += c * p);
-            if e.stuck[i] {
-                out[ti.start] = c * dg[ti.start];
+            match e.stuck[i] {
+                Some(StuckRow::Held) => out[ti.start] = c * dg[ti.start],
+                Some(StuckRow::Touching { .. }) => out[ti.start] = 0.0,
+                None => {}
             }
         }
         out
+    }
+}
+
+/// The mean row of a node stuck at every sample, whose mean tangential force the law leaves
+/// undetermined (ẇ has no mean; a stuck node stays wherever its history left it). The row
+/// picks the state a quasi-static rise of the drive from rest reaches: held where the
+/// unloaded body has it (c w_0 = 0, the bonded limit μ → ∞) while that state's force stays
+/// in the cone; where it would leave the cone on one side, shifted just enough to touch it
+/// there (the node slipped that far once, and sticks again). With e₊ = max_j (λ_t,j − b_j)
+/// and e₋ = max_j (−λ_t,j − b_j), b_j = μ max(0, −λ_n,j), over the node's samples:
+///
+/// r = min(max(c w_0, e₊), −e₋),
+///
+/// zero at w_0 = 0 inside the cone, at e₊ = 0 (w_0 < 0) and at e₋ = 0 (w_0 > 0). A force
+/// that grows touches both sides at once where slipping both ways begins, so the stuck
+/// states run on continuously into the slipping ones; a state held at w_0 = 0 whose force
+/// left the cone on one side would instead be a root of the law with that one sample
+/// slipping, at exactly zero excess (a periodic state slips as far forward as back): a root
+/// on the law's kink, where the Newton cycles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum StuckRow {
+    /// c w_0.
+    Held,
+    /// λ_t,j − b_j at `sample` (upper side) or λ_t,j + b_j (lower side).
+    Touching { sample: usize, upper: bool },
+}
+
+impl StuckRow {
+    /// The row r and the side it takes, from `held` = c w_0 and the node's sampled λ_t and
+    /// λ_n.
+    fn at(held: f64, mu: f64, lambda_t: &[f64], lambda_n: &[f64]) -> (f64, StuckRow) {
+        let b = |j: usize| mu * (-lambda_n[j]).max(0.0);
+        let (mut plus, mut minus) = ((f64::NEG_INFINITY, 0), (f64::NEG_INFINITY, 0));
+        for (j, &l) in lambda_t.iter().enumerate() {
+            if l - b(j) > plus.0 {
+                plus = (l - b(j), j);
+            }
+            if -l - b(j) > minus.0 {
+                minus = (-l - b(j), j);
+            }
+        }
+        let upper = StuckRow::Touching {
+            sample: plus.1,
+            upper: true,
+        };
+        let lower = StuckRow::Touching {
+            sample: minus.1,
+            upper: false,
+        };
+        let (inner, side) = if held >= plus.0 {
+            (held, StuckRow::Held)
+        } else {
+            (plus.0, upper)
+        };
+        if inner <= -minus.0 {
+            (inner, side)
+        } else {
+            (-minus.0, lower)
+        }
     }
 }
 
