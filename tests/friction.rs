@@ -573,3 +573,37 @@ fn a_friction_damped_rod_peaks_lower_and_higher_with_more_preload_and_agrees_wit
         common::assert_agrees_with_marching(&hb, &tm, &[energy], 2e-2);
     }
 }
+
+/// TEST GOAL: a frictional sweep's points are judged by time marching where asked: the
+/// friction rod swept over 6000–6400 Hz with `stability.method: both` (a frictional state has
+/// no Floquet multipliers, so marching alone judges) gives its first and last rows a verdict
+/// and a marched multiplier (measured stable, |μ| 0.97 and 0.99), and no undecided warning; with the
+/// Floquet default the rows stay empty and sweep.json says why (the block's test above).
+#[test]
+fn a_frictional_sweeps_points_are_judged_by_marching_where_asked() {
+    let out = common::run_cli(
+        "sweep",
+        "pipelines/scenes/friction_rod.yaml",
+        "friction-rod-sweep-march",
+        &[
+            "sweep.to=6400",
+            "stability.method=both",
+            "stability.every=1000",
+        ],
+    );
+    let json = common::read_json(&out.join("sweep.json"));
+    let rows = json["rows"].as_array().expect("rows");
+    for row in [rows.first(), rows.last()].map(|r| r.expect("a row")) {
+        println!(
+            "{} Hz: {} {}",
+            row["frequency_hz"], row["stable"], row["multiplier"]
+        );
+        assert_eq!(row["stable"], serde_json::Value::Bool(true), "{row}");
+        assert!(common::json_number(row, "/multiplier") < 1.0, "{row}");
+    }
+    assert!(
+        !json["warnings"].to_string().contains("undecided"),
+        "{}",
+        json["warnings"]
+    );
+}

@@ -547,9 +547,12 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
 /// are then judged afterwards as `judge_points` says).
 fn inline_judge(p: &Pipeline, model: &Model, reporter: &dyn Reporter) -> Option<HillModel> {
     let spec = &p.stability;
-    if !spec.check || spec.method == StabilityMethod::March || model.contact.is_none() {
+    // A frictional state has no multipliers to find (`judge_points` says so, or marches).
+    let frictional = (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_some());
+    if !spec.check || spec.method == StabilityMethod::March || frictional {
         return None;
     }
+    model.contact.as_ref()?;
     let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
     stability::hill_model(model, &basis).unwrap_or_else(|e| {
         reporter.warning(&format!(
@@ -604,6 +607,7 @@ fn judge_points(
     if !spec.check {
         return Ok(());
     }
+    let method = judging_method(model, spec.method);
     let beside_fold = |i: usize| folds.iter().any(|&f| i == f || i == f + 1);
     let last = rows.last().map_or(0, |r| r.index);
     // Points found in this run; a resumed sweep keeps the verdicts its saved rows have.
@@ -615,7 +619,7 @@ fn judge_points(
         rows.iter()
             .any(|r| r.index == i && (r.stable.is_some() || r.multiplier.is_some()))
     };
-    let audit = spec.method == StabilityMethod::Both;
+    let audit = method == StabilityMethod::Both;
     let chosen: Vec<&Start> = starts
         .iter()
         .filter(|(i, _, _)| i % spec.every == 0 || beside_fold(*i) || *i == last)
@@ -627,12 +631,12 @@ fn judge_points(
             }
         })
         .collect();
-    let (judged_here, varying) = shortcuts(p, model, chosen);
+    let (judged_here, varying) = shortcuts(p, model, chosen, method);
     for (i, verdict) in judged_here {
         record(writer, i, verdict);
     }
     let (chosen, segments): (Vec<&Start>, Vec<_>) = varying.into_iter().unzip();
-    let floquet = match spec.method {
+    let floquet = match method {
         StabilityMethod::March => None,
         _ if chosen.iter().all(|(i, _, _)| judged_inline(*i)) => Some(
             chosen
@@ -647,7 +651,7 @@ fn judge_points(
         ),
         _ => by_floquet(model, &chosen, &segments, reporter),
     };
-    let marched = match (spec.method, &floquet) {
+    let marched = match (method, &floquet) {
         (StabilityMethod::Floquet, Some(_)) => None,
         _ => Some(by_marching(p, model, &chosen, reporter)?),
     };
@@ -663,6 +667,16 @@ fn judge_points(
     Ok(())
 }
 
+/// The method the points of `model` are judged by: `asked`, but a frictional scene's states
+/// have no Floquet multipliers, so `both` marches alone there.
+fn judging_method(model: &Model, asked: StabilityMethod) -> StabilityMethod {
+    let frictional = (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_some());
+    match (frictional, asked) {
+        (true, StabilityMethod::Both) => StabilityMethod::March,
+        (_, asked) => asked,
+    }
+}
+
 /// The `chosen` points that need no multipliers, with their verdicts (`stability::shortcut`),
 /// and the others with their closed sets over the period (`None`: no contact state kept).
 #[allow(clippy::type_complexity)]
@@ -670,6 +684,7 @@ fn shortcuts<'a>(
     p: &Pipeline,
     model: &Model,
     chosen: Vec<&'a Start>,
+    method: StabilityMethod,
 ) -> (
     Vec<(usize, Stability)>,
     Vec<(&'a Start, Option<Vec<floquet::Segment>>)>,
@@ -678,8 +693,11 @@ fn shortcuts<'a>(
     let (mut judged, mut varying) = (Vec::new(), Vec::new());
     for start in chosen {
         let (i, omega, contact) = start;
+        // A frictional state has no multipliers; where marching judges, it marches.
+        let marches = method == StabilityMethod::March;
         match contact
             .as_ref()
+            .filter(|c| !(marches && c.friction.is_some()))
             .map(|c| stability::shortcut(model, &basis, *omega, c))
         {
             Some(Ok(verdict)) => judged.push((*i, verdict)),
