@@ -314,6 +314,23 @@ pub fn adapt_samples(
 }
 
 /// The warnings a check calls for, with its numbers.
+/// The warning of a frictional solve whose re-solve at 2N samples moved its multipliers by
+/// `change` (relative) past `SAMPLES_TOLERANCE`, or did not converge (∞); `None` for NaN
+/// (not checked).
+pub fn friction_warning(change: f64, samples: usize, basis: &TimeBasis) -> Option<String> {
+    let refine = basis.refine_key();
+    if change == f64::INFINITY {
+        return Some(format!(
+            "the frictional re-solve at N = {} samples did not converge from this state: its independence of harmonic_balance.samples is unverified; raise {refine} and compare",
+            2 * samples
+        ));
+    }
+    (change > SAMPLES_TOLERANCE).then(|| format!(
+        "the frictional state still changes by {change:.2e} (relative) from N = {samples} to N = {} samples: the answer depends on harmonic_balance.samples; raise it, or raise {refine}",
+        2 * samples
+    ))
+}
+
 pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<String> {
     let refine = basis.refine_key();
     let mut out = Vec::new();

@@ -113,6 +113,13 @@ pub fn solve(
             timed(&mut timings.recover, || {
                 linear.recover(reduction.unwrap_or(op), &x, m)
             });
+            let change = solution
+                .friction
+                .as_ref()
+                .map_or(f64::NAN, |f| f.samples_change);
+            let samples = solution.samples;
+            let warning = knobs::friction_warning(change, samples, &system.basis);
+            linear.warnings.extend(warning);
             Some(solution)
         }
         (Some(op), Some(problem)) => {
