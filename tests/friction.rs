@@ -194,7 +194,9 @@ fn a_friction_coefficient_out_of_range_is_refused_naming_the_key() {
 /// damper of pipelines/scenes/friction_damper.yaml at μ = 0.1, whose end face slides along
 /// its wall and lifts a corner. At H = 40 the probe amplitude is within 1% and the energy
 /// friction dissipates per period within 2% of the marched one (measured −0.13% and −0.17%;
-/// at H = 20 −0.46% and −2.0%, at H = 60 −0.05% and −0.08%).
+/// at H = 20 −0.46% and −2.0%, at H = 60 −0.05% and −0.08%). The marched frames carry the
+/// tangential fields too (read by meshio): within the cone to round-off, and the nodes'
+/// energies sum to the marched summary's.
 #[test]
 fn harmonic_balance_of_a_friction_damper_agrees_with_time_marching() {
     let sets = [
@@ -214,13 +216,24 @@ fn harmonic_balance_of_a_friction_damper_agrees_with_time_marching() {
         &sets,
     );
     let hb = common::read_json(&hb.join("summary.json"));
-    let tm = common::read_json(&tm.join("summary.json"));
+    let tm_dir = tm;
+    let tm = common::read_json(&tm_dir.join("summary.json"));
     common::assert_agrees_with_marching(&hb, &tm, &["/probes/probe/first_harmonic_y"], 1e-2);
     common::assert_agrees_with_marching(
         &hb,
         &tm,
         &["/contact/friction/dissipated_energy_per_period"],
         2e-2,
+    );
+    // The marched frames carry the tangential fields too: within the cone (to round-off),
+    // some node slipping and some sticking, and the nodes' energies sum to the summary's.
+    let v = frame_friction(&tm_dir, 0.1);
+    let energy = common::json_number(&tm, "/contact/friction/dissipated_energy_per_period");
+    assert!(v[0] >= 1.0 && v[1] >= 1.0 && v[2] < 1e-9, "{v:?}");
+    assert!(
+        ((v[3] - energy) / energy).abs() < 1e-9,
+        "{} vs {energy}",
+        v[3]
     );
     let slip = common::json_number(&hb, "/contact/friction/slip_share");
     let stick = common::json_number(&hb, "/contact/friction/stick_share");
@@ -350,34 +363,7 @@ fn frictional_frames_carry_tangential_force_and_slip_within_the_cone() {
         "friction-frames",
         &["contact.friction.coefficient=0.1"],
     );
-    let script = r#"
-import glob, sys, meshio
-slip = stick = 0
-excess = peak = 0.0
-m0 = meshio.read(sys.argv[1] + '/frame_0000.vtu')
-total = float(m0.point_data['contact_friction_energy'].sum())
-for f in sorted(glob.glob(sys.argv[1] + '/frame_*.vtu')):
-    m = meshio.read(f)
-    t, n, s = (m.point_data[k] for k in ('contact_tangential_force', 'contact_force', 'contact_slip'))
-    for ti, ni, si in zip(t, n, s):
-        if si >= 0:
-            excess = max(excess, abs(ti) - 0.1 * ni)
-        peak = max(peak, abs(ti))
-        slip += si == 1
-        stick += si == 0
-print(slip, stick, excess / peak, total)
-"#;
-    let r = std::process::Command::new(common::venv_python())
-        .args(["-c", script, &out.display().to_string()])
-        .output()
-        .expect("python runs");
-    let text = String::from_utf8_lossy(&r.stdout);
-    println!("{text}{}", String::from_utf8_lossy(&r.stderr));
-    let v: Vec<f64> = text
-        .split_whitespace()
-        .filter_map(|w| w.parse().ok())
-        .collect();
-    assert_eq!(v.len(), 4, "{text}");
+    let v = frame_friction(&out, 0.1);
     let summary = common::read_json(&out.join("summary.json"));
     let energy = common::json_number(&summary, "/contact/friction/dissipated_energy_per_period");
     assert!(
@@ -630,4 +616,39 @@ fn a_frictional_sweeps_points_are_judged_by_marching_where_asked() {
         "{}",
         json["warnings"]
     );
+}
+
+/// Over a run's frames (read by meshio, an independent reader): how many (node, frame) pairs
+/// slip and stick, the largest excess of |λ_t| over μ × the contact force relative to the
+/// peak |λ_t|, and the first frame's sum of `contact_friction_energy`.
+fn frame_friction(out: &std::path::Path, mu: f64) -> Vec<f64> {
+    let script = r#"
+import glob, sys, meshio
+mu = float(sys.argv[2])
+slip = stick = 0
+excess = peak = 0.0
+m0 = meshio.read(sys.argv[1] + '/frame_0000.vtu')
+total = float(m0.point_data['contact_friction_energy'].sum())
+for f in sorted(glob.glob(sys.argv[1] + '/frame_*.vtu')):
+    m = meshio.read(f)
+    t, n, s = (m.point_data[k] for k in ('contact_tangential_force', 'contact_force', 'contact_slip'))
+    for ti, ni, si in zip(t, n, s):
+        if si >= 0:
+            excess = max(excess, abs(ti) - mu * ni)
+        peak = max(peak, abs(ti))
+        slip += si == 1
+        stick += si == 0
+print(slip, stick, excess / peak, total)
+"#;
+    let r = std::process::Command::new(common::venv_python())
+        .args(["-c", script, &out.display().to_string(), &mu.to_string()])
+        .output()
+        .expect("python runs");
+    let text = String::from_utf8_lossy(&r.stdout);
+    println!("{text}{}", String::from_utf8_lossy(&r.stderr));
+    let v: Vec<f64> = (text.split_whitespace())
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert_eq!(v.len(), 4, "{text}");
+    v
 }

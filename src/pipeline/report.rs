@@ -88,8 +88,9 @@ pub struct ContactState {
     /// −λ(t) [N]: harmonic balance the truncated Fourier series of the multipliers (may be
     /// negative, tension, near impacts); time marching the same as `force`.
     pub series: Vec<f64>,
-    /// With friction (harmonic balance), per node: λ_t(t) [N] along t = ẑ × n (the series of
-    /// the tangential multipliers), μ, and the energy dissipated per period [J].
+    /// With friction, per node: λ_t(t) [N] along t = ẑ × n (harmonic balance the series of
+    /// the tangential multipliers, time marching the step's), μ, and the energy dissipated
+    /// per period [J] (time marching: over the last period).
     pub tangential: Option<[Vec<f64>; 3]>,
 }
 
@@ -244,6 +245,24 @@ fn history_dofs(model: &Model) -> Vec<usize> {
     dofs
 }
 
+/// With friction, each marched contact state's tangential part: λ_t at its sample, μ and
+/// the energy each node dissipated over the last period (`ContactState::tangential`).
+fn marched_friction(model: &Model, result: &TransientResult, states: &mut [ContactState]) {
+    let mu = model
+        .contact
+        .as_ref()
+        .and_then(|c| c.operator.tangential.as_ref());
+    let (Some(mu), Some(friction)) = (mu, result.friction.as_ref()) else {
+        return;
+    };
+    for (state, force) in states.iter_mut().zip(&result.tangential_force) {
+        if force.len() == mu.coefficients.len() {
+            let energy = friction.node_energy.clone();
+            state.tangential = Some([force.clone(), mu.coefficients.clone(), energy]);
+        }
+    }
+}
+
 /// The contact state of a harmonic-balance solution at time t with displacement u (`None`
 /// without contact).
 fn harmonic_balance_contact(
@@ -354,7 +373,7 @@ impl Sampled {
                 total_force: result.total_contact_history.iter().map(|v| -v).collect(),
             }
         });
-        let history = History::new(
+        let mut history = History::new(
             model,
             model.system.omega,
             result.times.clone(),
@@ -362,6 +381,7 @@ impl Sampled {
             |j| frames[j].contact_force.clone(),
             None,
         );
+        marched_friction(model, result, &mut history.contact);
         // The history is taken at the frames: its contact states are the frames'.
         Sampled {
             frame_contact: history.contact.clone(),

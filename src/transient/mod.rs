@@ -140,6 +140,8 @@ pub struct TransientResult {
     pub acceleration: Vec<Vec<f64>>,
     /// λ at the samples (one per contact row).
     pub contact_force: Vec<Vec<f64>>,
+    /// With friction, λ_t at the samples (one per contact row; empty without).
+    pub tangential_force: Vec<Vec<f64>>,
     /// Per probe, u at every step of the last period.
     pub probe_history: Vec<Vec<f64>>,
     /// Σλ at every step of the last period.
@@ -567,6 +569,8 @@ struct ContactState {
 #[derive(Clone, Debug, Default)]
 pub struct MarchedFriction {
     pub energy: f64,
+    /// The energy per contact row [J].
+    pub node_energy: Vec<f64>,
     pub peak_force: f64,
     pub counts: [usize; 3],
 }
@@ -577,8 +581,10 @@ impl ContactState {
     fn book_friction(&mut self, increment: &[f64], mu: &[f64]) {
         let p = &mut self.period;
         let largest = increment.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        p.node_energy.resize(increment.len(), 0.0);
         for (i, (&lt, &dw)) in self.lambda_t.iter().zip(increment).enumerate() {
             p.energy -= lt * dw;
+            p.node_energy[i] -= lt * dw;
             let bound = -mu[i] * self.lambda[i];
             let state = if self.lambda[i] >= 0.0 {
                 0
@@ -601,6 +607,8 @@ struct LastPeriod {
     velocity: Vec<Vec<f64>>,
     acceleration: Vec<Vec<f64>>,
     contact_force: Vec<Vec<f64>>,
+    /// With friction, λ_t at the output samples (booked as λ).
+    tangential_force: Vec<Vec<f64>>,
     probe_history: Vec<Vec<f64>>,
     total_contact_history: Vec<f64>,
 }
@@ -613,6 +621,7 @@ impl LastPeriod {
             velocity: vec![Vec::new(); samples],
             acceleration: vec![Vec::new(); samples],
             contact_force: vec![vec![0.0; nc]; samples],
+            tangential_force: vec![Vec::new(); samples],
             probe_history: vec![vec![0.0; steps]; probes],
             total_contact_history: vec![0.0; steps],
         }
@@ -625,7 +634,7 @@ impl LastPeriod {
         step: usize,
         dt: f64,
         [u_prev, u, u_next]: [&[f64]; 3],
-        lambda: &[f64],
+        (lambda, lambda_t): (&[f64], &[f64]),
         probes: &[usize],
     ) {
         if step.is_multiple_of(self.per_sample) {
@@ -646,6 +655,7 @@ impl LastPeriod {
         self.total_contact_history[next] = lambda.iter().sum();
         if next.is_multiple_of(self.per_sample) {
             self.contact_force[next / self.per_sample] = lambda.to_vec();
+            self.tangential_force[next / self.per_sample] = lambda_t.to_vec();
         }
     }
 }
@@ -914,6 +924,7 @@ pub fn run_to_periodic(
         velocity: record.velocity,
         acceleration: record.acceleration,
         contact_force: record.contact_force,
+        tangential_force: record.tangential_force,
         probe_history: record.probe_history,
         total_contact_history: record.total_contact_history,
         friction: problem.contact.and_then(|c| c.friction).map(|_| friction),
@@ -1034,7 +1045,8 @@ impl<'a> Stepper<'a> {
                 reporter.progress("periods", done, of, &status);
             }
             let us = [&s.u_prev[..], &s.u, &s.u_next];
-            record.record(step, self.dt, us, &s.contact.lambda, &problem.probes);
+            let forces = (&s.contact.lambda[..], &s.contact.lambda_t[..]);
+            record.record(step, self.dt, us, forces, &problem.probes);
             let probe_values = problem.probes.iter().map(|&d| s.u[d]);
             late.record(step, probe_values, &s.contact.lambda);
             s.rotate();
