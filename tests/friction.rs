@@ -195,8 +195,9 @@ fn a_friction_coefficient_out_of_range_is_refused_naming_the_key() {
 /// its wall and lifts a corner. At H = 40 the probe amplitude is within 1% and the energy
 /// friction dissipates per period within 2% of the marched one (measured −0.13% and −0.17%;
 /// at H = 20 −0.46% and −2.0%, at H = 60 −0.05% and −0.08%). The marched frames carry the
-/// tangential fields too (read by meshio): within the cone to round-off, and the nodes'
-/// energies sum to the marched summary's.
+/// tangential fields too (read by meshio): within the cone to round-off, stuck pairs at rest
+/// and slipping ones against their force, and the nodes' energies sum to the marched
+/// summary's.
 #[test]
 fn harmonic_balance_of_a_friction_damper_agrees_with_time_marching() {
     let sets = [
@@ -230,6 +231,8 @@ fn harmonic_balance_of_a_friction_damper_agrees_with_time_marching() {
     let v = frame_friction(&tm_dir, 0.1);
     let energy = common::json_number(&tm, "/contact/friction/dissipated_energy_per_period");
     assert!(v[0] >= 1.0 && v[1] >= 1.0 && v[2] < 1e-9, "{v:?}");
+    // Stuck pairs do not move, slipping ones dissipate (measured 0 and 0).
+    assert!(v[4] < 1e-9 && v[5] <= 1e-9, "{v:?}");
     assert!(
         ((v[3] - energy) / energy).abs() < 1e-9,
         "{} vs {energy}",
@@ -372,6 +375,8 @@ fn frictional_frames_carry_tangential_force_and_slip_within_the_cone() {
         v[3]
     );
     assert!(v[0] >= 1.0 && v[1] >= 1.0 && v[2] < 0.05, "{v:?}");
+    // No slipping pair puts energy in: λ_t ẇ ≤ 0 to the series' truncation (measured 0).
+    assert!(v[5] < 0.05, "{v:?}");
     let svg = std::fs::read_to_string(out.join("plots/friction_loop.svg")).expect("the loop");
     assert!(svg.contains("friction loop of contact node") && svg.contains("<polyline"));
 }
@@ -620,25 +625,34 @@ fn a_frictional_sweeps_points_are_judged_by_marching_where_asked() {
 
 /// Over a run's frames (read by meshio, an independent reader): how many (node, frame) pairs
 /// slip and stick, the largest excess of |λ_t| over μ × the contact force relative to the
-/// peak |λ_t|, and the first frame's sum of `contact_friction_energy`.
+/// peak |λ_t|, the first frame's sum of `contact_friction_energy`, the largest slip speed of
+/// a stuck pair relative to the largest of all, and the largest power λ_t ẇ a slipping pair
+/// puts in (slip dissipates: λ_t ẇ ≤ 0) relative to peak |λ_t| × peak |ẇ|.
 fn frame_friction(out: &std::path::Path, mu: f64) -> Vec<f64> {
     let script = r#"
 import glob, sys, meshio
 mu = float(sys.argv[2])
 slip = stick = 0
 excess = peak = 0.0
+speed = stuck_speed = power = 0.0
 m0 = meshio.read(sys.argv[1] + '/frame_0000.vtu')
 total = float(m0.point_data['contact_friction_energy'].sum())
 for f in sorted(glob.glob(sys.argv[1] + '/frame_*.vtu')):
     m = meshio.read(f)
-    t, n, s = (m.point_data[k] for k in ('contact_tangential_force', 'contact_force', 'contact_slip'))
-    for ti, ni, si in zip(t, n, s):
+    keys = ('contact_tangential_force', 'contact_force', 'contact_slip', 'contact_slip_velocity')
+    t, n, s, v = (m.point_data[k] for k in keys)
+    for ti, ni, si, vi in zip(t, n, s, v):
         if si >= 0:
             excess = max(excess, abs(ti) - mu * ni)
         peak = max(peak, abs(ti))
+        speed = max(speed, abs(vi))
+        if si == 0:
+            stuck_speed = max(stuck_speed, abs(vi))
+        if si == 1:
+            power = max(power, ti * vi)
         slip += si == 1
         stick += si == 0
-print(slip, stick, excess / peak, total)
+print(slip, stick, excess / peak, total, stuck_speed / speed, power / (peak * speed))
 "#;
     let r = std::process::Command::new(common::venv_python())
         .args(["-c", script, &out.display().to_string(), &mu.to_string()])
@@ -649,6 +663,6 @@ print(slip, stick, excess / peak, total)
     let v: Vec<f64> = (text.split_whitespace())
         .filter_map(|w| w.parse().ok())
         .collect();
-    assert_eq!(v.len(), 4, "{text}");
+    assert_eq!(v.len(), 6, "{text}");
     v
 }

@@ -704,7 +704,7 @@ pub(super) enum RawField {
     VonMises,
     /// Point data `contact_opening`, `contact_force`, `contact_pressure`, `contact_status`,
     /// `contact_force_series` (contact scenes), and with friction `contact_tangential_force`,
-    /// `contact_slip`, `contact_friction_energy` (harmonic balance).
+    /// `contact_slip`, `contact_slip_velocity`, `contact_friction_energy`.
     Contact,
 }
 

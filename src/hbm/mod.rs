@@ -45,7 +45,7 @@ use crate::{Error, Result};
 pub use problem::ReducedProblem;
 pub use reduced::{IterationLog, NewtonOutcome, NewtonSettings};
 pub use solution::{
-    Complementarity, ContactSolution, FrictionSolution, Snapshot, Solution, Timings,
+    Complementarity, ContactSolution, FrictionSolution, Snapshot, Solution, Tangential, Timings,
 };
 pub use system::{HarmonicInput, Spin, System};
 

@@ -183,6 +183,18 @@ impl ContactSolution {
     }
 }
 
+/// The tangential state of the contact nodes at one instant (friction), per node.
+#[derive(Clone, Debug)]
+pub struct Tangential {
+    /// λ_t [N] along t = ẑ × n, the force on the body.
+    pub force: Vec<f64>,
+    /// ẇ [m/s], the slip velocity relative to the obstacle along t.
+    pub velocity: Vec<f64>,
+    pub mu: Vec<f64>,
+    /// The energy dissipated per period [J].
+    pub energy: Vec<f64>,
+}
+
 /// The state at one instant of the period, on all dofs.
 #[derive(Clone, Debug)]
 pub struct Snapshot {
@@ -296,15 +308,22 @@ impl Solution {
         )
     }
 
-    /// With friction: the tangential multipliers λ_t at time t, μ and the energy dissipated
-    /// per period, per contact node.
-    pub fn tangential_at(&self, t: f64) -> Option<[Vec<f64>; 3]> {
+    /// With friction: the tangential state at time t per contact node (λ_t, ẇ, μ and the
+    /// energy dissipated per period; friction needs the Fourier basis).
+    pub fn tangential_at(&self, t: f64) -> Option<Tangential> {
         let c = self.contact.as_ref()?;
         let f = c.friction.as_ref()?;
-        let values = (f.tangential.chunks(c.coefficients()))
-            .map(|coeffs| super::sampler::evaluate(&self.basis, coeffs, self.omega, t))
-            .collect();
-        Some([values, f.coefficients.clone(), f.dissipation(c.harmonics)])
+        let at = |series: &[f64], derivative: usize| -> Vec<f64> {
+            (series.chunks(c.coefficients()))
+                .map(|coeffs| super::fourier::evaluate(coeffs, self.omega, t)[derivative])
+                .collect()
+        };
+        Some(Tangential {
+            force: at(&f.tangential, 0),
+            velocity: at(&f.slips, 1),
+            mu: f.coefficients.clone(),
+            energy: f.dissipation(c.harmonics),
+        })
     }
 
     /// Displacement, velocity, acceleration and contact multipliers at time t.

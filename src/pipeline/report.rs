@@ -89,9 +89,9 @@ pub struct ContactState {
     /// negative, tension, near impacts); time marching the same as `force`.
     pub series: Vec<f64>,
     /// With friction, per node: λ_t(t) [N] along t = ẑ × n (harmonic balance the series of
-    /// the tangential multipliers, time marching the step's), μ, and the energy dissipated
-    /// per period [J] (time marching: over the last period).
-    pub tangential: Option<[Vec<f64>; 3]>,
+    /// the tangential multipliers, time marching the step's), the slip velocity, μ, and the
+    /// energy dissipated per period [J] (time marching: over the last period).
+    pub tangential: Option<crate::hbm::Tangential>,
 }
 
 impl ContactState {
@@ -117,7 +117,7 @@ impl ContactState {
     /// Per node: 1 slipping (|λ_t| at the cone μ|λ_n| to 0.1%), 0 stuck, −1 open (or
     /// frictionless); `None` without friction.
     fn slipping(&self, tolerance: f64) -> Option<Vec<f64>> {
-        let [t, mu, _] = self.tangential.as_ref()?;
+        let crate::hbm::Tangential { force: t, mu, .. } = self.tangential.as_ref()?;
         let state = |i: usize| match self.closed(i, tolerance) {
             false => -1.0,
             true if t[i].abs() >= 0.999 * mu[i] * self.force[i] => 1.0,
@@ -245,8 +245,9 @@ fn history_dofs(model: &Model) -> Vec<usize> {
     dofs
 }
 
-/// With friction, each marched contact state's tangential part: λ_t at its sample, μ and
-/// the energy each node dissipated over the last period (`ContactState::tangential`).
+/// With friction, each marched contact state's tangential part: λ_t and the slip velocity at
+/// its sample, μ and the energy each node dissipated over the last period
+/// (`ContactState::tangential`).
 fn marched_friction(model: &Model, result: &TransientResult, states: &mut [ContactState]) {
     let mu = model
         .contact
@@ -255,10 +256,15 @@ fn marched_friction(model: &Model, result: &TransientResult, states: &mut [Conta
     let (Some(mu), Some(friction)) = (mu, result.friction.as_ref()) else {
         return;
     };
-    for (state, force) in states.iter_mut().zip(&result.tangential_force) {
+    let samples = result.tangential_force.iter().zip(&result.slip_velocity);
+    for (state, (force, velocity)) in states.iter_mut().zip(samples) {
         if force.len() == mu.coefficients.len() {
-            let energy = friction.node_energy.clone();
-            state.tangential = Some([force.clone(), mu.coefficients.clone(), energy]);
+            state.tangential = Some(crate::hbm::Tangential {
+                force: force.clone(),
+                velocity: velocity.clone(),
+                mu: mu.coefficients.clone(),
+                energy: friction.node_energy.clone(),
+            });
         }
     }
 }
@@ -629,16 +635,20 @@ fn contact_fields(model: &Model, state: &ContactState, closed_tolerance: f64) ->
         ("contact_status", status),
         ("contact_force_series", series),
     ];
-    if let (Some([t, _, e]), Some(slip)) = (&state.tangential, state.slipping(closed_tolerance)) {
+    if let (Some(f), Some(slip)) = (&state.tangential, state.slipping(closed_tolerance)) {
+        let (t, e, v) = (&f.force, &f.energy, &f.velocity);
         let (mut tangential, mut energy) = (vec![0.0; nn], vec![0.0; nn]);
+        let mut velocity = vec![0.0; nn];
         let mut slipping = vec![-1.0f64; nn];
         for (i, &n) in c.set.nodes.iter().enumerate() {
             tangential[n] += t[i];
             energy[n] += e[i];
+            velocity[n] = v[i];
             slipping[n] = slipping[n].max(slip[i]);
         }
         fields.push(("contact_tangential_force", tangential));
         fields.push(("contact_slip", slipping));
+        fields.push(("contact_slip_velocity", velocity));
         fields.push(("contact_friction_energy", energy));
     }
     fields

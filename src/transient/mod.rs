@@ -140,8 +140,10 @@ pub struct TransientResult {
     pub acceleration: Vec<Vec<f64>>,
     /// λ at the samples (one per contact row).
     pub contact_force: Vec<Vec<f64>>,
-    /// With friction, λ_t at the samples (one per contact row; empty without).
+    /// With friction, λ_t and the slip velocity at the samples (one per contact row; empty
+    /// without).
     pub tangential_force: Vec<Vec<f64>>,
+    pub slip_velocity: Vec<Vec<f64>>,
     /// Per probe, u at every step of the last period.
     pub probe_history: Vec<Vec<f64>>,
     /// Σλ at every step of the last period.
@@ -559,8 +561,10 @@ struct ContactState {
     active: Vec<bool>,
     /// The gaps g0(t) of the step being solved.
     g0: Vec<f64>,
-    /// With friction: the tangential multipliers, and what the period so far dissipated.
+    /// With friction: the tangential multipliers, the last step's slip increments Δw, and
+    /// what the period so far dissipated.
     lambda_t: Vec<f64>,
+    slip: Vec<f64>,
     period: MarchedFriction,
 }
 
@@ -581,6 +585,8 @@ impl ContactState {
     fn book_friction(&mut self, increment: &[f64], mu: &[f64]) {
         let p = &mut self.period;
         let largest = increment.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        self.slip.clear();
+        self.slip.extend_from_slice(increment);
         p.node_energy.resize(increment.len(), 0.0);
         for (i, (&lt, &dw)) in self.lambda_t.iter().zip(increment).enumerate() {
             p.energy -= lt * dw;
@@ -607,8 +613,9 @@ struct LastPeriod {
     velocity: Vec<Vec<f64>>,
     acceleration: Vec<Vec<f64>>,
     contact_force: Vec<Vec<f64>>,
-    /// With friction, λ_t at the output samples (booked as λ).
+    /// With friction, λ_t and the slip velocity Δw/Δt at the output samples (booked as λ).
     tangential_force: Vec<Vec<f64>>,
+    slip_velocity: Vec<Vec<f64>>,
     probe_history: Vec<Vec<f64>>,
     total_contact_history: Vec<f64>,
 }
@@ -622,6 +629,7 @@ impl LastPeriod {
             acceleration: vec![Vec::new(); samples],
             contact_force: vec![vec![0.0; nc]; samples],
             tangential_force: vec![Vec::new(); samples],
+            slip_velocity: vec![Vec::new(); samples],
             probe_history: vec![vec![0.0; steps]; probes],
             total_contact_history: vec![0.0; steps],
         }
@@ -634,7 +642,7 @@ impl LastPeriod {
         step: usize,
         dt: f64,
         [u_prev, u, u_next]: [&[f64]; 3],
-        (lambda, lambda_t): (&[f64], &[f64]),
+        (lambda, lambda_t, slip): (&[f64], &[f64], &[f64]),
         probes: &[usize],
     ) {
         if step.is_multiple_of(self.per_sample) {
@@ -656,6 +664,7 @@ impl LastPeriod {
         if next.is_multiple_of(self.per_sample) {
             self.contact_force[next / self.per_sample] = lambda.to_vec();
             self.tangential_force[next / self.per_sample] = lambda_t.to_vec();
+            self.slip_velocity[next / self.per_sample] = slip.iter().map(|w| w / dt).collect();
         }
     }
 }
@@ -925,6 +934,7 @@ pub fn run_to_periodic(
         acceleration: record.acceleration,
         contact_force: record.contact_force,
         tangential_force: record.tangential_force,
+        slip_velocity: record.slip_velocity,
         probe_history: record.probe_history,
         total_contact_history: record.total_contact_history,
         friction: problem.contact.and_then(|c| c.friction).map(|_| friction),
@@ -1045,7 +1055,8 @@ impl<'a> Stepper<'a> {
                 reporter.progress("periods", done, of, &status);
             }
             let us = [&s.u_prev[..], &s.u, &s.u_next];
-            let forces = (&s.contact.lambda[..], &s.contact.lambda_t[..]);
+            let c = &s.contact;
+            let forces = (&c.lambda[..], &c.lambda_t[..], &c.slip[..]);
             record.record(step, self.dt, us, forces, &problem.probes);
             let probe_values = problem.probes.iter().map(|&d| s.u[d]);
             late.record(step, probe_values, &s.contact.lambda);
@@ -1148,6 +1159,7 @@ impl<'a> Stepper<'a> {
                 active: vec![false; nc],
                 g0: vec![0.0; nc],
                 lambda_t: vec![0.0; nc],
+                slip: vec![0.0; nc],
                 period: MarchedFriction::default(),
             },
         };
