@@ -547,8 +547,10 @@ fn a_frictional_state_is_judged_stable_by_marching_and_undecided_by_floquet() {
 /// of the rod held at its pad, stuck all period). At the two slipping preloads' peaks the
 /// harmonic balance at H = 40 agrees with the time marching of the same model, the pad
 /// sticking, slipping and lifting in one period: probe amplitude within 1% and dissipated
-/// energy within 2% (measured +0.04% and +0.09% at 20 µm, +0.08% and +0.12% at 50 µm; at
-/// 50 µm H = 20 is +1.1% and +1.4%, H = 10 +11%).
+/// energy within 2% (measured +0.04% and +0.09% at 20 µm, +0.06% and +0.12% at 50 µm; at
+/// 50 µm H = 20 is +1.1% and +1.4%, H = 10 +11%; on the 50 µm curve's flanks, 6300 and
+/// 6800 Hz, +0.08%/+0.03% and −0.05%/+0.02%, measured once: four marches from rest cost
+/// minutes).
 #[test]
 fn a_friction_damped_rod_peaks_lower_and_higher_with_more_preload_and_agrees_with_marching() {
     let scene = "pipelines/scenes/friction_rod.yaml";
@@ -592,8 +594,9 @@ fn a_friction_damped_rod_peaks_lower_and_higher_with_more_preload_and_agrees_wit
 /// TEST GOAL: a frictional sweep's points are judged by time marching where asked: the
 /// friction rod swept over 6000–6400 Hz with `stability.method: both` (a frictional state has
 /// no Floquet multipliers, so marching alone judges) gives its first and last rows a verdict
-/// and a marched multiplier (measured stable, |μ| 0.97 and 0.99), and no undecided warning; with the
-/// Floquet default the rows stay empty and sweep.json says why (the block's test above).
+/// and a marched multiplier (measured stable, |μ| 0.97 and 0.99), and no undecided warning;
+/// with the Floquet default the rows stay empty and sweep.json says why (the block's test
+/// above).
 #[test]
 fn a_frictional_sweeps_points_are_judged_by_marching_where_asked() {
     let out = common::run_cli(
