@@ -780,15 +780,20 @@ pub fn solve(
         return (outcome, f64::NAN);
     }
     let doubled = run(1.0, 2 * n, outcome.multipliers.clone());
-    let change = if doubled.converged {
-        let scale = norm_inf(&outcome.multipliers).max(f64::MIN_POSITIVE);
-        (doubled.multipliers.iter().zip(&outcome.multipliers))
-            .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()))
-            / scale
-    } else {
-        f64::INFINITY
-    };
+    let change = relative_change(&outcome, &doubled);
     (outcome, change)
+}
+
+/// The largest change of the multipliers from `base` to `doubled` (the re-solve at 2N),
+/// relative to the largest of `base`'s; ∞ where the re-solve did not converge.
+fn relative_change(base: &NewtonOutcome, doubled: &NewtonOutcome) -> f64 {
+    if !doubled.converged {
+        return f64::INFINITY;
+    }
+    let scale = norm_inf(&base.multipliers).max(f64::MIN_POSITIVE);
+    (doubled.multipliers.iter().zip(&base.multipliers))
+        .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()))
+        / scale
 }
 
 /// The shares of (node, sample) pairs open, stuck and slipping, and the peak over the
