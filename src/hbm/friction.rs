@@ -351,13 +351,19 @@ impl<'a> Solver<'a> {
                         j[(ti, s)] = c * g[(ti, s)];
                     }
                 }
-                Some(StuckRow::Touching { sample, upper }) => {
+                Some(StuckRow::Touching {
+                    sample,
+                    upper,
+                    closed,
+                }) => {
                     // ∂(±λ_t,j − b_j)/∂x, b_j = μ max(0, −λ_n,j), signed so that the row is
                     // λ_t,j − b_j (upper) or λ_t,j + b_j (lower).
-                    let mu = self.law.coefficients[i];
-                    let s = self.node_samples(&e.x, &self.problem.gap(&e.x), i);
-                    let closed = if s.lambda_n[sample] < 0.0 { mu } else { 0.0 };
-                    let along_n = if upper { closed } else { -closed };
+                    let mu = if closed {
+                        self.law.coefficients[i]
+                    } else {
+                        0.0
+                    };
+                    let along_n = if upper { mu } else { -mu };
                     for col in 0..dim {
                         j[(ti, col)] = 0.0;
                     }
@@ -427,8 +433,13 @@ impl<'a> Solver<'a> {
 enum StuckRow {
     /// c w_0.
     Held,
-    /// λ_t,j − b_j at `sample` (upper side) or λ_t,j + b_j (lower side).
-    Touching { sample: usize, upper: bool },
+    /// λ_t,j − b_j at `sample` (upper side) or λ_t,j + b_j (lower side); `closed`: λ_n,j < 0
+    /// there (b_j depends on λ_n).
+    Touching {
+        sample: usize,
+        upper: bool,
+        closed: bool,
+    },
 }
 
 impl StuckRow {
@@ -448,10 +459,12 @@ impl StuckRow {
         let upper = StuckRow::Touching {
             sample: plus.1,
             upper: true,
+            closed: lambda_n[plus.1] < 0.0,
         };
         let lower = StuckRow::Touching {
             sample: minus.1,
             upper: false,
+            closed: lambda_n[minus.1] < 0.0,
         };
         let (inner, side) = if held >= plus.0 {
             (held, StuckRow::Held)

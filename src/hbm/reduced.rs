@@ -70,17 +70,22 @@ impl Default for NewtonSettings {
 /// The force c · max_n r_n(t_n) the linear solution's sampled penetration implies: the scale
 /// of the multipliers before any is known (zero when nothing penetrates).
 pub fn linear_force(problem: &ReducedProblem, samples: usize, c: f64) -> f64 {
-    c * sampled_linear_gap(problem, samples).0.max(0.0)
+    linear_force_of_rows(problem, problem.nodes, samples, c)
+}
+
+/// `linear_force` over the first `rows` rows only (a frictional problem's normal rows).
+pub fn linear_force_of_rows(problem: &ReducedProblem, rows: usize, samples: usize, c: f64) -> f64 {
+    c * sampled_linear_gap(problem, rows, samples).0.max(0.0)
 }
 
 /// The linear solution's sampled gap r_n(t_n): its largest value (the deepest penetration
-/// where positive) and its largest magnitude, over every node and sample.
-fn sampled_linear_gap(problem: &ReducedProblem, samples: usize) -> (f64, f64) {
+/// where positive) and its largest magnitude, over the first `rows` rows and every sample.
+fn sampled_linear_gap(problem: &ReducedProblem, rows: usize, samples: usize) -> (f64, f64) {
     let sampler = problem.sampler(samples);
     let m = problem.coefficients();
     let mut buffer = vec![0.0; samples];
     let (mut penetration, mut largest): (f64, f64) = (0.0, 0.0);
-    for i in 0..problem.nodes {
+    for i in 0..rows {
         sampler.to_samples(&problem.linear_gap[i * m..(i + 1) * m], &mut buffer);
         for &v in &buffer {
             penetration = penetration.max(v);
@@ -177,7 +182,7 @@ struct EvaluationScratch {
 impl<'a> Residual<'a> {
     pub(super) fn new(problem: &'a ReducedProblem, settings: &NewtonSettings) -> Self {
         // One pass over the sampled linear gap for both scales.
-        let (penetration, largest) = sampled_linear_gap(problem, settings.samples);
+        let (penetration, largest) = sampled_linear_gap(problem, problem.nodes, settings.samples);
         Residual {
             problem,
             sampler: problem.sampler(settings.samples),

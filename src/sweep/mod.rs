@@ -548,8 +548,7 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
 fn inline_judge(p: &Pipeline, model: &Model, reporter: &dyn Reporter) -> Option<HillModel> {
     let spec = &p.stability;
     // A frictional state has no multipliers to find (`judge_points` says so, or marches).
-    let frictional = (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_some());
-    if !spec.check || spec.method == StabilityMethod::March || frictional {
+    if !spec.check || spec.method == StabilityMethod::March || frictional(model) {
         return None;
     }
     model.contact.as_ref()?;
@@ -667,11 +666,15 @@ fn judge_points(
     Ok(())
 }
 
+/// Whether `model`'s contact has friction (tangential rows).
+fn frictional(model: &Model) -> bool {
+    (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_some())
+}
+
 /// The method the points of `model` are judged by: `asked`, but a frictional scene's states
 /// have no Floquet multipliers, so `both` marches alone there.
 fn judging_method(model: &Model, asked: StabilityMethod) -> StabilityMethod {
-    let frictional = (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_some());
-    match (frictional, asked) {
+    match (frictional(model), asked) {
         (true, StabilityMethod::Both) => StabilityMethod::March,
         (_, asked) => asked,
     }

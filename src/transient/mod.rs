@@ -572,11 +572,17 @@ struct ContactState {
 /// the (row, step) pairs open, stuck and slipping.
 #[derive(Clone, Debug, Default)]
 pub struct MarchedFriction {
-    pub energy: f64,
     /// The energy per contact row [J].
     pub node_energy: Vec<f64>,
     pub peak_force: f64,
     pub counts: [usize; 3],
+}
+
+impl MarchedFriction {
+    /// The energy all rows dissipated [J].
+    pub fn energy(&self) -> f64 {
+        self.node_energy.iter().sum()
+    }
 }
 
 impl ContactState {
@@ -589,7 +595,6 @@ impl ContactState {
         self.slip.extend_from_slice(increment);
         p.node_energy.resize(increment.len(), 0.0);
         for (i, (&lt, &dw)) in self.lambda_t.iter().zip(increment).enumerate() {
-            p.energy -= lt * dw;
             p.node_energy[i] -= lt * dw;
             let bound = -mu[i] * self.lambda[i];
             let state = if self.lambda[i] >= 0.0 {

@@ -24,10 +24,11 @@ impl Continuation<'_> {
         })
     }
 
-    /// The force the frictional residual is measured against, at least.
+    /// The force the frictional residual is measured against, at least: the normal rows'
+    /// linear force (the first half of the stacked rows).
     fn force_floor(&self, problem: &ReducedProblem) -> f64 {
-        let normal = friction::normal_part(problem);
-        reduced::linear_force(&normal, self.newton.samples, self.newton.c)
+        let (rows, n) = (problem.nodes / 2, &self.newton);
+        reduced::linear_force_of_rows(problem, rows, n.samples, n.c)
     }
 
     /// Newton at the frame's ω from `x`.
