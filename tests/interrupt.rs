@@ -7,7 +7,8 @@
 //!
 //! Each test spawns the binary with stderr piped (progress then comes as plain lines, at
 //! most one a second, each stage announced before its first), waits for the line that shows
-//! the stage under way, and sends SIGTERM.
+//! the stage under way (the write: for its first frame file, since 10 000 frames can be
+//! written before the first progress line is due), and sends SIGTERM.
 
 mod common;
 
@@ -57,6 +58,23 @@ fn wait_for(lines: &Receiver<String>, marker: &str) -> String {
             }
             Err(e) => panic!("no line with {marker:?} ({e}); stderr so far:\n{seen}"),
         }
+    }
+}
+
+/// Wait until `file` exists (the child is then under way in the stage that writes it), or
+/// panic when the child ends first. Polled, so that the signal never waits on a progress line:
+/// those come at most once a second, and a fast write can end before its first.
+fn wait_for_file(child: &mut Child, file: &Path) {
+    let start = std::time::Instant::now();
+    while !file.exists() {
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!(
+                "the run ended ({status}) before {} was written",
+                file.display()
+            );
+        }
+        assert!(start.elapsed() < GUARD, "{} never appeared", file.display());
+        std::thread::sleep(Duration::from_millis(2));
     }
 }
 
@@ -229,13 +247,13 @@ fn an_interrupted_write_names_its_stage_and_its_partial_folder_goes_with_the_nex
     // 10 000 frames take seconds to write; the signal comes after the first.
     let long = run("10000");
     let long: Vec<&str> = long.iter().map(String::as_str).collect();
-    let (child, lines) = spawn(&long);
+    let (mut child, lines) = spawn(&long);
     let pid = child.id();
-    let before = wait_for(&lines, "write frames");
-    let (code, stderr) = terminate(child, &lines);
-    println!("{before}{stderr}");
-    assert_eq!(code, Some(130), "{stderr}");
     let partial = format!("{out_arg}.partial-{pid}");
+    wait_for_file(&mut child, &Path::new(&partial).join("frame_0000.vtu"));
+    let (code, stderr) = terminate(child, &lines);
+    println!("{stderr}");
+    assert_eq!(code, Some(130), "{stderr}");
     assert!(
         stderr.contains("interrupted during the `write` stage")
             && stderr.contains(&format!("nothing written: {out_arg} is as it was"))
