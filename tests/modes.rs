@@ -279,3 +279,82 @@ fn paraview_opens_and_warps_the_mode_series() {
     );
     assert!(std::fs::metadata(&png).is_ok_and(|m| m.len() > 10_000));
 }
+
+/// The number in `… f = <number> Hz` of a title.
+fn title_frequency(title: &str) -> Option<f64> {
+    let (_, rest) = title.split_once("f = ")?;
+    rest.strip_suffix(" Hz")?.parse().ok()
+}
+
+/// TEST GOAL: `modes --count 14` on the 200 × 10 mm cantilever of
+/// `pipelines/scenes/cantilever_stop.yaml` draws a picture for modes 1–12 and none beyond
+/// (`mode_0013.svg` absent; modes.json's `picture` names the stem, null after), each an SVG
+/// and a 720 × 480 PNG titled `cantilever_stop: mode N, f = X Hz` with X the frequency of
+/// modes.json to 4 significant digits; and the axes are of equal scale: the undeformed
+/// (grey) outline's pixel length/height is the beam's L/H = 20 within 5% (pixels are whole,
+/// the height is about 28 of them), and the metres per pixel fitted to the x and y tick
+/// labels agree within 1%. Mode 1's tip moves 10% of L (0.02 m) on the picture, within
+/// 3 pixels.
+#[test]
+fn modes_draws_equal_aspect_pictures_of_the_first_twelve_modes_titled_with_their_frequency() {
+    let p = common::scene("scenes/cantilever_stop", &[]);
+    let out = common::temp_out("modes-pictures");
+    let options = RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    let result = pipeline::modes(&p, &options, 14, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(result.summary.modes.len(), 14);
+    let json = common::read_json(&out.join("modes.json"));
+    let (length, height) = (0.2, 0.01);
+    for n in 1..=14usize {
+        let stem = out.join(format!("mode_{n:04}"));
+        let picture = &json["modes"][n - 1]["picture"];
+        if n > 12 {
+            assert!(picture.is_null(), "mode {n}: {picture}");
+            assert!(!stem.with_extension("svg").exists() && !stem.with_extension("png").exists());
+            continue;
+        }
+        assert_eq!(picture.as_str(), Some(format!("mode_{n:04}").as_str()));
+        let f = json["modes"][n - 1]["frequency_hz"]
+            .as_f64()
+            .expect("a frequency");
+        let title = format!("cantilever_stop: mode {n}, f = ");
+        let svg = common::svg::check_plot(&stem, &[&title, "x [m]", "y [m]", "undeformed"]);
+        let text = svg
+            .texts
+            .iter()
+            .find(|t| t.starts_with(&title))
+            .expect("a title");
+        let drawn = title_frequency(text).unwrap_or_else(|| panic!("no frequency in `{text}`"));
+        println!("mode {n}: title `{text}`, modes.json {f} Hz");
+        assert!((drawn - f).abs() <= 5e-4 * f, "{drawn} vs {f}");
+        let grey: Vec<(f64, f64)> = svg
+            .lines
+            .iter()
+            .filter(|(c, _)| c == "#AFAFAF")
+            .flat_map(|(_, pts)| pts.iter().copied())
+            .collect();
+        let extent = |pick: fn(&(f64, f64)) -> f64| {
+            let lo = grey.iter().map(pick).fold(f64::INFINITY, f64::min);
+            let hi = grey.iter().map(pick).fold(f64::NEG_INFINITY, f64::max);
+            hi - lo
+        };
+        let (px, py) = (extent(|p| p.0), extent(|p| p.1));
+        let ratio = px / py;
+        let (mx, my) = (svg.x_map.1.abs(), svg.y_map.1.abs());
+        println!(
+            "  undeformed outline {px} × {py} px: ratio {ratio:.3} (L/H {}); \
+             m per pixel x {mx:.4e}, y {my:.4e}",
+            length / height
+        );
+        assert!((ratio / (length / height) - 1.0).abs() < 0.05, "{ratio}");
+        assert!((mx / my - 1.0).abs() < 0.01, "{mx} vs {my}");
+        if n == 1 {
+            let (top, bottom) = svg.y_extremes(common::svg::FIRST);
+            let tip = (top - 0.5 * height).max(-0.5 * height - bottom);
+            println!("  mode 1: the tip moves {tip:.5} m on the picture");
+            assert!((tip - 0.1 * length).abs() < 3.0 * my, "{tip}");
+        }
+    }
+}

@@ -3,6 +3,7 @@
 //! all staged in a temporary directory that is renamed
 //! into place only when complete (`staging`).
 
+pub mod outline;
 pub mod paraview;
 pub mod plot;
 pub mod staging;

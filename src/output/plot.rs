@@ -8,7 +8,10 @@
 //! plot, a run's time histories and a sweep's frequency-response curves all use it. A curve
 //! drawn in pieces (solid where stable, dashed where not) is several series in one colour
 //! (`colour`), only one of them labelled (an empty label has no legend entry); `mark` puts a
-//! labelled marker on a point (a fold).
+//! labelled marker on a point (a fold). `equal_aspect` gives both (linear) axes the same
+//! data units per pixel, widening the shorter one's range about its centre (a body's
+//! picture: a thin beam stays thin); `grey` draws a series in light grey (a reference
+//! shape behind the data).
 //!
 //! ```no_run
 //! use hbcontact::output::plot::{Axis, Figure};
@@ -139,6 +142,20 @@ pub struct Figure {
     /// their level).
     pub y_from_zero: bool,
     pub marks: Vec<Mark>,
+    /// Both axes at the same data units per pixel (linear, non-categorical axes only).
+    pub equal_aspect: bool,
+}
+
+/// The `colour` index of light grey (`Figure::grey`), outside the palette.
+pub const GREY: usize = usize::MAX;
+
+/// The drawing colour of palette index `index` (`GREY`: light grey).
+fn series_colour(index: usize) -> RGBColor {
+    if index == GREY {
+        RGBColor(175, 175, 175)
+    } else {
+        PALETTE[index % PALETTE.len()]
+    }
 }
 
 fn plot_error(e: impl std::fmt::Display) -> Error {
@@ -201,7 +218,19 @@ impl Figure {
             series: Vec::new(),
             y_from_zero: false,
             marks: Vec::new(),
+            equal_aspect: false,
         }
+    }
+
+    /// See `equal_aspect`: 1 unit on x as long as 1 unit on y (axes with the same unit).
+    pub fn equal_aspect(mut self) -> Self {
+        self.equal_aspect = true;
+        self
+    }
+
+    /// Draw the last added series in light grey.
+    pub fn grey(self) -> Self {
+        self.colour(GREY)
     }
 
     /// Draw the last added series in palette colour `index` (pieces of one curve).
@@ -306,14 +335,44 @@ impl Figure {
         let all = self.all_drawable();
         let zero = (self.y_from_zero && !self.y.log).then_some(0.0);
         let n = self.x.categories.len() as f64;
-        (
+        let (xr, yr) = (
             if n > 0.0 {
                 (-0.5, n - 0.5)
             } else {
                 range(all.iter().map(|p| p.0), self.x.log)
             },
             range(all.iter().map(|p| p.1).chain(zero), self.y.log),
-        )
+        );
+        let linear = !self.x.log && !self.y.log && n == 0.0;
+        if !(self.equal_aspect && linear) {
+            return (xr, yr);
+        }
+        // A canvas that fails here fails the drawing too, with its error.
+        match self.plot_area() {
+            Ok(pixels) => equal_aspect_ranges(xr, yr, pixels),
+            Err(_) => (xr, yr),
+        }
+    }
+
+    /// The plotting area's size in pixels (x, y) between the first and last pixel the axis
+    /// ranges map to: the chart built on a scratch canvas, as `draw` builds it.
+    fn plot_area(&self) -> Result<(f64, f64)> {
+        let mut scratch = String::new();
+        let root = canvas(SVGBackend::with_string(&mut scratch, (WIDTH, HEIGHT)))?;
+        let chart = chart_builder(&root, &self.title)
+            .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+            .map_err(plot_error)?;
+        let (x, y) = chart.plotting_area().get_pixel_range();
+        // Cartesian2d maps a range onto pixels start..=end - 1.
+        Ok(((x.end - x.start - 1) as f64, (y.end - y.start - 1) as f64))
+    }
+
+    /// The magnitudes below which a tick on x and on y is 0 up to a rounding error (1e-9 of
+    /// the axis range; none on a log axis): plotters may place the tick at 0 at -2.2e-16.
+    fn zero_ticks(&self) -> (f64, f64) {
+        let (xr, yr) = self.ranges();
+        let zero = |(lo, hi): (f64, f64), log: bool| if log { 0.0 } else { 1e-9 * (hi - lo) };
+        (zero(xr, self.x.log), zero(yr, self.y.log))
     }
 
     fn draw<DB, X, Y>(&self, root: &DrawingArea<DB, Shift>, x: X, y: Y) -> Result<()>
@@ -324,11 +383,7 @@ impl Figure {
         X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
         Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
-        let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(78)
+        let mut chart = chart_builder(root, &self.title)
             .build_cartesian_2d(x, y)
             .map_err(plot_error)?;
         let mut mesh = chart.configure_mesh();
@@ -336,15 +391,16 @@ impl Figure {
             // Unit steps over [-0.5, n - 0.5]: a tick at every category.
             mesh.x_labels(self.x.categories.len() + 1);
         }
+        let (zero_x, zero_y) = self.zero_ticks();
         mesh.x_desc(self.x.label.as_str())
             .y_desc(self.y.label.as_str())
-            .x_label_formatter(&|v| self.x.tick(*v))
-            .y_label_formatter(&|v| tick(*v))
+            .x_label_formatter(&|v| self.x.tick(snap(*v, zero_x)))
+            .y_label_formatter(&|v| tick(snap(*v, zero_y)))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
             .map_err(plot_error)?;
         for (i, s) in self.series.iter().enumerate() {
-            let colour = PALETTE[s.colour.unwrap_or(i) % PALETTE.len()];
+            let colour = series_colour(s.colour.unwrap_or(i));
             let pts = self.drawable(s);
             let entry = match s.style {
                 Style::Line => {
@@ -470,6 +526,79 @@ impl Figure {
             .min_by_key(|&(_, right, top)| all.iter().filter(|p| inside(p, right, top)).count())
             .map_or(SeriesLabelPosition::UpperRight, |c| c.0)
     }
+}
+
+/// `v`, or 0 when it is smaller than `zero` in magnitude (a tick at 0 up to rounding).
+fn snap(v: f64, zero: f64) -> f64 {
+    if v.abs() < zero {
+        0.0
+    } else {
+        v
+    }
+}
+
+/// A `Figure`'s chart layout on `root`: its title, margin and label areas.
+fn chart_builder<'a, 'b, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &'b str,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .caption(title, ("sans-serif", title_size(root, title)))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(78);
+    builder
+}
+
+/// The largest title font size from `TITLE_SIZES` at which `title` fits the canvas' width
+/// within its margins (the glyphs measured; where they cannot be, half the size per
+/// character), the smallest otherwise.
+fn title_size<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str) -> f64 {
+    let room = f64::from(root.dim_in_pixel().0) - 2.0 * TITLE_MARGIN;
+    let width = |size: f64| {
+        let style = TextStyle::from(("sans-serif", size).into_font());
+        root.estimate_text_size(title, &style)
+            .map_or(0.5 * size * title.chars().count() as f64, |(w, _)| {
+                f64::from(w)
+            })
+    };
+    let [largest, smallest] = TITLE_SIZES;
+    let mut size = largest;
+    while size > smallest && width(size) > room {
+        size -= 1.0;
+    }
+    size
+}
+
+/// The title's font size [px]: the usual, and the least a long title shrinks to.
+const TITLE_SIZES: [f64; 2] = [18.0, 11.0];
+/// The room kept on each side of the title [px].
+const TITLE_MARGIN: f64 = 12.0;
+
+/// The axis ranges `x` and `y` with the shorter one (in data units per pixel, on a plotting
+/// area of `pixels` = (width, height)) widened about its centre until both axes have the
+/// same units per pixel; unchanged when a range or the area is empty.
+pub fn equal_aspect_ranges(
+    x: (f64, f64),
+    y: (f64, f64),
+    pixels: (f64, f64),
+) -> ((f64, f64), (f64, f64)) {
+    let (w, h) = pixels;
+    let (sx, sy) = ((x.1 - x.0) / w, (y.1 - y.0) / h);
+    let ok = |v: f64| v.is_finite() && v > 0.0;
+    if !(ok(sx) && ok(sy)) {
+        return (x, y);
+    }
+    let s = sx.max(sy);
+    let about = |(lo, hi): (f64, f64), own: f64, pixels: f64| {
+        if own >= s {
+            return (lo, hi);
+        }
+        let (c, half) = (0.5 * (lo + hi), 0.5 * s * pixels);
+        (c - half, c + half)
+    };
+    (about(x, sx, w), about(y, sy, h))
 }
 
 /// A label's pixel box: (left, top, right, bottom).
@@ -686,6 +815,70 @@ fn save_both(stem: &Path, svg: &str, png: &[u8]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// TEST GOAL: equal aspect widens only the shorter axis, about its centre, so that both
+    /// axes have the same data units per pixel: a 0.2 × 0.01 m beam's ranges on a 600 × 400
+    /// pixel area come out at 0.2/600 m per pixel on both, the x range untouched.
+    #[test]
+    fn equal_aspect_gives_both_axes_the_same_units_per_pixel_widening_the_shorter() {
+        let ((x0, x1), (y0, y1)) = equal_aspect_ranges((0.0, 0.2), (-0.005, 0.005), (600.0, 400.0));
+        assert_eq!((x0, x1), (0.0, 0.2));
+        assert!(((y1 - y0) / 400.0 - 0.2 / 600.0).abs() < 1e-15);
+        assert!((y0 + y1).abs() < 1e-15);
+        // A tall range widens x instead.
+        let ((x0, x1), (y0, y1)) = equal_aspect_ranges((1.0, 2.0), (0.0, 10.0), (600.0, 400.0));
+        assert_eq!((y0, y1), (0.0, 10.0));
+        assert!(((x1 - x0) / 600.0 - 10.0 / 400.0).abs() < 1e-12);
+        assert!((0.5 * (x0 + x1) - 1.5).abs() < 1e-12);
+        // The figure's own plotting area: the mapped span is the same in x and y.
+        let fig = Figure::new("beam", Axis::linear("x [m]"), Axis::linear("y [m]"))
+            .curve("outline", vec![(0.0, -0.005), (0.2, -0.005), (0.2, 0.005)])
+            .equal_aspect();
+        let (w, h) = fig.plot_area().expect("a plotting area");
+        let ((x0, x1), (y0, y1)) = fig.ranges();
+        println!("plotting area {w} × {h} px; x {x0}..{x1}, y {y0}..{y1}");
+        assert!(w > 500.0 && h > 300.0);
+        assert!(((x1 - x0) / w - (y1 - y0) / h).abs() < 1e-12 * (x1 - x0) / w);
+    }
+
+    /// TEST GOAL: a title too long for the frame at the usual size is drawn smaller, so that
+    /// it fits within the margins (a spline sweep's title measured 88 characters); a short one
+    /// keeps the usual size.
+    #[test]
+    fn a_long_title_is_set_smaller_to_fit_the_frame() {
+        let mut scratch = String::new();
+        let root = canvas(SVGBackend::with_string(&mut scratch, (WIDTH, HEIGHT))).unwrap();
+        let long = "strip_sweep: probe first-harmonic amplitude against frequency (spline (degree 3, 41 segments))";
+        let size = title_size(&root, long);
+        let style = TextStyle::from(("sans-serif", size).into_font());
+        let (w, _) = root.estimate_text_size(long, &style).unwrap();
+        println!("{size} px, {w} px wide");
+        assert!(size < TITLE_SIZES[0]);
+        assert!(f64::from(w) <= f64::from(WIDTH) - 2.0 * TITLE_MARGIN);
+        assert_eq!(title_size(&root, "short"), TITLE_SIZES[0]);
+    }
+
+    /// TEST GOAL: a tick that plotters places a rounding error away from 0 (here -2.2e-16 on
+    /// the equal-aspect x range of a half disc of radius 1, as `modes` draws it) is labelled
+    /// `0`, and no tick label is a rounding error.
+    #[test]
+    fn ticks_a_rounding_error_from_zero_are_labelled_zero() {
+        let arc: Vec<(f64, f64)> = (0..=32)
+            .map(|k| std::f64::consts::PI * (1.0 + k as f64 / 32.0))
+            .map(|t| (t.cos(), 1.0 + t.sin()))
+            .collect();
+        let fig = Figure::new("half disc", Axis::linear("x [m]"), Axis::linear("y [m]"))
+            .dashed("outline", arc)
+            .equal_aspect();
+        let svg = fig.svg().expect("an SVG");
+        let labels: Vec<&str> = svg
+            .split("</text>")
+            .filter_map(|t| t.rsplit('>').next().map(str::trim))
+            .collect();
+        println!("{labels:?}");
+        assert!(labels.contains(&"0"), "{labels:?}");
+        assert!(!labels.iter().any(|l| l.contains("e-1")), "{labels:?}");
+    }
 
     /// TEST GOAL: labels of marks crowded on one spot are placed in boxes that overlap
     /// neither each other nor any glyph, inside the frame, while there is room.

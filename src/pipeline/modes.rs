@@ -7,6 +7,11 @@
 //! modal damping ratio Rayleigh damping gives there; m_eff,x and m_eff,y the effective modal
 //! masses, reported with their fraction of the mass the supports let move (r_dᵀ M r_d) and the
 //! cumulative fraction over modes 1..n, which tends to 1 as modes are added.
+//!
+//! Pictures (`mode_NNNN.svg`/`.png`, the first `MAX_PICTURES` modes): the body's outline
+//! (`output::outline`) undeformed in grey and displaced by the mode shape φ (largest |φ| = 1)
+//! times S = 0.1 · the outline's largest bounding-box side, so the largest drawn
+//! displacement is 10% of the body's size, on axes of equal scale.
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +25,9 @@ use super::times::{Stage, StageTimes};
 use super::RunOptions;
 use crate::config::Pipeline;
 use crate::fem::modes::{effective_mass, free_mass, lowest_modes, rayleigh_damping_ratio};
+use crate::mesh::Mesh2d;
+use crate::output::outline::outline_polylines;
+use crate::output::plot::{tick, Axis, Figure};
 use crate::output::tables::write_json;
 use crate::output::{write_pvd, write_vtu, Field, StagedDir};
 use crate::progress::Reporter;
@@ -27,6 +35,10 @@ use crate::{Error, Result};
 
 /// The most modes one call computes (the Rayleigh–Ritz step is dense in the subspace size).
 pub const MAX_MODES: usize = 500;
+
+/// The most modes drawn as pictures (`mode_NNNN.svg` and `.png`): the first 12; the VTU
+/// series and modes.json hold every mode.
+pub const MAX_PICTURES: usize = 12;
 
 /// What `modes` computed (`modes.json`; its JSON Schema is `docs/modes.schema.json`).
 #[derive(Clone, Debug, Serialize, JsonSchema)]
@@ -75,6 +87,9 @@ pub struct ModeInfo {
     pub cumulative_fraction_y: f64,
     /// The mode shape's file in the output directory (`mode_shape`, largest |u| = 1).
     pub file: String,
+    /// The mode's picture, `<picture>.svg` and `<picture>.png` in the output directory (the
+    /// outline undeformed and deformed by the shape): the first 12 modes have one, null after.
+    pub picture: Option<String>,
 }
 
 /// A finished `modes`: where its files are and what it found.
@@ -121,7 +136,7 @@ pub fn modes(
     let modes = stages.run(Stage::Modes, || natural_modes(&model, count))?;
     let staged = StagedDir::create(&out, "modes", options.replace)?;
     let mut summary = stages.run(Stage::Write, || {
-        let infos = write_mode_shapes(staged.path(), &model, &modes)?;
+        let infos = write_mode_shapes(staged.path(), &p.name, &model, &modes)?;
         stages::copy_mesh(&mesh_info, staged.path())?;
         Ok(modes_summary(p, mesh_info, &model, infos))
     })?;
@@ -139,9 +154,11 @@ pub fn natural_modes(model: &Model, count: usize) -> Result<Vec<(f64, Vec<f64>)>
 }
 
 /// One VTU per mode (`mode_shape`, scaled to a largest |u| of 1) and `modes.pvd`, whose
-/// "time" is the mode number; returns each mode's frequency, damping and effective masses.
+/// "time" is the mode number, and the pictures of the first `MAX_PICTURES` modes; returns
+/// each mode's frequency, damping and effective masses.
 fn write_mode_shapes(
     dir: &Path,
+    name: &str,
     model: &Model,
     modes: &[(f64, Vec<f64>)],
 ) -> Result<Vec<ModeInfo>> {
@@ -150,13 +167,15 @@ fn write_mode_shapes(
     let totals = [0, 1].map(|c| free_mass(&system.m_ff, &component_of, c));
     let fraction = |m: f64, c: usize| if totals[c] > 0.0 { m / totals[c] } else { 0.0 };
     let (mut cumulative, mut infos, mut entries) = ([0.0; 2], Vec::new(), Vec::new());
+    let outline = outline_polylines(&model.mesh);
     for (i, (w2, phi)) in modes.iter().enumerate() {
         let omega = w2.max(0.0).sqrt();
         let file = format!("mode_{:04}.vtu", i + 1);
+        let shape = shape_field(model, phi);
         write_vtu(
             &dir.join(&file),
             &model.mesh,
-            &[shape_field(model, phi)],
+            std::slice::from_ref(&shape),
             &[],
         )?;
         entries.push(((i + 1) as f64, file.clone()));
@@ -174,10 +193,81 @@ fn write_mode_shapes(
             cumulative_fraction_x: cumulative[0],
             cumulative_fraction_y: cumulative[1],
             file,
+            picture: None,
         });
+    }
+    for (info, (_, phi)) in infos.iter_mut().zip(modes).take(MAX_PICTURES) {
+        let stem = format!("mode_{:04}", info.mode);
+        let shape = shape_field(model, phi);
+        let figure = mode_figure(name, info, &model.mesh, &outline, &shape.values);
+        figure.save(&dir.join(&stem))?;
+        info.picture = Some(stem);
     }
     write_pvd(&dir.join("modes.pvd"), &entries)?;
     Ok(infos)
+}
+
+/// The picture of one mode: the outline's polylines undeformed (grey, dashed) and displaced
+/// by `shape` (3 components per mesh node, largest |u| = 1) times S = 10% of the outline's
+/// largest bounding-box side, titled with the frequency to 4 significant digits, on axes
+/// of equal scale.
+fn mode_figure(
+    name: &str,
+    info: &ModeInfo,
+    mesh: &Mesh2d,
+    outline: &[Vec<usize>],
+    shape: &[f64],
+) -> Figure {
+    let scale = 0.1 * largest_side(mesh, outline);
+    let f = four_significant(info.frequency_hz);
+    let title = format!("{name}: mode {}, f = {f} Hz", info.mode);
+    let mut fig = Figure::new(title, Axis::linear("x [m]"), Axis::linear("y [m]")).equal_aspect();
+    let at = |n: usize, s: f64| {
+        let p = mesh.nodes[n];
+        (p[0] + s * shape[3 * n], p[1] + s * shape[3 * n + 1])
+    };
+    for (k, line) in outline.iter().enumerate() {
+        let label = if k == 0 { "undeformed" } else { "" };
+        fig = fig
+            .dashed(label, line.iter().map(|&n| at(n, 0.0)).collect())
+            .grey();
+    }
+    let deformed = format!("mode shape (scaled ×{})", tick(scale));
+    for (k, line) in outline.iter().enumerate() {
+        let label = if k == 0 { deformed.as_str() } else { "" };
+        fig = fig
+            .curve(label, line.iter().map(|&n| at(n, scale)).collect())
+            .colour(0);
+    }
+    fig
+}
+
+/// The largest side of the bounding box of the outline's nodes [m] (0 without any).
+fn largest_side(mesh: &Mesh2d, outline: &[Vec<usize>]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &n in outline.iter().flatten() {
+        for c in 0..2 {
+            lo[c] = lo[c].min(mesh.nodes[n][c]);
+            hi[c] = hi[c].max(mesh.nodes[n][c]);
+        }
+    }
+    let side = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    if side.is_finite() {
+        side
+    } else {
+        0.0
+    }
+}
+
+/// `x` to 4 significant digits: plain from 1e-3 to below 1e4 (`17.63`, `222.5`, `2596`),
+/// otherwise in exponent form (`1.235e4`).
+pub fn four_significant(x: f64) -> String {
+    let sci = format!("{x:.3e}");
+    let exponent = sci.split_once('e').and_then(|(_, e)| e.parse::<i32>().ok());
+    match (exponent, sci.parse::<f64>()) {
+        (Some(e @ -3..=3), Ok(rounded)) => format!("{rounded:.*}", (3 - e) as usize),
+        _ => sci,
+    }
 }
 
 /// The mode shape on all mesh nodes as a 3-vector field, scaled to a largest |u| of 1.
