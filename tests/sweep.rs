@@ -312,7 +312,8 @@ fn at_ten_harmonics_the_tangled_scene_passes_its_first_tangle_and_stops_at_a_lat
 /// segments, the key that refines this basis, not the Fourier harmonics; sweep.json names
 /// the basis. The loop is a resonance of the basis' nearly undamped top frequencies: at its
 /// turn 99% of the contact nodes' vibration lies in j >= 16 of 20 (measured; 2-3% on the
-/// curve before it), and sweep.json warns with the stretch, the worst point and the key.
+/// curve before it), and sweep.json warns with the stretch, the worst point and the key;
+/// the plot marks those rows (`warned`), the Fourier curve's none.
 #[test]
 fn a_spline_sweep_that_loops_names_the_segments_in_its_diagnosis() {
     let range = ["sweep.from=1150", "sweep.to=1300", "stability.check=false"];
@@ -356,9 +357,18 @@ fn a_spline_sweep_that_loops_names_the_segments_in_its_diagnosis() {
         warning.contains(&format!("at {:.1} Hz", worst.frequency_hz)),
         "{warning}"
     );
+    // The plot marks the rows the warning names.
+    let runs = common::root().join("output/test-runs");
+    let stem = runs.join("sweep-spline-loop/sweep");
+    common::svg::check_plot(&stem, &[hbcontact::sweep::WARNED]);
     let mut fourier = vec!["harmonic_balance.harmonics=20"];
     fourier.extend(range);
     let f = run_sweep("strip_sweep", &fourier, "sweep-fourier-no-loop");
+    let svg = common::svg::read_svg(&runs.join("sweep-fourier-no-loop/sweep.svg"));
+    assert!(!svg
+        .texts
+        .iter()
+        .any(|t| t.contains(hbcontact::sweep::WARNED)));
     println!(
         "Fourier H = 20: {} points, {} folds",
         f.points,

@@ -784,3 +784,83 @@ fn the_resume_hint_of_a_stopped_sweep_repeats_out_and_set_and_resumes_that_folde
     assert_eq!(json["rows"].as_array().unwrap().len(), 13);
     assert_eq!(json["resumed_from"], serde_json::json!([9]));
 }
+
+/// TEST GOAL: a contact sweep's plot carries the linear reference of its own structure with
+/// the contact open (`sweep::reference`, modal sum plus three exact solves): on the lightly
+/// damped strip against its wall (strip_sweep_light, 1200–1800 Hz) every row where no sample
+/// touches lies on it (2e-6; the reference includes the rows' frequencies), the check
+/// against an exact solve is within 1e-6, the contact keeps the curve's peak below the
+/// linear peak, and the SVG draws it as a labelled series.
+#[test]
+fn a_contact_sweeps_plot_carries_its_linear_reference_and_the_open_rows_lie_on_it() {
+    let sets = ["stability.check=false", "output.frames=4"];
+    let p = common::scene("strip_sweep_light", &sets);
+    let out = common::temp_out("sweep-output-reference");
+    let options = RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    let result = hbcontact::sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let s = &result.summary;
+    let reference = s.linear_reference.as_ref().expect("a linear reference");
+    println!(
+        "{} modes, check error {:.1e} at {} Hz",
+        reference.modes, reference.check_error, reference.check_hz
+    );
+    assert!(reference.check_error < 1e-6, "{}", reference.check_error);
+    let column = |name: &str| s.columns.iter().position(|c| c == name).unwrap();
+    let (probe, fraction) = (column("probe_first_harmonic"), column("contact_fraction"));
+    let at = |f: f64| {
+        let i = reference.frequency_hz.iter().position(|g| *g == f);
+        i.and_then(|i| reference.probe_first_harmonic[i])
+    };
+    let (mut open, mut worst) = (0, 0.0f64);
+    for row in s.rows.iter().filter(|r| r.values[fraction] == 0.0) {
+        let linear = at(row.frequency_hz).expect("the row's frequency in the reference");
+        worst = worst.max(rel(row.values[probe], linear));
+        open += 1;
+    }
+    println!(
+        "{open} open rows of {}, largest difference {worst:.1e}",
+        s.rows.len()
+    );
+    // Measured: 32 open rows, 6.3e-7 (the reduced frames' 2e-8 and the rest R interpolated
+    // between its anchors).
+    assert!(open > 20 && worst < 2e-6, "{open} rows, {worst:.1e}");
+    let curve_peak = s.rows.iter().map(|r| r.values[probe]).fold(0.0, f64::max);
+    let linear_peak =
+        (reference.probe_first_harmonic.iter().flatten()).fold(0.0f64, |a, b| a.max(*b));
+    assert!(
+        linear_peak > 1.5 * curve_peak,
+        "{linear_peak} vs {curve_peak}"
+    );
+    assert!(
+        s.probe_gap.is_none(),
+        "the probe (mid-strip) is not on the contact"
+    );
+    check_plot(&out.join("sweep"), &["linear, contact open"]);
+}
+
+/// TEST GOAL: where the probe sits on the contact (the strip's whole tip face as the probe,
+/// against the wall 0.1 mm away), the sweep's plot draws the gap as a line and sweep.json
+/// says it (1e-4 m).
+#[test]
+fn a_probe_on_the_contact_gets_its_gap_drawn_on_the_sweep_plot() {
+    let sets = [
+        "stability.check=false",
+        "output.frames=4",
+        "output.probes=[tip]",
+        "sweep.from=1200",
+        "sweep.to=1300",
+    ];
+    let p = common::scene("strip_sweep_light", &sets);
+    let out = common::temp_out("sweep-output-gap");
+    let options = RunOptions {
+        out: Some(out.clone()),
+        ..Default::default()
+    };
+    let result = hbcontact::sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let gap = result.summary.probe_gap.expect("the probe's gap");
+    assert!(rel(gap, 1e-4) < 1e-9, "{gap}");
+    check_plot(&out.join("sweep"), &["gap at the probe: 1e-4 m"]);
+}

@@ -19,6 +19,7 @@
 pub mod bifurcations;
 mod plot;
 mod points;
+pub mod reference;
 mod resume;
 
 use std::path::PathBuf;
@@ -49,6 +50,7 @@ use crate::progress::{Reporter, Silent};
 use crate::{Error, Result};
 use bifurcations::BifurcationReport;
 
+pub use plot::WARNED;
 pub use points::WrittenPoint;
 
 /// The outputs a sweep of `p` tabulates: the response (`pipeline::outputs::RESPONSE`), with
@@ -185,6 +187,15 @@ pub struct SweepSummary {
     /// solved again on factored frames, and the largest backward error of a point it kept.
     /// Dimension 0: every frame was factored.
     pub reduced_frames: crate::hbm::continuation::ReducedFrames,
+    /// A contact sweep with plots: the probe's first-harmonic amplitude with the contact open
+    /// over the band, drawn dashed on `sweep.png` (`sweep::reference`); `None` without a
+    /// probe or a harmonic-1 load.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linear_reference: Option<reference::LinearReference>,
+    /// The initial gap [m] where the probe sits on the contact against a fixed rigid obstacle
+    /// (`sweep::reference::probe_gap`), drawn on `sweep.png`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probe_gap: Option<f64>,
 }
 
 impl SweepSummary {
@@ -325,13 +336,34 @@ fn execute(
         failure,
         out: &out,
     };
-    let (summary, failure) = summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    let (mut summary, failure) =
+        summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    add_reference(p, &model, &mut summary, &mut stages);
     let (dir, summary) = write(p, staged, &writer, summary, stages)?;
     Ok(SweepResult {
         dir,
         summary,
         failure,
     })
+}
+
+/// The linear reference and the probe's gap of a contact sweep's plot, where plots are drawn
+/// (timed with them; a reference that cannot be formed is a warning, not a failed sweep).
+fn add_reference(p: &Pipeline, model: &Model, summary: &mut SweepSummary, stages: &mut Stages) {
+    if !p.output.plots || model.contact.is_none() {
+        return;
+    }
+    let rows: Vec<f64> = summary.rows.iter().map(|r| r.frequency_hz).collect();
+    let band = [summary.from_hz, summary.to_hz];
+    match stages.run(Stage::Plots, || {
+        reference::linear_reference(model, band, &rows)
+    }) {
+        Ok(found) => summary.linear_reference = found,
+        Err(e) => summary
+            .warnings
+            .push(format!("the plot has no linear reference: {e}")),
+    }
+    summary.probe_gap = reference::probe_gap(model);
 }
 
 /// How the continuation ended, for the summary.
@@ -402,6 +434,8 @@ fn summarize(
         stage_seconds: Default::default(),
         solver_seconds: ended.timings,
         reduced_frames: ended.reduced,
+        linear_reference: None,
+        probe_gap: None,
     };
     Ok((summary, ended.failure))
 }

@@ -10,12 +10,16 @@
 //! (`sweep::bifurcations`) a glyph of its kind where it was located, labelled `PD f Hz`
 //! (period doubling, disc), `NS f Hz` (Neimark–Sacker, square), `BP f Hz` (branch point,
 //! diamond), `G f Hz` (grazing, ring), `S f Hz` (judged by marching, ring), kinks an unlabelled
-//! cross. Labels are placed where they overlap no other (`output::plot`).
+//! cross. Labels are placed where they overlap no other (`output::plot`). A contact sweep's
+//! `sweep` also draws the probe's linear response with the contact open (dashed grey, up to
+//! twice the curve's peak; `sweep::reference`) and, where the probe sits on the contact, its
+//! gap as a horizontal line. Rows a warning names (`WARNED`) are marked.
 
 use std::path::Path;
 
 use super::bifurcations::{BifurcationKind, BifurcationReport};
 use super::{FoldReport, SweepRow, SweepSummary};
+use crate::hbm::knobs::UNDERDAMPED_TOLERANCE;
 use crate::output::plot::{Axis, Figure, Shape, Style};
 use crate::Result;
 
@@ -42,7 +46,17 @@ pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
             continue;
         }
         let title = format!("{}: {title} ({})", s.name, s.resolution());
-        let figure = response_figure(&title, y_label, &s.rows, c, &s.folds);
+        let mut figure = response_figure(&title, y_label, &s.rows, c, &s.folds);
+        if stem == "sweep" {
+            figure = with_reference(figure, s, c);
+        }
+        let warned: Vec<(f64, f64)> = (s.rows.iter())
+            .filter(|r| r.underdamped_share > Some(UNDERDAMPED_TOLERANCE))
+            .map(|r| (r.frequency_hz, r.values[c]))
+            .collect();
+        if !warned.is_empty() {
+            figure = figure.scatter(WARNED, warned).colour(3);
+        }
         with_bifurcations(figure, &s.rows, c, &s.bifurcations).save(&dir.join(stem))?;
     }
     Ok(())
@@ -120,6 +134,48 @@ fn with_bifurcations(
     }
     fig
 }
+
+/// The linear reference, dashed grey, clipped above `REFERENCE_CLIP` times the curve's peak
+/// (a lightly damped linear peak would flatten the curve), and the probe's gap as a
+/// horizontal line across the band.
+fn with_reference(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
+    let peak = s.rows.iter().map(|r| r.values[c]).fold(0.0, f64::max);
+    if let Some(r) = &s.linear_reference {
+        let cap = REFERENCE_CLIP * peak;
+        let mut label = "linear, contact open";
+        let mut piece = Vec::new();
+        let points = r.frequency_hz.iter().zip(&r.probe_first_harmonic);
+        for (f, a) in points.map(|(f, a)| (*f, a.filter(|a| *a <= cap))) {
+            match a {
+                Some(a) => piece.push((f, a)),
+                None if piece.len() > 1 => {
+                    fig = fig.dashed(label, std::mem::take(&mut piece)).grey();
+                    label = "";
+                }
+                None => piece.clear(),
+            }
+        }
+        if piece.len() > 1 {
+            fig = fig.dashed(label, piece).grey();
+        }
+    }
+    if let (Some(g), Some(first), Some(last)) = (s.probe_gap, s.rows.first(), s.rows.last()) {
+        let (lo, hi) = (
+            first.frequency_hz.min(s.from_hz),
+            last.frequency_hz.max(s.to_hz),
+        );
+        let label = format!("gap at the probe: {} m", crate::output::plot::tick(g));
+        fig = fig.dashed(label, vec![(lo, g), (hi, g)]).colour(2);
+    }
+    fig
+}
+
+/// The legend of the rows a warning of sweep.json names (a spline curve's rows whose
+/// vibration lies in the basis' underdamped frequencies).
+pub const WARNED: &str = "warned (sweep.json says of what)";
+
+/// The linear reference is drawn up to this multiple of the curve's peak.
+const REFERENCE_CLIP: f64 = 2.0;
 
 /// Runs of consecutive rows of one kind (unstable or not) as (unstable, points); an unstable
 /// run begins with the point before it and a stable run after an unstable one begins with

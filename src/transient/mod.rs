@@ -916,10 +916,8 @@ pub fn run_to_periodic(
             converged = true;
             break;
         }
-        if let Some(decided) = problem.decided {
-            if decided(&watch.changes, &watch.departures) {
-                break;
-            }
+        if (problem.decided).is_some_and(|decided| decided(&watch.changes, &watch.departures)) {
+            break;
         }
     }
     nothing_to_keep(interrupted, periods, steps)?;
