@@ -76,3 +76,63 @@ fn a_period_doubling_predicted_by_hill_shows_as_the_half_frequency_line_of_the_m
         assert!(svg.exists(), "{} missing", svg.display());
     }
 }
+
+/// TEST GOAL: a `run` whose state Hill's method finds unstable writes the leading Floquet
+/// vector as a series (summary's `stability.floquet_vector_file`: floquet.pvd, 32 frames over
+/// two drive periods, point field `floquet_vector`, largest |u| 1, read by meshio); at the
+/// impact cantilever's period doubling the motion it shows repeats after 2T and reverses after
+/// T (u(t + T) = −u(t): half the drive frequency); a stable run (the README's strip against
+/// its wall) writes none.
+#[test]
+fn an_unstable_run_writes_its_floquet_vector_as_a_series_at_half_the_drive_frequency() {
+    let out = common::run_cli(
+        "run",
+        "tests/data/impact_cantilever.yaml",
+        "late-floquet-vector",
+        &[],
+    );
+    let summary = common::read_json(&out.join("summary.json"));
+    assert_eq!(summary["stability"]["crossing"], "period_doubling");
+    assert_eq!(summary["stability"]["floquet_vector_file"], "floquet.pvd");
+    let script = r#"
+import sys, xml.etree.ElementTree as ET, numpy as np, meshio
+out = sys.argv[1]
+sets = ET.parse(out + "/floquet.pvd").getroot().iter("DataSet")
+frames = [(float(d.get("timestep")), d.get("file")) for d in sets]
+u = [meshio.read(out + "/" + f).point_data["floquet_vector"][:, :2] for _, f in frames]
+n = len(u)
+largest = max(np.abs(np.hypot(x[:, 0], x[:, 1])).max() for x in u)
+reverse = max(np.abs(u[j + n // 2] + u[j]).max() for j in range(n // 2))
+print(n, frames[-1][0] * 1400.0 * n / (n - 1), largest, reverse)
+"#;
+    let r = std::process::Command::new(common::venv_python())
+        .args(["-c", script, &out.display().to_string()])
+        .output()
+        .expect("python runs");
+    let text = String::from_utf8_lossy(&r.stdout);
+    println!("{text}{}", String::from_utf8_lossy(&r.stderr));
+    let v: Vec<f64> = text
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    assert_eq!(v.len(), 4, "{text}");
+    assert_eq!(v[0], 32.0);
+    assert!(
+        (v[1] - 2.0).abs() < 1e-9,
+        "the frames span {} periods",
+        v[1]
+    );
+    assert!((v[2] - 1.0).abs() < 1e-6, "largest |u| {}", v[2]);
+    assert!(v[3] < 1e-9, "u(t + T) + u(t) up to {}", v[3]);
+    let stable = common::run_cli(
+        "run",
+        "pipelines/strip_wall.yaml",
+        "late-floquet-stable",
+        &["geometry.parameters.lc=0.0025"],
+    );
+    let summary = common::read_json(&stable.join("summary.json"));
+    println!("{}", summary["stability"]["reason"]);
+    assert_eq!(summary["stability"]["verdict"], "stable");
+    assert!(summary["stability"].get("floquet_vector_file").is_none());
+    assert!(!stable.join("floquet.pvd").exists());
+}

@@ -89,6 +89,8 @@ pub struct Multipliers {
     pub values: Vec<c64>,
     /// Segments of constant closed set over the period.
     pub segments: usize,
+    /// Hill's method: the leading multiplier's Floquet vector on the structure.
+    pub leading_vector: Option<super::hill::FloquetVector>,
 }
 
 impl Multipliers {
@@ -271,6 +273,7 @@ impl FloquetModel {
         Ok(Multipliers {
             values,
             segments: segments.len(),
+            leading_vector: None,
         })
     }
 

@@ -121,6 +121,19 @@ pub struct HillModel {
     /// A frame whose speed follows ω (its centrifugal load left out): θ_j at ω is θ_j + s,
     /// s = `Spin::shift` (the modes of K + sM are those of K).
     spin: Option<Spin>,
+    /// Φ, the kept modes on the free dofs (empty for a model built from its parts): what maps
+    /// a Floquet vector's modal coordinates to the structure (`floquet_vector`).
+    phi: Vec<Vec<f64>>,
+}
+
+/// The leading exponent's Floquet vector on the structure: p(t) = Σ_j φ_j q̃_j(t), its
+/// coefficients in the real Fourier layout of `fourier` (M = 2H + 1 complex vectors on the
+/// free dofs); a perturbation grows as Re(e^{st} p(t)).
+#[derive(Clone, Debug)]
+pub struct FloquetVector {
+    pub exponent: c64,
+    pub harmonics: usize,
+    pub coefficients: Vec<Vec<c64>>,
 }
 
 impl HillModel {
@@ -135,6 +148,7 @@ impl HillModel {
         let found = crate::fem::modes::modes_near(k, m, count, 0.0, None)?;
         let rows = super::floquet::b_rows(b);
         let theta: Vec<f64> = found.iter().map(|(w2, _)| *w2).collect();
+        let phi = found.iter().map(|(_, v)| v.clone()).collect();
         let e = DMatrix::from_fn(rows.len(), found.len(), |i, j| {
             crate::linalg::dot(&rows[i], &found[j].1)
         });
@@ -151,6 +165,7 @@ impl HillModel {
             alpha,
             beta,
             spin,
+            phi,
         })
     }
 
@@ -162,6 +177,7 @@ impl HillModel {
             alpha,
             beta,
             spin: None,
+            phi: Vec::new(),
         }
     }
 
@@ -186,7 +202,42 @@ impl HillModel {
             alpha: self.alpha,
             beta: self.beta,
             spin: None,
+            phi: self.phi.iter().take(r).cloned().collect(),
         }
+    }
+
+    /// The Floquet vector of exponent `s` whose modal part is `q` (r × M): p_c = Σ_j φ_j q_{j,c}
+    /// per coefficient c, scaled so that its largest entry has modulus 1 (`None` without Φ).
+    fn floquet_vector(&self, s: c64, q: &[c64], h: usize) -> Option<FloquetVector> {
+        let (r, m) = (self.dim(), 2 * h + 1);
+        let n = self.phi.first()?.len();
+        if self.phi.len() != r || q.len() != r * m {
+            return None;
+        }
+        let mut coefficients = vec![vec![c64::new(0.0, 0.0); n]; m];
+        for (j, phi) in self.phi.iter().enumerate() {
+            for (c, field) in coefficients.iter_mut().enumerate() {
+                let a = q[j * m + c];
+                field.iter_mut().zip(phi).for_each(|(f, p)| *f += a * *p);
+            }
+        }
+        let largest = coefficients
+            .iter()
+            .flatten()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max);
+        if !(largest > 0.0 && largest.is_finite()) {
+            return None;
+        }
+        coefficients
+            .iter_mut()
+            .flatten()
+            .for_each(|z| *z /= largest);
+        Some(FloquetVector {
+            exponent: s,
+            harmonics: h,
+            coefficients,
+        })
     }
 
     /// How many of the modes a state at ω with H harmonics keeps dynamic: those below
@@ -243,7 +294,7 @@ impl HillModel {
             closed: &closed,
             blocks: &blocks,
         };
-        let all = || -> Result<Vec<c64>> {
+        let all = || -> Result<Vec<Exponent>> {
             let stiffness = self.stiffness(self.coupling(&law, h)?, omega, h);
             physical_exponents(&self.hill_matrix(&stiffness, omega, h), r, h, omega)
         };
@@ -259,21 +310,24 @@ impl HillModel {
             (false, _) => self.rightmost_exponents(&law, omega, h)?,
         };
         let period = 2.0 * std::f64::consts::PI / omega;
-        let exponents = real_at_half(exponents, omega);
-        let mut values: Vec<c64> = exponents
-            .iter()
-            .map(|s| {
-                let m = (s.re * period).exp();
-                c64::new(m * (s.im * period).cos(), m * (s.im * period).sin())
-            })
-            .collect();
+        let mut exponents = real_at_half(exponents, omega);
+        let multiplier = |s: &c64| {
+            let m = (s.re * period).exp();
+            c64::new(m * (s.im * period).cos(), m * (s.im * period).sin())
+        };
+        exponents.sort_by(|a, b| multiplier(&b.0).norm().total_cmp(&multiplier(&a.0).norm()));
+        let values: Vec<c64> = exponents.iter().map(|(s, _)| multiplier(s)).collect();
         if !values.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
             return Err(Error::Model(
                 "Hill's method: a multiplier is not finite".into(),
             ));
         }
-        values.sort_by(|a, b| b.norm().total_cmp(&a.norm()));
-        Ok(Multipliers { values, segments })
+        let leading = exponents.into_iter().next();
+        Ok(Multipliers {
+            values,
+            segments,
+            leading_vector: leading.and_then(|(s, q)| self.floquet_vector(s, &q, h)),
+        })
     }
 
     /// J₀ = I + Q D P (c R̃ − I) on the closed nodes (node-major, M per node).
@@ -481,15 +535,22 @@ fn activity(law: &SampledLaw) -> (Vec<usize>, Vec<Vec<f64>>, usize) {
     (closed, blocks, changes.max(1))
 }
 
+/// An eigenpair as the copies are told apart: |κ|, the exponent s and the eigenvector's modal
+/// part q̃ (r modes × M coefficients).
+type Ranked = (f64, c64, Vec<c64>);
+
+/// An exponent with its eigenvector's modal part.
+type Exponent = (c64, Vec<c64>);
+
 /// The 2r exponents whose eigenvectors centre on harmonic 0, from the Hill matrix `a`.
-fn physical_exponents(a: &Mat<f64>, r: usize, h: usize, omega: f64) -> Result<Vec<c64>> {
+fn physical_exponents(a: &Mat<f64>, r: usize, h: usize, omega: f64) -> Result<Vec<Exponent>> {
     let (s, u) = crate::linalg::eigen_real(a.as_ref())
         .map_err(|e| Error::Model(format!("Hill's method: {e}")))?;
     let m = 2 * h + 1;
-    let ranked: Vec<(f64, c64)> = (0..a.nrows())
+    let ranked: Vec<Ranked> = (0..a.nrows())
         .map(|i| {
-            let col: Vec<c64> = (0..a.nrows()).map(|q| u[(q, i)]).collect();
-            (kappa(&col, r, m, h), s[i])
+            let col: Vec<c64> = (0..r * m).map(|q| u[(q, i)]).collect();
+            (kappa(&col, r, m, h), s[i], col)
         })
         .collect();
     Ok(centred(ranked, omega))
@@ -507,11 +568,11 @@ fn physical_exponents(a: &Mat<f64>, r: usize, h: usize, omega: f64) -> Result<Ve
 const CENTRED: f64 = 0.6;
 
 /// The exponents whose copy is centred (|κ| ≤ `CENTRED`), each once.
-fn centred(ranked: Vec<(f64, c64)>, omega: f64) -> Vec<c64> {
-    let mut kept: Vec<c64> = Vec::new();
-    for (k, s) in ranked {
-        if k <= CENTRED && !kept.iter().any(|t| (t - s).norm() <= 1e-8 * omega) {
-            kept.push(s);
+fn centred(ranked: Vec<Ranked>, omega: f64) -> Vec<Exponent> {
+    let mut kept: Vec<Exponent> = Vec::new();
+    for (k, s, q) in ranked {
+        if k <= CENTRED && !kept.iter().any(|(t, _)| (t - s).norm() <= 1e-8 * omega) {
+            kept.push((s, q));
         }
     }
     kept
@@ -531,25 +592,29 @@ const MIRROR: f64 = 0.01;
 /// doubling); measured on the coarse strip at 1053.3 Hz: ε = 0.0090 at H = 10, 0.0010 at
 /// H = 20, while the complex pairs there keep both copies (κ 0.533 and 0.467, σT within
 /// 0.002).
-fn real_at_half(exponents: Vec<c64>, omega: f64) -> Vec<c64> {
+fn real_at_half(exponents: Vec<Exponent>, omega: f64) -> Vec<Exponent> {
     let period = 2.0 * std::f64::consts::PI / omega;
     let kappa = |s: &c64| s.im.abs() / omega;
     let mirrored = |s: &c64| {
-        exponents.iter().any(|t| {
+        exponents.iter().any(|(t, _)| {
             ((t.re - s.re) * period).abs() < MIRROR
                 && (kappa(t) - (1.0 - kappa(s))).abs() < MIRROR
                 && (kappa(t) - kappa(s)).abs() > MIRROR
         })
     };
-    exponents
-        .iter()
-        .map(|s| {
+    let moved: Vec<c64> = (exponents.iter())
+        .map(|(s, _)| {
             if (kappa(s) - 0.5).abs() < HALF_BLUR && !mirrored(s) {
                 c64::new(s.re, 0.5 * omega * s.im.signum())
             } else {
                 *s
             }
         })
+        .collect();
+    moved
+        .into_iter()
+        .zip(exponents)
+        .map(|(s, (_, q))| (s, q))
         .collect()
 }
 
@@ -568,7 +633,7 @@ impl HillModel {
     /// matrix A = [[0, I], [−K̂, −Ĉ]]: (A − σI)⁻¹ through P(σ) = K̂ + σĈ + σ²I (`ShiftedSolve`);
     /// of the converged Ritz values those whose eigenvector lies within the inner half of the
     /// kept harmonics (|κ| ≤ H/2: the truncation's edge copies are its artefacts).
-    fn rightmost_exponents(&self, law: &Linearized, omega: f64, h: usize) -> Result<Vec<c64>> {
+    fn rightmost_exponents(&self, law: &Linearized, omega: f64, h: usize) -> Result<Vec<Exponent>> {
         let (m, r) = (2 * h + 1, self.dim());
         let n = r * m;
         let sigma = SHIFT * omega;
@@ -583,11 +648,12 @@ impl HillModel {
             [x, y].concat()
         };
         let steps = (KRYLOV + 4 * r).min(2 * n);
-        let ranked: Vec<(f64, c64)> = arnoldi(apply, 2 * n, steps)?
+        let ranked: Vec<Ranked> = arnoldi(apply, 2 * n, steps)?
             .into_iter()
-            .map(|(theta, vector)| {
+            .map(|(theta, mut vector)| {
                 let s = c64::new(sigma, 0.0) + c64::new(1.0, 0.0) / theta;
-                (kappa(&vector, r, m, h), s)
+                vector.truncate(n);
+                (kappa(&vector, r, m, h), s, vector)
             })
             .collect();
         let found = centred(ranked, omega);

@@ -6,6 +6,7 @@
 
 pub mod compare;
 pub mod end_state;
+pub mod floquet_vector;
 pub mod late;
 pub mod model;
 pub mod modes;
@@ -107,7 +108,7 @@ pub fn run_scene(
     let solution = stages::solve(p, &model, &mut stages)?;
     stages.run(Stage::Check, || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
-    let stability = stages::stability(p, &model, &solution, &mut stages)?;
+    let mut stability = stages::stability(p, &model, &solution, &mut stages)?;
     warnings.extend(stability.warning());
     let staged = StagedDir::create(&out, "run", options.replace)?;
     let (level, reporter) = (options.write, stages.reporter);
@@ -117,6 +118,9 @@ pub fn run_scene(
         let written = publish::harmonic_balance(p, (&model, info), &solution, level, at, reporter)?;
         if level == WriteLevel::Full {
             stages::copy_mesh(&mesh_info, staged.path())?;
+            stability.floquet_vector_file = unstable_vector(&stability)
+                .map(|v| floquet_vector::write(at, &model, v, solution.omega))
+                .transpose()?;
         }
         Ok(written)
     })?;
@@ -134,6 +138,13 @@ pub fn run_scene(
     summary.stage_seconds = stages.times;
     let dir = stages::commit(staged, &summary)?;
     Ok(RunResult { dir, summary })
+}
+
+/// The Floquet vector of an unstable verdict, the motion the run writes (`floquet_vector`).
+fn unstable_vector(stability: &stability::Stability) -> Option<&crate::hbm::hill::FloquetVector> {
+    (stability.verdict == stability::Verdict::Unstable)
+        .then_some(stability.floquet_vector.as_ref())
+        .flatten()
 }
 
 /// A solution with a non-finite coefficient is a model error (inputs of extreme magnitude

@@ -42,10 +42,11 @@ pub enum Output {
     NaturalFrequency(usize),
     /// Peak resident memory of the run [MB] (points run one at a time only).
     PeakMemory,
-    /// The stability verdict by time marching: 1 stable, 0 unstable, empty when undecided.
+    /// The stability verdict (`stability.method`): 1 stable, 0 unstable, empty when undecided.
     /// Only a study that asks for it (or for `Multiplier`) pays for the check.
     Stable,
-    /// The check's estimated largest Floquet multiplier modulus μ̂ (as sweep.csv's column).
+    /// The check's largest Floquet multiplier modulus |μ| (marching: its estimate μ̂; as
+    /// sweep.csv's column).
     Multiplier,
     /// Friction: the energy dissipated per period [J], the peak total tangential force [N]
     /// and the share of (node, sample) pairs slipping (NaN when frictionless).

@@ -133,6 +133,14 @@ pub struct Stability {
     pub departure: Option<f64>,
     /// The verdict in a sentence.
     pub reason: String,
+    /// Floquet, unstable: the series of the leading multiplier's Floquet vector the run
+    /// wrote (`floquet.pvd`: Re(e^{i Im(s) t} p(t)) over two periods, `pipeline::floquet_vector`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub floquet_vector_file: Option<String>,
+    /// Hill's method: that vector (not serialized; a sweep's points drop it).
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub floquet_vector: Option<hbm::hill::FloquetVector>,
 }
 
 impl Stability {
@@ -180,6 +188,8 @@ impl Stability {
             change: None,
             departure: None,
             reason: String::new(),
+            floquet_vector_file: None,
+            floquet_vector: None,
         }
     }
 
@@ -243,7 +253,11 @@ impl Stability {
             }
             _ => String::new(),
         };
-        Some(format!("the harmonic-balance state is {verdict}{how}"))
+        let vector = (self.floquet_vector_file.as_ref())
+            .map_or(String::new(), |f| format!("; the growing motion in {f}"));
+        Some(format!(
+            "the harmonic-balance state is {verdict}{how}{vector}"
+        ))
     }
 
     /// The run's warning when the state is not one the structure settles into, or when the
@@ -423,6 +437,7 @@ pub fn verdict_of(m: &floquet::Multipliers, dim: usize, omega: f64) -> Stability
         reduced_dimension: Some(dim),
         segments: Some(m.segments),
         reason,
+        floquet_vector: m.leading_vector.clone(),
         ..Stability::blank(Method::Floquet)
     }
 }

@@ -754,6 +754,11 @@ fn record(writer: &mut points::Writer, i: usize, verdict: Stability) {
         row.crossing = verdict.crossing;
     }
     writer.verdicts.retain(|(j, _)| *j != i);
+    // A Floquet vector per point would hold a field per harmonic for every row.
+    let verdict = Stability {
+        floquet_vector: None,
+        ..verdict
+    };
     writer.verdicts.push((i, verdict));
 }
 
