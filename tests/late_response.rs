@@ -136,3 +136,49 @@ print(n, frames[-1][0] * 1400.0 * n / (n - 1), largest, reverse)
     assert!(summary["stability"].get("floquet_vector_file").is_none());
     assert!(!stable.join("floquet.pvd").exists());
 }
+
+/// TEST GOAL: with `stability.method: both` the audit's march is characterized as a
+/// `transient`'s late response is, and compared with the Floquet prediction: on the impact
+/// cantilever, whose Hill verdict is a period doubling (700 Hz), the summary's
+/// `stability.marched_response` says what the march from the perturbed state did and finds the
+/// predicted half-frequency line in its spectrum within two bins, naming the audit's own
+/// periods key (`stability.max_periods`), not the transient's.
+#[test]
+fn the_marching_audit_says_what_its_march_did_against_the_floquet_prediction() {
+    let out = common::run_cli(
+        "run",
+        "tests/data/impact_cantilever.yaml",
+        "late-audit",
+        &["stability.method=both"],
+    );
+    let summary = common::read_json(&out.join("summary.json"));
+    let v = &summary["stability"];
+    assert_eq!(v["crossing"], "period_doubling");
+    let said = v["marched_response"]
+        .as_str()
+        .expect("the march characterized");
+    println!("{said}");
+    assert!(
+        said.contains("Floquet predicted") && said.contains("700.0000 Hz"),
+        "{said}"
+    );
+    let shows = said
+        .split("the marched spectrum shows ")
+        .nth(1)
+        .expect("a marched line");
+    let hz: f64 = shows
+        .split(' ')
+        .next()
+        .and_then(|w| w.parse().ok())
+        .expect("its frequency");
+    let bins = said
+        .split("within ")
+        .last()
+        .and_then(|w| w.split(' ').next());
+    let tolerance: f64 = bins.and_then(|w| w.parse().ok()).expect("the tolerance");
+    assert!(
+        (hz - 700.0).abs() <= tolerance,
+        "{hz} Hz against 700 Hz ± {tolerance}"
+    );
+    assert!(!said.contains("transient.max_periods"), "{said}");
+}

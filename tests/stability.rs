@@ -34,6 +34,7 @@ fn marched_multiplier_of_a_state_off_the_wall_is_the_mass_damping_decay_per_peri
         &marching,
         model.system.omega,
         solution.contact.as_ref(),
+        None,
         &Silent,
     )
     .unwrap_or_else(|e| panic!("{e}"));

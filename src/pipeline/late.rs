@@ -168,13 +168,14 @@ pub struct Prediction {
 
 /// The late response of `signals`; `converged`: the march met its periodicity tolerance;
 /// `late` for the contact force's per-period spread; `floquet` the verdict on the
-/// harmonic-balance start, if any; f the drive frequency [Hz].
+/// harmonic-balance start, if any; f the drive frequency [Hz]; `periods_key` the setting
+/// its advice names (what bounds the periods marched).
 pub fn characterize(
     signals: &LateSignals,
     late: &LateRecord,
     converged: bool,
-    floquet: Option<&Stability>,
-    f: f64,
+    (floquet, f): (Option<&Stability>, f64),
+    periods_key: &str,
 ) -> LateResponse {
     let mut c = characterize::characterize(&signals.values, signals.samples_per_period);
     if converged {
@@ -198,7 +199,7 @@ pub fn characterize(
             None => what.to_string(),
         }
     } else {
-        describe(&c, f, prediction.as_ref())
+        describe(&c, f, prediction.as_ref(), periods_key)
     };
     LateResponse {
         kind,
@@ -221,16 +222,18 @@ pub fn characterize(
 }
 
 /// The late response in words a user can act on.
-fn describe(c: &Characterization, f: f64, prediction: Option<&Prediction>) -> String {
+/// `key` is the setting that bounds the periods marched (`transient.max_periods`, or
+/// `stability.max_periods` for the stability check's march).
+fn describe(c: &Characterization, f: f64, prediction: Option<&Prediction>, key: &str) -> String {
     let over = format!("over the last {} periods", c.periods);
     let rho = c.fold_residuals.first().copied().unwrap_or(0.0);
     let what = match c.kind {
-        _ if c.periods < 2 => "not judged: one period marched cannot show whether it repeats (an impact or other single event; raise transient.max_periods to judge a steady state)".to_string(),
+        _ if c.periods < 2 => format!("not judged: one period marched cannot show whether it repeats (an impact or other single event; raise {key} to judge a steady state)"),
         Kind::Periodic if rho < characterize::REPEATS => {
             format!("T-periodic {over} (repeats within {:.1e} of its RMS)", rho)
         }
         Kind::Periodic => format!(
-            "still approaching a T-periodic state {over} (only harmonics of f in its spectrum, but it drifts by {:.1}% of its RMS): raise transient.max_periods",
+            "still approaching a T-periodic state {over} (only harmonics of f in its spectrum, but it drifts by {:.1}% of its RMS): raise {key}",
             100.0 * rho
         ),
         Kind::Subharmonic(k) => format!(
@@ -243,7 +246,7 @@ fn describe(c: &Characterization, f: f64, prediction: Option<&Prediction>) -> St
             c.second_frequency.unwrap_or(0.0)
         ),
         Kind::Irregular => format!(
-            "irregular {over}: a broadband spectrum ({:.0}% of its power in lines), no repeat within 8 periods: chaotic, or a transient not yet died out (raise transient.max_periods to tell)",
+            "irregular {over}: a broadband spectrum ({:.0}% of its power in lines), no repeat within 8 periods: chaotic, or a transient not yet died out (raise {key} to tell)",
             100.0 * c.line_fraction
         ),
     };

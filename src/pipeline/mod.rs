@@ -147,6 +147,9 @@ fn unstable_vector(stability: &stability::Stability) -> Option<&crate::hbm::hill
         .flatten()
 }
 
+/// The setting that bounds a `transient`'s periods (its late-response advice names it).
+const PERIODS: &str = "transient.max_periods";
+
 /// A solution with a non-finite coefficient is a model error (inputs of extreme magnitude
 /// whose products overflow), never output.
 fn finite_solution(solution: &crate::hbm::Solution) -> Result<()> {
@@ -303,8 +306,13 @@ pub fn run_transient(
         let signals = late::LateSignals::of(&model, &marching, &result.late);
         let f = p.harmonic_balance.frequency;
         let converged = result.converged;
-        let late_response =
-            late::characterize(&signals, &result.late, converged, floquet.as_ref(), f);
+        let late_response = late::characterize(
+            &signals,
+            &result.late,
+            converged,
+            (floquet.as_ref(), f),
+            PERIODS,
+        );
         let summary = summary::transient(p, mesh_info, &model, &result, &sampled, late_response);
         Ok((summary, sampled, signals))
     })?;

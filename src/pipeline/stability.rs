@@ -122,6 +122,11 @@ pub struct Stability {
     /// `method: both`: what the time-marching audit said, where it disagrees.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub audit: Option<String>,
+    /// Marching (and the audit of `method: both`): what the march from the perturbed state did
+    /// over the periods it ran, characterized as `transient` characterizes a late response
+    /// (`pipeline::late`), and, after a Floquet verdict, whether it shows the motion predicted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub marched_response: Option<String>,
     /// Periods marched.
     pub periods: usize,
     /// The last period-to-period change d.
@@ -184,6 +189,7 @@ impl Stability {
             reduced_dimension: None,
             segments: None,
             audit: None,
+            marched_response: None,
             periods: 0,
             change: None,
             departure: None,
@@ -442,17 +448,19 @@ pub fn verdict_of(m: &floquet::Multipliers, dim: usize, omega: f64) -> Stability
     }
 }
 
-/// `method: both`: Floquet's verdict, with the marched one where they disagree.
+/// `method: both`: Floquet's verdict with what the march did, and the marched verdict where
+/// they disagree.
 pub fn audited(floquet: Stability, marched: Stability) -> Stability {
     let agree = floquet.verdict == marched.verdict || marched.verdict == Verdict::Undecided;
-    if agree {
-        return floquet;
-    }
-    Stability {
-        audit: Some(format!(
+    let audit = (!agree).then(|| {
+        format!(
             "time marching says {:?}: {}",
             marched.verdict, marched.reason
-        )),
+        )
+    });
+    Stability {
+        audit,
+        marched_response: marched.marched_response,
         ..floquet
     }
 }
@@ -465,6 +473,7 @@ pub fn by_marching(
     marching_model: &Model,
     omega: f64,
     start: Option<&ContactSolution>,
+    floquet: Option<&Stability>,
     reporter: &dyn Reporter,
 ) -> Result<Stability> {
     let Some(diag) = &marching_model.mass_diagonal else {
@@ -482,8 +491,12 @@ pub fn by_marching(
         Err(Error::NotConverged(why)) => return Ok(undecided_without_state(&why)),
         Err(e) => return Err(e),
     };
-    let marching = Marching::new(&system, diag, contact, &[])?;
-    march_from(p, spec, &marching, &system.dofs, &solution, reporter)
+    let probes: Vec<usize> = (marching_model.probes.iter())
+        .flat_map(|(_, n)| n.iter().copied())
+        .collect();
+    let marching = Marching::new(&system, diag, contact, &probes)?;
+    let model = (marching_model, &marching);
+    march_from(p, spec, model, &solution, floquet, reporter)
 }
 
 /// The harmonic-balance state at `system`'s ω on the pipeline's time basis (a spline
@@ -506,16 +519,18 @@ fn harmonic_balance_state(
     }
 }
 
-/// March from `solution`'s state, perturbed by `stability.perturbation`, until the verdict
-/// is clear, `stability.max_periods` or `stability.max_seconds`; the verdict.
+/// March `model` from `solution`'s state, perturbed by `stability.perturbation`, until the
+/// verdict is clear, `stability.max_periods` or `stability.max_seconds`; the verdict, with
+/// what the march did (compared with the `floquet` verdict's prediction where given).
 fn march_from(
     p: &Pipeline,
     spec: &StabilitySpec,
-    marching: &Marching,
-    dofs: &DofMap,
+    (model, marching): (&Model, &Marching),
     solution: &hbm::Solution,
+    floquet: Option<&Stability>,
     reporter: &dyn Reporter,
 ) -> Result<Stability> {
+    let dofs = &model.system.dofs;
     let clock = Instant::now();
     let out_of_time = AtomicBool::new(false);
     let stop = |changes: &[f64], departures: &[f64]| {
@@ -536,7 +551,15 @@ fn march_from(
     reporter.task_done("periods");
     let distance = end_distance(solution, dofs, &result.times, &result.displacement);
     let refine = crate::pipeline::model::time_basis(p, Purpose::HarmonicBalance).refine_key();
-    let verdict = judge(&result.changes, &result.departures, distance, refine);
+    let signals = super::late::LateSignals::of(model, marching, &result.late);
+    let f = solution.omega / (2.0 * std::f64::consts::PI);
+    let key = "stability.max_periods";
+    let late =
+        super::late::characterize(&signals, &result.late, result.converged, (floquet, f), key);
+    let verdict = Stability {
+        marched_response: Some(late.description),
+        ..judge(&result.changes, &result.departures, distance, refine)
+    };
     if verdict.verdict == Verdict::Undecided && out_of_time.load(Ordering::Relaxed) {
         return Ok(Stability {
             reason: format!(

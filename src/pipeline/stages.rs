@@ -228,7 +228,7 @@ pub fn stability(
     };
     // A frictional state has no Floquet multipliers here: marching judges it where asked.
     if contact.friction.is_some() && spec.method != StabilityMethod::Floquet {
-        return march_verdict(p, model, contact, stages);
+        return march_verdict(p, model, contact, None, stages);
     }
     let segments = match stability::shortcut(model, &solution.basis, solution.omega, contact) {
         Ok(verdict) => return Ok(verdict),
@@ -243,7 +243,7 @@ pub fn stability(
     match (spec.method, floquet) {
         (StabilityMethod::Floquet, Some(Ok(verdict))) => return Ok(verdict),
         (StabilityMethod::Both, Some(Ok(verdict))) => {
-            let marched = march_verdict(p, model, contact, stages)?;
+            let marched = march_verdict(p, model, contact, Some(&verdict), stages)?;
             return Ok(stability::audited(verdict, marched));
         }
         (_, Some(Err(e))) => stages.reporter.warning(&format!(
@@ -251,7 +251,7 @@ pub fn stability(
         )),
         _ => {}
     }
-    march_verdict(p, model, contact, stages)
+    march_verdict(p, model, contact, None, stages)
 }
 
 /// The Floquet verdict on `contact`, the contact part of `solution`, a state of `model`
@@ -266,11 +266,13 @@ fn floquet_verdict(
     stability::by_floquet_state(model, hill.as_ref(), solution.omega, contact, segments)
 }
 
-/// The time-marching verdict on `contact`, a state of `model`.
+/// The time-marching verdict on `contact`, a state of `model` (what the march did compared
+/// with the `floquet` verdict's prediction, where given).
 fn march_verdict(
     p: &Pipeline,
     model: &Model,
     contact: &crate::hbm::ContactSolution,
+    floquet: Option<&Stability>,
     stages: &mut Stages,
 ) -> Result<Stability> {
     let spec = &p.stability;
@@ -283,6 +285,7 @@ fn march_verdict(
             &marching,
             model.system.omega,
             Some(contact),
+            floquet,
             reporter,
         );
         // A scene time marching cannot take (e.g. prescribed motion on contact nodes) gets no

@@ -817,7 +817,7 @@ fn by_marching(
         .par_iter()
         .map(|(_, omega, start)| {
             let verdict =
-                stability::by_marching(p, spec, &marching, *omega, start.as_ref(), &Silent);
+                stability::by_marching(p, spec, &marching, *omega, start.as_ref(), None, &Silent);
             let n = done.fetch_add(1, Ordering::Relaxed) + 1;
             reporter.progress("stability", n as u64, total, "points checked by marching");
             verdict.unwrap_or_else(|e| Stability::cannot_march(&e))
