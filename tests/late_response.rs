@@ -182,3 +182,51 @@ fn the_marching_audit_says_what_its_march_did_against_the_floquet_prediction() {
     );
     assert!(!said.contains("transient.max_periods"), "{said}");
 }
+
+/// TEST GOAL: a march that gains energy the scene does not supply says so instead of
+/// reporting a runaway as an answer: the friction block without friction and without damping,
+/// its top held down and shaken along the floor at 100 Hz, marched 32 periods at
+/// transient.courant 0.8 sees its peak contact force grow about ×1.19 a period (to about 180×
+/// its smallest, measured) and warns, naming transient.courant and a smaller value; at 0.4
+/// the same march stays bounded (peak within 3 kN) and does not warn.
+#[test]
+fn a_march_that_gains_energy_warns_and_names_the_step_to_lower() {
+    let scene = "pipelines/scenes/friction_block.yaml";
+    let sets = |c: &'static str| {
+        [
+            "contact.friction.coefficient=0.0",
+            "transient.max_periods=32",
+            c,
+            "output.plots=false",
+        ]
+    };
+    let long = common::run_cli(
+        "transient",
+        scene,
+        "late-runaway",
+        &sets("transient.courant=0.8"),
+    );
+    let summary = common::read_json(&long.join("summary.json"));
+    let warned = |s: &serde_json::Value| {
+        (s["warnings"].as_array().unwrap().iter())
+            .filter_map(|w| w.as_str())
+            .find(|w| w.contains("gains energy"))
+            .map(str::to_string)
+    };
+    let warning = warned(&summary).expect("a runaway warning");
+    println!("{warning}");
+    assert!(
+        warning.contains("transient.courant (now 0.8; e.g. to 0.4)"),
+        "{warning}"
+    );
+    let short = common::run_cli(
+        "transient",
+        scene,
+        "late-bounded",
+        &sets("transient.courant=0.4"),
+    );
+    let summary = common::read_json(&short.join("summary.json"));
+    assert!(warned(&summary).is_none(), "{:?}", warned(&summary));
+    let peak = common::json_number(&summary, "/contact/peak_contact_force");
+    assert!(peak < 3.0e3, "{peak} N");
+}

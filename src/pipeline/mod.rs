@@ -147,6 +147,16 @@ fn unstable_vector(stability: &stability::Stability) -> Option<&crate::hbm::hill
         .flatten()
 }
 
+/// The warning of a march whose contact force runs away (`LateRecord::runaway`).
+fn runaway_warning(late: &crate::transient::late::LateRecord, courant: f64) -> Option<String> {
+    let (rate, span) = late.runaway()?;
+    Some(format!(
+        "the march gains energy the scene does not supply: its peak contact force grew ×{rate:.3} a period over the last {} periods, to {span:.0}× its smallest: the explicit contact step is too long for this scene; lower transient.courant (now {courant}; e.g. to {}) or add damping, and compare",
+        crate::transient::late::RUNAWAY_PERIODS,
+        0.5 * courant
+    ))
+}
+
 /// The setting that bounds a `transient`'s periods (its late-response advice names it).
 const PERIODS: &str = "transient.max_periods";
 
@@ -317,6 +327,9 @@ pub fn run_transient(
         Ok((summary, sampled, signals))
     })?;
     summary.warnings.extend(warnings);
+    summary
+        .warnings
+        .extend(runaway_warning(&result.late, p.transient.courant));
     if let Some(verdict) = floquet {
         summary.stability = Some(verdict);
     }

@@ -29,6 +29,12 @@ pub const PERIODS_KEPT: usize = 64;
 /// Samples (window means) a period, at most.
 pub const WINDOWS: usize = 128;
 
+/// `LateRecord::runaway`: the periods looked at, the least growth a period and the least
+/// growth over the record that mark a march gaining energy.
+pub const RUNAWAY_PERIODS: usize = 16;
+pub const RUNAWAY_RATE: f64 = 1.05;
+pub const RUNAWAY_SPAN: f64 = 10.0;
+
 /// One recorded period.
 #[derive(Clone, Debug, Default)]
 pub struct PeriodRecord {
@@ -140,6 +146,30 @@ impl LateRecord {
             .iter()
             .flat_map(|p| p.force.iter().copied())
             .collect()
+    }
+
+    /// A march that gains energy the scene does not supply: the per-period peak contact force
+    /// grows geometrically over the last `RUNAWAY_PERIODS` recorded (at least `RUNAWAY_RATE`
+    /// a period on average, all but a quarter of the steps up) and ends at least
+    /// `RUNAWAY_SPAN` times the record's smallest peak. Returns (the factor a period, the
+    /// span); `None` otherwise (a departure from an unstable start saturates within a few
+    /// dozen periods and ends flat).
+    pub fn runaway(&self) -> Option<(f64, f64)> {
+        let peaks: Vec<f64> = self.periods.iter().map(|p| p.peak_force).collect();
+        let n = RUNAWAY_PERIODS;
+        if peaks.len() < n + 1 || !peaks.iter().all(|p| p.is_finite()) {
+            return None;
+        }
+        let last = &peaks[peaks.len() - n - 1..];
+        let (first, end) = (last[0], last[n]);
+        let smallest = peaks.iter().copied().fold(f64::INFINITY, f64::min);
+        if !(first > 0.0 && smallest > 0.0) {
+            return None;
+        }
+        let rate = (end / first).powf(1.0 / n as f64);
+        let ups = last.windows(2).filter(|w| w[1] > w[0]).count();
+        let span = end / smallest;
+        (rate >= RUNAWAY_RATE && 4 * ups >= 3 * n && span >= RUNAWAY_SPAN).then_some((rate, span))
     }
 
     /// The sample times over the recorded periods [s], from the start of the march.
