@@ -153,11 +153,12 @@ fn hill_multipliers_out_of_reach_are_the_damped_modes() {
     let first = &lowest_modes(&model.system.k_ff, &model.system.m_ff, 1, 0.0).unwrap()[0].1;
     for (how, m) in [("dense", &dense), ("Arnoldi", &arnoldi)] {
         let v = m.leading_vector.as_ref().expect("a Floquet vector");
-        let p0 = &v.coefficients[0];
+        let coefficients = v.coefficients();
+        let p0 = &coefficients[0];
         let dot: c64 = p0.iter().zip(first).map(|(p, f)| p * *f).sum();
         let norms = p0.iter().map(|p| p.norm_sqr()).sum::<f64>() * dot_real(first, first);
         let mac = dot.norm_sqr() / norms;
-        let rest = (v.coefficients[1..].iter().flatten())
+        let rest = (coefficients[1..].iter().flatten())
             .map(|p| p.norm())
             .fold(0.0, f64::max);
         println!("{how}: MAC with mode 1 {mac:.12}, other coefficients up to {rest:.1e}");

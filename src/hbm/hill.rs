@@ -30,6 +30,8 @@
 //! compliance): where the harmonic balance is coarse the verdict is that of the coarse model,
 //! and the harmonic ladder of the solve says whether the state itself has converged.
 
+use std::sync::Arc;
+
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{c64, Mat};
 use nalgebra::DMatrix;
@@ -121,19 +123,50 @@ pub struct HillModel {
     /// A frame whose speed follows ω (its centrifugal load left out): θ_j at ω is θ_j + s,
     /// s = `Spin::shift` (the modes of K + sM are those of K).
     spin: Option<Spin>,
-    /// Φ, the kept modes on the free dofs (empty for a model built from its parts): what maps
-    /// a Floquet vector's modal coordinates to the structure (`floquet_vector`).
-    phi: Vec<Vec<f64>>,
+    /// Φ, the modes on the free dofs (empty for a model built from its parts; the first r
+    /// are kept dynamic), shared by the truncated models: what maps a Floquet vector's modal
+    /// coordinates to the structure (`FloquetVector::coefficients`).
+    phi: Arc<Vec<Vec<f64>>>,
 }
 
-/// The leading exponent's Floquet vector on the structure: p(t) = Σ_j φ_j q̃_j(t), its
-/// coefficients in the real Fourier layout of `fourier` (M = 2H + 1 complex vectors on the
-/// free dofs); a perturbation grows as Re(e^{st} p(t)).
+/// The leading exponent's Floquet vector: a perturbation grows as Re(e^{st} p(t)),
+/// p(t) = Σ_j φ_j q̃_j(t) over the r modes kept dynamic. Cheap to keep (q̃ and a shared Φ);
+/// `coefficients` forms it on the structure.
 #[derive(Clone, Debug)]
 pub struct FloquetVector {
     pub exponent: c64,
     pub harmonics: usize,
-    pub coefficients: Vec<Vec<c64>>,
+    /// q̃, r modes × M coefficients (real Fourier layout of `fourier`).
+    modal: Vec<c64>,
+    phi: Arc<Vec<Vec<f64>>>,
+}
+
+impl FloquetVector {
+    /// p's coefficients in the real Fourier layout (M = 2H + 1 complex vectors on the free
+    /// dofs), p_c = Σ_j φ_j q̃_{j,c}, scaled so that the largest entry has modulus 1.
+    pub fn coefficients(&self) -> Vec<Vec<c64>> {
+        let m = 2 * self.harmonics + 1;
+        let n = self.phi.first().map_or(0, Vec::len);
+        let mut coefficients = vec![vec![c64::new(0.0, 0.0); n]; m];
+        for (j, phi) in self.phi.iter().take(self.modal.len() / m).enumerate() {
+            for (c, field) in coefficients.iter_mut().enumerate() {
+                let a = self.modal[j * m + c];
+                field.iter_mut().zip(phi).for_each(|(f, p)| *f += a * *p);
+            }
+        }
+        let largest = coefficients
+            .iter()
+            .flatten()
+            .map(|z| z.norm())
+            .fold(0.0, f64::max);
+        if largest > 0.0 && largest.is_finite() {
+            coefficients
+                .iter_mut()
+                .flatten()
+                .for_each(|z| *z /= largest);
+        }
+        coefficients
+    }
 }
 
 impl HillModel {
@@ -148,7 +181,7 @@ impl HillModel {
         let found = crate::fem::modes::modes_near(k, m, count, 0.0, None)?;
         let rows = super::floquet::b_rows(b);
         let theta: Vec<f64> = found.iter().map(|(w2, _)| *w2).collect();
-        let phi = found.iter().map(|(_, v)| v.clone()).collect();
+        let phi = Arc::new(found.iter().map(|(_, v)| v.clone()).collect());
         let e = DMatrix::from_fn(rows.len(), found.len(), |i, j| {
             crate::linalg::dot(&rows[i], &found[j].1)
         });
@@ -177,7 +210,7 @@ impl HillModel {
             alpha,
             beta,
             spin: None,
-            phi: Vec::new(),
+            phi: Arc::new(Vec::new()),
         }
     }
 
@@ -202,41 +235,21 @@ impl HillModel {
             alpha: self.alpha,
             beta: self.beta,
             spin: None,
-            phi: self.phi.iter().take(r).cloned().collect(),
+            phi: Arc::clone(&self.phi),
         }
     }
 
-    /// The Floquet vector of exponent `s` whose modal part is `q` (r × M): p_c = Σ_j φ_j q_{j,c}
-    /// per coefficient c, scaled so that its largest entry has modulus 1 (`None` without Φ).
-    fn floquet_vector(&self, s: c64, q: &[c64], h: usize) -> Option<FloquetVector> {
+    /// The Floquet vector of exponent `s` whose modal part is `q` (r × M); `None` without Φ.
+    fn floquet_vector(&self, s: c64, q: Vec<c64>, h: usize) -> Option<FloquetVector> {
         let (r, m) = (self.dim(), 2 * h + 1);
-        let n = self.phi.first()?.len();
-        if self.phi.len() != r || q.len() != r * m {
+        if self.phi.len() < r || q.len() != r * m {
             return None;
         }
-        let mut coefficients = vec![vec![c64::new(0.0, 0.0); n]; m];
-        for (j, phi) in self.phi.iter().enumerate() {
-            for (c, field) in coefficients.iter_mut().enumerate() {
-                let a = q[j * m + c];
-                field.iter_mut().zip(phi).for_each(|(f, p)| *f += a * *p);
-            }
-        }
-        let largest = coefficients
-            .iter()
-            .flatten()
-            .map(|z| z.norm())
-            .fold(0.0, f64::max);
-        if !(largest > 0.0 && largest.is_finite()) {
-            return None;
-        }
-        coefficients
-            .iter_mut()
-            .flatten()
-            .for_each(|z| *z /= largest);
         Some(FloquetVector {
             exponent: s,
             harmonics: h,
-            coefficients,
+            modal: q,
+            phi: Arc::clone(&self.phi),
         })
     }
 
@@ -326,7 +339,7 @@ impl HillModel {
         Ok(Multipliers {
             values,
             segments,
-            leading_vector: leading.and_then(|(s, q)| self.floquet_vector(s, &q, h)),
+            leading_vector: leading.and_then(|(s, q)| self.floquet_vector(s, q, h)),
         })
     }
 

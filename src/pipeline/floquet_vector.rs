@@ -32,9 +32,10 @@ pub fn write(dir: &Path, model: &Model, vector: &FloquetVector, omega: f64) -> R
     let times: Vec<f64> = (0..FRAMES)
         .map(|j| 2.0 * period * j as f64 / FRAMES as f64)
         .collect();
+    let coefficients = vector.coefficients();
     let frames: Vec<Vec<f64>> = times
         .iter()
-        .map(|&t| shape_at(model, vector, omega, t))
+        .map(|&t| shape_at(model, (vector, &coefficients), omega, t))
         .collect();
     let largest = (frames.iter().flat_map(|u| u.chunks(2)))
         .map(|c| c[0].hypot(c[1]))
@@ -58,8 +59,14 @@ pub fn write(dir: &Path, model: &Model, vector: &FloquetVector, omega: f64) -> R
     Ok(FILE.to_string())
 }
 
-/// Re(e^{i Im(s) t} p(t)) on every mesh dof (x, y per node; held dofs 0).
-pub fn shape_at(model: &Model, vector: &FloquetVector, omega: f64, t: f64) -> Vec<f64> {
+/// Re(e^{i Im(s) t} p(t)) on every mesh dof (x, y per node; held dofs 0), p's coefficients
+/// given (`FloquetVector::coefficients`).
+pub fn shape_at(
+    model: &Model,
+    (vector, coefficients): (&FloquetVector, &[Vec<c64>]),
+    omega: f64,
+    t: f64,
+) -> Vec<f64> {
     let dofs = &model.system.dofs;
     let rotation = c64::new(0.0, vector.exponent.im * t).exp();
     let mut weights = vec![c64::new(1.0, 0.0); 2 * vector.harmonics + 1];
@@ -70,7 +77,7 @@ pub fn shape_at(model: &Model, vector: &FloquetVector, omega: f64, t: f64) -> Ve
     }
     let mut u = vec![0.0; 2 * model.mesh.nodes.len()];
     for (i, &d) in dofs.free.iter().enumerate() {
-        let p: c64 = (vector.coefficients.iter().zip(&weights))
+        let p: c64 = (coefficients.iter().zip(&weights))
             .map(|(field, w)| field[i] * *w)
             .sum();
         u[d] = (rotation * p).re;
