@@ -85,7 +85,7 @@ fn run_plots_are_valid_svg_and_png_and_draw_the_summary_values() {
     let force = check_plot(
         &plots.join("contact_force"),
         &[
-            "total contact force [N]",
+            "total contact force [N per m of thickness]",
             "t/T [-]",
             "contact law max(0, c g - λ)",
             "Fourier series of λ",
@@ -177,7 +177,7 @@ fn transient_plots_and_compare_overlays_show_both_solvers() {
     let force = check_plot(
         &tm.join("plots/contact_force"),
         &[
-            "total contact force [N]",
+            "total contact force [N per m of thickness]",
             "contact law, every time step",
             "contact law, output frames",
         ],
@@ -327,4 +327,26 @@ fn the_probe_plot_title_names_its_group_once() {
         "{:?}",
         svg.texts
     );
+}
+
+/// TEST GOAL: force axes say what the model's forces are for: per metre of thickness at the
+/// default thickness of 1 m (the plane-strain strip above: "[N per m of thickness]"), newtons
+/// of the body at a given thickness (the friction block, plane stress, 10 mm: "[N]", on its
+/// contact force and friction loop plots).
+#[test]
+fn force_axes_name_the_thickness_the_forces_are_for() {
+    let out = common::run_cli(
+        "run",
+        "pipelines/scenes/friction_block.yaml",
+        "plots-force-unit",
+        &[],
+    );
+    let plots = out.join("plots");
+    check_plot(&plots.join("contact_force"), &["total contact force [N]"]);
+    check_plot(
+        &plots.join("friction_loop"),
+        &["tangential force λ_t on the body [N]"],
+    );
+    let svg = std::fs::read_to_string(plots.join("contact_force.svg")).unwrap();
+    assert!(!svg.contains("per m of thickness"));
 }

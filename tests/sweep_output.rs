@@ -111,7 +111,7 @@ fn sweep_plots_draw_the_rows_of_sweep_csv_and_mark_each_fold() {
         (
             "sweep_force",
             "peak_contact_force",
-            "peak contact force [N]",
+            "peak contact force [N per m of thickness]",
         ),
     ] {
         let fold_label = format!("fold 1: {:.1} Hz", f(&folds[0]["frequency_hz"]));

@@ -37,3 +37,16 @@ pub struct Material {
     /// Out-of-plane thickness (1 for plane strain unless given).
     pub thickness: f64,
 }
+
+impl Material {
+    /// The unit of a force on the body for plot axes: the model's forces are for `thickness`,
+    /// so per metre of thickness at the default 1 m (a plane-strain slice), newtons of the
+    /// given thickness otherwise.
+    pub fn force_unit(&self) -> &'static str {
+        if self.thickness == 1.0 {
+            "N per m of thickness"
+        } else {
+            "N"
+        }
+    }
+}

@@ -338,7 +338,8 @@ pub fn run_transient(
         let f = p.harmonic_balance.frequency;
         stages.run(Stage::Plots, || {
             publish::plots(p, (&model, &sampled), &dir, 1.0 / f)?;
-            plots::write_late_plots(&dir, &signals, f).map(|_| ())
+            let unit = model.material.force_unit();
+            plots::write_late_plots(&dir, &signals, (f, unit)).map(|_| ())
         })?;
     }
     summary.stage_seconds = stages.times;

@@ -74,7 +74,8 @@ pub fn write_run_plots(
     let mut figures = probe_figures(model, sampled, period);
     if let Some(c) = &model.contact {
         if !sampled.history.contact.is_empty() {
-            figures.push(("contact_force".into(), force_figure(sampled, period)));
+            let unit = model.material.force_unit();
+            figures.push(("contact_force".into(), force_figure(sampled, period, unit)));
             let mut offset = 0;
             for (j, (pair, boundary)) in c.pairs.iter().zip(boundaries).enumerate() {
                 let rows = offset..offset + pair.nodes.len();
@@ -92,7 +93,8 @@ pub fn write_run_plots(
         }
     }
     if let Some(l) = &sampled.friction_loop {
-        figures.push(("friction_loop".into(), friction_loop_figure(l)));
+        let unit = model.material.force_unit();
+        figures.push(("friction_loop".into(), friction_loop_figure(l, unit)));
     }
     let mut files = Vec::new();
     for (stem, fig) in figures {
@@ -104,7 +106,7 @@ pub fn write_run_plots(
 
 /// The hysteresis loop λ_t(w) of the contact node that dissipates most (closed over the
 /// period); its area is the energy the node dissipates per period.
-fn friction_loop_figure(l: &super::report::FrictionLoop) -> Figure {
+fn friction_loop_figure(l: &super::report::FrictionLoop, unit: &str) -> Figure {
     let mut points: Vec<(f64, f64)> = l
         .slip
         .iter()
@@ -120,7 +122,7 @@ fn friction_loop_figure(l: &super::report::FrictionLoop) -> Figure {
         tick(l.energy)
     );
     let x = Axis::linear("tangential displacement w relative to the obstacle [m]");
-    let y = Axis::linear("tangential force λ_t on the body [N]");
+    let y = Axis::linear(format!("tangential force λ_t on the body [{unit}]"));
     Figure::new(title, x, y).add(format!("node {}", l.node), points, style(l.slip.len()))
 }
 
@@ -163,12 +165,12 @@ fn probe_figures(model: &Model, sampled: &Sampled, period: f64) -> Vec<(String, 
 
 /// `contact_force`: the law's total force and (dashed) the raw series, or for time marching
 /// the force at every step and at the frames.
-fn force_figure(sampled: &Sampled, period: f64) -> Figure {
+fn force_figure(sampled: &Sampled, period: f64, unit: &str) -> Figure {
     let h = &sampled.history;
     let fig = Figure::new(
         "total contact force over one period",
         time_axis(period),
-        Axis::linear("total contact force [N]"),
+        Axis::linear(format!("total contact force [{unit}]")),
     );
     let law = over_period(&h.times, &h.total_force(), period);
     match &sampled.steps {
@@ -260,7 +262,11 @@ fn pressure_figure(
 /// to 10⁻⁶ of the largest line); `late_response`, the probes' u over the L periods against
 /// t/T; `late_contact_force` (contact scenes), the total contact force over them. Returns
 /// the files written into `dir` (created).
-pub fn write_late_plots(dir: &Path, signals: &LateSignals, f: f64) -> Result<Vec<PathBuf>> {
+pub fn write_late_plots(
+    dir: &Path,
+    signals: &LateSignals,
+    (f, unit): (f64, &str),
+) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let periods = signals.periods;
     let mut figures = vec![("spectrum", late_spectrum(signals, f))];
@@ -302,7 +308,7 @@ pub fn write_late_plots(dir: &Path, signals: &LateSignals, f: f64) -> Result<Vec
                 signals.samples_per_period
             ),
             t_axis(),
-            Axis::linear("total contact force [N]"),
+            Axis::linear(format!("total contact force [{unit}]")),
         )
         .curve(label.as_str(), over(v));
         figures.push(("late_contact_force", fig));

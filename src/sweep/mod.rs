@@ -454,7 +454,10 @@ fn write(
         write_text(&staged.path().join("sweep.csv"), &csv(&summary))
     })?;
     if p.output.plots {
-        stages.run(Stage::Plots, || plot::write_plots(staged.path(), &summary))?;
+        let unit = crate::pipeline::model::material(p).force_unit();
+        stages.run(Stage::Plots, || {
+            plot::write_plots(staged.path(), &summary, unit)
+        })?;
     }
     summary.stage_seconds = stages.times;
     write_json(&staged.path().join("sweep.json"), &summary)?;

@@ -23,9 +23,11 @@ use crate::hbm::knobs::UNDERDAMPED_TOLERANCE;
 use crate::output::plot::{Axis, Figure, Shape, Style};
 use crate::Result;
 
-/// Draw `sweep` and, with a contact force column holding values, `sweep_force` into `dir`.
-pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
+/// Draw `sweep` and, with a contact force column holding values, `sweep_force` into `dir`
+/// (its forces in `force_unit`, `Material::force_unit`).
+pub fn write_plots(dir: &Path, s: &SweepSummary, force_unit: &str) -> Result<()> {
     let column = |name: &str| s.columns.iter().position(|c| c == name);
+    let force_label = format!("peak contact force [{force_unit}]");
     let figures = [
         (
             "sweep",
@@ -36,7 +38,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary) -> Result<()> {
         (
             "sweep_force",
             column("peak_contact_force"),
-            "peak contact force [N]",
+            force_label.as_str(),
             "peak total contact force against frequency",
         ),
     ];
