@@ -72,7 +72,8 @@ fn column(rows: &[Vec<String>], name: &str) -> Vec<String> {
 }
 
 /// TEST GOAL: running the points two at a time gives the same table (parameters, outputs,
-/// status, keys) as running them one after another, and both write plots and a manifest.
+/// status, keys) as running them one after another, and both write plots and a manifest
+/// (forces on their axes per metre of thickness, as the plane-strain strip's are).
 #[test]
 fn parallel_study_table_equals_serial_table() {
     let dir = common::temp_out("study-parallel");
@@ -121,6 +122,10 @@ fn parallel_study_table_equals_serial_table() {
         svg.contains("gap [m]") && svg.contains("cos [Pa] = ") || svg.contains(" Pa"),
         "axis label with unit and a legend naming the other parameter"
     );
+    // The strip's forces are per metre of thickness (plane strain at the default 1 m).
+    let svg =
+        std::fs::read_to_string(parallel.join("plots/peak_contact_force_vs_gap.svg")).unwrap();
+    assert!(svg.contains("peak_contact_force [N per m of thickness]"));
 }
 
 /// TEST GOAL: a point that fails (its Newton is allowed no iteration) is in the table as

@@ -160,6 +160,17 @@ fn parameter_axis(p: &Parameter) -> Axis {
 /// The legend of the points whose run warned (study.csv's `warnings` says of what).
 pub const WARNED: &str = "warned (study.csv says of what)";
 
+/// `o`'s axis label; forces and energies per metre of thickness where every point's body has
+/// the default thickness of 1 m (as `Material::force_unit` says for the run's plots).
+fn output_label(o: &Output, rows: &[Row]) -> String {
+    let material = |r: &Row| crate::pipeline::model::material(&r.point.pipeline);
+    let per_metre = rows.iter().all(|r| material(r).thickness == 1.0);
+    match (o.unit(), per_metre) {
+        (unit @ ("N" | "J"), true) => format!("{} [{unit} per m of thickness]", o.name()),
+        _ => o.axis_label(),
+    }
+}
+
 /// The plots of one output against each parameter (and its heat map when both parameters of
 /// a two-parameter grid are numeric), into `dir`, the points whose run warned marked. A parameter with string values is a
 /// categorical axis (its values as tick labels); in a two-parameter grid it also names the
@@ -171,7 +182,11 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
     let x = |r: &Row, j: usize| position(&params[j], &r.point.values[j].1);
     for (j, p) in params.iter().enumerate() {
         let title = format!("{}: {} against {}", study.name, o.name(), p.label);
-        let mut fig = Figure::new(title, parameter_axis(p), Axis::linear(o.axis_label()));
+        let mut fig = Figure::new(
+            title,
+            parameter_axis(p),
+            Axis::linear(output_label(o, rows)),
+        );
         let point = |r: &Row| (x(r, j), r.output(o));
         if two_grid {
             let other = &params[1 - j];
@@ -227,7 +242,7 @@ fn plot_output(study: &Study, rows: &[Row], o: &Output, dir: &Path) -> Result<Ve
             })
             .collect();
         let map = HeatMap {
-            title: format!("{}: {} [{}]", study.name, o.name(), o.unit()),
+            title: format!("{}: {}", study.name, output_label(o, rows)),
             x: Axis::linear(px.axis_label()),
             y: Axis::linear(py.axis_label()),
             xs,
