@@ -55,7 +55,8 @@ pub struct LinearReference {
 }
 
 /// The linear reference for frequencies `rows_hz` and the band [from, to] Hz: `None` without
-/// a probe, a harmonic-1 load, or a factorizable Z_1.
+/// a probe or a harmonic-1 load; an error where Z_1 or the modes cannot be formed (the sweep
+/// then warns and draws none).
 pub fn linear_reference(
     model: &Model,
     band_hz: [f64; 2],
