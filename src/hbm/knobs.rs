@@ -313,7 +313,6 @@ pub fn adapt_samples(
     (n, best, check)
 }
 
-/// The warnings a check calls for, with its numbers.
 /// The warning of a frictional solve whose re-solve at 2N samples moved its multipliers by
 /// `change` (relative) past `SAMPLES_TOLERANCE`, or did not converge (∞); `None` for NaN
 /// (not checked).
@@ -331,6 +330,7 @@ pub fn friction_warning(change: f64, samples: usize, basis: &TimeBasis) -> Optio
     ))
 }
 
+/// The warnings a check calls for, with its numbers.
 pub fn warnings(check: &KnobCheck, samples: usize, basis: &TimeBasis) -> Vec<String> {
     let refine = basis.refine_key();
     let mut out = Vec::new();

@@ -195,13 +195,12 @@ fn write_mode_shapes(
             file,
             picture: None,
         });
-    }
-    for (info, (_, phi)) in infos.iter_mut().zip(modes).take(MAX_PICTURES) {
-        let stem = format!("mode_{:04}", info.mode);
-        let shape = shape_field(model, phi);
-        let figure = mode_figure(name, info, &model.mesh, &outline, &shape.values);
-        figure.save(&dir.join(&stem))?;
-        info.picture = Some(stem);
+        if let Some(info) = infos.last_mut().filter(|_| i < MAX_PICTURES) {
+            let stem = format!("mode_{:04}", info.mode);
+            let figure = mode_figure(name, info, &model.mesh, &outline, &shape.values);
+            figure.save(&dir.join(&stem))?;
+            info.picture = Some(stem);
+        }
     }
     write_pvd(&dir.join("modes.pvd"), &entries)?;
     Ok(infos)

@@ -415,10 +415,11 @@ impl FrictionSummary {
         frequency: f64,
     ) -> FrictionSummary {
         let all = m.counts.iter().sum::<usize>().max(1) as f64;
+        let energy = m.energy();
         FrictionSummary {
             coefficient,
-            dissipated_energy_per_period: m.energy(),
-            dissipated_power: m.energy() * frequency,
+            dissipated_energy_per_period: energy,
+            dissipated_power: energy * frequency,
             most_dissipating_node: None,
             most_dissipated_energy: 0.0,
             peak_tangential_force: m.peak_force,

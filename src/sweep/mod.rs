@@ -102,6 +102,15 @@ pub struct SweepRow {
     pub underdamped_share: Option<f64>,
 }
 
+impl SweepRow {
+    /// The row's underdamped share where it is above `UNDERDAMPED_TOLERANCE` (the rows the
+    /// summary's warning counts and the plot marks).
+    pub fn underdamped(&self) -> Option<f64> {
+        self.underdamped_share
+            .filter(|&v| v > UNDERDAMPED_TOLERANCE)
+    }
+}
+
 /// JSON writes NaN as null; read it back as NaN.
 fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<f64>, D::Error> {
     let values: Vec<Option<f64>> = Deserialize::deserialize(d)?;
@@ -872,14 +881,8 @@ fn underdamped_rows(rows: &[SweepRow], basis: &TimeBasis) -> Option<String> {
     let TimeBasis::Spline(s) = basis else {
         return None;
     };
-    let over: Vec<(&SweepRow, f64)> = rows
-        .iter()
-        .filter_map(|r| {
-            Some((
-                r,
-                r.underdamped_share.filter(|&v| v > UNDERDAMPED_TOLERANCE)?,
-            ))
-        })
+    let over: Vec<(&SweepRow, f64)> = (rows.iter())
+        .filter_map(|r| Some((r, r.underdamped()?)))
         .collect();
     let &(worst, share) = over.iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
     let hz = over.iter().map(|(r, _)| r.frequency_hz);

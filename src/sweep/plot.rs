@@ -19,7 +19,6 @@ use std::path::Path;
 
 use super::bifurcations::{BifurcationKind, BifurcationReport};
 use super::{FoldReport, SweepRow, SweepSummary};
-use crate::hbm::knobs::UNDERDAMPED_TOLERANCE;
 use crate::output::plot::{Axis, Figure, Shape, Style};
 use crate::Result;
 
@@ -53,7 +52,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary, force_unit: &str) -> Result<()>
             figure = with_reference(figure, s, c);
         }
         let warned: Vec<(f64, f64)> = (s.rows.iter())
-            .filter(|r| r.underdamped_share > Some(UNDERDAMPED_TOLERANCE))
+            .filter(|r| r.underdamped().is_some())
             .map(|r| (r.frequency_hz, r.values[c]))
             .collect();
         if !warned.is_empty() {
