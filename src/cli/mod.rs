@@ -186,6 +186,9 @@ fn show_headline(s: &Summary) {
             );
         }
     }
+    if let Some(chosen) = &h.harmonics_chosen {
+        outln!("  harmonics: {chosen}");
+    }
     if let Some(n) = h.newton_iterations {
         match &h.contact_detour {
             Some(detour) => outln!("  Newton iterations: {n}, through {detour}"),

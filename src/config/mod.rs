@@ -183,8 +183,13 @@ pub struct Rayleigh {
 pub struct HarmonicBalance {
     /// Fundamental frequency in Hz (ω = 2π f).
     pub frequency: f64,
-    /// Highest harmonic H kept in the contact solve (the linear solve keeps the loads' harmonics).
+    /// Highest harmonic H kept in the contact solve (the linear solve keeps the loads' harmonics);
+    /// with a range, the smallest H tried.
     pub harmonics: usize,
+    /// The largest H tried (`harmonics` when H is fixed).
+    pub harmonics_max: usize,
+    /// The relative change of the answer that settles H within a range.
+    pub tolerance: f64,
     /// Time samples per period for the contact terms; `None` = the default (16 H, at least 64).
     pub samples: Option<usize>,
     pub solver: SolverSpec,

@@ -337,8 +337,15 @@ pub(super) struct RawHarmonicBalance {
     /// Required.
     pub(super) frequency: f64,
     /// The highest harmonic H of the contact solve (≥ every harmonic the loads excite), at
-    /// most 1000. Linear scenes solve the harmonics their loads excite. Required.
-    pub(super) harmonics: usize,
+    /// most 1000: a number, or a range `{min, max}` within which each run (and each sweep
+    /// point) chooses H by the truncation estimate and `tolerance`. Linear scenes solve the
+    /// harmonics their loads excite. Required.
+    pub(super) harmonics: RawHarmonics,
+    /// With a range of harmonics: the relative change of the answer (the contact nodes'
+    /// vibration and the mean contact force) from one H to the next below which H is
+    /// settled, in (0, 0.5]. Default: 0.01.
+    #[serde(default)]
+    pub(super) tolerance: Option<f64>,
     /// Time samples N per period for the contact terms, > 2·harmonics, at most 1000000.
     /// Default: 16·H, at least 64 (1 for H = 0). With a spline basis: a multiple of its
     /// segments S with at least degree + 1 per segment (Gauss points in each segment); default
@@ -357,6 +364,24 @@ pub(super) struct RawHarmonicBalance {
     )]
     #[schemars(with = "Option<RawBasis>")]
     pub(super) basis: Option<RawBasis>,
+}
+
+/// `harmonic_balance.harmonics`: one H, or a range to choose from.
+#[derive(Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub(super) enum RawHarmonics {
+    /// H, fixed.
+    Fixed(usize),
+    /// H chosen between `min` and `max` (Fourier basis, frictionless contact).
+    Range(RawHarmonicRange),
+}
+
+/// A range of harmonics: the first level solved is `min`, then 2·min, 4·min, … up to `max`.
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawHarmonicRange {
+    pub(super) min: usize,
+    pub(super) max: usize,
 }
 
 /// The time basis, written `fourier` or `{spline: {degree: 3, segments: 32}}`.

@@ -34,6 +34,11 @@ pub(super) fn explain(message: &str) -> String {
                 rest.find('`').map(|j| rest[..j].to_string())
             })
         });
+    if message.contains("untagged enum RawHarmonics") {
+        return "harmonic_balance.harmonics must be a whole number H (e.g. 20) or a range \
+                {min: 10, max: 40}"
+            .into();
+    }
     let Some(word) = unknown else {
         return message.to_string();
     };

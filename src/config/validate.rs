@@ -164,6 +164,13 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
     if let Some(c) = &contact {
         check_contact_harmonics(path, &boundaries, c, harmonic_balance.harmonics)?;
         check_friction(path, &boundaries, c)?;
+        let friction = c.pairs.iter().find(|p| p.friction > 0.0);
+        if let (Some(pair), true) = (friction, harmonic_balance.harmonics_max > harmonic_balance.harmonics) {
+            return Err(config_error(path, format!(
+                "harmonic_balance.harmonics: a range of harmonics is chosen on frictionless contact only, and {}.friction is set: give harmonics one value (e.g. {})",
+                pair.key, harmonic_balance.harmonics_max
+            )));
+        }
     }
     let transient = validate_transient(path, raw.transient)?;
     let sweep = raw.sweep.map(|s| validate_sweep(path, s)).transpose()?;
@@ -550,6 +557,52 @@ fn validate_damping(path: &Path, damping: Option<RawDamping>) -> Result<Option<R
     }))
 }
 
+/// The largest `harmonic_balance.tolerance`: a change of half the answer settles nothing.
+const MAX_HARMONICS_TOLERANCE: f64 = 0.5;
+/// The default `harmonic_balance.tolerance`: the knob check's own threshold on c
+/// (`hbm::knobs::C_TOLERANCE`).
+pub const DEFAULT_HARMONICS_TOLERANCE: f64 = 0.01;
+
+/// `harmonic_balance.harmonics` as (smallest H, largest H, tolerance): a fixed H is its own
+/// range. A range needs the Fourier basis and no explicit `samples` (each H takes 16·H).
+fn harmonic_range(path: &Path, hb: &RawHarmonicBalance) -> Result<(usize, usize, f64)> {
+    let tolerance = match hb.tolerance {
+        Some(t) if !(t > 0.0 && t <= MAX_HARMONICS_TOLERANCE) => {
+            return Err(config_error(path, format!(
+                "harmonic_balance.tolerance = {} must lie in (0, {MAX_HARMONICS_TOLERANCE}]: it is the relative change of the answer that settles H (default {DEFAULT_HARMONICS_TOLERANCE})",
+                show(t)
+            )));
+        }
+        Some(t) => t,
+        None => DEFAULT_HARMONICS_TOLERANCE,
+    };
+    let (min, max) = match &hb.harmonics {
+        RawHarmonics::Fixed(h) => {
+            if hb.tolerance.is_some() {
+                return Err(config_error(path, format!(
+                    "harmonic_balance.tolerance needs a range of harmonics to choose from: write harmonics: {{min: {h}, max: {}}}, or leave tolerance out",
+                    4 * h.max(&1)
+                )));
+            }
+            return Ok((*h, *h, tolerance));
+        }
+        RawHarmonics::Range(r) => (r.min, r.max),
+    };
+    let problem = if min == 0 || max < min {
+        Some(format!("harmonics: {{min: {min}, max: {max}}} needs 1 ≤ min ≤ max"))
+    } else if hb.samples.is_some() {
+        Some("harmonic_balance.samples cannot be fixed with a range of harmonics: each H takes 16·H samples; leave samples out".into())
+    } else if matches!(hb.basis, Some(RawBasis::Spline { .. })) {
+        Some("a range of harmonics needs the Fourier basis: a spline basis is refined by its segments; give harmonics one value".into())
+    } else {
+        None
+    };
+    match problem {
+        Some(message) => Err(config_error(path, message)),
+        None => Ok((min, max, tolerance)),
+    }
+}
+
 fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<HarmonicBalance> {
     if hb.frequency.is_finite() && hb.frequency > MAX_FREQUENCY {
         return Err(config_error(
@@ -561,12 +614,12 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
         ));
     }
     positive(path, "harmonic_balance.frequency", hb.frequency)?;
-    if hb.harmonics > MAX_HARMONICS {
+    let (harmonics, harmonics_max, tolerance) = harmonic_range(path, &hb)?;
+    if harmonics_max > MAX_HARMONICS {
         return Err(config_error(
             path,
             format!(
-                "harmonic_balance.harmonics = {} is above the limit of {MAX_HARMONICS}: the contact solve grows as H² (and N = 16H samples); the accuracy table shows where more harmonics stop paying",
-                hb.harmonics
+                "harmonic_balance.harmonics = {harmonics_max} is above the limit of {MAX_HARMONICS}: the contact solve grows as H² (and N = 16H samples); the accuracy table shows where more harmonics stop paying"
             ),
         ));
     }
@@ -577,12 +630,12 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
                 format!("harmonic_balance.samples = {n} is above the limit of {MAX_SAMPLES}"),
             ));
         }
-        if n <= 2 * hb.harmonics {
+        if n <= 2 * harmonics {
             return Err(config_error(path, format!(
                 "harmonic_balance.samples = {n} must exceed 2·harmonics = {}: use at least {} (16·H = {} converges reliably)",
-                2 * hb.harmonics,
-                2 * hb.harmonics + 1,
-                (16 * hb.harmonics).max(1)
+                2 * harmonics,
+                2 * harmonics + 1,
+                (16 * harmonics).max(1)
             )));
         }
     }
@@ -623,7 +676,9 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
     }
     Ok(HarmonicBalance {
         frequency: hb.frequency,
-        harmonics: hb.harmonics,
+        harmonics,
+        harmonics_max,
+        tolerance,
         samples: hb.samples,
         solver,
         basis: validate_basis(path, hb.basis)?,

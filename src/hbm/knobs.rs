@@ -110,8 +110,31 @@ pub fn underdamped_from(s: &SplineBasis) -> usize {
 
 /// The change of the answer from multipliers `a` to `b` (see the header).
 fn relative_change(problem: &ReducedProblem, a: &[f64], b: &[f64]) -> f64 {
-    let m = problem.coefficients();
     let (ga, gb) = (problem.gap(a), problem.gap(b));
+    change_of_answer(problem, (&ga, a), (&gb, b))
+}
+
+/// The change of the answer from the solution `coarse` of a problem at a lower H to `fine`
+/// of `problem` (multipliers each): the coarse gaps and multipliers padded with zeros, so the
+/// harmonics the coarse solution does not carry count in full as its error.
+pub fn change_across_harmonics(
+    (coarse_problem, coarse): (&ReducedProblem, &[f64]),
+    (problem, fine): (&ReducedProblem, &[f64]),
+) -> f64 {
+    let (nc, from, to) = (problem.nodes, coarse_problem.harmonics, problem.harmonics);
+    let ga = reduced::pad(&coarse_problem.gap(coarse), nc, from, to);
+    let a = reduced::pad(coarse, nc, from, to);
+    change_of_answer(problem, (&ga, &a), (&problem.gap(fine), fine))
+}
+
+/// The change of the answer between two solutions of `problem` given by their gaps and
+/// multipliers.
+fn change_of_answer(
+    problem: &ReducedProblem,
+    (ga, a): (&[f64], &[f64]),
+    (gb, b): (&[f64], &[f64]),
+) -> f64 {
+    let m = problem.coefficients();
     let free = &problem.linear_gap;
     let (mut diff, mut norm, mut norm_free, mut mean_a, mut mean_b) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for i in 0..problem.nodes {

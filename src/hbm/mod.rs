@@ -17,6 +17,7 @@
 //! excite (no static solve without static load), undamped scenes factor real matrices, and
 //! the contact reduction runs only when there is an obstacle.
 
+pub mod adaptive;
 pub mod basis;
 pub mod continuation;
 pub mod floquet;
@@ -93,11 +94,33 @@ pub fn solve(
     settings: &HbSettings,
     reporter: &dyn Reporter,
 ) -> Result<Solution> {
+    solve_within(system, contact, settings, None, reporter)
+}
+
+/// `solve`, with H chosen in [settings.harmonics, range.max] where a range is given and the
+/// scene has frictionless contact on the Fourier basis (`adaptive`); the reduction is formed
+/// at H_max once and each level solves its truncation.
+pub fn solve_within(
+    system: &System,
+    contact: Option<&ContactOperator>,
+    settings: &HbSettings,
+    range: Option<adaptive::HarmonicRange>,
+    reporter: &dyn Reporter,
+) -> Result<Solution> {
     let settings = &contact_settings(system, contact.is_some(), settings)?;
+    let adapting = range.filter(|r| {
+        r.max > settings.harmonics
+            && matches!(system.basis, basis::TimeBasis::Fourier)
+            && contact.is_some_and(|op| op.tangential.is_none())
+    });
     let mut timings = Timings::default();
     let stacked = contact.and_then(ContactOperator::stacked);
     let reduction = stacked.as_ref().or(contact);
-    let (mut linear, problem) = prepare(system, reduction, settings, reporter, &mut timings)?;
+    let reduced_at = HbSettings {
+        harmonics: adapting.map_or(settings.harmonics, |r| r.max),
+        ..settings.clone()
+    };
+    let (mut linear, problem) = prepare(system, reduction, &reduced_at, reporter, &mut timings)?;
     let contact_solution = match (contact, problem) {
         (Some(op), Some(problem)) if op.tangential.is_some() => {
             let solution =
@@ -123,8 +146,20 @@ pub fn solve(
             Some(solution)
         }
         (Some(op), Some(problem)) => {
-            let solution =
-                solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?;
+            let solution = match adapting {
+                Some(range) => adaptive::solve(
+                    system,
+                    op,
+                    &problem,
+                    settings,
+                    range,
+                    reporter,
+                    &mut timings,
+                )?,
+                None => solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?,
+            };
+            let chosen = solution.harmonics_chosen.as_ref();
+            linear.warnings.extend(chosen.and_then(|c| c.warning()));
             timed(&mut timings.recover, || {
                 linear.recover(op, &solution.multipliers, solution.coefficients())
             });

@@ -74,6 +74,9 @@ pub struct ContactSolution {
     pub compliance: Option<std::sync::Arc<Vec<Vec<c64>>>>,
     /// The tangential part of a frictional solve (`None`: frictionless).
     pub friction: Option<FrictionSolution>,
+    /// How H was chosen within a range (`harmonic_balance.harmonics: {min, max}`); `None`
+    /// at a fixed H.
+    pub harmonics_chosen: Option<super::adaptive::HarmonicsChosen>,
 }
 
 /// The tangential part of a frictional contact solution (`hbm::friction`).
@@ -174,6 +177,7 @@ impl ContactSolution {
             newton,
             compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
             friction: None,
+            harmonics_chosen: None,
         }
     }
 

@@ -262,8 +262,10 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
             format!("the spline basis of {} segments", s.segments),
         ),
         TimeBasis::Fourier => {
-            let h = p.harmonic_balance.harmonics;
-            (h, format!("harmonic_balance.harmonics = {h}"))
+            let hb = &p.harmonic_balance;
+            let h = hb.harmonics_max;
+            let key = if h > hb.harmonics { "harmonics.max" } else { "harmonics" };
+            (h, format!("harmonic_balance.{key} = {h}"))
         }
     };
     if p.contact.is_some() && h as f64 * f > f_res {

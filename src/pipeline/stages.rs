@@ -134,14 +134,29 @@ pub fn hb_settings(p: &Pipeline) -> HbSettings {
     }
 }
 
+/// The range H is chosen in (`harmonic_balance.harmonics: {min, max}`); `None` at a fixed H.
+pub fn harmonic_range(p: &Pipeline) -> Option<hbm::adaptive::HarmonicRange> {
+    let hb = &p.harmonic_balance;
+    (hb.harmonics_max > hb.harmonics).then_some(hbm::adaptive::HarmonicRange {
+        max: hb.harmonics_max,
+        tolerance: hb.tolerance,
+    })
+}
+
 /// Harmonic balance on the model; the solver's own phases go into the stage times (its
 /// reporter hears the whole solve as the stage `solve`).
 pub fn solve(p: &Pipeline, model: &Model, stages: &mut Stages) -> Result<Solution> {
     stages.reporter.stage(Stage::Solve.name());
     let start = std::time::Instant::now();
     let contact = model.contact.as_ref().map(|c| &c.operator);
-    let solution = hbm::solve(&model.system, contact, &hb_settings(p), stages.reporter)
-        .map_err(|e| stages.context(Stage::Solve, e))?;
+    let solution = hbm::solve_within(
+        &model.system,
+        contact,
+        &hb_settings(p),
+        harmonic_range(p),
+        stages.reporter,
+    )
+    .map_err(|e| stages.context(Stage::Solve, e))?;
     // The line `[solve] 0.05 s`; the summary holds the solve's phases instead.
     let seconds = start.elapsed().as_secs_f64();
     stages.reporter.stage_done(Stage::Solve.name(), seconds);

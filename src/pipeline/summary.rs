@@ -101,6 +101,8 @@ pub struct Headline {
     pub newton_iterations: Option<usize>,
     /// How the contact solve got there when not directly (`ContactSolve::detour`).
     pub contact_detour: Option<String>,
+    /// How H was chosen within a range, in words (`HarmonicsChosen::describe`).
+    pub harmonics_chosen: Option<String>,
     /// Wall time of every stage [s].
     pub wall_seconds: f64,
     pub warnings: usize,
@@ -132,6 +134,10 @@ impl Summary {
             contact_detour: contact
                 .and_then(|c| c.solver.as_ref())
                 .and_then(ContactSolve::detour),
+            harmonics_chosen: contact
+                .and_then(|c| c.solver.as_ref())
+                .and_then(|s| s.harmonics_chosen.as_ref())
+                .map(|h| h.describe()),
             wall_seconds: self.stage_seconds.total(),
             warnings: self.warnings.len(),
             stability: self.stability.as_ref().and_then(|s| s.headline()),
@@ -460,6 +466,10 @@ pub struct ContactSolve {
     /// the N used) and with c (re-solved at c/3, or at 3c, c/2, 2c in turn where that does not
     /// converge).
     pub knob_check: KnobCheck,
+    /// How H was chosen within `harmonic_balance.harmonics: {min, max}` (absent at a fixed
+    /// H): the levels solved, each with its truncation estimate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonics_chosen: Option<crate::hbm::adaptive::HarmonicsChosen>,
 }
 
 impl ContactSolve {
@@ -648,6 +658,12 @@ fn half_range(series: &[f64]) -> f64 {
 
 /// Over evenly spaced samples of one period, per probe: half the peak-to-peak range and the
 /// first-harmonic amplitude of each component of the probe's mean displacement.
+/// The H a contact solution was solved at (chosen within a range, or the pipeline's).
+fn solved_harmonics(p: &Pipeline, solution: &Solution) -> usize {
+    let contact = solution.contact.as_ref();
+    contact.map_or(p.harmonic_balance.harmonics, |c| c.harmonics)
+}
+
 pub fn probe_amplitudes(
     model: &Model,
     probe_means: &[[Vec<f64>; 2]],
@@ -719,6 +735,7 @@ pub fn harmonic_balance(
                 max_penetration_on_history: history.max_penetration(),
                 newton_log: c.newton.log.clone(),
                 knob_check: c.knob_check.clone(),
+                harmonics_chosen: c.harmonics_chosen.clone(),
             }),
             friction: c.friction.as_ref().map(|f| {
                 let nodes = model.contact.as_ref().map_or(&[][..], |m| &m.set.nodes[..]);
@@ -730,7 +747,7 @@ pub fn harmonic_balance(
     Summary {
         linear_residuals: Some(solution.residuals.clone()),
         contact,
-        probes: probe_amplitudes(model, &history.probe_means, p.harmonic_balance.harmonics),
+        probes: probe_amplitudes(model, &history.probe_means, solved_harmonics(p, solution)),
         warnings: solution.warnings.clone(),
         max_von_mises: Some(max_von_mises(model, sampled)),
         ..common(

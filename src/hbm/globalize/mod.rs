@@ -144,21 +144,55 @@ pub(super) fn solve_contact(
             attempts.exhausted,
         ));
     };
+    let iterations = (attempts.iterations, attempts.log);
+    let found = Found {
+        outcome,
+        c,
+        route,
+        hint: attempts.krylov_hint,
+    };
+    Ok(finish(problem, settings, found, iterations, reporter))
+}
+
+/// A converged Newton outcome at c, how it was reached and the Krylov hint its last step
+/// used.
+struct Found {
+    outcome: NewtonOutcome,
+    c: f64,
+    route: Route,
+    hint: crate::hbm::step::KrylovHint,
+}
+
+/// The knob checks on a converged outcome and the contact solution they leave, its Newton
+/// account the `iterations` and log of everything that led to it.
+fn finish(
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    found: Found,
+    (iterations, log): (usize, Vec<crate::hbm::IterationLog>),
+    reporter: &dyn Reporter,
+) -> ContactSolution {
+    let Found {
+        outcome,
+        c,
+        route,
+        hint,
+    } = found;
     let (samples, mut outcome, knob_check) = knobs::adapt_samples(
         problem,
         outcome,
         settings.samples,
         c,
         settings.tolerance,
-        &attempts.krylov_hint,
+        &hint,
         reporter,
     );
-    outcome.iterations = attempts.iterations;
-    outcome.log = attempts.log;
+    outcome.iterations = iterations;
+    outcome.log = log;
     let gaps = problem.gap(&outcome.multipliers);
     let complementarity = measure_complementarity(problem, &outcome.multipliers, &gaps, samples);
-    Ok(ContactSolution {
-        harmonics: settings.harmonics,
+    ContactSolution {
+        harmonics: problem.harmonics,
         samples,
         c,
         multipliers: outcome.multipliers.clone(),
@@ -170,8 +204,49 @@ pub(super) fn solve_contact(
         knob_check,
         compliance: Some(std::sync::Arc::new(problem.compliance.clone())),
         friction: None,
-    })
+        harmonics_chosen: None,
+    }
 }
+
+/// The exact law's Newton at the problem's H and N = `settings.samples` from `start` (a
+/// neighbouring H's multipliers, padded or truncated), with the knob checks where it
+/// converges; `None` where it does not (the caller then solves from scratch).
+pub(super) fn solve_contact_from(
+    problem: &ReducedProblem,
+    settings: &HbSettings,
+    c: f64,
+    start: &[f64],
+    reporter: &dyn Reporter,
+) -> Option<ContactSolution> {
+    let newton = crate::hbm::NewtonSettings {
+        samples: settings.samples,
+        c,
+        tolerance: settings.tolerance,
+        max_iterations: settings.max_iterations.min(WARM_ITERATIONS),
+        hover: WARM_HOVER,
+        ..Default::default()
+    };
+    let outcome = crate::hbm::reduced::newton(problem, &newton, start, reporter);
+    if !outcome.converged {
+        return None;
+    }
+    let account = (outcome.iterations, outcome.log.clone());
+    let found = Found {
+        outcome,
+        c,
+        route: Route {
+            ladder: vec![problem.harmonics],
+            damping: Vec::new(),
+        },
+        hint: newton.krylov_hint,
+    };
+    Some(finish(problem, settings, found, account, reporter))
+}
+
+/// Newton iterations of a warm start from a neighbouring H before the solve starts afresh.
+pub(super) const WARM_ITERATIONS: usize = 60;
+/// Steps without halving the residual after which a warm start gives up.
+pub(super) const WARM_HOVER: usize = 10;
 
 #[cfg(test)]
 mod tests {
