@@ -462,6 +462,14 @@ const BOUNDS_SETUP: &[(&str, &[&str])] = &[
         &["harmonic_balance.basis={spline: {degree: 3, segments: 33}}"],
     ),
     ("sweep.write_at", &["sweep.write_at=[1500.0]"]),
+    (
+        "harmonic_balance.tolerance",
+        &["harmonic_balance.harmonics={min: 10, max: 40}"],
+    ),
+    (
+        "harmonic_balance.harmonics.",
+        &["harmonic_balance.harmonics={min: 10, max: 40}"],
+    ),
     ("contact.friction", &["contact.friction={coefficient: 0.0}"]),
     ("boundaries.rotation", &["boundaries.rotation={speed: 1.0}"]),
     (
@@ -533,6 +541,11 @@ const BOUNDS_INSIDE_COMPANIONS: &[(&str, &[&str])] = &[
 /// Bounds stated relative to other keys (the doc comment's phrase, from its operator) and the
 /// overrides that break each.
 const BOUNDS_RELATIONAL: &[(&str, &str, &[&str])] = &[
+    (
+        "harmonic_balance.harmonics.max",
+        "≥ min",
+        &["harmonic_balance.harmonics.max=5"],
+    ),
     (
         "harmonic_balance.harmonics",
         "≥ every harmonic",

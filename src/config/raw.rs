@@ -370,7 +370,7 @@ pub(super) struct RawHarmonicBalance {
 #[derive(Deserialize, JsonSchema)]
 #[serde(untagged)]
 pub(super) enum RawHarmonics {
-    /// H, fixed.
+    /// The highest harmonic H (≥ every harmonic the loads excite), at most 1000, fixed.
     Fixed(usize),
     /// H chosen between `min` and `max` (Fourier basis, frictionless contact).
     Range(RawHarmonicRange),
@@ -380,7 +380,9 @@ pub(super) enum RawHarmonics {
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawHarmonicRange {
+    /// The first H tried, ≥ 1.
     pub(super) min: usize,
+    /// The largest H tried, ≥ min, at most 1000.
     pub(super) max: usize,
 }
 

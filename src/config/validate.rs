@@ -165,7 +165,10 @@ pub(super) fn validate(path: &Path, raw: RawPipeline) -> Result<Pipeline> {
         check_contact_harmonics(path, &boundaries, c, harmonic_balance.harmonics)?;
         check_friction(path, &boundaries, c)?;
         let friction = c.pairs.iter().find(|p| p.friction > 0.0);
-        if let (Some(pair), true) = (friction, harmonic_balance.harmonics_max > harmonic_balance.harmonics) {
+        if let (Some(pair), true) = (
+            friction,
+            harmonic_balance.harmonics_max > harmonic_balance.harmonics,
+        ) {
             return Err(config_error(path, format!(
                 "harmonic_balance.harmonics: a range of harmonics is chosen on frictionless contact only, and {}.friction is set: give harmonics one value (e.g. {})",
                 pair.key, harmonic_balance.harmonics_max
@@ -588,12 +591,16 @@ fn harmonic_range(path: &Path, hb: &RawHarmonicBalance) -> Result<(usize, usize,
         }
         RawHarmonics::Range(r) => (r.min, r.max),
     };
-    let problem = if min == 0 || max < min {
-        Some(format!("harmonics: {{min: {min}, max: {max}}} needs 1 ≤ min ≤ max"))
+    let problem = if min == 0 {
+        Some("harmonic_balance.harmonics.min = 0 must be ≥ 1: a range of harmonics chooses among 1 or more (give harmonics: 0 for a static solve)".into())
+    } else if max < min {
+        Some(format!("harmonic_balance.harmonics.max = {max} is below harmonic_balance.harmonics.min = {min}: use max ≥ min (e.g. {{min: {min}, max: {}}})", 4 * min))
+    } else if max > MAX_HARMONICS {
+        Some(format!("harmonic_balance.harmonics.max = {max} is above the limit of {MAX_HARMONICS}: the contact solve grows as H²"))
     } else if hb.samples.is_some() {
         Some("harmonic_balance.samples cannot be fixed with a range of harmonics: each H takes 16·H samples; leave samples out".into())
     } else if matches!(hb.basis, Some(RawBasis::Spline { .. })) {
-        Some("a range of harmonics needs the Fourier basis: a spline basis is refined by its segments; give harmonics one value".into())
+        Some("harmonic_balance.harmonics: a range needs the Fourier basis (a spline basis is refined by its segments); give harmonics one value".into())
     } else {
         None
     };

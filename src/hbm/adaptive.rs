@@ -33,7 +33,8 @@ use crate::Result;
 /// A range of H to choose from and the tolerance the answer must meet.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HarmonicRange {
-    /// The largest H tried (the smallest is the settings' `harmonics`).
+    /// The smallest and largest H tried (a single run starts at the settings' `harmonics`).
+    pub min: usize,
     pub max: usize,
     /// The relative change of the answer from one level to the next that settles H.
     pub tolerance: f64,
@@ -96,7 +97,12 @@ impl HarmonicsChosen {
             return None;
         }
         let last = self.levels.last()?;
-        let below = self.levels.iter().rev().nth(1).map_or(last.harmonics / 2, |l| l.harmonics);
+        let below = self
+            .levels
+            .iter()
+            .rev()
+            .nth(1)
+            .map_or(last.harmonics / 2, |l| l.harmonics);
         let estimate = match last.estimate {
             Some(e) if e > self.tolerance => format!(
                 "the answer still changes by {:.2}% from H = {below} to H = {} (harmonic_balance.tolerance = {:.2}%)",
@@ -130,9 +136,17 @@ pub(super) fn solve(
 ) -> Result<ContactSolution> {
     let mut h = settings.harmonics;
     let mut level = problem.truncate(h);
-    let mut solution =
-        super::solve_contact_timed(system, op, &level, &at_level(settings, h), reporter, timings)?;
-    let estimate = timed_check(timings, || half_estimate(&level, &solution, settings, reporter));
+    let mut solution = super::solve_contact_timed(
+        system,
+        op,
+        &level,
+        &at_level(settings, h),
+        reporter,
+        timings,
+    )?;
+    let estimate = timed_check(timings, || {
+        half_estimate(&level, &solution, settings, reporter)
+    });
     let mut chosen = HarmonicsChosen {
         min: h,
         max: range.max,
@@ -154,6 +168,7 @@ pub(super) fn solve(
         let clock = std::time::Instant::now();
         let warm = globalize::solve_contact_from(&finer, &s, solution.c, &start, reporter);
         timings.newton += clock.elapsed().as_secs_f64();
+        reporter.task_done("harmonics");
         let found = match warm {
             Some(found) => {
                 timings.knob_check += found.knob_check.seconds;

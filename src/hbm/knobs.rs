@@ -111,20 +111,50 @@ pub fn underdamped_from(s: &SplineBasis) -> usize {
 /// The change of the answer from multipliers `a` to `b` (see the header).
 fn relative_change(problem: &ReducedProblem, a: &[f64], b: &[f64]) -> f64 {
     let (ga, gb) = (problem.gap(a), problem.gap(b));
-    change_of_answer(problem, (&ga, a), (&gb, b))
+    change_of_answer(problem, (&ga, a), (&gb, b), 1.0)
 }
 
 /// The change of the answer from the solution `coarse` of a problem at a lower H to `fine`
-/// of `problem` (multipliers each): the coarse gaps and multipliers padded with zeros, so the
-/// harmonics the coarse solution does not carry count in full as its error.
+/// of `problem` (multipliers each).
 pub fn change_across_harmonics(
     (coarse_problem, coarse): (&ReducedProblem, &[f64]),
     (problem, fine): (&ReducedProblem, &[f64]),
 ) -> f64 {
     let (nc, from, to) = (problem.nodes, coarse_problem.harmonics, problem.harmonics);
-    let ga = reduced::pad(&coarse_problem.gap(coarse), nc, from, to);
-    let a = reduced::pad(coarse, nc, from, to);
-    change_of_answer(problem, (&ga, &a), (&problem.gap(fine), fine))
+    let gb = reduced::pad(&problem.gap(fine), nc, to, from);
+    let b = reduced::pad(fine, nc, to, from);
+    let ga = coarse_problem.gap(coarse);
+    let vibration = change_of_answer(coarse_problem, (&ga, coarse), (&gb, &b), 0.0);
+    // The mean force against a floor: grazing contact's few newtons change by tens of
+    // percent from H/2 to H, and that is not a change of the answer.
+    let (nodes, m) = (coarse_problem.nodes, coarse_problem.coefficients());
+    let mean = |x: &[f64]| (0..nodes).map(|i| x[i * m]).sum::<f64>();
+    let floor = FORCE_FLOOR * closing_force(coarse_problem);
+    let force = (mean(coarse) - mean(&b)).abs() / mean(coarse).abs().max(floor);
+    if force.is_nan() {
+        return vibration;
+    }
+    vibration.max(force)
+}
+
+/// The share of the closing force below which a mean contact force's change is measured
+/// against the floor instead of itself.
+const FORCE_FLOOR: f64 = 1e-2;
+
+/// The force that closes the linear gap statically: ‖r‖ over the mean static compliance of
+/// a contact node, mean|G_0,ii|.
+fn closing_force(problem: &ReducedProblem) -> f64 {
+    let nc = problem.nodes;
+    let compliance = (0..nc)
+        .map(|i| problem.compliance[0][i * nc + i].re.abs())
+        .sum::<f64>()
+        / nc.max(1) as f64;
+    let r = problem.linear_gap.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if compliance > 0.0 {
+        r / compliance
+    } else {
+        0.0
+    }
 }
 
 /// The change of the answer between two solutions of `problem` given by their gaps and
@@ -133,6 +163,7 @@ fn change_of_answer(
     problem: &ReducedProblem,
     (ga, a): (&[f64], &[f64]),
     (gb, b): (&[f64], &[f64]),
+    with_mean: f64,
 ) -> f64 {
     let m = problem.coefficients();
     let free = &problem.linear_gap;
@@ -148,7 +179,8 @@ fn change_of_answer(
     }
     let norm = norm.sqrt().max(VIBRATION_FLOOR * norm_free.sqrt());
     let ratio = |d: f64, n: f64| if n > 0.0 { d / n } else { d };
-    ratio(diff.sqrt(), norm).max(ratio((mean_a - mean_b).abs(), f64::abs(mean_a)))
+    let force = with_mean * ratio((mean_a - mean_b).abs(), f64::abs(mean_a));
+    ratio(diff.sqrt(), norm).max(force)
 }
 
 /// Newton iterations of a re-solve at doubled N.

@@ -156,7 +156,9 @@ pub fn solve_within(
                     reporter,
                     &mut timings,
                 )?,
-                None => solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?,
+                None => {
+                    solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?
+                }
             };
             let chosen = solution.harmonics_chosen.as_ref();
             linear.warnings.extend(chosen.and_then(|c| c.warning()));
@@ -694,12 +696,14 @@ fn reduce(system: &System, b: &crate::linalg::Csc, k: usize, lu: &Factor) -> Res
 
 impl LinearResponse {
     /// Recovery (24): z_k = z_lin,k + Z_k⁻¹ Bᵀ λ_k, one solve per harmonic (the harmonics in
-    /// parallel); `multipliers` node-major with `m` coefficients per node.
+    /// parallel); `multipliers` node-major with `m` coefficients per node. Harmonics above
+    /// the multipliers' (a range's level below the H the response was formed at) have λ_k = 0.
     fn recover(&mut self, op: &ContactOperator, multipliers: &[f64], m: usize) {
         use rayon::prelude::*;
         let updates: Vec<(usize, Vec<c64>)> = self
             .factors
             .par_iter()
+            .filter(|(&k, _)| 2 * k < m)
             .filter_map(|(&k, lu)| {
                 let lam = fourier::node_phasors(multipliers, m, k);
                 contact_part(op, lu, &lam).map(|(_, dz)| (k, dz))

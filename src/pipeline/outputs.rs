@@ -32,6 +32,9 @@ pub enum Output {
     ContactFraction,
     MaxVonMises,
     NewtonIterations,
+    /// H of the contact solve (chosen within `harmonic_balance.harmonics: {min, max}`, or the
+    /// pipeline's).
+    Harmonics,
     FreeDofs,
     /// Wall time of the point's run without meshing (which the cache makes free) [s].
     WallTime,
@@ -57,7 +60,7 @@ pub enum Output {
 
 /// The fixed names, in documentation order (`probe_harmonic_K` and `natural_frequency_K`
 /// come on top).
-const NAMED: [(Output, &str, &str); 20] = [
+const NAMED: [(Output, &str, &str); 21] = [
     (Output::ProbeFirstHarmonic, "probe_first_harmonic", "m"),
     (Output::ProbeFirstHarmonicX, "probe_first_harmonic_x", "m"),
     (Output::ProbeFirstHarmonicY, "probe_first_harmonic_y", "m"),
@@ -69,6 +72,7 @@ const NAMED: [(Output, &str, &str); 20] = [
     (Output::ContactFraction, "contact_fraction", "-"),
     (Output::MaxVonMises, "max_von_mises", "Pa"),
     (Output::NewtonIterations, "newton_iterations", "-"),
+    (Output::Harmonics, "harmonics", "-"),
     (Output::FreeDofs, "free_dofs", "-"),
     (Output::WallTime, "wall_time", "s"),
     (Output::SolveTime, "solve_time", "s"),
@@ -107,6 +111,15 @@ impl Output {
         names.push("probe_harmonic_K".into());
         names.push("natural_frequency_K".into());
         names
+    }
+
+    /// The named outputs every summary answers (NaN where the scene lacks one), without the
+    /// stability check's, which only a checked run has.
+    pub fn from_summary() -> Vec<Output> {
+        let checked = |o: &Output| matches!(o, Output::Stable | Output::Multiplier);
+        (NAMED.iter().map(|(o, _, _)| *o))
+            .filter(|o| !o.from_run() && !checked(o))
+            .collect()
     }
 
     /// Whether the value comes from the point's run rather than its summary.
@@ -207,6 +220,9 @@ impl Output {
             Output::NewtonIterations => contact
                 .and_then(|c| c.solver.as_ref())
                 .map_or(f64::NAN, |c| c.newton_iterations as f64),
+            Output::Harmonics => contact
+                .and_then(|c| c.solver.as_ref())
+                .map_or(f64::NAN, |c| c.harmonics as f64),
             Output::FreeDofs => s.sizes.free_dofs as f64,
             Output::DissipatedEnergy => friction(&|f| f.dissipated_energy_per_period),
             Output::PeakTangentialForce => friction(&|f| f.peak_tangential_force),

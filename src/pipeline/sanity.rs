@@ -264,7 +264,11 @@ pub fn check_mesh(p: &Pipeline, mesh: &Mesh2d) -> Result<Vec<String>> {
         TimeBasis::Fourier => {
             let hb = &p.harmonic_balance;
             let h = hb.harmonics_max;
-            let key = if h > hb.harmonics { "harmonics.max" } else { "harmonics" };
+            let key = if h > hb.harmonics {
+                "harmonics.max"
+            } else {
+                "harmonics"
+            };
             (h, format!("harmonic_balance.{key} = {h}"))
         }
     };

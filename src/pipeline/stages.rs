@@ -138,6 +138,7 @@ pub fn hb_settings(p: &Pipeline) -> HbSettings {
 pub fn harmonic_range(p: &Pipeline) -> Option<hbm::adaptive::HarmonicRange> {
     let hb = &p.harmonic_balance;
     (hb.harmonics_max > hb.harmonics).then_some(hbm::adaptive::HarmonicRange {
+        min: hb.harmonics,
         max: hb.harmonics_max,
         tolerance: hb.tolerance,
     })

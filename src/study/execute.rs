@@ -392,28 +392,7 @@ pub fn is_done(out: &Path, point: &Point, needs: &Needs, reporter: &dyn Reporter
 
 /// Every output of the catalogue for this summary (probe harmonics up to those computed).
 fn all_outputs(s: &Summary, probe: Option<&str>) -> BTreeMap<String, Option<f64>> {
-    let mut outputs: Vec<Output> = [
-        "probe_first_harmonic",
-        "probe_first_harmonic_x",
-        "probe_first_harmonic_y",
-        "probe_peak_to_peak",
-        "probe_peak_to_peak_x",
-        "probe_peak_to_peak_y",
-        "peak_contact_force",
-        "mean_contact_force",
-        "contact_fraction",
-        "max_von_mises",
-        "newton_iterations",
-        "free_dofs",
-        "wall_time",
-        "solve_time",
-        "dissipated_energy",
-        "peak_tangential_force",
-        "slip_share",
-    ]
-    .iter()
-    .filter_map(|n| Output::parse(n).ok())
-    .collect();
+    let mut outputs = Output::from_summary();
     let harmonics = s
         .probes
         .values()

@@ -187,6 +187,8 @@ mod tests {
             argument: judged.map(|(_, a, _)| a),
             crossing: judged.map(|(_, _, c)| c),
             underdamped_share: None,
+            harmonics: 10,
+            truncation_estimate: None,
         }
     }
 

@@ -100,6 +100,15 @@ pub struct SweepRow {
     /// over the rows above `UNDERDAMPED_TOLERANCE`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub underdamped_share: Option<f64>,
+    /// H of the point's contact solve: chosen per point within `harmonic_balance.harmonics:
+    /// {min, max}`, else the pipeline's (0 in sweeps saved before the column existed).
+    #[serde(default)]
+    pub harmonics: usize,
+    /// With H chosen per point: the point's truncation estimate, the relative change of the
+    /// answer from ⌊H/2⌋ to H (`hbm::continuation` levels); above the tolerance only at
+    /// H = max, where the summary warns.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truncation_estimate: Option<f64>,
 }
 
 impl SweepRow {
@@ -108,6 +117,12 @@ impl SweepRow {
     pub fn underdamped(&self) -> Option<f64> {
         self.underdamped_share
             .filter(|&v| v > UNDERDAMPED_TOLERANCE)
+    }
+
+    /// A row solved at H = `max` whose truncation estimate is above `tolerance` or unknown
+    /// (with H chosen per point).
+    pub fn unsettled(&self, max: usize, tolerance: f64) -> bool {
+        self.harmonics == max && self.truncation_estimate.is_none_or(|e| e > tolerance)
     }
 }
 
@@ -205,17 +220,68 @@ pub struct SweepSummary {
     /// (`sweep::reference::probe_gap`), drawn on `sweep.png`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub probe_gap: Option<f64>,
+    /// With H chosen per point (`harmonic_balance.harmonics: {min, max}`): the range, the
+    /// tolerance, the points solved at each H and the changes of H along the curve.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonics_chosen: Option<HarmonicsAlong>,
+}
+
+/// How H was chosen along a curve.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct HarmonicsAlong {
+    pub min: usize,
+    pub max: usize,
+    pub tolerance: f64,
+    /// (H, points solved at it), by H.
+    pub points: Vec<(usize, usize)>,
+    /// Times the curve moved to another H.
+    pub changes: usize,
+    /// Points at H = max whose truncation estimate is above the tolerance (or unknown):
+    /// the points the summary warns of and the plots mark.
+    pub unsettled: usize,
+}
+
+impl HarmonicsAlong {
+    fn of(rows: &[SweepRow], (min, max, tolerance): (usize, usize, f64), changes: usize) -> Self {
+        let mut points: Vec<(usize, usize)> = Vec::new();
+        for r in rows {
+            match points.iter_mut().find(|(h, _)| *h == r.harmonics) {
+                Some((_, n)) => *n += 1,
+                None => points.push((r.harmonics, 1)),
+            }
+        }
+        points.sort_unstable();
+        let unsettled = rows.iter().filter(|r| r.unsettled(max, tolerance)).count();
+        HarmonicsAlong {
+            min,
+            max,
+            tolerance,
+            points,
+            changes,
+            unsettled,
+        }
+    }
 }
 
 impl SweepSummary {
     /// How finely the curve is resolved in time, for headlines and plot titles: `H = 10`,
-    /// or the spline basis.
+    /// `H = 10–40 per point`, or the spline basis.
     pub fn resolution(&self) -> String {
-        if self.basis == crate::hbm::basis::TimeBasis::Fourier.describe() {
-            format!("H = {}", self.harmonics)
-        } else {
-            self.basis.clone()
+        match &self.harmonics_chosen {
+            Some(c) => format!("H = {}–{} per point", c.min, c.max),
+            None if self.basis == crate::hbm::basis::TimeBasis::Fourier.describe() => {
+                format!("H = {}", self.harmonics)
+            }
+            None => self.basis.clone(),
         }
+    }
+
+    /// Rows a warning names: in a spline basis' underdamped band, or at H = max above the
+    /// tolerance.
+    pub fn warned(&self, r: &SweepRow) -> bool {
+        let unsettled =
+            (self.harmonics_chosen.as_ref()).is_some_and(|c| r.unsettled(c.max, c.tolerance));
+        r.underdamped().is_some() || unsettled
     }
 }
 
@@ -326,22 +392,19 @@ fn execute(
         judge_points(p, &model, &mut writer, &starts, &folds, reporter)
     })?;
     stages.times.add(Stage::Stability, judging);
-    let (timings, reduced, stopped, failure) = match ended {
-        Ok(outcome) => (
-            outcome.timings,
-            outcome.reduced,
-            outcome.stopped.map(Error::NotConverged),
-            None,
-        ),
+    let (outcome, failure) = match ended {
+        Ok(outcome) => (outcome, None),
         // Nothing found at all (the first point failed): nothing to keep.
         Err(e) if writer.seen() == 0 => return Err(stages.context(Stage::Sweep, e)),
-        Err(e) => (Default::default(), Default::default(), None, Some(e)),
+        Err(e) => (Default::default(), Some(e)),
     };
+    let stopped = outcome.stopped.map(Error::NotConverged);
     let failure = failure.or(stopped).map(|e| stages.context(Stage::Sweep, e));
     let ended = Ended {
         warnings,
-        timings,
-        reduced,
+        timings: outcome.timings,
+        reduced: outcome.reduced,
+        level_changes: outcome.level_changes,
         failure,
         out: &out,
     };
@@ -380,6 +443,7 @@ struct Ended<'a> {
     warnings: Vec<String>,
     timings: crate::hbm::Timings,
     reduced: crate::hbm::continuation::ReducedFrames,
+    level_changes: usize,
     failure: Option<Error>,
     out: &'a std::path::Path,
 }
@@ -445,8 +509,44 @@ fn summarize(
         reduced_frames: ended.reduced,
         linear_reference: None,
         probe_gap: None,
+        harmonics_chosen: None,
     };
+    let summary = with_harmonics_chosen(p, summary, ended.level_changes);
     Ok((summary, ended.failure))
+}
+
+/// With H chosen per point: the summary's account of it, and a warning for the points at
+/// H = max that do not meet the tolerance.
+fn with_harmonics_chosen(p: &Pipeline, mut s: SweepSummary, changes: usize) -> SweepSummary {
+    let hb = &p.harmonic_balance;
+    if hb.harmonics_max <= hb.harmonics || !s.rows.iter().any(|r| r.truncation_estimate.is_some()) {
+        return s;
+    }
+    let range = (hb.harmonics, hb.harmonics_max, hb.tolerance);
+    let along = HarmonicsAlong::of(&s.rows, range, changes);
+    let unsettled: Vec<&SweepRow> = (s.rows.iter())
+        .filter(|r| r.unsettled(along.max, along.tolerance))
+        .collect();
+    if let (Some(first), Some(last)) = (unsettled.first(), unsettled.last()) {
+        let worst = unsettled
+            .iter()
+            .filter_map(|r| r.truncation_estimate)
+            .fold(0.0, f64::max);
+        s.warnings.push(format!(
+            "{} points at H = {} (rows {}–{}, {:.4}–{:.4} Hz) still change by up to {:.2}% from H = {} (harmonic_balance.tolerance = {:.2}%; marked `warned` on the plots): raise harmonic_balance.harmonics.max",
+            unsettled.len(),
+            along.max,
+            first.index,
+            last.index,
+            first.frequency_hz,
+            last.frequency_hz,
+            100.0 * worst,
+            along.max / 2,
+            100.0 * along.tolerance
+        ));
+    }
+    s.harmonics_chosen = Some(along);
+    s
 }
 
 /// sweep.csv, frames.pvd, the plots and sweep.json (with the stage times) into the staged
@@ -486,7 +586,10 @@ fn continue_curve(
     reporter: &dyn Reporter,
 ) -> Result<continuation::SweepOutcome> {
     let hb = hb_settings(p);
-    let settings = settings(spec, saved.and_then(|s| s.resume.clone()));
+    let settings = SweepSettings {
+        harmonics: pipeline::stages::harmonic_range(p),
+        ..settings(spec, saved.and_then(|s| s.resume.clone()))
+    };
     let mut system = model.system.clone();
     let contact = model.contact.as_ref().map(|c| &c.operator);
     STOP.store(false, Ordering::SeqCst);
@@ -585,6 +688,7 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
         } else {
             0
         },
+        harmonics: None,
     }
 }
 
@@ -871,6 +975,11 @@ fn row(
             .contact
             .as_ref()
             .and_then(|c| c.knob_check.underdamped_share),
+        harmonics: solution
+            .contact
+            .as_ref()
+            .map_or(p.harmonic_balance.harmonics, |c| c.harmonics),
+        truncation_estimate: info.harmonics_estimate,
     }
 }
 
@@ -907,7 +1016,7 @@ fn underdamped_rows(rows: &[SweepRow], basis: &TimeBasis) -> Option<String> {
 /// sweep.csv: frequency, the outputs, then how each point was found.
 pub fn csv(s: &SweepSummary) -> String {
     let mut text = format!(
-        "index,frequency_hz,{},stable,multiplier,argument_deg,crossing,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
+        "index,frequency_hz,{},stable,multiplier,argument_deg,crossing,harmonics,truncation_estimate,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
         s.columns.join(",")
     );
     for r in &s.rows {
@@ -926,11 +1035,13 @@ pub fn csv(s: &SweepSummary) -> String {
             .and_then(|c| serde_json::to_value(c).ok())
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default();
+        let estimate = r.truncation_estimate.map_or(String::new(), csv_number);
         text.push_str(&format!(
-            "{},{},{},{stable},{multiplier},{argument},{crossing},{corrector},{},{},{},{},{}\n",
+            "{},{},{},{stable},{multiplier},{argument},{crossing},{},{estimate},{corrector},{},{},{},{},{}\n",
             r.index,
             csv_number(r.frequency_hz),
             values.join(","),
+            r.harmonics,
             r.newton_iterations,
             r.factorizations,
             csv_number(r.step),
@@ -967,6 +1078,8 @@ mod tests {
             argument: None,
             crossing: None,
             underdamped_share: share,
+            harmonics: 10,
+            truncation_estimate: None,
         }
     }
 

@@ -52,7 +52,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary, force_unit: &str) -> Result<()>
             figure = with_reference(figure, s, c);
         }
         let warned: Vec<(f64, f64)> = (s.rows.iter())
-            .filter(|r| r.underdamped().is_some())
+            .filter(|r| s.warned(r))
             .map(|r| (r.frequency_hz, r.values[c]))
             .collect();
         if !warned.is_empty() {
@@ -221,6 +221,8 @@ mod tests {
             argument: None,
             crossing: None,
             underdamped_share: None,
+            harmonics: 10,
+            truncation_estimate: None,
         }
     }
 

@@ -505,16 +505,26 @@ fn check_lists(path: &Path, saved: &Saved) -> Result<()> {
 /// node with friction, H = ⌊S/2⌋ for a spline basis of S segments), and the scalars of a
 /// contact curve (c, F, N) or of a linear one (none).
 pub fn check_state(saved: &Saved, model: &Model, p: &Pipeline, out: &Path) -> Result<()> {
-    let h = match p.harmonic_balance.basis {
-        crate::config::BasisSpec::Spline { segments, .. } => segments / 2,
-        crate::config::BasisSpec::Fourier => p.harmonic_balance.harmonics,
-    };
-    let m = 2 * h + 1;
-    let want = model
+    let rows = model
         .contact
         .as_ref()
-        .map_or(0, |c| c.operator.reduced_rows() * m);
+        .map_or(0, |c| c.operator.reduced_rows());
     let have = saved.resume.as_ref().map_or(0, |s| s.multipliers.len());
+    let hb = &p.harmonic_balance;
+    let h = match hb.basis {
+        crate::config::BasisSpec::Spline { segments, .. } => segments / 2,
+        // With H chosen per point the saved point's H is any of the range's.
+        crate::config::BasisSpec::Fourier if hb.harmonics_max > hb.harmonics && rows > 0 => {
+            let saved_h = (have / rows).saturating_sub(1) / 2;
+            if (hb.harmonics..=hb.harmonics_max).contains(&saved_h) {
+                saved_h
+            } else {
+                hb.harmonics
+            }
+        }
+        crate::config::BasisSpec::Fourier => hb.harmonics,
+    };
+    let want = rows * (2 * h + 1);
     if have != want {
         return Err(refuse(format!(
             "the saved sweep has {have} contact unknowns and this scene {want}: the mesh or the contact set changed since"

@@ -82,6 +82,7 @@ impl Continuation<'_> {
             seconds: clock.elapsed().as_secs_f64(),
             state: None,
             scaled: Vec::new(),
+            harmonics_estimate: None,
         };
         Some((point, frame, info))
     }

@@ -167,5 +167,6 @@ fn info_stub() -> PointInfo {
         seconds: 0.0,
         state: None,
         scaled: Vec::new(),
+        harmonics_estimate: None,
     }
 }

@@ -26,6 +26,7 @@ mod corrector;
 mod frame;
 mod grazing;
 mod law;
+mod levels;
 mod linear;
 mod start;
 mod stepping;
@@ -38,6 +39,7 @@ use super::reduced::NewtonSettings;
 use super::{ContactSolution, HbSettings, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
+use crate::hbm::adaptive::HarmonicRange;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use frame::reduced_model_pays;
@@ -65,6 +67,9 @@ pub struct SweepSettings {
     /// Frequencies over the range at which the reduced model places its shifts
     /// (`frames::SHIFTS_PER_HARMONIC` by default; 0: no model, every frame factored).
     pub model_frequencies: usize,
+    /// H chosen per point within this range (`levels`; frictionless contact on the Fourier
+    /// basis); `None`: H fixed at the settings' `harmonics`.
+    pub harmonics: Option<HarmonicRange>,
 }
 
 /// Where a continuation stands after a point: with the same settings, continuing from it
@@ -147,6 +152,8 @@ pub struct PointInfo {
     /// The point in the scaled unknowns (λ/F, ω/Ω) as the continuation's trail holds it
     /// (empty without contact): `ContinuationState::trail` is these, point by point.
     pub scaled: Vec<f64>,
+    /// With H chosen per point: the point's truncation estimate (`levels`).
+    pub harmonics_estimate: Option<f64>,
 }
 
 /// A turning point of the curve.
@@ -168,6 +175,10 @@ pub struct SweepOutcome {
     pub timings: Timings,
     /// What the reduced model did (all zero when the sweep factored every frame).
     pub reduced: ReducedFrames,
+    /// With H chosen per point: how many times the curve moved to another H.
+    pub level_changes: usize,
+    /// The level change a segment of such a curve ended on (`levels`).
+    level_change: Option<levels::LevelChange>,
 }
 
 /// The reduced model's account of a sweep.
@@ -211,15 +222,27 @@ pub fn sweep(
         }
     }
     let hb = &super::contact_settings(system, contact.is_some(), hb)?;
+    let fourier = matches!(system.basis, super::basis::TimeBasis::Fourier);
     match contact {
         // With friction the curve's unknowns are the stacked rows' (`ContactOperator::stacked`).
-        Some(op) => match op.stacked() {
-            Some(rows) => Continuation::start(system, (op, &rows), hb, s, reporter)?.run(on_point),
-            None => Continuation::start(system, (op, op), hb, s, reporter)?.run(on_point),
+        Some(op) => match (op.stacked(), s.harmonics) {
+            (Some(rows), _) => {
+                Continuation::start(system, (op, &rows), hb, s, reporter, None)?.run(on_point)
+            }
+            (None, Some(range)) if fourier && range.max > range.min => {
+                levels::sweep_levels(system, op, hb, s, range, reporter, on_point)
+            }
+            (None, _) => {
+                Continuation::start(system, (op, op), hb, s, reporter, None)?.run(on_point)
+            }
         },
         None => linear::linear_sweep(system, hb, s, reporter, on_point),
     }
 }
+
+/// The first point of a continuation, its index and the step the next is tried with; or the
+/// level change it asks for and its index (`levels`).
+type First = std::result::Result<(Point, usize, f64), (levels::LevelChange, usize)>;
 
 /// A converged point: its multipliers, ω, unit tangent and contact gaps.
 struct Point {
@@ -268,6 +291,10 @@ struct Continuation<'a> {
     /// The ω of the exact frames the model learned from (`ContinuationState::enriched_at`).
     enriched_at: Vec<f64>,
     reduced: ReducedFrames,
+    /// H chosen per point (`levels`); `None`: H fixed.
+    levels: Option<levels::Levels>,
+    /// The first point is a level change's restart (checked for a raise again).
+    restarted: bool,
 }
 
 impl Continuation<'_> {
@@ -275,8 +302,14 @@ impl Continuation<'_> {
     /// passes the end frequency, `max_points` are reached or it cannot go on (`stopped`).
     fn run(mut self, on_point: &mut OnPoint) -> Result<SweepOutcome> {
         let mut trail = Trail::default();
-        let (mut point, start, mut ds) = self.first_point(&mut trail, on_point)?;
         let mut outcome = SweepOutcome::default();
+        let (mut point, start, mut ds) = match self.first_point(&mut trail, on_point)? {
+            Ok(first) => first,
+            Err((change, start)) => {
+                outcome.level_change = Some(change);
+                return Ok(self.finish(outcome, start));
+            }
+        };
         let mut index = start + 1;
         while index < self.s.max_points {
             if self.beyond_end(&point) {
@@ -295,6 +328,12 @@ impl Continuation<'_> {
                 outcome.stopped = Some(retrace_reason(&point, index - 1, j, key));
                 break;
             }
+            let at = (&next, &frame.problem);
+            if let Some(change) = self.level_change(at, (index, ds), &trail, true) {
+                outcome.level_change = Some(change);
+                break;
+            }
+            info.harmonics_estimate = self.levels.and_then(|l| l.last);
             trail.push(y.clone());
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
@@ -315,12 +354,9 @@ impl Continuation<'_> {
     /// The first point (cold, or the resumed one, from `first`) with its direction (the
     /// saved one, or the tangent towards the end frequency), pushed on `trail` after the trail
     /// a resumed state brings, and handed to `on_point`; the point, its index and the step the
-    /// next is tried with.
-    fn first_point(
-        &mut self,
-        trail: &mut Trail,
-        on_point: &mut OnPoint,
-    ) -> Result<(Point, usize, f64)> {
+    /// next is tried with. With H chosen per point, a cold or restarted first point whose
+    /// estimate asks for a higher H is not kept: the level change and its index instead.
+    fn first_point(&mut self, trail: &mut Trail, on_point: &mut OnPoint) -> Result<First> {
         let clock = Instant::now();
         let (x, first_newton, frame) = self
             .first
@@ -344,6 +380,12 @@ impl Continuation<'_> {
         for y in self.s.resume.iter().flat_map(|r| &r.trail) {
             trail.push(y.clone());
         }
+        if self.s.resume.is_none() || self.restarted {
+            let at = (&point, &frame.problem);
+            if let Some(change) = self.level_change(at, (start, ds), trail, false) {
+                return Ok(Err((change, start)));
+            }
+        }
         let y = self.scaled(&point);
         trail.push(y.clone());
         let info = PointInfo {
@@ -357,10 +399,11 @@ impl Continuation<'_> {
             seconds: clock.elapsed().as_secs_f64(),
             state: Some(self.state(&point, ds, start, frame.reduced)),
             scaled: y,
+            harmonics_estimate: self.levels.and_then(|l| l.last),
         };
         self.build_model();
         self.emit(&info, &point.x, frame, first_newton, on_point)?;
-        Ok((point, start, ds))
+        Ok(Ok((point, start, ds)))
     }
 
     /// The outcome of a sweep that ended after `points` points: its folds (kinks of the

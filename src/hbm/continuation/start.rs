@@ -21,15 +21,21 @@ use crate::hbm::{
 use crate::progress::Reporter;
 use crate::{Error, Result};
 
+/// A start from `SweepSettings::resume` that is a level change of H chosen per point
+/// (`levels`), not a saved point: its λ, carried from another H, is solved again at this one.
+pub(super) struct Restart;
+
 impl<'a> Continuation<'a> {
     /// The cold first point (the single-frequency solve, knob checks included) fixes c and N
-    /// for the whole curve; a resumed one is taken as saved (`resume_at`).
+    /// for the whole curve; a resumed one is taken as saved (`resume_at`), a restarted one
+    /// solved again (`restart_at`).
     pub(super) fn start(
         system: &'a mut System,
         (contact, op): (&'a ContactOperator, &'a ContactOperator),
         hb: &'a HbSettings,
         s: &'a SweepSettings,
         reporter: &'a dyn Reporter,
+        restart: Option<Restart>,
     ) -> Result<Self> {
         let omega = s.resume.as_ref().map_or(s.omega_start, |r| r.omega);
         system.omega = omega;
@@ -59,10 +65,13 @@ impl<'a> Continuation<'a> {
             model_built: false,
             enriched_at: Vec::new(),
             reduced: ReducedFrames::default(),
+            levels: None,
+            restarted: restart.is_some(),
         };
-        match &s.resume {
-            None => c.cold_start(omega)?,
-            Some(r) => c.resume_at(r)?,
+        match (&s.resume, restart) {
+            (None, _) => c.cold_start(omega)?,
+            (Some(r), None) => c.resume_at(r)?,
+            (Some(r), Some(Restart)) => c.restart_at(r)?,
         }
         Ok(c)
     }
@@ -119,6 +128,37 @@ impl<'a> Continuation<'a> {
         }
         let frame = self.frame_from(r.omega, r.reduced_frame)?;
         let o = resolve_saved(&frame, r, self.newton_on(&frame.problem, &r.multipliers))?;
+        self.factorizations = 1;
+        self.first = Some((o.multipliers.clone(), o, frame));
+        Ok(())
+    }
+}
+
+impl Continuation<'_> {
+    /// A level change's state `r` (`levels`): its scaling, c, N and the largest ‖λ‖ as
+    /// carried, the reduced model built for this H, and its λ solved again at this H on an
+    /// exact frame: a Newton from the carried λ, the smoothing continuation where that fails.
+    fn restart_at(&mut self, r: &ContinuationState) -> Result<()> {
+        (self.newton.samples, self.newton.c) = (r.samples, r.c);
+        self.force = r.force_scale;
+        self.largest = r.largest;
+        self.build_model();
+        let frame = self.exact_frame(r.omega)?;
+        let mut o = self.newton_on(&frame.problem, &r.multipliers);
+        if !o.converged {
+            let (problem, hb, c) = (&frame.problem, self.hb, r.c);
+            let start = &r.multipliers;
+            o = crate::hbm::globalize::smoothed_from(problem, hb, c, start, self.reporter);
+        }
+        if !o.converged {
+            return Err(Error::NotConverged(format!(
+                "the point at {:.6} Hz did not solve again at H = {} ({}): fix \
+                 harmonic_balance.harmonics to one value, or narrow its range",
+                hz(r.omega),
+                self.hb.harmonics,
+                o.reason
+            )));
+        }
         self.factorizations = 1;
         self.first = Some((o.multipliers.clone(), o, frame));
         Ok(())

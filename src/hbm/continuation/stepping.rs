@@ -61,6 +61,7 @@ impl Continuation<'_> {
                         seconds: clock.elapsed().as_secs_f64(),
                         state: None,
                         scaled: Vec::new(),
+                        harmonics_estimate: None,
                     };
                     if iterations <= 3 {
                         *ds = (1.5 * *ds).min(self.s.max_step);

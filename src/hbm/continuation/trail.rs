@@ -23,6 +23,11 @@ pub(super) struct Trail {
 }
 
 impl Trail {
+    /// The points so far.
+    pub(super) fn points(&self) -> &[Vec<f64>] {
+        &self.points
+    }
+
     pub(super) fn push(&mut self, y: Vec<f64>) {
         self.points.push(y);
     }
