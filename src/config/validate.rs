@@ -587,6 +587,11 @@ fn harmonic_range(path: &Path, hb: &RawHarmonicBalance) -> Result<(usize, usize,
                     4 * h.max(&1)
                 )));
             }
+            if *h > MAX_HARMONICS {
+                return Err(config_error(path, format!(
+                    "harmonic_balance.harmonics = {h} is above the limit of {MAX_HARMONICS}: the contact solve grows as H² (and N = 16H samples); the accuracy table shows where more harmonics stop paying"
+                )));
+            }
             return Ok((*h, *h, tolerance));
         }
         RawHarmonics::Range(r) => (r.min, r.max),
@@ -622,14 +627,6 @@ fn validate_harmonic_balance(path: &Path, hb: RawHarmonicBalance) -> Result<Harm
     }
     positive(path, "harmonic_balance.frequency", hb.frequency)?;
     let (harmonics, harmonics_max, tolerance) = harmonic_range(path, &hb)?;
-    if harmonics_max > MAX_HARMONICS {
-        return Err(config_error(
-            path,
-            format!(
-                "harmonic_balance.harmonics = {harmonics_max} is above the limit of {MAX_HARMONICS}: the contact solve grows as H² (and N = 16H samples); the accuracy table shows where more harmonics stop paying"
-            ),
-        ));
-    }
     if let Some(n) = hb.samples {
         if n > MAX_SAMPLES {
             return Err(config_error(

@@ -146,20 +146,14 @@ pub fn solve_within(
             Some(solution)
         }
         (Some(op), Some(problem)) => {
-            let solution = match adapting {
-                Some(range) => adaptive::solve(
-                    system,
-                    op,
-                    &problem,
-                    settings,
-                    range,
-                    reporter,
-                    &mut timings,
-                )?,
-                None => {
-                    solve_contact_timed(system, op, &problem, settings, reporter, &mut timings)?
-                }
-            };
+            let solution = frictionless(
+                system,
+                (op, &problem),
+                settings,
+                adapting,
+                reporter,
+                &mut timings,
+            )?;
             let chosen = solution.harmonics_chosen.as_ref();
             linear.warnings.extend(chosen.and_then(|c| c.warning()));
             timed(&mut timings.recover, || {
@@ -181,6 +175,21 @@ pub fn solve_within(
     // Its factors are dropped: what the plans kept of them is not needed after one solve.
     system.release_factor_memory();
     Ok(solution)
+}
+
+/// The frictionless contact solve at the settings' H, or with H chosen in `adapting`.
+fn frictionless(
+    system: &System,
+    (op, problem): (&ContactOperator, &ReducedProblem),
+    settings: &HbSettings,
+    adapting: Option<adaptive::HarmonicRange>,
+    reporter: &dyn Reporter,
+    timings: &mut Timings,
+) -> Result<ContactSolution> {
+    match adapting {
+        Some(range) => adaptive::solve(system, op, problem, settings, range, reporter, timings),
+        None => solve_contact_timed(system, op, problem, settings, reporter, timings),
+    }
 }
 
 /// The most factor memory `touch_factor_memory` touches ahead [bytes]: the reference strip
