@@ -9,7 +9,9 @@
 //!   curve restarts at min(2H, H_max) from it;
 //! - lower: e(H) ≤ `LOWER` τ at `CALM` points in a row and H > H_min: restart at
 //!   max(⌊H/2⌋, H_min) from the last (where e(H) ≤ τ/4, the error of H/2 is at most τ for
-//!   an error falling as 1/H^p with p ≤ 2);
+//!   an error falling as 1/H^p with p ≤ 2). A raise right after a lower (the level below did
+//!   not hold after all) doubles the calm points the next lower needs, so the curve does not
+//!   go back and forth between two levels;
 //! - a restart carries the point's state over to the new level (`carried`): λ, the tangent's
 //!   λ-part and the trail padded with zeros (or truncated), the tangent normalised again,
 //!   N scaled with H; its first point is the state re-solved at the new H on an exact frame
@@ -62,13 +64,14 @@ pub(super) fn sweep_levels(
     }
     let mut total = SweepOutcome::default();
     let mut settings = s.clone();
-    let mut restart = None;
+    let (mut restart, mut calm_needed, mut lowered) = (None, CALM, false);
     loop {
         let mut c = Continuation::start(system, (op, op), &level, &settings, reporter, restart)?;
         reporter.task_done("harmonics");
         c.levels = Some(Levels {
             range,
             calm: 0,
+            calm_needed,
             last: None,
         });
         let outcome = c.run(on_point)?;
@@ -82,6 +85,11 @@ pub(super) fn sweep_levels(
             None,
             &format!("H = {} → {}", level.harmonics, change.harmonics),
         );
+        let raised = change.harmonics > level.harmonics;
+        if raised && lowered {
+            calm_needed *= 2;
+        }
+        lowered = !raised;
         level.harmonics = change.harmonics;
         level.samples = change.state.samples;
         settings.resume = Some(change.state);
@@ -119,8 +127,9 @@ fn state_harmonics(r: &ContinuationState, nodes: usize) -> usize {
 #[derive(Clone, Copy)]
 pub(super) struct Levels {
     pub(super) range: HarmonicRange,
-    /// Calm points in a row.
+    /// Calm points in a row, and how many a lower needs.
     pub(super) calm: usize,
+    pub(super) calm_needed: usize,
     /// The last point's estimate (what its `PointInfo` reports).
     pub(super) last: Option<f64>,
 }
@@ -145,7 +154,7 @@ impl Continuation<'_> {
         self.levels = Some(levels);
         let to = if estimate.is_none_or(|e| e > tolerance) && h < levels.range.max {
             (2 * h).min(levels.range.max)
-        } else if lower && levels.calm >= CALM && h > levels.range.min {
+        } else if lower && levels.calm >= levels.calm_needed && h > levels.range.min {
             (h / 2).max(levels.range.min)
         } else {
             return None;
