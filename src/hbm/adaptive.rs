@@ -218,7 +218,7 @@ fn level_of(solution: &ContactSolution, estimate: Option<f64>, extra: usize) -> 
 
 /// The first level's estimate: the state at ⌊H/2⌋ by a Newton from the truncated λ, and
 /// the change of the answer from it to the solution (with its Newton iterations); `None`
-/// where ⌊H/2⌋ cannot carry the loads or its Newton does not converge.
+/// where ⌊H/2⌋ is 0 or its Newton does not converge.
 fn half_estimate(
     level: &ReducedProblem,
     solution: &ContactSolution,
@@ -229,7 +229,6 @@ fn half_estimate(
     if half == 0 {
         return (None, 0);
     }
-    let coarse = level.truncate(half);
     let newton = NewtonSettings {
         samples: HbSettings::default_samples(half),
         c: solution.c,
@@ -238,11 +237,25 @@ fn half_estimate(
         hover: globalize::WARM_HOVER,
         ..Default::default()
     };
-    let start = reduced::pad(&solution.multipliers, level.nodes, level.harmonics, half);
-    let o = reduced::newton(&coarse, &newton, &start, reporter);
-    let change = o.converged.then(|| {
-        knobs::change_across_harmonics((&coarse, &o.multipliers), (level, &solution.multipliers))
-    });
+    change_from_half(level, &solution.multipliers, &newton, reporter)
+}
+
+/// e(H) at multipliers `x` of `problem`: the state at ⌊H/2⌋ (≥ 1) by the Newton `newton`
+/// from x truncated, and the change of the answer from it to x, with the Newton's
+/// iterations; `None` where that Newton does not converge. Runs and sweep points alike.
+pub(super) fn change_from_half(
+    problem: &ReducedProblem,
+    x: &[f64],
+    newton: &NewtonSettings,
+    reporter: &dyn Reporter,
+) -> (Option<f64>, usize) {
+    let half = problem.harmonics / 2;
+    let coarse = problem.truncate(half);
+    let start = reduced::pad(x, problem.nodes, problem.harmonics, half);
+    let o = reduced::newton(&coarse, newton, &start, reporter);
+    let change = o
+        .converged
+        .then(|| knobs::change_across_harmonics((&coarse, &o.multipliers), (problem, x)));
     (change, o.iterations)
 }
 

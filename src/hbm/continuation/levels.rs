@@ -25,9 +25,9 @@ use super::start::Restart;
 use super::trail::Trail;
 use super::{Continuation, ContinuationState, OnPoint, Point, SweepOutcome, SweepSettings};
 use crate::contact::ContactOperator;
-use crate::hbm::adaptive::HarmonicRange;
+use crate::hbm::adaptive::{self, HarmonicRange};
 use crate::hbm::reduced::{self, NewtonSettings};
-use crate::hbm::{knobs, HbSettings, ReducedProblem, System};
+use crate::hbm::{HbSettings, ReducedProblem, System};
 use crate::progress::Reporter;
 use crate::Result;
 
@@ -177,7 +177,6 @@ impl Continuation<'_> {
         if half == 0 || half < excited {
             return None;
         }
-        let coarse = problem.truncate(half);
         let newton = NewtonSettings {
             samples: (self.newton.samples / 2).max(2 * half + 1),
             c: self.newton.c,
@@ -186,11 +185,9 @@ impl Continuation<'_> {
             hover: HALF_HOVER,
             ..Default::default()
         };
-        let start = reduced::pad(x, problem.nodes, problem.harmonics, half);
-        let o = reduced::newton(&coarse, &newton, &start, self.reporter);
+        let (change, _) = adaptive::change_from_half(problem, x, &newton, self.reporter);
         self.timings.knob_check += clock.elapsed().as_secs_f64();
-        o.converged
-            .then(|| knobs::change_across_harmonics((&coarse, &o.multipliers), (problem, x)))
+        change
     }
 }
 
