@@ -140,6 +140,10 @@ fn hill_multipliers_out_of_reach_are_the_damped_modes() {
             .iter()
             .map(|mu| (mu - expected).norm())
             .fold(f64::INFINITY, f64::min);
+        println!(
+            "ω² = {w2:e}: the nearest multiplier {:.1e} away (relative)",
+            nearest / expected.norm()
+        );
         assert!(
             nearest < 1e-6 * expected.norm(),
             "ω² = {w2:e}: {expected:?} not among {:?}",
@@ -385,4 +389,72 @@ fn strip_sweep_verdict_changes_only_at_located_folds_and_classified_bifurcations
             assert!(!overlap, "'{t}' {a:?} overlaps '{u}' {b:?}");
         }
     }
+}
+
+/// TEST GOAL: a run's Hill model keeps the modes below 10ω and the next one above, each the
+/// mode `lowest_modes` finds (ω² to 1e-8), none missing below the last; the resonance check
+/// reads from them the same natural frequencies nearest ω that its own shift-invert finds
+/// (to 1e-7), and the same Hill verdict follows from them as from the 24 lowest modes.
+#[test]
+fn a_runs_hill_modes_are_every_mode_below_their_last_and_serve_the_resonance_check() {
+    let p = common::scene("strip_wall", &[]);
+    let model = common::model(&p, Purpose::HarmonicBalance);
+    let omega = model.system.omega;
+    let band = HillModel::band_modes(&model.system, omega).unwrap();
+    let all = lowest_modes(&model.system.k_ff, &model.system.m_ff, band.len() + 4, 0.0).unwrap();
+    let bound = (hbcontact::hbm::hill::BAND * omega).powi(2);
+    let below = all.iter().filter(|(w2, _)| *w2 <= bound).count();
+    println!(
+        "{} modes returned, {below} below 10ω, the last at {:.1} Hz",
+        band.len(),
+        band.last().unwrap().0.sqrt() / (2.0 * std::f64::consts::PI)
+    );
+    assert_eq!(band.len(), below.max(hbcontact::hbm::hill::MIN_MODES) + 1);
+    for ((w2, _), (reference, _)) in band.iter().zip(&all) {
+        assert!(
+            (w2 - reference).abs() < 1e-8 * reference,
+            "{w2} against {reference}"
+        );
+    }
+    let (own, _) = hbcontact::pipeline::resonance::check(&model, None).unwrap();
+    let (shared, _) = hbcontact::pipeline::resonance::check(&model, Some(&band)).unwrap();
+    for (a, b) in own.harmonics.iter().zip(&shared.harmonics) {
+        assert_eq!(a.nearest_modes.len(), b.nearest_modes.len());
+        for (x, y) in a.nearest_modes.iter().zip(&b.nearest_modes) {
+            let (x, y) = (x.frequency_hz, y.frequency_hz);
+            assert!(
+                (x - y).abs() < 1e-7 * x,
+                "harmonic {}: {x} Hz against {y} Hz",
+                a.k
+            );
+        }
+    }
+    // The verdict on the band's modes is the verdict on the 24 lowest.
+    let solution = common::solve(&model, &p).unwrap_or_else(|e| panic!("{e}"));
+    let contact = solution.contact.as_ref().unwrap();
+    let b = &model.contact.as_ref().unwrap().operator.b_free;
+    let verdict = |hill: &HillModel| {
+        hbcontact::pipeline::stability::by_hill(hill, contact, solution.omega).unwrap()
+    };
+    let on_band = verdict(&HillModel::with_modes(&model.system, b, &band).unwrap());
+    let on_24 = verdict(&HillModel::new(&model.system, b, hbcontact::hbm::hill::MODES).unwrap());
+    let (x, y) = (on_band.multiplier.unwrap(), on_24.multiplier.unwrap());
+    println!("|μ| {x:.10} on the band's modes, {y:.10} on the 24 lowest");
+    assert!((x - y).abs() < 1e-8, "{x} against {y}");
+    assert_eq!(on_band.verdict, on_24.verdict);
+    // A harmonic above the last mode is not read from them.
+    let last = band.last().unwrap().0.sqrt();
+    let mut above = model;
+    above.system.omega = 1.1 * last;
+    let (far, _) = hbcontact::pipeline::resonance::check(&above, Some(&band)).unwrap();
+    let (far_own, _) = hbcontact::pipeline::resonance::check(&above, None).unwrap();
+    let hz = |c: &hbcontact::pipeline::resonance::ResonanceCheck| -> Vec<f64> {
+        (c.harmonics.iter().flat_map(|h| &h.nearest_modes))
+            .map(|m| m.frequency_hz)
+            .collect()
+    };
+    assert_eq!(hz(&far), hz(&far_own));
+    assert!(hz(&far)
+        .iter()
+        .any(|&f| 2.0 * std::f64::consts::PI * f > last));
 }

@@ -13,10 +13,9 @@
 //!   move in d (Chopra, Dynamics of Structures, §13.2);
 //! - ζ_n = α/(2ω_n) + β ω_n/2 the modal damping ratio of Rayleigh damping D = αM + βK.
 //!
-//! Used by `hbcontact modes`, by the resonance check of every run and by the tests against
-//! beam theory.
+//! Used by `hbcontact modes`, by the resonance check of every run, by Hill's stability check
+//! (`modes_below`, the modes it keeps dynamic) and by the tests against beam theory.
 
-use faer::c64;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::linalg::{Csc, LuPattern, SparseLu};
@@ -28,7 +27,7 @@ pub type Mode = (f64, Vec<f64>);
 /// The `count` eigenpairs whose ω² lie nearest `shift` (on either side; 0 gives the lowest),
 /// ascending in ω².
 pub fn lowest_modes(k: &Csc, m: &Csc, count: usize, shift: f64) -> Result<Vec<Mode>> {
-    let mut modes = block_krylov(k, m, count, shift, TOLERANCE, None)?;
+    let mut modes = block_krylov((k, m), Wanted::Nearest(count), shift, TOLERANCE, None)?;
     modes.truncate(count);
     modes.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(modes)
@@ -45,8 +44,28 @@ pub fn modes_near(
     shift: f64,
     pattern: Option<&LuPattern>,
 ) -> Result<Vec<Mode>> {
-    let mut modes = block_krylov(k, m, count, shift, 1e-6, pattern)?;
+    let mut modes = block_krylov((k, m), Wanted::Nearest(count), shift, QUICK, pattern)?;
     modes.truncate(count);
+    modes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(modes)
+}
+
+/// The ω² of `modes_near` settle to this (frequencies to 5e-7).
+const QUICK: f64 = 1e-6;
+
+/// The lowest modes up to ω² = `bound`, at least `least` and at most `most` of them, and the
+/// next one above them, ascending in ω², settled as `lowest_modes`'s: every mode below the
+/// last one returned is among them (what a Hill model, and a resonance check below its last
+/// mode, need: a multiplier e^{iω_n T} of a mode at 10ω moves by 63·δω_n/ω_n, so its ω² must
+/// settle far below 1e-6). `pattern` as for `modes_near`.
+pub fn modes_below(
+    (k, m): (&Csc, &Csc),
+    bound: f64,
+    (least, most): (usize, usize),
+    pattern: Option<&LuPattern>,
+) -> Result<Vec<Mode>> {
+    let wanted = Wanted::Below { bound, least, most };
+    let mut modes = block_krylov((k, m), wanted, 0.0, TOLERANCE, pattern)?;
     modes.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(modes)
 }
@@ -97,54 +116,84 @@ const TOLERANCE: f64 = 1e-8;
 /// all its copies (a single-vector Lanczos sees one direction of each eigenspace).
 const BLOCK: usize = 6;
 
+/// Which Ritz values must settle before the Krylov space stops growing.
+#[derive(Clone, Copy, Debug)]
+enum Wanted {
+    /// The `count` nearest σ.
+    Nearest(usize),
+    /// Those at or below `bound` (an ω², σ = 0), at least `least` and at most `most`, and the
+    /// one next above them: once it has settled too, no mode below it is missing.
+    Below {
+        bound: f64,
+        least: usize,
+        most: usize,
+    },
+}
+
+impl Wanted {
+    /// How many of the Ritz values `values` (nearest σ first) must settle.
+    fn count(self, values: &[f64]) -> usize {
+        match self {
+            Wanted::Nearest(count) => count,
+            Wanted::Below { bound, least, most } => {
+                let below = values.iter().filter(|&&v| v <= bound).count();
+                below.clamp(least, most) + 1
+            }
+        }
+    }
+
+    /// The most values that may be asked to settle.
+    fn most(self) -> usize {
+        match self {
+            Wanted::Nearest(count) => count,
+            Wanted::Below { most, .. } => most + 1,
+        }
+    }
+
+    /// The fewest values that may be asked to settle.
+    fn least(self) -> usize {
+        match self {
+            Wanted::Nearest(count) => count,
+            Wanted::Below { least, .. } => least + 1,
+        }
+    }
+}
+
 /// Block Lanczos with full reorthogonalization: an M-orthonormal basis Q of the block Krylov
 /// space of (K − σM)⁻¹ M grows by `BLOCK` vectors at a time; Rayleigh–Ritz on span(Q) gives
-/// the Ritz values, checked after each block, until the `count` nearest σ settle to
+/// the Ritz values, checked after each block, until the `wanted` ones settle to
 /// `tolerance` (or the space stops growing: then it holds every mode M can excite, and
-/// its Ritz pairs are exact). Returns every Ritz pair ordered by distance to σ (nearest
-/// first). The Krylov space converges where subspace iteration stalls on the ratio of the
-/// wanted to the first unwanted eigenvalue: a few dozen solves instead of hundreds.
+/// its Ritz pairs are exact). Returns the settled Ritz pairs ordered by distance to σ
+/// (nearest first). The Krylov space converges where subspace iteration stalls on the ratio
+/// of the wanted to the first unwanted eigenvalue: a few dozen solves instead of hundreds.
 fn block_krylov(
-    k: &Csc,
-    m: &Csc,
-    count: usize,
+    (k, m): (&Csc, &Csc),
+    wanted: Wanted,
     shift: f64,
     tolerance: f64,
     pattern: Option<&LuPattern>,
 ) -> Result<Vec<Mode>> {
     let n = k.nrows;
-    let count = count.min(n);
     let a = shifted(k, m, shift)?;
     let lu = match pattern {
         Some(pattern) => SparseLu::factor_real(pattern, &a)?,
         None => SparseLu::factor_real(&LuPattern::analyse(&a)?, &a)?,
     };
     let apply = |x: &[Vec<f64>]| -> Vec<Vec<f64>> {
-        let rhs: Vec<Vec<c64>> = x
-            .iter()
-            .map(|col| {
-                m.mul_vec(col)
-                    .into_iter()
-                    .map(|v| c64::new(v, 0.0))
-                    .collect()
-            })
-            .collect();
-        lu.solve_many(&rhs)
-            .into_iter()
-            .map(|col| col.into_iter().map(|z| z.re).collect())
-            .collect()
+        let rhs: Vec<Vec<f64>> = x.iter().map(|col| m.mul_vec(col)).collect();
+        lu.solve_real_many(&rhs)
     };
-    let limit = (6 * count + 60).min(n);
+    let limit = (6 * wanted.most() + 60).min(n);
     let mut space = MSpace::default();
     let mut block = apply(&start_vectors(n, BLOCK.min(n), 0));
     let mut previous: Vec<f64> = Vec::new();
     loop {
         let added = space.extend(k, m, block);
-        if added.is_empty() || space.q.len() >= limit {
+        if added.is_empty() || space.len() >= limit {
             break;
         }
-        if space.q.len() >= count + BLOCK {
-            let values = space.values_nearest(shift, count);
+        if space.len() >= wanted.least().min(n) + BLOCK {
+            let values = space.values_nearest(shift, wanted);
             let settled = values.len() == previous.len()
                 && values
                     .iter()
@@ -157,78 +206,137 @@ fn block_krylov(
         }
         block = apply(&added);
     }
-    space.ritz_pairs(shift)
+    let count = wanted.count(&space.values_nearest(shift, Wanted::Nearest(n)));
+    space.ritz_pairs(shift, count.min(n))
 }
 
-/// An M-orthonormal basis Q with M Q and the projection QᵀKQ kept beside it, grown a column
-/// at a time (Rayleigh–Ritz without recomputing what earlier blocks gave).
+/// An M-orthonormal basis Q with M Q and the projection QᵀKQ kept beside it, grown a block
+/// at a time (Rayleigh–Ritz without recomputing what earlier blocks gave). Q and MQ are held
+/// column-major in one slice each, so projections against them are matrix products.
 #[derive(Default)]
 struct MSpace {
-    q: Vec<Vec<f64>>,
-    mq: Vec<Vec<f64>>,
+    /// The length of a column.
+    n: usize,
+    q: Vec<f64>,
+    mq: Vec<f64>,
     /// QᵀKQ, row i the products of q_i with K q_0 … K q_i.
     kr: Vec<Vec<f64>>,
 }
 
 impl MSpace {
-    /// Orthonormalize `y` against Q and itself (modified Gram–Schmidt, twice, in the M inner
-    /// product) and append what is left; a column (numerically) in the span already is
-    /// dropped. Returns the appended columns.
+    fn len(&self) -> usize {
+        self.kr.len()
+    }
+
+    fn column(&self, j: usize) -> &[f64] {
+        &self.q[j * self.n..(j + 1) * self.n]
+    }
+
+    /// Q (or MQ) as a matrix: its columns `from..`.
+    fn basis<'a>(&self, values: &'a [f64], from: usize) -> faer::MatRef<'a, f64> {
+        let p = self.len();
+        faer::MatRef::from_column_major_slice(&values[from * self.n..p * self.n], self.n, p - from)
+    }
+
+    /// y ← y − Q (MQ)ᵀ y over Q's columns `from..`: one classical Gram–Schmidt pass as two
+    /// matrix products.
+    fn project_out(&self, y: &mut faer::Mat<f64>, from: usize) {
+        if self.len() > from {
+            let (q, mq) = (self.basis(&self.q, from), self.basis(&self.mq, from));
+            let c = mq.transpose() * y.as_ref();
+            *y -= q * c;
+        }
+    }
+
+    /// Orthonormalize `y` against Q and itself (Gram–Schmidt twice in the M inner product:
+    /// against Q as a block, within `y` a column at a time) and append what is left; a column
+    /// (numerically) in the span already is dropped. Returns the appended columns.
     fn extend(&mut self, k: &Csc, m: &Csc, y: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
-        let first = self.q.len();
-        for mut col in y {
-            let before = dot(&col, &m.mul_vec(&col)).max(0.0).sqrt();
+        let first = self.len();
+        if self.n == 0 {
+            self.n = y.first().map_or(0, Vec::len);
+        }
+        let before: Vec<f64> = y
+            .iter()
+            .map(|c| dot(c, &m.mul_vec(c)).max(0.0).sqrt())
+            .collect();
+        let mut block = faer::Mat::<f64>::from_fn(self.n, y.len(), |i, c| y[c][i]);
+        for _ in 0..2 {
+            self.project_out(&mut block, 0);
+        }
+        for (c, before) in before.into_iter().enumerate() {
+            let mut col = faer::Mat::<f64>::from_fn(self.n, 1, |i, _| block[(i, c)]);
             for _ in 0..2 {
-                for (b, mb) in self.q.iter().zip(&self.mq) {
-                    let c = dot(mb, &col);
-                    col.iter_mut().zip(b).for_each(|(v, bv)| *v -= c * bv);
-                }
+                self.project_out(&mut col, first);
             }
+            let col: Vec<f64> = col.col(0).iter().copied().collect();
             let mcol = m.mul_vec(&col);
             let norm = dot(&col, &mcol).max(0.0).sqrt();
             if norm > 1e-10 * before && norm > 0.0 {
-                col.iter_mut().for_each(|v| *v /= norm);
-                self.mq.push(mcol.into_iter().map(|v| v / norm).collect());
-                let kcol = k.mul_vec(&col);
-                let mut row: Vec<f64> = self.q.iter().map(|qi| dot(qi, &kcol)).collect();
-                row.push(dot(&col, &kcol));
-                self.kr.push(row);
-                self.q.push(col);
+                self.push(
+                    k,
+                    col.iter().map(|v| v / norm),
+                    mcol.iter().map(|v| v / norm),
+                );
             }
         }
-        self.q[first..].to_vec()
+        (first..self.len())
+            .map(|j| self.column(j).to_vec())
+            .collect()
+    }
+
+    /// Appends the M-normalized column `q` with `mq` = M q and its row of QᵀKQ.
+    fn push(&mut self, k: &Csc, q: impl Iterator<Item = f64>, mq: impl Iterator<Item = f64>) {
+        self.q.extend(q);
+        self.mq.extend(mq);
+        let j = self.len();
+        let kcol = k.mul_vec(&self.q[j * self.n..]);
+        let row = (0..=j).map(|i| dot(&self.q[i * self.n..(i + 1) * self.n], &kcol));
+        self.kr.push(row.collect());
     }
 
     /// The symmetric eigen-decomposition of QᵀKQ (the Ritz problem: Q is M-orthonormal).
     fn projected(&self) -> SymmetricEigen<f64, nalgebra::Dyn> {
-        let p = self.q.len();
-        let kr = DMatrix::from_fn(p, p, |i, j| self.kr[i.max(j)][i.min(j)]);
-        SymmetricEigen::new(kr)
+        SymmetricEigen::new(self.projection())
     }
 
-    /// The `count` Ritz values nearest σ, nearest first.
-    fn values_nearest(&self, shift: f64, count: usize) -> Vec<f64> {
-        let mut values: Vec<f64> = self.projected().eigenvalues.iter().copied().collect();
+    /// QᵀKQ, symmetric.
+    fn projection(&self) -> DMatrix<f64> {
+        let p = self.len();
+        DMatrix::from_fn(p, p, |i, j| self.kr[i.max(j)][i.min(j)])
+    }
+
+    /// The `wanted` Ritz values, nearest σ first.
+    fn values_nearest(&self, shift: f64, wanted: Wanted) -> Vec<f64> {
+        let eigenvalues = self.projection().symmetric_eigenvalues();
+        let mut values: Vec<f64> = eigenvalues.iter().copied().collect();
         values.sort_by(|a, b| (a - shift).abs().total_cmp(&(b - shift).abs()));
-        values.truncate(count);
+        values.truncate(wanted.count(&values));
         values
     }
 
-    /// Every Ritz pair, nearest σ first, the vectors M-orthonormal.
-    fn ritz_pairs(&self, shift: f64) -> Result<Vec<Mode>> {
-        let n = self.q.first().map_or(0, Vec::len);
-        if self.q.is_empty() {
+    /// The `count` Ritz pairs nearest σ, nearest first, the vectors M-orthonormal.
+    fn ritz_pairs(&self, shift: f64, count: usize) -> Result<Vec<Mode>> {
+        let n = self.n;
+        if self.len() == 0 {
             return Err(Error::Model(
                 "mode extraction: the mass matrix is zero on every trial vector (massless dofs?)"
                     .into(),
             ));
         }
         let eig = self.projected();
-        let mut pairs: Vec<Mode> = (0..self.q.len())
+        let mut order: Vec<usize> = (0..self.len()).collect();
+        order.sort_by(|&a, &b| {
+            (eig.eigenvalues[a] - shift)
+                .abs()
+                .total_cmp(&(eig.eigenvalues[b] - shift).abs())
+        });
+        order.truncate(count);
+        let mut pairs: Vec<Mode> = (order.into_iter())
             .map(|c| {
                 let mut v = vec![0.0; n];
-                for (r, qr) in self.q.iter().enumerate() {
-                    let w = eig.eigenvectors[(r, c)];
+                for r in 0..self.len() {
+                    let (w, qr) = (eig.eigenvectors[(r, c)], self.column(r));
                     v.iter_mut().zip(qr).for_each(|(vi, qi)| *vi += w * qi);
                 }
                 (eig.eigenvalues[c], v)
@@ -239,9 +347,7 @@ impl MSpace {
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
+use crate::linalg::dot;
 
 /// The modal damping ratio ζ = α/(2ω) + βω/2 of Rayleigh damping at angular frequency ω
 /// (0 without damping).

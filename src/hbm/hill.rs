@@ -170,7 +170,8 @@ impl FloquetVector {
 }
 
 impl HillModel {
-    /// The `modes` lowest modes of `system` (free dofs) seen through the contact operator `b`.
+    /// The `modes` lowest modes of `system` (free dofs) seen through the contact operator `b`
+    /// (a sweep's model, for every frequency it passes).
     pub fn new(system: &System, b: &Csc, modes: usize) -> Result<HillModel> {
         super::floquet::refuse_gyroscopic(system)?;
         let (k, m) = (&system.k_ff, &system.m_ff);
@@ -178,7 +179,18 @@ impl HillModel {
             .filter(|&j| (m.col_ptr[j]..m.col_ptr[j + 1]).any(|p| m.values[p] != 0.0))
             .count();
         let count = modes.min(massive);
-        let found = crate::fem::modes::modes_near(k, m, count, 0.0, None)?;
+        let found = crate::fem::modes::lowest_modes(k, m, count, 0.0)?;
+        HillModel::with_modes(system, b, &found)
+    }
+
+    /// The model of `system` seen through `b` on the open structure's modes `found` (ω², φ),
+    /// ascending: for a state at ω, `band_modes(system, ω)`.
+    pub fn with_modes(
+        system: &System,
+        b: &Csc,
+        found: &[crate::fem::modes::Mode],
+    ) -> Result<HillModel> {
+        super::floquet::refuse_gyroscopic(system)?;
         let rows = super::floquet::b_rows(b);
         let theta: Vec<f64> = found.iter().map(|(w2, _)| *w2).collect();
         let phi = Arc::new(found.iter().map(|(_, v)| v.clone()).collect());
@@ -186,12 +198,7 @@ impl HillModel {
             crate::linalg::dot(&rows[i], &found[j].1)
         });
         let (alpha, beta) = system.rayleigh.unwrap_or((0.0, 0.0));
-        let spin = system.spin.as_ref().map(|s| Spin {
-            turns: s.turns,
-            reference: s.reference,
-            softening: s.softening,
-            centrifugal: None,
-        });
+        let spin = Self::spin_of(system);
         Ok(HillModel {
             theta,
             e,
@@ -199,6 +206,30 @@ impl HillModel {
             beta,
             spin,
             phi,
+        })
+    }
+
+    /// The modes a state at ω keeps dynamic (`modes_for`) and the next one above them: those
+    /// below `BAND`·ω (a following speed's softening taken into account), at least
+    /// `MIN_MODES`, at most `MODES`.
+    pub fn band_modes(system: &System, omega: f64) -> Result<Vec<crate::fem::modes::Mode>> {
+        let softening = Self::spin_of(system).map_or(0.0, |s| s.shift(omega).0);
+        let bound = (BAND * omega).powi(2) - softening.min(0.0);
+        crate::fem::modes::modes_below(
+            (&system.k_ff, &system.m_ff),
+            bound,
+            (MIN_MODES, MODES),
+            system.lu_pattern().ok(),
+        )
+    }
+
+    /// The model of a following speed's spin softening (`None` without rotation).
+    fn spin_of(system: &System) -> Option<Spin> {
+        system.spin.as_ref().map(|s| Spin {
+            turns: s.turns,
+            reference: s.reference,
+            softening: s.softening,
+            centrifugal: None,
         })
     }
 
@@ -494,16 +525,19 @@ impl HillModel {
         }
     }
 
-    /// The Hill matrix [[0, I], [−K̂, −Ĉ]] on (q̃, v), 2rM square.
+    /// The Hill matrix [[0, ωI], [−K̂/ω, −Ĉ]] on (q̃, v/ω), 2rM square: the first-order form
+    /// scaled so both rows of blocks are of the size of the exponents. Unscaled, K̂ (up to
+    /// (`BAND`·ω)²) dwarfs the identity, and the dense eigenvalues moved the phase of a
+    /// multiplier by 1e-6 when θ moved by 3e-13.
     fn hill_matrix(&self, stiffness: &Mat<f64>, omega: f64, h: usize) -> Mat<f64> {
         let n = stiffness.nrows();
         let mut a = Mat::<f64>::zeros(2 * n, 2 * n);
         for i in 0..n {
-            a[(i, n + i)] = 1.0;
+            a[(i, n + i)] = omega;
         }
         a.as_mut()
             .submatrix_mut(n, 0, n, n)
-            .copy_from(-stiffness.as_ref());
+            .copy_from(stiffness.as_ref() * faer::Scale(-1.0 / omega));
         self.add_damping(a.as_mut().submatrix_mut(n, n, n, n), -1.0, omega, h);
         a
     }

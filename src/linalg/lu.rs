@@ -101,6 +101,24 @@ impl SparseLu {
         }
     }
 
+    /// Solve for several real right-hand sides of a real factorization (a complex one solves
+    /// them as complex columns and keeps the real part).
+    pub fn solve_real_many(&self, rhs: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        let (n, k) = (self.dim(), rhs.len());
+        let SparseLu::Real(lu) = self else {
+            let complex = complex_columns(rhs);
+            return (self.solve_many(&complex).into_iter())
+                .map(|col| col.into_iter().map(|z| z.re).collect())
+                .collect();
+        };
+        if k == 0 {
+            return Vec::new();
+        }
+        let b = Mat::<f64>::from_fn(n, k, |i, c| rhs[c][i]);
+        let x = lu.solve(&b);
+        (0..k).map(|c| x.col(c).iter().copied().collect()).collect()
+    }
+
     /// The compliance B A⁻¹ Bᵀ (row-major nrows(B)²) for a sparse B: blocked solves with the
     /// rows of B as right-hand sides (real ones for a real factorization), `COMPLIANCE_BLOCK`
     /// at a time so the n × n_c solution is never held, each block multiplied by B at once.

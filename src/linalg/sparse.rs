@@ -176,8 +176,10 @@ impl Csc {
         let mut y = vec![0.0; self.nrows];
         for (j, &xj) in x.iter().enumerate().take(self.ncols) {
             if xj != 0.0 {
-                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                    y[self.row_idx[p]] += self.values[p] * xj;
+                let span = self.col_ptr[j]..self.col_ptr[j + 1];
+                let (rows, values) = (&self.row_idx[span.clone()], &self.values[span]);
+                for (&i, &v) in rows.iter().zip(values) {
+                    y[i] += v * xj;
                 }
             }
         }
@@ -188,11 +190,9 @@ impl Csc {
     pub fn mul_transpose_vec(&self, x: &[f64]) -> Vec<f64> {
         let mut y = vec![0.0; self.ncols];
         for (j, yj) in y.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                s += self.values[p] * x[self.row_idx[p]];
-            }
-            *yj = s;
+            let span = self.col_ptr[j]..self.col_ptr[j + 1];
+            let (rows, values) = (&self.row_idx[span.clone()], &self.values[span]);
+            *yj = rows.iter().zip(values).map(|(&i, &v)| v * x[i]).sum();
         }
         y
     }

@@ -104,11 +104,12 @@ pub fn run_scene(
     } = scene;
     stages.run(Stage::Check, || stages::check_stability_march(p, &model))?;
     stages::touch_solve_memory(p, &model);
-    let resonance = stages::resonance(&model, &mut stages);
+    let modes = stability::RunModes::of(p, &model);
+    let resonance = stages::resonance(&model, &modes, &mut stages);
     let solution = stages::solve(p, &model, &mut stages)?;
     stages.run(Stage::Check, || finite_solution(&solution))?;
     warnings.extend(sanity::check_contact_result(&model, &solution));
-    let mut stability = stages::stability(p, &model, &solution, &mut stages)?;
+    let mut stability = stages::stability(p, (&model, &modes), &solution, &mut stages)?;
     warnings.extend(stability.warning());
     let staged = StagedDir::create(&out, "run", options.replace)?;
     let (level, reporter) = (options.write, stages.reporter);

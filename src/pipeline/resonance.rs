@@ -15,7 +15,11 @@
 //!
 //! Cost: one shift-invert block Lanczos per load-excited harmonic, shifted to (kω)² so it
 //! converges first to the modes nearest kω: one real factorization of K − (kω)²M (reusing the
-//! symbolic analysis the harmonic balance made of K's pattern) and a few dozen solves. Contact scenes compute every harmonic up to H, but only the load-excited ones
+//! symbolic analysis the harmonic balance made of K's pattern) and a few dozen solves. Where
+//! the run computes the open structure's lowest modes anyway (a contact run's Hill check,
+//! `RunModes`) and they reach above kω, the nearest are read from those instead: every mode
+//! below the last one computed is among them, so a mode missing from them lies farther from
+//! kω than the last one. Contact scenes compute every harmonic up to H, but only the load-excited ones
 //! are checked: the others are driven by the contact forces, whose contact-closed dynamics
 //! differ from these contact-open modes, and finding every mode below Hω would cost more than
 //! the solve (docs/method.md §11).
@@ -24,7 +28,7 @@ use schemars::JsonSchema;
 use serde::Serialize;
 
 use super::model::Model;
-use crate::fem::modes::{modes_near, rayleigh_damping_ratio};
+use crate::fem::modes::{modes_near, rayleigh_damping_ratio, Mode};
 use crate::Result;
 
 /// The smallest half-width of the band checked, relative to ω_n.
@@ -72,8 +76,9 @@ pub struct NearMode {
     pub magnification: f64,
 }
 
-/// The check on the model's load-excited harmonics, and its warnings.
-pub fn check(model: &Model) -> Result<(ResonanceCheck, Vec<String>)> {
+/// The check on the model's load-excited harmonics, and its warnings; `lowest`, where given,
+/// the open structure's lowest modes, complete below their last.
+pub fn check(model: &Model, lowest: Option<&[Mode]>) -> Result<(ResonanceCheck, Vec<String>)> {
     let system = &model.system;
     let ks = &model.effects.excited_harmonics;
     let mut harmonics = Vec::with_capacity(ks.len());
@@ -82,7 +87,7 @@ pub fn check(model: &Model) -> Result<(ResonanceCheck, Vec<String>)> {
         harmonics.push(HarmonicResonance {
             k,
             frequency_hz: kw / (2.0 * std::f64::consts::PI),
-            nearest_modes: nearest_modes(model, kw)?,
+            nearest_modes: nearest_modes(model, kw, lowest)?,
         });
     }
     let warnings = harmonics.iter().filter_map(|h| warning(model, h)).collect();
@@ -99,20 +104,36 @@ pub fn check(model: &Model) -> Result<(ResonanceCheck, Vec<String>)> {
     Ok((check, warnings))
 }
 
-/// The natural frequencies nearest kω (shift-invert at (kω)²), nearest first.
-fn nearest_modes(model: &Model, kw: f64) -> Result<Vec<NearMode>> {
+/// The `count` modes of `lowest` nearest (kω)², where they are surely the nearest: no mode
+/// missing from `lowest` (all lie above its last) can be nearer.
+fn nearest_of(lowest: &[Mode], kw: f64, count: usize) -> Option<Vec<Mode>> {
+    let last = lowest.last()?.0;
+    let target = kw * kw;
+    let mut near: Vec<&Mode> = lowest.iter().collect();
+    near.sort_by(|a, b| (a.0 - target).abs().total_cmp(&(b.0 - target).abs()));
+    near.truncate(count);
+    let farthest = near.last().map_or(f64::INFINITY, |m| (m.0 - target).abs());
+    (near.len() == count && farthest <= last - target).then(|| near.into_iter().cloned().collect())
+}
+
+/// The natural frequencies nearest kω (from `lowest` where they reach, else by shift-invert
+/// at (kω)²), nearest first.
+fn nearest_modes(model: &Model, kw: f64, lowest: Option<&[Mode]>) -> Result<Vec<NearMode>> {
     let system = &model.system;
     let count = NEAREST.min(system.free_count());
+    let known = lowest.and_then(|l| nearest_of(l, kw, count));
     // An exact hit makes K − (kω)²M singular: shift a hair away and try again.
-    let modes = modes_near(
-        &system.k_ff,
-        &system.m_ff,
-        count,
-        kw * kw,
-        system.lu_pattern().ok(),
-    )
-    .ok()
-    .filter(|m| m.iter().all(|(w2, _)| w2.is_finite()));
+    let modes = known.or_else(|| {
+        modes_near(
+            &system.k_ff,
+            &system.m_ff,
+            count,
+            kw * kw,
+            system.lu_pattern().ok(),
+        )
+        .ok()
+        .filter(|m| m.iter().all(|(w2, _)| w2.is_finite()))
+    });
     let modes = match modes {
         Some(m) => m,
         None => modes_near(

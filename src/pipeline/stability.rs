@@ -39,8 +39,9 @@ use std::time::Instant;
 use schemars::JsonSchema;
 use serde::Serialize;
 
-use crate::config::{Pipeline, StabilitySpec};
+use crate::config::{Pipeline, StabilityMethod, StabilitySpec};
 use crate::contact::ContactOperator;
+use crate::fem::modes::Mode;
 use crate::fem::DofMap;
 use crate::hbm::floquet::{self, Crossing, FloquetModel, Segment};
 use crate::hbm::hill::HillModel;
@@ -343,6 +344,46 @@ pub fn by_floquet(model: &Model, segments: &[Segment], omega: f64) -> Result<Sta
     let nodes = floquet::closed_nodes(segments);
     let reduced = FloquetModel::new(&model.system, &cm.operator.b_free, &nodes)?;
     floquet_verdict(&reduced, segments, omega)
+}
+
+/// The open structure's modes a contact run's Hill check keeps (`HillModel::band_modes` at
+/// the run's ω), computed at most once: the resonance check reads the modes nearest its
+/// harmonics from them where they reach (`resonance::check`), and the Hill model is built on
+/// them. Empty where the run makes no Hill check: no contact, a static state, friction, a
+/// spline basis, the Coriolis force, marching alone, or no check.
+pub struct RunModes {
+    omega: Option<f64>,
+    modes: std::sync::OnceLock<std::result::Result<Vec<Mode>, String>>,
+}
+
+impl RunModes {
+    /// The modes `model`'s run under `p` would compute for its Hill check.
+    pub fn of(p: &Pipeline, model: &Model) -> RunModes {
+        let frictionless =
+            (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_none());
+        let hill = frictionless
+            && p.stability.check
+            && p.stability.method != StabilityMethod::March
+            && p.harmonic_balance.harmonics > 0
+            && matches!(
+                time_basis(p, Purpose::HarmonicBalance),
+                hbm::basis::TimeBasis::Fourier
+            )
+            && floquet::refuse_gyroscopic(&model.system).is_ok();
+        RunModes {
+            omega: hill.then_some(model.system.omega),
+            modes: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// The modes, computed on first use (`None`: the run makes no Hill check).
+    pub fn get(&self, model: &Model) -> Option<Result<&[Mode]>> {
+        let omega = self.omega?;
+        let found = self
+            .modes
+            .get_or_init(|| HillModel::band_modes(&model.system, omega).map_err(|e| e.to_string()));
+        Some(found.as_deref().map_err(|e| Error::Model(e.clone())))
+    }
 }
 
 /// The Hill model of a contact scene on a Fourier basis (`None`: splines, judged by the

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use super::model::{build, Model, Purpose};
 use super::resonance::ResonanceCheck;
-use super::stability::{self, Stability};
+use super::stability::{self, RunModes, Stability};
 use super::summary::{MeshInfo, Summary};
 use super::times::{Stage, StageTimes};
 use crate::config::{BasisSpec, Pipeline, StabilityMethod};
@@ -185,8 +185,16 @@ pub fn touch_solve_memory(p: &Pipeline, model: &Model) {
 /// The resonance check (`resonance`): the natural frequencies nearest each load-excited
 /// harmonic, and warnings for those within a half-power band. A check that fails does not
 /// stop the run: it becomes a warning.
-pub fn resonance(model: &Model, stages: &mut Stages) -> (Option<ResonanceCheck>, Vec<String>) {
-    match stages.run(Stage::Resonance, || super::resonance::check(model)) {
+pub fn resonance(
+    model: &Model,
+    modes: &RunModes,
+    stages: &mut Stages,
+) -> (Option<ResonanceCheck>, Vec<String>) {
+    let check = || {
+        let lowest = modes.get(model).and_then(|m| m.ok());
+        super::resonance::check(model, lowest)
+    };
+    match stages.run(Stage::Resonance, check) {
         Ok((check, warnings)) => (Some(check), warnings),
         Err(e) => (None, vec![format!("the resonance check failed: {e}")]),
     }
@@ -231,7 +239,7 @@ pub fn march<'m>(
 /// damping, static states (H = 0) are not judged.
 pub fn stability(
     p: &Pipeline,
-    model: &Model,
+    (model, modes): (&Model, &RunModes),
     solution: &Solution,
     stages: &mut Stages,
 ) -> Result<Stability> {
@@ -253,7 +261,7 @@ pub fn stability(
     let floquet = match spec.method {
         StabilityMethod::March => None,
         _ => Some(stages.run(Stage::Stability, || {
-            floquet_verdict(model, solution, contact, &segments)
+            floquet_verdict((model, modes), solution, contact, &segments)
         })),
     };
     match (spec.method, floquet) {
@@ -271,14 +279,21 @@ pub fn stability(
 }
 
 /// The Floquet verdict on `contact`, the contact part of `solution`, a state of `model`
-/// (`stability::by_floquet_state`, on a Hill model of its own).
+/// (`stability::by_floquet_state`, on a Hill model of the run's `modes`).
 fn floquet_verdict(
-    model: &Model,
+    (model, modes): (&Model, &RunModes),
     solution: &Solution,
     contact: &crate::hbm::ContactSolution,
     segments: &[crate::hbm::floquet::Segment],
 ) -> Result<Stability> {
-    let hill = stability::hill_model(model, &solution.basis)?;
+    let hill = match (modes.get(model), &model.contact) {
+        (Some(found), Some(cm)) => Some(crate::hbm::hill::HillModel::with_modes(
+            &model.system,
+            &cm.operator.b_free,
+            found?,
+        )?),
+        _ => stability::hill_model(model, &solution.basis)?,
+    };
     stability::by_floquet_state(model, hill.as_ref(), solution.omega, contact, segments)
 }
 
