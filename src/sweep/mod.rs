@@ -201,6 +201,9 @@ pub struct SweepSummary {
     pub resume: Option<ContinuationState>,
     /// Wall time [s] of this invocation: mesh, assemble, the continuation (factorizations,
     /// each point's outputs and frames included), points (the full outputs), write, plots.
+    /// Hill's verdicts are found beside the continuation, on the other cores: `stability` is
+    /// the time the continuation waited for them, and their work shows as a slower `sweep`
+    /// (what the check costs is this sweep's time against one with `stability.check: false`).
     pub stage_seconds: pipeline::StageTimes,
     /// The continuation's solver phases [s] summed over every point and rejected attempt:
     /// factorizations, linear solves, reductions, the correctors (`newton`: Newton, bordered
@@ -574,8 +577,9 @@ fn write(
 }
 
 /// The continuation, each point handed to the writer (row, frame, kept solutions) and, with
-/// Hill's method, judged (its seconds added to `judging`). A `request_stop` ends it after the
-/// current point with `Error::Interrupted`.
+/// Hill's method, judged beside it (`Judge`; the seconds the continuation waited for the
+/// verdicts added to `judging`). A `request_stop` ends it after the current point with
+/// `Error::Interrupted`.
 fn continue_curve(
     p: &Pipeline,
     spec: &SweepSpec,
@@ -595,43 +599,133 @@ fn continue_curve(
     STOP.store(false, Ordering::SeqCst);
     RUNNING.store(true, Ordering::SeqCst);
     let hill = inline_judge(p, model, reporter);
-    let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
-        writer.point(info, solution)?;
-        // A resumed sweep's saved rows keep the verdicts they were saved with.
-        let saved_verdict = writer
-            .rows
-            .iter()
-            .any(|r| r.index == info.index && (r.stable.is_some() || r.multiplier.is_some()));
-        if let (Some(hill), Some(contact), false) = (&hill, &solution.contact, saved_verdict) {
-            let start = Instant::now();
-            let verdict = judge_state(model, hill, info.omega, contact);
-            *judging += start.elapsed().as_secs_f64();
-            record(writer, info.index, verdict);
+    std::thread::scope(|scope| {
+        let judge = hill.as_ref().map(|hill| Judge::start(scope, model, hill));
+        let mut on_point = |info: &continuation::PointInfo, solution: &crate::hbm::Solution| {
+            writer.point(info, solution)?;
+            // A resumed sweep's saved rows keep the verdicts they were saved with.
+            let saved_verdict = (writer.rows.iter())
+                .any(|r| r.index == info.index && (r.stable.is_some() || r.multiplier.is_some()));
+            if let (Some(judge), Some(contact), false) = (&judge, &solution.contact, saved_verdict)
+            {
+                judge.submit(info.index, info.omega, contact, judging);
+                judge.record_done(writer);
+            }
+            // The compliance is kept only as long as a verdict may need it.
+            let contact = solution.contact.clone().map(|c| ContactSolution {
+                compliance: None,
+                ..c
+            });
+            starts.push((info.index, info.omega, contact));
+            if STOP.load(Ordering::SeqCst) {
+                return Err(Error::Interrupted(format!(
+                    "interrupted after the point at {:.6} Hz",
+                    info.omega / (2.0 * std::f64::consts::PI)
+                )));
+            }
+            Ok(())
+        };
+        let outcome = continuation::sweep(
+            &mut system,
+            contact,
+            &hb,
+            &settings,
+            reporter,
+            &mut on_point,
+        );
+        if let Some(judge) = judge {
+            judge.finish(writer, judging);
         }
-        // The compliance is kept only as long as a verdict may need it.
-        let contact = solution.contact.clone().map(|c| ContactSolution {
-            compliance: None,
-            ..c
-        });
-        starts.push((info.index, info.omega, contact));
-        if STOP.load(Ordering::SeqCst) {
-            return Err(Error::Interrupted(format!(
-                "interrupted after the point at {:.6} Hz",
-                info.omega / (2.0 * std::f64::consts::PI)
-            )));
+        RUNNING.store(false, Ordering::SeqCst);
+        outcome
+    })
+}
+
+/// Points waiting for Hill's verdict before the continuation blocks: each holds its
+/// compliance, (H + 1)·n_c² complex numbers.
+const JUDGE_QUEUE: usize = 8;
+
+/// Hill's verdicts of a sweep's points on a thread beside the continuation: the points go in
+/// as they are found (the continuation waits when `JUDGE_QUEUE` are pending), the verdicts
+/// come back into the writer as they are done, and all of them before the sweep is written.
+/// A verdict is a function of its point alone, so the rows are those of judging in turn. The
+/// check's stage time is the wall time it adds: what the continuation waited for it (a full
+/// queue, the last verdicts).
+struct Judge<'scope> {
+    points: std::sync::mpsc::SyncSender<(usize, f64, ContactSolution)>,
+    verdicts: std::sync::mpsc::Receiver<(usize, Stability)>,
+    workers: Vec<std::thread::ScopedJoinHandle<'scope, ()>>,
+}
+
+impl<'scope> Judge<'scope> {
+    /// One worker per core: while the continuation waits on a full queue, every core judges.
+    fn start<'env>(
+        scope: &'scope std::thread::Scope<'scope, 'env>,
+        model: &'env Model,
+        hill: &'env HillModel,
+    ) -> Self {
+        let (points, queue) = std::sync::mpsc::sync_channel(JUDGE_QUEUE);
+        let queue = std::sync::Arc::new(std::sync::Mutex::new(queue));
+        let (done, verdicts) = std::sync::mpsc::channel();
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let workers = (0..cores.clamp(1, 4))
+            .map(|_| {
+                let (queue, done) = (std::sync::Arc::clone(&queue), done.clone());
+                scope.spawn(move || loop {
+                    // The lock is held only to take the next point.
+                    let next = queue.lock().ok().and_then(|q| q.recv().ok());
+                    let Some((i, omega, contact)) = next else {
+                        return;
+                    };
+                    let verdict = judge_state(model, hill, omega, &contact);
+                    if done.send((i, verdict)).is_err() {
+                        return;
+                    }
+                })
+            })
+            .collect();
+        Judge {
+            points,
+            verdicts,
+            workers,
         }
-        Ok(())
-    };
-    let outcome = continuation::sweep(
-        &mut system,
-        contact,
-        &hb,
-        &settings,
-        reporter,
-        &mut on_point,
-    );
-    RUNNING.store(false, Ordering::SeqCst);
-    outcome
+    }
+
+    /// Queues point `i` at ω with its contact state (the wait for room added to `waited`).
+    fn submit(&self, i: usize, omega: f64, contact: &ContactSolution, waited: &mut f64) {
+        let start = Instant::now();
+        // A worker that is gone has panicked; `finish` passes the panic on.
+        let _ = self.points.send((i, omega, contact.clone()));
+        *waited += start.elapsed().as_secs_f64();
+    }
+
+    /// Records the verdicts done so far.
+    fn record_done(&self, writer: &mut points::Writer) {
+        for (i, verdict) in self.verdicts.try_iter() {
+            record(writer, i, verdict);
+        }
+    }
+
+    /// Waits for the pending verdicts (the wait added to `waited`) and records them.
+    fn finish(self, writer: &mut points::Writer, waited: &mut f64) {
+        let start = Instant::now();
+        let Judge {
+            points,
+            verdicts,
+            workers,
+        } = self;
+        drop(points);
+        // A panic in the check is the sweep's, as it was when the check ran inline.
+        for worker in workers {
+            if let Err(panic) = worker.join() {
+                std::panic::resume_unwind(panic);
+            }
+        }
+        *waited += start.elapsed().as_secs_f64();
+        for (i, verdict) in verdicts.try_iter() {
+            record(writer, i, verdict);
+        }
+    }
 }
 
 /// `stopped` of sweep.json: the failure, or the budget `max_points` ran out before `to_hz`.
