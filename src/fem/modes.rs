@@ -18,7 +18,7 @@
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::linalg::{Csc, LuPattern, SparseLu};
+use crate::linalg::{dot, Csc, LuPattern, SparseLu};
 use crate::{Error, Result};
 
 /// An eigenpair (ω², φ) with φ M-normalized (φᵀ M φ = 1).
@@ -137,7 +137,7 @@ impl Wanted {
             Wanted::Nearest(count) => count,
             Wanted::Below { bound, least, most } => {
                 let below = values.iter().filter(|&&v| v <= bound).count();
-                below.clamp(least, most) + 1
+                below.max(least).min(most.max(least)) + 1
             }
         }
     }
@@ -346,8 +346,6 @@ impl MSpace {
         Ok(pairs)
     }
 }
-
-use crate::linalg::dot;
 
 /// The modal damping ratio ζ = α/(2ω) + βω/2 of Rayleigh damping at angular frequency ω
 /// (0 without damping).
