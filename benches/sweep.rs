@@ -1,9 +1,8 @@
 //! The cost of a frequency-response curve, in one run: the shipped fold scene
 //! (`pipelines/strip_sweep.yaml`, H = 10) swept by continuation, each point's cost against a
 //! cold single-frequency `run` at the same H (the target: ≤ 0.5×), the solver phases'
-//! shares, and points per minute. Both sides without the stability check by time marching,
-//! which a run makes once and a sweep at every `stability.every`-th point: its cost is
-//! printed on its own line, per checked point. Last, the same sweep with every frame factored
+//! shares, and points per minute. Both sides without the stability check (what it adds to a
+//! sweep: `cargo bench --bench checks -- sweep`). Last, the same sweep with every frame factored
 //! (`sweep.reduced_frames: false`), per point against the reduced frames'.
 //!
 //! `cargo bench --bench sweep [-- --harmonics 10]`.
@@ -53,8 +52,10 @@ fn main() {
             Err(e) => return eprintln!("cold run: {e}"),
         }
     }
+    let mut unchecked = p.clone();
+    unchecked.stability.check = false;
     let t = Instant::now();
-    let s = match hbcontact::sweep::run(&p, &options("sweep", false), &Silent) {
+    let s = match hbcontact::sweep::run(&unchecked, &options("sweep", false), &Silent) {
         Ok(r) => r.summary,
         Err(e) => return eprintln!("sweep: {e}"),
     };
@@ -66,7 +67,6 @@ fn main() {
     let outputs =
         sweep - (t.factor + t.linear_solve + t.reduce + t.newton + t.knob_check + t.recover);
     let sets: usize = s.rows.iter().map(|r| r.factorizations).sum();
-    let checked = s.rows.iter().filter(|r| r.multiplier.is_some()).count();
     println!(
         "frequency sweep of {} ({} to {} Hz, H = {h}); {} points, {} folds, wall {wall:.1} s",
         s.name,
@@ -79,11 +79,7 @@ fn main() {
         "per point {per_point:.3} s against a cold run (without meshing) {cold:.3} s: {:.2}x (target ≤ 0.5x)",
         per_point / cold
     );
-    println!(
-        "stability check (a separate stage): {:.1} s for {checked} checked points, {:.2} s each",
-        s.stage_seconds.get(Stage::Stability),
-        s.stage_seconds.get(Stage::Stability) / checked.max(1) as f64
-    );
+
     println!(
         "sets of factorizations: {sets} ({:.1} per point); points per minute {:.0}",
         sets as f64 / s.points as f64,
