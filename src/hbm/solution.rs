@@ -30,6 +30,17 @@ pub struct Timings {
     pub recover: f64,
 }
 
+impl std::ops::AddAssign<&Timings> for Timings {
+    fn add_assign(&mut self, o: &Timings) {
+        self.factor += o.factor;
+        self.linear_solve += o.linear_solve;
+        self.reduce += o.reduce;
+        self.newton += o.newton;
+        self.knob_check += o.knob_check;
+        self.recover += o.recover;
+    }
+}
+
 /// How far the Fourier-series λ and g miss complementarity at the samples, each relative to
 /// its own scale (the peak contact force, the linear gap range).
 #[derive(Clone, Debug, Default, Serialize, JsonSchema)]

@@ -359,16 +359,8 @@ pub struct RunModes {
 impl RunModes {
     /// The modes `model`'s run under `p` would compute for its Hill check.
     pub fn of(p: &Pipeline, model: &Model) -> RunModes {
-        let frictionless =
-            (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_none());
-        let hill = frictionless
-            && p.stability.check
-            && p.stability.method != StabilityMethod::March
+        let hill = hill_judges(p, model)
             && p.harmonic_balance.harmonics > 0
-            && matches!(
-                time_basis(p, Purpose::HarmonicBalance),
-                hbm::basis::TimeBasis::Fourier
-            )
             && floquet::refuse_gyroscopic(&model.system).is_ok();
         RunModes {
             omega: hill.then_some(model.system.omega),
@@ -384,6 +376,19 @@ impl RunModes {
             .get_or_init(|| HillModel::band_modes(&model.system, omega).map_err(|e| e.to_string()));
         Some(found.as_deref().map_err(|e| Error::Model(e.clone())))
     }
+}
+
+/// Whether `model`'s states under `p` are judged by Hill's method: frictionless contact on a
+/// Fourier basis, checked by `floquet` or `both` (runs and sweeps alike).
+pub fn hill_judges(p: &Pipeline, model: &Model) -> bool {
+    let frictionless = (model.contact.as_ref()).is_some_and(|c| c.operator.tangential.is_none());
+    frictionless
+        && p.stability.check
+        && p.stability.method != StabilityMethod::March
+        && matches!(
+            time_basis(p, Purpose::HarmonicBalance),
+            hbm::basis::TimeBasis::Fourier
+        )
 }
 
 /// The Hill model of a contact scene on a Fourier basis (`None`: splines, judged by the

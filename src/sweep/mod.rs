@@ -701,9 +701,7 @@ impl<'scope> Judge<'scope> {
 
     /// Records the verdicts done so far.
     fn record_done(&self, writer: &mut points::Writer) {
-        for (i, verdict) in self.verdicts.try_iter() {
-            record(writer, i, verdict);
-        }
+        record_all(&self.verdicts, writer);
     }
 
     /// Waits for the pending verdicts (the wait added to `waited`) and records them.
@@ -722,9 +720,17 @@ impl<'scope> Judge<'scope> {
             }
         }
         *waited += start.elapsed().as_secs_f64();
-        for (i, verdict) in verdicts.try_iter() {
-            record(writer, i, verdict);
-        }
+        record_all(&verdicts, writer);
+    }
+}
+
+/// Records every verdict `verdicts` holds now.
+fn record_all(
+    verdicts: &std::sync::mpsc::Receiver<(usize, Stability)>,
+    writer: &mut points::Writer,
+) {
+    for (i, verdict) in verdicts.try_iter() {
+        record(writer, i, verdict);
     }
 }
 
@@ -790,12 +796,10 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
 /// on a Fourier basis); `None` otherwise, or with a warning where the modes fail (the points
 /// are then judged afterwards as `judge_points` says).
 fn inline_judge(p: &Pipeline, model: &Model, reporter: &dyn Reporter) -> Option<HillModel> {
-    let spec = &p.stability;
     // A frictional state has no multipliers to find (`judge_points` says so, or marches).
-    if !spec.check || spec.method == StabilityMethod::March || frictional(model) {
+    if !stability::hill_judges(p, model) {
         return None;
     }
-    model.contact.as_ref()?;
     let basis = pipeline::model::time_basis(p, Purpose::HarmonicBalance);
     stability::hill_model(model, &basis).unwrap_or_else(|e| {
         reporter.warning(&format!(

@@ -102,13 +102,7 @@ fn add_segment(total: &mut SweepOutcome, mut o: SweepOutcome) -> Option<LevelCha
     total.points = o.points;
     total.folds.append(&mut o.folds);
     total.stopped = o.stopped;
-    let (t, s) = (&mut total.timings, &o.timings);
-    t.factor += s.factor;
-    t.linear_solve += s.linear_solve;
-    t.reduce += s.reduce;
-    t.newton += s.newton;
-    t.knob_check += s.knob_check;
-    t.recover += s.recover;
+    total.timings += &o.timings;
     let r = &mut total.reduced;
     r.dimension = o.reduced.dimension;
     r.frames += o.reduced.frames;
