@@ -49,12 +49,22 @@ fn dense_parallelism(n: usize) -> Par {
     }
 }
 
+/// The workspace of faer's eigendecomposition of order n with right eigenvectors only.
+fn right_eigenvectors_scratch<T: faer::traits::ComplexField>(
+    n: usize,
+    par: Par,
+) -> faer::dyn_stack::MemBuffer {
+    use faer::linalg::evd::{self, ComputeEigenvectors};
+    let (no, yes) = (ComputeEigenvectors::No, ComputeEigenvectors::Yes);
+    faer::dyn_stack::MemBuffer::new(evd::evd_scratch::<T>(n, no, yes, par, Default::default()))
+}
+
 /// The eigenvalues and right eigenvectors (columns, complex) of a real square `a`, on the
 /// calling thread below `DENSE_PARALLEL_ORDER` (faer's `eigen()` uses its global pool
 /// whatever the order, which made a 132 × 132 Hessenberg matrix 2.7× slower on 2 cores).
 pub fn eigen_real(a: faer::MatRef<'_, f64>) -> Result<(Vec<c64>, Mat<c64>)> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::evd::{self, ComputeEigenvectors};
+    use faer::dyn_stack::MemStack;
+    use faer::linalg::evd;
     let n = a.nrows();
     let par = dense_parallelism(n);
     let (mut u, mut re, mut im) = (
@@ -62,13 +72,7 @@ pub fn eigen_real(a: faer::MatRef<'_, f64>) -> Result<(Vec<c64>, Mat<c64>)> {
         faer::diag::Diag::<f64>::zeros(n),
         faer::diag::Diag::<f64>::zeros(n),
     );
-    let scratch = evd::evd_scratch::<f64>(
-        n,
-        ComputeEigenvectors::No,
-        ComputeEigenvectors::Yes,
-        par,
-        Default::default(),
-    );
+    let mut scratch = right_eigenvectors_scratch::<f64>(n, par);
     evd::evd_real(
         a,
         re.as_mut(),
@@ -76,7 +80,7 @@ pub fn eigen_real(a: faer::MatRef<'_, f64>) -> Result<(Vec<c64>, Mat<c64>)> {
         None,
         Some(u.as_mut()),
         par,
-        MemStack::new(&mut MemBuffer::new(scratch)),
+        MemStack::new(&mut scratch),
         Default::default(),
     )
     .map_err(|e| Error::Model(format!("dense eigenvalues failed ({e:?})")))?;
@@ -103,6 +107,29 @@ pub fn eigen_real(a: faer::MatRef<'_, f64>) -> Result<(Vec<c64>, Mat<c64>)> {
         }
     }
     Ok((values, vectors))
+}
+
+/// The eigenvalues and right eigenvectors (columns) of a complex square `a`, on the calling
+/// thread below `DENSE_PARALLEL_ORDER` (as `eigen_real`).
+pub fn eigen_complex(a: faer::MatRef<'_, c64>) -> Result<(Vec<c64>, Mat<c64>)> {
+    use faer::dyn_stack::MemStack;
+    use faer::linalg::evd;
+    let n = a.nrows();
+    let par = dense_parallelism(n);
+    let (mut u, mut s) = (Mat::<c64>::zeros(n, n), faer::diag::Diag::<c64>::zeros(n));
+    let mut scratch = right_eigenvectors_scratch::<c64>(n, par);
+    evd::evd_cplx(
+        a,
+        s.as_mut(),
+        None,
+        Some(u.as_mut()),
+        par,
+        MemStack::new(&mut scratch),
+        Default::default(),
+    )
+    .map_err(|e| Error::Model(format!("dense eigenvalues failed ({e:?})")))?;
+    let values = s.column_vector().iter().copied().collect();
+    Ok((values, u))
 }
 
 /// The partially pivoted LU of a square `a` in place (L unit lower below the diagonal, U on

@@ -30,9 +30,10 @@
 //! compliance): where the harmonic balance is coarse the verdict is that of the coarse model,
 //! and the harmonic ladder of the solve says whether the state itself has converged.
 
+mod arnoldi;
+
 use std::sync::Arc;
 
-use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{c64, Mat};
 use nalgebra::DMatrix;
 
@@ -62,11 +63,6 @@ pub const DENSE: usize = 240;
 
 /// Hill matrices up to this order get every eigenvalue when Arnoldi finds no centred exponent.
 pub const DENSE_FALLBACK: usize = 1200;
-
-/// Shift-invert Arnoldi's shift σ/ω: real (so P(σ) is real) and right of the imaginary axis,
-/// nearer the rightmost exponents of the strip |Im s| ≤ ω/2, where each exponent has a copy,
-/// than any copy outside it.
-const SHIFT: f64 = 0.2;
 
 /// Arnoldi steps, plus 4 per dynamic mode (the strip holds 2r exponents): on the coarse strip
 /// sweep 60 + 4r and 200 + 10r steps gave the dense eigenvalues' leading multiplier on all 28
@@ -345,11 +341,15 @@ impl HillModel {
         let exponents = match (dense, eigen) {
             (true, _) => all()?,
             // Arnoldi finds the copies nearest its shift; where the dynamic modes lie far above
-            // it (a drive well below them, or many harmonics) none of those is centred: every
-            // eigenvalue of a Hill matrix of moderate order then.
+            // it (a drive well below them, or many harmonics) none of those is centred: the
+            // strips of the modes' own frequencies then, and where those find none either,
+            // every eigenvalue of a Hill matrix of moderate order.
             (false, Eigen::Auto) => match self.rightmost_exponents(&law, omega, h) {
-                Err(_) if 2 * r * m <= DENSE_FALLBACK => all()?,
-                found => found?,
+                Err(_) => match self.exponents_by_mode_strips(&law, omega, h) {
+                    Err(_) if 2 * r * m <= DENSE_FALLBACK => all()?,
+                    found => found?,
+                },
+                Ok(found) => found,
             },
             (false, _) => self.rightmost_exponents(&law, omega, h)?,
         };
@@ -673,303 +673,6 @@ struct Linearized<'a> {
     closed: &'a [usize],
     /// Q D P per contact node (M × M row-major; empty when never closed).
     blocks: &'a [Vec<f64>],
-}
-
-impl HillModel {
-    /// The exponents nearest the real shift σ = `SHIFT`·ω by shift-invert Arnoldi on the Hill
-    /// matrix A = [[0, I], [−K̂, −Ĉ]]: (A − σI)⁻¹ through P(σ) = K̂ + σĈ + σ²I (`ShiftedSolve`);
-    /// of the converged Ritz values those whose eigenvector lies within the inner half of the
-    /// kept harmonics (|κ| ≤ H/2: the truncation's edge copies are its artefacts).
-    fn rightmost_exponents(&self, law: &Linearized, omega: f64, h: usize) -> Result<Vec<Exponent>> {
-        let (m, r) = (2 * h + 1, self.dim());
-        let n = r * m;
-        let sigma = SHIFT * omega;
-        let solve = ShiftedSolve::new(self, law, sigma, omega, h)?;
-        // (A − σ)(x, y) = (b1, b2): y = b1 + σx, P(σ) x = −b2 − (Ĉ + σ) b1.
-        let apply = |b: &[f64]| -> Vec<f64> {
-            let (b1, b2) = b.split_at(n);
-            let mut rhs: Vec<f64> = (0..n).map(|i| -b2[i] - sigma * b1[i]).collect();
-            self.sub_damping(b1, &mut rhs, omega, h);
-            let x = solve.apply(rhs);
-            let y: Vec<f64> = (0..n).map(|i| b1[i] + sigma * x[i]).collect();
-            [x, y].concat()
-        };
-        let steps = (KRYLOV + 4 * r).min(2 * n);
-        let ranked: Vec<Ranked> = arnoldi(apply, 2 * n, steps)?
-            .into_iter()
-            .map(|(theta, mut vector)| {
-                let s = c64::new(sigma, 0.0) + c64::new(1.0, 0.0) / theta;
-                vector.truncate(n);
-                (kappa(&vector, r, m, h), s, vector)
-            })
-            .collect();
-        let found = centred(ranked, omega);
-        if found.is_empty() {
-            return Err(Error::Model(
-                "Hill's method: Arnoldi found no exponent near the imaginary axis".into(),
-            ));
-        }
-        Ok(found)
-    }
-
-    /// out −= Ĉ b by its structure: c_j on each coefficient, ±2kω across (cos, sin).
-    fn sub_damping(&self, b: &[f64], out: &mut [f64], omega: f64, h: usize) {
-        let m = 2 * h + 1;
-        for j in 0..self.dim() {
-            let cj = self.alpha + self.beta * self.theta[j];
-            let base = j * m;
-            out[base] -= cj * b[base];
-            for k in 1..=h {
-                let (ic, is) = (base + cos_index(k), base + sin_index(k));
-                let kw2 = 2.0 * k as f64 * omega;
-                out[ic] -= cj * b[ic] + kw2 * b[is];
-                out[is] -= cj * b[is] - kw2 * b[ic];
-            }
-        }
-    }
-}
-
-/// x = P(σ)⁻¹ b for P(σ) = K̂ + σĈ + σ²I = D(σ) + U J₀⁻¹ R, with D(σ) the modes' own
-/// operator (a 2 × 2 block per mode and harmonic), U = c Ẽᵀ (rM × n_a M) and R = Q D P Ẽ
-/// (n_a M × rM): by Woodbury, P⁻¹ = D⁻¹ − D⁻¹ U W⁻¹ R D⁻¹ with W = J₀ + R D⁻¹ U, whose
-/// LU is n_a M square (the closed nodes' coefficients) where P's would be rM square, and
-/// W = J₀ + c (Q D P)_a Σ_j e_aj e_bj D_j⁻¹ is assembled from the modal compliance at σ
-/// without forming J₀⁻¹ R. D is invertible for every real σ > 0 (each 2 × 2 block has
-/// determinant a² + b², b = (c_j + 2σ) kω ≠ 0, and θ_j + σc_j + σ² > 0 at k = 0).
-struct ShiftedSolve<'a> {
-    model: &'a HillModel,
-    law: &'a Linearized<'a>,
-    h: usize,
-    /// D⁻¹ per mode and harmonic: (p, q) with D⁻¹ = [[p, −q], [q, p]] on (cos, sin), p alone at
-    /// k = 0; mode-major, H + 1 per mode.
-    inverse: Vec<(f64, f64)>,
-    /// W's LU.
-    w: faer::linalg::solvers::PartialPivLu<f64>,
-}
-
-impl<'a> ShiftedSolve<'a> {
-    fn new(
-        model: &'a HillModel,
-        law: &'a Linearized<'a>,
-        sigma: f64,
-        omega: f64,
-        h: usize,
-    ) -> Result<ShiftedSolve<'a>> {
-        let (r, m) = (model.dim(), 2 * h + 1);
-        let mut inverse = Vec::with_capacity(r * (h + 1));
-        for j in 0..r {
-            let cj = model.alpha + model.beta * model.theta[j];
-            for k in 0..=h {
-                let kw = k as f64 * omega;
-                let a = model.theta[j] - kw * kw + sigma * cj + sigma * sigma;
-                let b = (cj + 2.0 * sigma) * kw;
-                let det = a * a + b * b;
-                inverse.push((a / det, b / det));
-            }
-        }
-        let (na, c) = (law.closed.len(), law.c);
-        let mut w = law.j0.clone();
-        for (ai, &a) in law.closed.iter().enumerate() {
-            let block = &law.blocks[a];
-            for (bi, &b) in law.closed.iter().enumerate() {
-                // G_ab = Σ_j e_aj e_bj D_j⁻¹, per harmonic (P, Q).
-                let mut g = vec![(0.0, 0.0); h + 1];
-                for j in 0..r {
-                    let ee = model.e[(a, j)] * model.e[(b, j)];
-                    for (gk, &(p, q)) in g.iter_mut().zip(&inverse[j * (h + 1)..]) {
-                        gk.0 += ee * p;
-                        gk.1 += ee * q;
-                    }
-                }
-                for row in 0..m {
-                    let at = |col: usize| block[row * m + col];
-                    let (ra, rb) = (ai * m + row, bi * m);
-                    w[(ra, rb)] += c * at(0) * g[0].0;
-                    for (k, &(p, q)) in g.iter().enumerate().skip(1) {
-                        let (ic, is) = (cos_index(k), sin_index(k));
-                        w[(ra, rb + ic)] += c * (at(ic) * p + at(is) * q);
-                        w[(ra, rb + is)] += c * (at(is) * p - at(ic) * q);
-                    }
-                }
-            }
-        }
-        debug_assert_eq!(w.nrows(), na * m);
-        Ok(ShiftedSolve {
-            model,
-            law,
-            h,
-            inverse,
-            w: w.partial_piv_lu(),
-        })
-    }
-
-    /// x ← D⁻¹ x.
-    fn modal_solve(&self, x: &mut [f64]) {
-        let (h, m) = (self.h, 2 * self.h + 1);
-        for j in 0..self.model.dim() {
-            let base = j * m;
-            let inv = &self.inverse[j * (h + 1)..(j + 1) * (h + 1)];
-            x[base] *= inv[0].0;
-            for (k, &(p, q)) in inv.iter().enumerate().skip(1) {
-                let (ic, is) = (base + cos_index(k), base + sin_index(k));
-                let (xc, xs) = (x[ic], x[is]);
-                x[ic] = p * xc - q * xs;
-                x[is] = q * xc + p * xs;
-            }
-        }
-    }
-
-    /// P(σ)⁻¹ b.
-    fn apply(&self, mut b: Vec<f64>) -> Vec<f64> {
-        use faer::linalg::solvers::Solve;
-        let (model, law) = (self.model, self.law);
-        let (r, m) = (model.dim(), 2 * self.h + 1);
-        self.modal_solve(&mut b);
-        if law.closed.is_empty() {
-            return b;
-        }
-        // t = R y: per closed node a, (Q D P)_a Σ_j e_aj y_j.
-        let mut t = Mat::<f64>::zeros(law.closed.len() * m, 1);
-        let mut u = vec![0.0; m];
-        for (ai, &a) in law.closed.iter().enumerate() {
-            u.iter_mut().for_each(|v| *v = 0.0);
-            for j in 0..r {
-                let e = model.e[(a, j)];
-                u.iter_mut()
-                    .zip(&b[j * m..(j + 1) * m])
-                    .for_each(|(ui, yi)| *ui += e * yi);
-            }
-            let block = &law.blocks[a];
-            for row in 0..m {
-                t[(ai * m + row, 0)] = (0..m).map(|col| block[row * m + col] * u[col]).sum();
-            }
-        }
-        let z = self.w.solve(&t);
-        // v = U z = c Ẽᵀ z, then x = y − D⁻¹ v.
-        let mut v = vec![0.0; r * m];
-        for (ai, &a) in law.closed.iter().enumerate() {
-            for j in 0..r {
-                let e = law.c * model.e[(a, j)];
-                for row in 0..m {
-                    v[j * m + row] += e * z[(ai * m + row, 0)];
-                }
-            }
-        }
-        self.modal_solve(&mut v);
-        b.iter_mut().zip(&v).for_each(|(bi, vi)| *bi -= vi);
-        b
-    }
-}
-
-/// The converged Ritz pairs (θ, x) of the real operator `apply` from an Arnoldi factorization
-/// of `steps` steps in real arithmetic (classical Gram–Schmidt, twice); complex Ritz values
-/// come in conjugate pairs; converged: |h_{k+1,k} y_k| ≤ 1e-8 |θ|.
-fn arnoldi(
-    apply: impl Fn(&[f64]) -> Vec<f64>,
-    n: usize,
-    steps: usize,
-) -> Result<Vec<(c64, Vec<c64>)>> {
-    let (basis, hess, k) = arnoldi_factorization(apply, n, steps)?;
-    converged_ritz_pairs(&basis, &hess, k)
-}
-
-/// The Arnoldi factorization A V_k = V_{k+1} H̄_k of `apply` from a fixed start vector: the
-/// basis V (n × (steps + 1)), the Hessenberg matrix H̄ ((steps + 1) × steps) and the steps k
-/// taken (fewer than `steps` when h_{k+1,k} ≤ 1e-14 |h_{k,k}|, an invariant subspace).
-fn arnoldi_factorization(
-    apply: impl Fn(&[f64]) -> Vec<f64>,
-    n: usize,
-    steps: usize,
-) -> Result<(Mat<f64>, Mat<f64>, usize)> {
-    use faer::linalg::matmul::matmul;
-    use faer::{Accum, Par};
-    let mut basis = Mat::<f64>::zeros(n, steps + 1);
-    let start: Vec<f64> = (0..n)
-        .map(|i| 1.0 + ((i * 7919) % 97) as f64 / 97.0 - ((i * 104729) % 89) as f64 / 89.0)
-        .collect();
-    let s0 = start.iter().map(|z| z * z).sum::<f64>().sqrt();
-    for (i, v) in start.iter().enumerate() {
-        basis[(i, 0)] = v / s0;
-    }
-    let mut hess = Mat::<f64>::zeros(steps + 1, steps);
-    let mut dots = Mat::<f64>::zeros(steps + 1, 1);
-    let mut k = 0;
-    while k < steps {
-        let current: Vec<f64> = basis.col(k).iter().copied().collect();
-        let mut w = Mat::<f64>::zeros(n, 1);
-        for (i, v) in apply(&current).into_iter().enumerate() {
-            w[(i, 0)] = v;
-        }
-        let done = basis.as_ref().subcols(0, k + 1);
-        for _ in 0..2 {
-            let mut h = dots.as_mut().subrows_mut(0, k + 1);
-            matmul(
-                h.rb_mut(),
-                Accum::Replace,
-                done.transpose(),
-                w.as_ref(),
-                1.0,
-                Par::Seq,
-            );
-            matmul(w.as_mut(), Accum::Add, done, h.rb(), -1.0, Par::Seq);
-            for j in 0..=k {
-                hess[(j, k)] += h[(j, 0)];
-            }
-        }
-        let beta = w.col(0).norm_l2();
-        hess[(k + 1, k)] = beta;
-        k += 1;
-        if !beta.is_finite() {
-            return Err(Error::Model("Hill's method: Arnoldi broke down".into()));
-        }
-        if beta <= 1e-14 * hess[(k - 1, k - 1)].abs().max(1e-300) {
-            break;
-        }
-        for i in 0..n {
-            basis[(i, k)] = w[(i, 0)] / beta;
-        }
-    }
-    Ok((basis, hess, k))
-}
-
-/// The Ritz pairs (θ, V_k y) of the factorization's k × k Hessenberg matrix H_k whose
-/// residual |h_{k+1,k} y_k| is at most 1e-8 |θ| ‖y‖ (θ ≠ 0).
-fn converged_ritz_pairs(
-    basis: &Mat<f64>,
-    hess: &Mat<f64>,
-    k: usize,
-) -> Result<Vec<(c64, Vec<c64>)>> {
-    let n = basis.nrows();
-    let (values, vectors) = crate::linalg::eigen_real(hess.as_ref().submatrix(0, 0, k, k))
-        .map_err(|e| Error::Model(format!("Hill's method: Ritz values: {e}")))?;
-    let tail = hess[(k, k - 1)].abs();
-    let converged: Vec<usize> = (0..values.len())
-        .filter(|&i| {
-            let (theta, y) = (values[i], vectors.col(i));
-            let ynorm = (0..k).map(|j| y[j].norm_sqr()).sum::<f64>().sqrt();
-            tail * y[k - 1].norm() <= 1e-8 * theta.norm() * ynorm && theta.norm() > 0.0
-        })
-        .collect();
-    // The Ritz vectors V y of the converged values, as two real products.
-    let (mut re, mut im) = (
-        Mat::<f64>::zeros(k, converged.len()),
-        Mat::<f64>::zeros(k, converged.len()),
-    );
-    for (c, &i) in converged.iter().enumerate() {
-        for j in 0..k {
-            (re[(j, c)], im[(j, c)]) = (vectors[(j, i)].re, vectors[(j, i)].im);
-        }
-    }
-    let v = basis.as_ref().subcols(0, k);
-    let (xr, xi) = (v * &re, v * &im);
-    Ok(converged
-        .iter()
-        .enumerate()
-        .map(|(c, &i)| {
-            let x = (0..n).map(|q| c64::new(xr[(q, c)], xi[(q, c)])).collect();
-            (values[i], x)
-        })
-        .collect())
 }
 
 /// |κ|, the weighted harmonic index of an eigenvector's modal part (r modes × M coefficients).
