@@ -65,6 +65,9 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         ),
         None => outln!("  reached {:.4} Hz", s.to_hz),
     }
+    for (k, b) in s.branches.iter().enumerate() {
+        show_branch(k + 1, b);
+    }
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
@@ -84,6 +87,24 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         result.dir.display(),
         s.frames.len(),
         s.written.len()
+    );
+}
+
+/// A 2T branch in one line: where it starts and ends, its largest subharmonic, its stable
+/// stretch.
+fn show_branch(k: usize, b: &hbcontact::sweep::branch::Branch) {
+    let (lo, hi) = (b.rows.iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+        (lo.min(r.frequency_hz), hi.max(r.frequency_hz))
+    });
+    let sub = (b.rows.iter())
+        .filter_map(|r| r.subharmonic)
+        .fold(0.0, f64::max);
+    let stable = b.rows.iter().filter(|r| r.stable == Some(true)).count();
+    outln!(
+        "  2T branch {k} (branch_{k}.csv) from the period doubling at {:.4} Hz: {} points over {lo:.4}–{hi:.4} Hz, {stable} stable; largest subharmonic (f/2) amplitude {sub:.4e} m; {}",
+        b.from_hz,
+        b.rows.len(),
+        b.ended
     );
 }
 

@@ -428,6 +428,8 @@ pub struct SweepSpec {
     pub save_every: usize,
     /// Frames from a reduced model of the pencil where it pays (false: factor every frame).
     pub reduced_frames: bool,
+    /// Follow the 2T branch from each located period doubling (`sweep::branch`).
+    pub follow_period_doubling: bool,
 }
 
 impl Default for SweepSpec {
@@ -443,6 +445,7 @@ impl Default for SweepSpec {
             write_at: Vec::new(),
             save_every: 1,
             reduced_frames: true,
+            follow_period_doubling: false,
         }
     }
 }

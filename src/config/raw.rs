@@ -712,6 +712,12 @@ pub(super) struct RawSweep {
     /// round-off; slower). Default: true.
     #[serde(default)]
     pub(super) reduced_frames: Option<bool>,
+    /// After the curve, follow the period-doubled (2T) branch from each period doubling the
+    /// stability check locates on it (harmonic balance at half the drive frequency, started
+    /// along the period doubling's Floquet vector), to where it rejoins the curve or leaves
+    /// the range. Needs Hill's check (frictionless contact, Fourier basis). Default: false.
+    #[serde(default)]
+    pub(super) follow_period_doubling: Option<bool>,
 }
 
 /// A field written to the VTU snapshots.

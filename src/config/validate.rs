@@ -1052,6 +1052,7 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
     if let Some(v) = s.save_every {
         spec.save_every = v;
     }
+    spec.follow_period_doubling = s.follow_period_doubling.unwrap_or(false);
     if let Some(v) = s.reduced_frames {
         spec.reduced_frames = v;
     }

@@ -32,6 +32,7 @@ pub mod reduced;
 pub mod sampler;
 pub mod solution;
 pub mod step;
+pub mod subharmonic;
 pub mod system;
 
 use std::collections::BTreeMap;

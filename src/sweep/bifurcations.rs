@@ -189,6 +189,7 @@ mod tests {
             underdamped_share: None,
             harmonics: 10,
             truncation_estimate: None,
+            subharmonic: None,
         }
     }
 

@@ -17,6 +17,7 @@
 //! by construction.
 
 pub mod bifurcations;
+pub mod branch;
 mod plot;
 mod points;
 pub mod reference;
@@ -109,6 +110,9 @@ pub struct SweepRow {
     /// H = max, where the summary warns.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truncation_estimate: Option<f64>,
+    /// On a 2T branch (`branch`): the probe's amplitude at half the drive frequency [m].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subharmonic: Option<f64>,
 }
 
 impl SweepRow {
@@ -227,6 +231,10 @@ pub struct SweepSummary {
     /// tolerance, the points solved at each H and the changes of H along the curve.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub harmonics_chosen: Option<HarmonicsAlong>,
+    /// The 2T branches followed from the period doublings (`sweep.follow_period_doubling`),
+    /// each also in `branch_K.csv`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub branches: Vec<branch::Branch>,
 }
 
 /// How H was chosen along a curve.
@@ -413,6 +421,7 @@ fn execute(
     };
     let (mut summary, failure) =
         summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    add_branches(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
     add_reference(p, &model, &mut summary, &mut stages);
     let (dir, summary) = write(p, staged, &writer, summary, stages)?;
     Ok(SweepResult {
@@ -420,6 +429,45 @@ fn execute(
         summary,
         failure,
     })
+}
+
+/// With `sweep.follow_period_doubling`: the 2T branch of each period doubling the curve
+/// lists (`branch`), judged by Hill's method, which they need (timed with the sweep).
+fn add_branches(
+    p: &Pipeline,
+    (model, mesh): (&Model, &MeshInfo),
+    starts: &[Start],
+    summary: &mut SweepSummary,
+    stages: &mut Stages,
+) {
+    let Some(spec) = p.sweep.as_ref().filter(|s| s.follow_period_doubling) else {
+        return;
+    };
+    let (clock, reporter) = (Instant::now(), stages.reporter);
+    let Some(hill) = inline_judge(p, model, reporter) else {
+        summary.warnings.push(
+            "sweep.follow_period_doubling: no 2T branch followed: period doublings are \
+             located by Hill's check (stability.method: floquet or both, frictionless \
+             contact on a Fourier basis)"
+                .into(),
+        );
+        return;
+    };
+    let bifurcations = &summary.bifurcations;
+    let (branches, warnings) = branch::follow_all(
+        p,
+        spec,
+        (model, mesh),
+        starts,
+        bifurcations,
+        Some(&hill),
+        reporter,
+    );
+    summary.branches = branches;
+    summary.warnings.extend(warnings);
+    stages
+        .times
+        .add(Stage::Sweep, clock.elapsed().as_secs_f64());
 }
 
 /// The linear reference and the probe's gap of a contact sweep's plot, where plots are drawn
@@ -513,6 +561,7 @@ fn summarize(
         linear_reference: None,
         probe_gap: None,
         harmonics_chosen: None,
+        branches: Vec::new(),
     };
     let summary = with_harmonics_chosen(p, summary, ended.level_changes);
     Ok((summary, ended.failure))
@@ -563,7 +612,12 @@ fn write(
 ) -> Result<(PathBuf, SweepSummary)> {
     stages.run(Stage::Write, || {
         writer.write_pvd()?;
-        write_text(&staged.path().join("sweep.csv"), &csv(&summary))
+        write_text(&staged.path().join("sweep.csv"), &csv(&summary))?;
+        for (k, b) in summary.branches.iter().enumerate() {
+            let name = format!("branch_{}.csv", k + 1);
+            write_text(&staged.path().join(name), &branch::csv(&summary.columns, b))?;
+        }
+        Ok(())
     })?;
     if p.output.plots {
         let unit = crate::pipeline::model::material(p).force_unit();
@@ -1078,6 +1132,7 @@ fn row(
             .as_ref()
             .map_or(p.harmonic_balance.harmonics, |c| c.harmonics),
         truncation_estimate: info.harmonics_estimate,
+        subharmonic: None,
     }
 }
 
@@ -1113,11 +1168,16 @@ fn underdamped_rows(rows: &[SweepRow], basis: &TimeBasis) -> Option<String> {
 
 /// sweep.csv: frequency, the outputs, then how each point was found.
 pub fn csv(s: &SweepSummary) -> String {
+    rows_csv(&s.columns, &s.rows)
+}
+
+/// The rows under the header of sweep.csv.
+fn rows_csv(columns: &[String], rows: &[SweepRow]) -> String {
     let mut text = format!(
         "index,frequency_hz,{},stable,multiplier,argument_deg,crossing,harmonics,truncation_estimate,corrector,newton_iterations,factorizations,step,tangent_frequency,seconds\n",
-        s.columns.join(",")
+        columns.join(",")
     );
-    for r in &s.rows {
+    for r in rows {
         let values: Vec<String> = r.values.iter().map(|&v| csv_number(v)).collect();
         let corrector = serde_json::to_value(r.corrector)
             .ok()
@@ -1178,6 +1238,7 @@ mod tests {
             underdamped_share: share,
             harmonics: 10,
             truncation_estimate: None,
+            subharmonic: None,
         }
     }
 

@@ -13,7 +13,8 @@
 //! cross. Labels are placed where they overlap no other (`output::plot`). A contact sweep's
 //! `sweep` also draws the probe's linear response with the contact open (dashed grey, up to
 //! twice the curve's peak; `sweep::reference`) and, where the probe sits on the contact, its
-//! gap as a horizontal line. Rows a warning names (`WARNED`) are marked.
+//! gap as a horizontal line. Rows a warning names (`WARNED`) are marked. The 2T branches of
+//! `sweep.follow_period_doubling` are drawn in a second colour, solid and dashed alike.
 
 use std::path::Path;
 
@@ -51,6 +52,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary, force_unit: &str) -> Result<()>
         if stem == "sweep" {
             figure = with_reference(figure, s, c);
         }
+        figure = with_branches(figure, s, c);
         let warned: Vec<(f64, f64)> = (s.rows.iter())
             .filter(|r| s.warned(r))
             .map(|r| (r.frequency_hz, r.values[c]))
@@ -171,6 +173,23 @@ fn with_reference(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
     fig
 }
 
+/// The 2T branches (`sweep::branch`) in a colour of their own, solid where stable and dashed
+/// where not, like the curve; at the drive frequency, so they meet it at the period doublings.
+fn with_branches(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
+    for b in &s.branches {
+        let mut label = format!("2T branch from PD {:.1} Hz", b.from_hz);
+        for (unstable, points) in pieces(&b.rows, c) {
+            let style = if unstable {
+                Style::Dashed
+            } else {
+                Style::Curve
+            };
+            fig = fig.add(std::mem::take(&mut label), points, style).colour(1);
+        }
+    }
+    fig
+}
+
 /// The legend of the rows a warning of sweep.json names (a spline curve's rows whose
 /// vibration lies in the basis' underdamped frequencies).
 pub const WARNED: &str = "warned (sweep.json says of what)";
@@ -223,6 +242,7 @@ mod tests {
             underdamped_share: None,
             harmonics: 10,
             truncation_estimate: None,
+            subharmonic: None,
         }
     }
 
