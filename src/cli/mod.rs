@@ -114,9 +114,14 @@ fn show_bifurcations(list: &[hbcontact::sweep::bifurcations::BifurcationReport])
     let (kinks, others): (Vec<_>, Vec<_>) =
         list.iter().partition(|b| b.kind == BifurcationKind::Kink);
     for b in others {
-        let motion = b
-            .new_frequency_hz
-            .map_or(String::new(), |f| format!(", a motion at {f:.4} Hz"));
+        let checked = match b.confirmed {
+            Some(true) => " (confirmed by the 2T problem)",
+            Some(false) => " (NOT confirmed by the 2T problem: see the warning)",
+            None => "",
+        };
+        let motion = b.new_frequency_hz.map_or(String::new(), |f| {
+            format!(", a motion at {f:.4} Hz{checked}")
+        });
         outln!(
             "  {} at {:.4} Hz (between points {} and {}): stability {}, |μ| = {:.4} at {:.1}°{motion}",
             b.kind.describe(),

@@ -103,16 +103,26 @@ pub fn odd_share(x: &[f64], nodes: usize, h2: usize) -> f64 {
     }
 }
 
-/// The unit null vector of J_odd at the 2T state `x` (an embedded T state) of `problem` with N
-/// samples and c: the eigenvector of J_odd's eigenvalue of least modulus, formed on the odd
-/// harmonics up to the order `ODD_ORDER`, as full 2T coefficients; with that eigenvalue's
-/// modulus relative to J_odd's largest entry (near zero at a period doubling).
+/// What J_odd says at an embedded T state.
+pub struct OddNull {
+    /// The unit eigenvector of its eigenvalue of least modulus, as full 2T coefficients.
+    pub vector: Vec<f64>,
+    /// That eigenvalue's modulus relative to J_odd's largest entry (near zero at a period
+    /// doubling).
+    pub least: f64,
+    /// Its real eigenvalue of least modulus, relative, signed (`None`: none is real): it
+    /// changes sign across a period doubling.
+    pub real: Option<f64>,
+}
+
+/// J_odd at the 2T state `x` (an embedded T state) of `problem` with N samples and c, formed
+/// on the odd harmonics up to the order `ODD_ORDER`: its near-null vector and eigenvalues.
 pub fn odd_null_vector(
     problem: &ReducedProblem,
     x: &[f64],
     samples: usize,
     c: f64,
-) -> Result<(Vec<f64>, f64)> {
+) -> Result<OddNull> {
     let (nc, h2) = (problem.nodes, problem.harmonics);
     let m2 = 2 * h2 + 1;
     let odd: Vec<usize> = (1..=h2)
@@ -154,14 +164,23 @@ pub fn odd_null_vector(
         .min_by(|&a, &b| values[a].norm().total_cmp(&values[b].norm()))
         .ok_or_else(|| Error::Model("internal: no odd harmonics".into()))?;
     let mut phi = vec![0.0; nc * m2];
-    for col in 0..n {
+    for (col, v) in rotate_real(&vectors, least).into_iter().enumerate() {
         let (a, q) = (col / odd.len(), odd[col % odd.len()]);
-        phi[a * m2 + q] = rotate_real(&vectors, least)[col];
+        phi[a * m2 + q] = v;
     }
     let norm = phi.iter().map(|p| p * p).sum::<f64>().sqrt();
     phi.iter_mut()
         .for_each(|p| *p /= norm.max(f64::MIN_POSITIVE));
-    Ok((phi, values[least].norm() / scale.max(f64::MIN_POSITIVE)))
+    let scale = scale.max(f64::MIN_POSITIVE);
+    let real = (values.iter())
+        .filter(|z| z.im == 0.0)
+        .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
+        .map(|z| z.re / scale);
+    Ok(OddNull {
+        vector: phi,
+        least: values[least].norm() / scale,
+        real,
+    })
 }
 
 /// Column `j` of complex eigenvectors as a real vector: rotated by the phase of its largest

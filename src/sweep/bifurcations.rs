@@ -91,6 +91,11 @@ pub struct BifurcationReport {
     /// The first output (probe first harmonic) at the row nearer the crossing.
     #[serde(deserialize_with = "super::nan_for_null_one")]
     pub amplitude: f64,
+    /// A period doubling checked on the 2T problem (`sweep::branch::confirm`): whether a real
+    /// eigenvalue of its odd-harmonic Newton matrix changes sign between the two rows, as it
+    /// does at a period doubling of the harmonic-balance model itself (`None`: not checked).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmed: Option<bool>,
 }
 
 /// The bifurcations of the curve `rows` (in curve order) whose folds are `folds`.
@@ -154,6 +159,7 @@ fn between(a: &SweepRow, b: &SweepRow, turns: bool) -> BifurcationReport {
         argument_deg: argument.to_degrees(),
         new_frequency_hz,
         amplitude: near.values.first().copied().unwrap_or(f64::NAN),
+        confirmed: None,
     }
 }
 

@@ -63,7 +63,7 @@ pub fn follow_all(
     let (mut branches, mut warnings): (Vec<Branch>, Vec<String>) = (Vec::new(), Vec::new());
     for pd in bifurcations
         .iter()
-        .filter(|b| b.kind == BifurcationKind::PeriodDoubling)
+        .filter(|b| b.kind == BifurcationKind::PeriodDoubling && b.confirmed != Some(false))
     {
         let reached = |b: &Branch| {
             b.rejoins_hz
@@ -163,10 +163,25 @@ const PUSHES: [f64; 7] = [1e-4, 1e-3, 0.01, 0.03, 0.1, 0.3, 1.0];
 /// part of the order of its tolerance).
 const ON_T: f64 = 1e-6;
 
-/// The first 2T state at row `row`'s ω: the row's T state embedded in the 2T problem and
-/// pushed along φ, J_odd's null vector, by `PUSHES` until a fixed-ω Newton lands on a state
-/// with an odd part; the continuation leaves it along that odd part.
-fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Result<FirstPoint> {
+/// The 2T problem at row `row`'s ω with the row's T state embedded in it, and what its
+/// odd-harmonic Newton matrix says there.
+struct Doubled<'s> {
+    system: crate::hbm::System,
+    op: crate::contact::ContactOperator,
+    hb: crate::hbm::HbSettings,
+    problem: crate::hbm::problem::ReducedProblem,
+    x: Vec<f64>,
+    contact: &'s ContactSolution,
+    omega: f64,
+    odd: subharmonic::OddNull,
+}
+
+fn doubled_at<'s>(
+    p: &Pipeline,
+    model: &Model,
+    starts: &'s [Start],
+    row: usize,
+) -> Result<Doubled<'s>> {
     let (omega, contact) = starts
         .iter()
         .find(|(i, _, _)| *i == row)
@@ -184,9 +199,68 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
         ..crate::pipeline::hb_settings(p)
     };
     let problem = subharmonic::reduced_problem(&system, &op2, &hb)?;
-    let (nodes, c) = (op.nodes(), contact.c);
-    let x = subharmonic::embed(&contact.multipliers, nodes, contact.harmonics);
-    let (phi, least) = subharmonic::odd_null_vector(&problem, &x, hb.samples, c)?;
+    let x = subharmonic::embed(&contact.multipliers, op.nodes(), contact.harmonics);
+    let odd = subharmonic::odd_null_vector(&problem, &x, hb.samples, contact.c)?;
+    Ok(Doubled {
+        system,
+        op: op2,
+        hb,
+        problem,
+        x,
+        contact,
+        omega,
+        odd,
+    })
+}
+
+/// Each period doubling of `bifurcations` checked on the 2T problem (`BifurcationReport::
+/// confirmed`: a sign change of J_odd's real eigenvalue nearest zero over the rows from the
+/// one before the doubling's pair to the one after it). Hill's model freezes the rest of the compliance at the integer harmonics,
+/// while a doubling's perturbation lives at the half-integer ones, which the 2T problem
+/// computes exactly. A doubling that does not check out gets a warning.
+pub fn confirm(
+    p: &Pipeline,
+    model: &Model,
+    starts: &[Start],
+    bifurcations: &mut [BifurcationReport],
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for pd in bifurcations
+        .iter_mut()
+        .filter(|b| b.kind == BifurcationKind::PeriodDoubling)
+    {
+        let sign = |row| {
+            doubled_at(p, model, starts, row)
+                .ok()
+                .and_then(|d| d.odd.real)
+        };
+        // Hill locates the doubling between its rows by |μ|; the 2T problem's crossing may
+        // fall in the step on either side.
+        let window = pd.between[0].saturating_sub(1)..=pd.between[1] + 1;
+        let signs: Vec<f64> = window.filter_map(sign).collect();
+        pd.confirmed = (signs.len() >= 2).then(|| signs.windows(2).any(|w| w[0] * w[1] <= 0.0));
+        if pd.confirmed == Some(false) {
+            let listed: Vec<String> = signs.iter().map(|v| format!("{v:.1e}")).collect();
+            warnings.push(format!(
+                "the period doubling at {:.4} Hz is not confirmed by the 2T problem: its odd-harmonic Newton matrix keeps the sign of its real eigenvalue nearest zero over the rows {}–{} ({} of its scale), where a period doubling of the harmonic-balance model makes it change; Hill's multiplier there depends on the modes it keeps dynamic: check the rows by marching (stability.method: both) or sweep them at another harmonic_balance.harmonics",
+                pd.frequency_hz,
+                pd.between[0].saturating_sub(1),
+                pd.between[1] + 1,
+                listed.join(", ")
+            ));
+        }
+    }
+    warnings
+}
+
+/// The first 2T state at row `row`'s ω: the row's T state embedded in the 2T problem and
+/// pushed along φ, J_odd's null vector, by `PUSHES` until a fixed-ω Newton lands on a state
+/// with an odd part; the continuation leaves it along that odd part.
+fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Result<FirstPoint> {
+    let d = doubled_at(p, model, starts, row)?;
+    let (system, op2, hb, problem, x) = (d.system, d.op, d.hb, d.problem, d.x);
+    let (phi, least, c, omega) = (d.odd.vector, d.odd.least, d.contact.c, d.omega);
+    let nodes = problem.nodes;
     let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
     let newton = crate::hbm::reduced::NewtonSettings {
         samples: hb.samples,

@@ -421,7 +421,7 @@ fn execute(
     };
     let (mut summary, failure) =
         summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
-    add_branches(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
+    add_period_doublings(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
     add_reference(p, &model, &mut summary, &mut stages);
     let (dir, summary) = write(p, staged, &writer, summary, stages)?;
     Ok(SweepResult {
@@ -431,15 +431,20 @@ fn execute(
     })
 }
 
-/// With `sweep.follow_period_doubling`: the 2T branch of each period doubling the curve
-/// lists (`branch`), judged by Hill's method, which they need (timed with the sweep).
-fn add_branches(
+/// The period doublings the curve lists checked on the 2T problem (`branch::confirm`, timed
+/// with the stability check), and with `sweep.follow_period_doubling` the 2T branch of each
+/// (`branch`), judged by Hill's method, which they need (timed with the sweep).
+fn add_period_doublings(
     p: &Pipeline,
     (model, mesh): (&Model, &MeshInfo),
     starts: &[Start],
     summary: &mut SweepSummary,
     stages: &mut Stages,
 ) {
+    let clock = Instant::now();
+    let unconfirmed = branch::confirm(p, model, starts, &mut summary.bifurcations);
+    summary.warnings.extend(unconfirmed);
+    (stages.times).add(Stage::Stability, clock.elapsed().as_secs_f64());
     let Some(spec) = p.sweep.as_ref().filter(|s| s.follow_period_doubling) else {
         return;
     };
