@@ -145,9 +145,9 @@ fn the_2t_branch_of_a_period_doubling_is_the_orbit_time_marching_settles_on() {
 /// TEST GOAL: every period doubling a sweep lists is checked on the 2T problem. On the coarse
 /// strip swept 1150–1400 Hz at H = 40 Hill's method lists a pair at 1270.5 and 1284.7 Hz
 /// (|μ| ≤ 1.029), but its multiplier there moves with the modes it keeps dynamic (0.88–1.04
-/// when measured, 2026-11-29) and the 2T problem's odd-harmonic Newton matrix keeps a real
-/// eigenvalue 2–4% of its scale away from zero: both are listed as not confirmed, each with
-/// a warning naming the check to make. The coarse strip's doubling at H = 10 (located at
+/// when measured, 2026-11-29) and the determinant of the 2T problem's odd-harmonic Newton
+/// matrix keeps its sign around them: both are listed as not confirmed, each with a warning
+/// naming the check to make. The coarse strip's doubling at H = 10 (located at
 /// 1046.5 Hz on the 1000–1800 Hz sweep, 1050.7 Hz on 1000–1100 Hz) is confirmed.
 #[test]
 fn a_period_doubling_hill_finds_at_h_40_on_the_coarse_strip_is_not_confirmed_by_the_2t_problem() {

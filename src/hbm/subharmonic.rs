@@ -110,9 +110,12 @@ pub struct OddNull {
     /// That eigenvalue's modulus relative to J_odd's largest entry (near zero at a period
     /// doubling).
     pub least: f64,
-    /// Its real eigenvalue of least modulus, relative, signed (`None`: none is real): it
-    /// changes sign across a period doubling.
+    /// Its real eigenvalue of least modulus, relative, signed (`None`: none is real).
     pub real: Option<f64>,
+    /// The sign of its determinant (the product of its real eigenvalues' signs): it changes
+    /// each time a real Floquet multiplier passes −1, so it counts the multipliers below −1
+    /// modulo 2, also where the contact set jumps between two states.
+    pub det_sign: f64,
 }
 
 /// J_odd at the 2T state `x` (an embedded T state) of `problem` with N samples and c, formed
@@ -176,10 +179,15 @@ pub fn odd_null_vector(
         .filter(|z| z.im == 0.0)
         .min_by(|a, b| a.re.abs().total_cmp(&b.re.abs()))
         .map(|z| z.re / scale);
+    let det_sign = (values.iter())
+        .filter(|z| z.im == 0.0)
+        .map(|z| z.re.signum())
+        .product();
     Ok(OddNull {
         vector: phi,
         least: values[least].norm() / scale,
         real,
+        det_sign,
     })
 }
 

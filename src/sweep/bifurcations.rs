@@ -91,9 +91,10 @@ pub struct BifurcationReport {
     /// The first output (probe first harmonic) at the row nearer the crossing.
     #[serde(deserialize_with = "super::nan_for_null_one")]
     pub amplitude: f64,
-    /// A period doubling checked on the 2T problem (`sweep::branch::confirm`): whether a real
-    /// eigenvalue of its odd-harmonic Newton matrix changes sign between the two rows, as it
-    /// does at a period doubling of the harmonic-balance model itself (`None`: not checked).
+    /// A period doubling checked on the 2T problem (`sweep::branch::confirm`): whether the
+    /// determinant of its odd-harmonic Newton matrix changes sign over the rows around it, as
+    /// it does where a real multiplier of the harmonic-balance model itself passes −1
+    /// (`None`: not checked).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub confirmed: Option<bool>,
 }

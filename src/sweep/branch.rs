@@ -214,10 +214,13 @@ fn doubled_at<'s>(
 }
 
 /// Each period doubling of `bifurcations` checked on the 2T problem (`BifurcationReport::
-/// confirmed`: a sign change of J_odd's real eigenvalue nearest zero over the rows from the
-/// one before the doubling's pair to the one after it). Hill's model freezes the rest of the compliance at the integer harmonics,
-/// while a doubling's perturbation lives at the half-integer ones, which the 2T problem
-/// computes exactly. A doubling that does not check out gets a warning.
+/// confirmed`): det J_odd changes sign where a real multiplier of the harmonic-balance model
+/// passes −1, so it must change sign somewhere over the rows from the one before the
+/// doubling's pair to the one after it (Hill locates the doubling by |μ| between its rows;
+/// the 2T problem's crossing may fall in the step on either side). Hill's model freezes the
+/// compliance above 10ω at the integer harmonics, while a doubling lives at the half-integer
+/// ones, which the 2T problem computes exactly. A doubling that does not check out gets a
+/// warning.
 pub fn confirm(
     p: &Pipeline,
     model: &Model,
@@ -225,28 +228,25 @@ pub fn confirm(
     bifurcations: &mut [BifurcationReport],
 ) -> Vec<String> {
     let mut warnings = Vec::new();
+    // Rows shared by the windows of neighbouring doublings are formed once.
+    let mut at = std::collections::BTreeMap::new();
     for pd in bifurcations
         .iter_mut()
         .filter(|b| b.kind == BifurcationKind::PeriodDoubling)
     {
-        let sign = |row| {
-            doubled_at(p, model, starts, row)
-                .ok()
-                .and_then(|d| d.odd.real)
-        };
-        // Hill locates the doubling between its rows by |μ|; the 2T problem's crossing may
-        // fall in the step on either side.
-        let window = pd.between[0].saturating_sub(1)..=pd.between[1] + 1;
-        let signs: Vec<f64> = window.filter_map(sign).collect();
-        pd.confirmed = (signs.len() >= 2).then(|| signs.windows(2).any(|w| w[0] * w[1] <= 0.0));
+        let (first, last) = (pd.between[0].saturating_sub(1), pd.between[1] + 1);
+        let signs: Vec<f64> = (first..=last)
+            .filter_map(|row| {
+                *(at.entry(row)).or_insert_with(|| {
+                    (doubled_at(p, model, starts, row).ok()).map(|d| d.odd.det_sign)
+                })
+            })
+            .collect();
+        pd.confirmed = (signs.len() >= 2).then(|| signs.windows(2).any(|w| w[0] != w[1]));
         if pd.confirmed == Some(false) {
-            let listed: Vec<String> = signs.iter().map(|v| format!("{v:.1e}")).collect();
             warnings.push(format!(
-                "the period doubling at {:.4} Hz is not confirmed by the 2T problem: its odd-harmonic Newton matrix keeps the sign of its real eigenvalue nearest zero over the rows {}–{} ({} of its scale), where a period doubling of the harmonic-balance model makes it change; Hill's multiplier there depends on the modes it keeps dynamic: check the rows by marching (stability.method: both) or sweep them at another harmonic_balance.harmonics",
-                pd.frequency_hz,
-                pd.between[0].saturating_sub(1),
-                pd.between[1] + 1,
-                listed.join(", ")
+                "the period doubling at {:.4} Hz is not confirmed by the 2T problem: the determinant of its odd-harmonic Newton matrix keeps its sign over the rows {first}–{last}, where a real multiplier of the harmonic-balance model through −1 changes it. Hill's multipliers there may depend on the modes they keep dynamic (above H = 10 most harmonics see the compliance it freezes), or the contact set jumps between the rows: check the rows by marching (stability.method: both) or sweep them at another harmonic_balance.harmonics",
+                pd.frequency_hz
             ));
         }
     }

@@ -441,14 +441,18 @@ fn add_period_doublings(
     summary: &mut SweepSummary,
     stages: &mut Stages,
 ) {
-    let clock = Instant::now();
+    let doubling = |b: &BifurcationReport| b.kind == bifurcations::BifurcationKind::PeriodDoubling;
+    if !summary.bifurcations.iter().any(doubling) {
+        return;
+    }
+    let (clock, reporter) = (Instant::now(), stages.reporter);
     let unconfirmed = branch::confirm(p, model, starts, &mut summary.bifurcations);
     summary.warnings.extend(unconfirmed);
     (stages.times).add(Stage::Stability, clock.elapsed().as_secs_f64());
     let Some(spec) = p.sweep.as_ref().filter(|s| s.follow_period_doubling) else {
         return;
     };
-    let (clock, reporter) = (Instant::now(), stages.reporter);
+    let clock = Instant::now();
     let Some(hill) = inline_judge(p, model, reporter) else {
         summary.warnings.push(
             "sweep.follow_period_doubling: no 2T branch followed: period doublings are \
