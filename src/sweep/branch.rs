@@ -1,14 +1,15 @@
 //! The 2T branches a sweep follows from the period doublings it locates
 //! (`sweep.follow_period_doubling`; docs/method.md, "The 2T branch").
 //!
-//! From the judged row beside a period doubling (on its unstable side), the T state is
-//! embedded in the 2T problem (`hbm::subharmonic`: half the drive frequency, the loads on the
-//! even harmonics, 2H harmonics and 2N samples), and the continuation leaves it along the
-//! null vector φ of the odd-harmonic Newton matrix J_odd, the period doubling's Floquet vector
-//! in the harmonic-balance unknowns: its first predictor is y + Δs (φ, 0), and the arc-length
-//! corrector's hyperplane φᵀ(y − y₀) = Δs holds no T state, so it lands on the 2T branch.
-//! The branch ends where its odd part changes sign from one point to the next: it crossed the
-//! T branch there (a second period doubling) onto the same orbit shifted by T.
+//! Every period doubling a sweep lists is first checked on the 2T problem (`confirm`: det J_odd
+//! changes sign around it). From the judged row beside a confirmed one (its unstable side
+//! first), the T state is embedded in the 2T problem (`hbm::subharmonic`: half the drive
+//! frequency, the loads on the even harmonics, 2H harmonics and 2N samples) and pushed along
+//! the null vector φ of the odd-harmonic Newton matrix J_odd, the period doubling's Floquet
+//! vector in the harmonic-balance unknowns, until a fixed-ω Newton lands on a state with an
+//! odd part (`first_point`); the continuation starts there, along the push. The branch ends
+//! where its odd part turns against the previous point's: it crossed the T branch there (a
+//! second period doubling) onto the same orbit shifted by T.
 //!
 //! A branch row is a sweep row at the drive frequency 2ω₂/2π: `probe_first_harmonic` is the
 //! probe's amplitude at the drive frequency (the 2T problem's harmonic 2), `subharmonic` the
