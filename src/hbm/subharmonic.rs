@@ -84,20 +84,22 @@ pub fn embed(x: &[f64], nodes: usize, h: usize) -> Vec<f64> {
     out
 }
 
-/// ‖x_odd‖/‖x‖ of 2T coefficients (`h2` harmonics per node; 0 for x = 0).
-pub fn odd_share(x: &[f64], nodes: usize, h2: usize) -> f64 {
+/// The odd harmonics of 2T coefficients (node-major, `h2` harmonics per node), the even ones
+/// zeroed.
+pub fn odd_part(x: &[f64], h2: usize) -> Vec<f64> {
     let m2 = 2 * h2 + 1;
-    let (mut odd, mut all) = (0.0, 0.0);
-    for i in 0..nodes {
-        for (c, v) in x[i * m2..(i + 1) * m2].iter().enumerate() {
-            all += v * v;
-            if super::fourier::harmonic_of(c) % 2 == 1 {
-                odd += v * v;
-            }
-        }
-    }
+    let odd = |i: usize| super::fourier::harmonic_of(i % m2) % 2 == 1;
+    (x.iter().enumerate())
+        .map(|(i, &v)| if odd(i) { v } else { 0.0 })
+        .collect()
+}
+
+/// ‖x_odd‖/‖x‖ of 2T coefficients (`h2` harmonics per node; 0 for x = 0).
+pub fn odd_share(x: &[f64], h2: usize) -> f64 {
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let all = norm(x);
     if all > 0.0 {
-        (odd / all).sqrt()
+        norm(&odd_part(x, h2)) / all
     } else {
         0.0
     }
@@ -243,7 +245,7 @@ mod tests {
         let x: Vec<f64> = (0..nodes * (2 * h + 1)).map(|i| 1.0 + i as f64).collect();
         let y = embed(&x, nodes, h);
         assert_eq!(y.len(), nodes * (4 * h + 1));
-        assert_eq!(odd_share(&y, nodes, 2 * h), 0.0);
+        assert_eq!(odd_share(&y, 2 * h), 0.0);
         for i in 0..nodes {
             for k in 1..=h {
                 assert_eq!(y[i * 13 + cos_index(2 * k)], x[i * 7 + cos_index(k)]);
@@ -252,6 +254,6 @@ mod tests {
         }
         let mut odd = vec![0.0; 13];
         odd[cos_index(3)] = 2.0;
-        assert_eq!(odd_share(&odd, 1, 6), 1.0);
+        assert_eq!(odd_share(&odd, 6), 1.0);
     }
 }

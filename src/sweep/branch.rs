@@ -194,11 +194,11 @@ fn doubled_at<'s>(
     let mut base = model.system.clone();
     base.omega = omega;
     let (system, op2) = subharmonic::doubled_period(&base, op)?;
-    let hb = crate::hbm::HbSettings {
-        harmonics: 2 * contact.harmonics,
-        samples: 2 * contact.samples,
+    let hb = subharmonic::doubled_settings(&crate::hbm::HbSettings {
+        harmonics: contact.harmonics,
+        samples: contact.samples,
         ..crate::pipeline::hb_settings(p)
-    };
+    });
     let problem = subharmonic::reduced_problem(&system, &op2, &hb)?;
     let x = subharmonic::embed(&contact.multipliers, op.nodes(), contact.harmonics);
     let odd = subharmonic::odd_null_vector(&problem, &x, hb.samples, contact.c)?;
@@ -261,7 +261,6 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
     let d = doubled_at(p, model, starts, row)?;
     let (system, op2, hb, problem, x) = (d.system, d.op, d.hb, d.problem, d.x);
     let (phi, least, c, omega) = (d.odd.vector, d.odd.least, d.contact.c, d.omega);
-    let nodes = problem.nodes;
     let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
     let newton = crate::hbm::reduced::NewtonSettings {
         samples: hb.samples,
@@ -277,7 +276,7 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
             .map(|(a, f)| a + push * norm(&x) * f)
             .collect();
         let o = crate::hbm::reduced::newton(&problem, &newton, &pushed, silent);
-        let odd = subharmonic::odd_share(&o.multipliers, nodes, hb.harmonics);
+        let odd = subharmonic::odd_share(&o.multipliers, hb.harmonics);
         (o.converged && odd > ON_T).then_some(o.multipliers)
     });
     let y = landed.ok_or_else(|| {
@@ -348,17 +347,7 @@ impl<'a> Walk<'a> {
         let Some(contact) = solution.contact.as_ref() else {
             return Ok(());
         };
-        let m = 2 * self.harmonics + 1;
-        let odd: Vec<f64> = (contact.multipliers.iter().enumerate())
-            .map(|(i, &v)| {
-                let odd = crate::hbm::fourier::harmonic_of(i % m) % 2 == 1;
-                if odd {
-                    v
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let odd = subharmonic::odd_part(&contact.multipliers, self.harmonics);
         let turned = self.odd.len() == odd.len() && crate::linalg::dot(&odd, &self.odd) < 0.0;
         // The drive frequency, twice the 2T problem's.
         let drive_hz = info.omega / std::f64::consts::PI;
@@ -370,8 +359,8 @@ impl<'a> Walk<'a> {
             ));
         }
         self.odd = odd;
-        let mut row = super::row(self.p, self.model, self.mesh, info, solution);
-        let summary = summary_of(self.p, self.model, self.mesh, solution);
+        let summary = super::point_summary(self.p, self.model, self.mesh, solution);
+        let mut row = super::row_of(self.p, &summary, info, solution);
         row.frequency_hz = drive_hz;
         let probe = super::outputs(self.p)
             .iter()
@@ -395,23 +384,6 @@ impl<'a> Walk<'a> {
             row.crossing = verdict.crossing;
         }
     }
-}
-
-/// A 2T point's summary (its probe's harmonics at the 2T problem's base frequency).
-fn summary_of(
-    p: &Pipeline,
-    model: &Model,
-    mesh: &MeshInfo,
-    solution: &Solution,
-) -> crate::pipeline::summary::Summary {
-    let samples = solution.contact.as_ref().map_or(1, |c| c.samples);
-    let sampled = crate::pipeline::report::Sampled::harmonic_balance_history(
-        model,
-        solution,
-        p.output.frames,
-        samples,
-    );
-    crate::pipeline::summary::harmonic_balance(p, mesh.clone(), model, solution, &sampled)
 }
 
 /// branch_K.csv: sweep.csv's columns and the probe's amplitude at half the drive frequency.

@@ -1112,16 +1112,35 @@ fn row(
     info: &continuation::PointInfo,
     solution: &crate::hbm::Solution,
 ) -> SweepRow {
+    row_of(p, &point_summary(p, model, mesh, solution), info, solution)
+}
+
+/// The summary a single-frequency run would give of a point's solution.
+fn point_summary(
+    p: &Pipeline,
+    model: &Model,
+    mesh: &MeshInfo,
+    solution: &crate::hbm::Solution,
+) -> pipeline::Summary {
     let samples = solution
         .contact
         .as_ref()
         .map_or(hb_settings(p).samples, |c| c.samples);
     let sampled = Sampled::harmonic_balance_history(model, solution, p.output.frames, samples);
-    let summary = pipeline::summary::harmonic_balance(p, mesh.clone(), model, solution, &sampled);
+    pipeline::summary::harmonic_balance(p, mesh.clone(), model, solution, &sampled)
+}
+
+/// A point's row from its summary.
+fn row_of(
+    p: &Pipeline,
+    summary: &pipeline::Summary,
+    info: &continuation::PointInfo,
+    solution: &crate::hbm::Solution,
+) -> SweepRow {
     SweepRow {
         index: info.index,
         frequency_hz: info.omega / (2.0 * std::f64::consts::PI),
-        values: outputs(p).iter().map(|o| o.value(&summary, None)).collect(),
+        values: outputs(p).iter().map(|o| o.value(summary, None)).collect(),
         corrector: info.corrector,
         newton_iterations: info.newton_iterations,
         factorizations: info.factorizations,
