@@ -392,9 +392,10 @@ fn strip_sweep_verdict_changes_only_at_located_folds_and_classified_bifurcations
 }
 
 /// TEST GOAL: a run's Hill model keeps the modes below 10ω and the next one above, each the
-/// mode `lowest_modes` finds (ω² to 1e-8), none missing below the last; the resonance check
-/// reads from them the same natural frequencies nearest ω that its own shift-invert finds
-/// (to 1e-7), and the same Hill verdict follows from them as from the 24 lowest modes.
+/// mode `lowest_modes` finds (ω² to 1e-8, the next one above to 1e-6), none missing below
+/// the last; the resonance check reads from them the same natural frequencies nearest ω that
+/// its own shift-invert finds (to 5e-7, that search's own accuracy), and the same Hill
+/// verdict follows from them as from the 24 lowest modes.
 #[test]
 fn a_runs_hill_modes_are_every_mode_below_their_last_and_serve_the_resonance_check() {
     let p = common::scene("strip_wall", &[]);
@@ -410,10 +411,12 @@ fn a_runs_hill_modes_are_every_mode_below_their_last_and_serve_the_resonance_che
         band.last().unwrap().0.sqrt() / (2.0 * std::f64::consts::PI)
     );
     assert_eq!(band.len(), below.max(hbcontact::hbm::hill::MIN_MODES) + 1);
-    for ((w2, _), (reference, _)) in band.iter().zip(&all) {
+    // Every mode kept to 1e-8; the last, which only bounds them, to modes_near's 1e-6.
+    for (i, ((w2, _), (reference, _))) in band.iter().zip(&all).enumerate() {
+        let tolerance = if i + 1 == band.len() { 1e-6 } else { 1e-8 };
         assert!(
-            (w2 - reference).abs() < 1e-8 * reference,
-            "{w2} against {reference}"
+            (w2 - reference).abs() < tolerance * reference,
+            "mode {i}: {w2} against {reference}"
         );
     }
     let (own, _) = hbcontact::pipeline::resonance::check(&model, None).unwrap();
@@ -423,7 +426,7 @@ fn a_runs_hill_modes_are_every_mode_below_their_last_and_serve_the_resonance_che
         for (x, y) in a.nearest_modes.iter().zip(&b.nearest_modes) {
             let (x, y) = (x.frequency_hz, y.frequency_hz);
             assert!(
-                (x - y).abs() < 1e-7 * x,
+                (x - y).abs() < 5e-7 * x,
                 "harmonic {}: {x} Hz against {y} Hz",
                 a.k
             );

@@ -18,7 +18,7 @@
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
-use crate::linalg::{dot, Csc, LuPattern, SparseLu};
+use crate::linalg::{dot, Csc, LuPattern, SparseLlt, SparseLu};
 use crate::{Error, Result};
 
 /// An eigenpair (ω², φ) with φ M-normalized (φᵀ M φ = 1).
@@ -54,10 +54,11 @@ pub fn modes_near(
 const QUICK: f64 = 1e-6;
 
 /// The lowest modes up to ω² = `bound`, at least `least` and at most `most` of them, and the
-/// next one above them, ascending in ω², settled as `lowest_modes`'s: every mode below the
-/// last one returned is among them (what a Hill model, and a resonance check below its last
-/// mode, need: a multiplier e^{iω_n T} of a mode at 10ω moves by 63·δω_n/ω_n, so its ω² must
-/// settle far below 1e-6). `pattern` as for `modes_near`.
+/// next one above them, ascending in ω²: every mode below the last one returned is among
+/// them (what a Hill model, and a resonance check below its last mode, need). All but the
+/// last settle as `lowest_modes`'s (a multiplier e^{iω_n T} of a mode at 10ω moves by
+/// 63·δω_n/ω_n, so its ω² must settle far below 1e-6); the last, which only bounds them,
+/// as `modes_near`'s. `pattern` as for `modes_near`.
 pub fn modes_below(
     (k, m): (&Csc, &Csc),
     bound: f64,
@@ -142,6 +143,40 @@ impl Wanted {
         }
     }
 
+    /// Whether the Ritz values have settled: the newest (nearest σ first) against those one
+    /// block before, whose own changes were `changes`. Each value settles to `tolerance`,
+    /// except the sentinel of `Below` (the one above the wanted, which only shows that none
+    /// is missing) to `QUICK`: its change d is below that bound, or the change d²/d′ the next
+    /// block would make (d′ the change before; Krylov convergence is at least geometric) is
+    /// below a tenth of it while d fell fourfold. Returns the changes for the next check.
+    fn settled(
+        self,
+        values: &[f64],
+        previous: &[f64],
+        changes: &[f64],
+        tolerance: f64,
+    ) -> (bool, Vec<f64>) {
+        if values.len() != previous.len() {
+            return (false, Vec::new());
+        }
+        let sentinel = matches!(self, Wanted::Below { .. }).then(|| values.len().saturating_sub(1));
+        let now: Vec<f64> = (values.iter().zip(previous))
+            .map(|(a, b)| ((a - b) / a).abs())
+            .collect();
+        let settled = now.iter().enumerate().all(|(i, &d)| {
+            let bound = if Some(i) == sentinel {
+                QUICK.max(tolerance)
+            } else {
+                tolerance
+            };
+            let predicted = changes
+                .get(i)
+                .is_some_and(|&before| d < 0.25 * before && d * d / before < 0.1 * bound);
+            d < bound || predicted
+        });
+        (settled, now)
+    }
+
     /// The most values that may be asked to settle.
     fn most(self) -> usize {
         match self {
@@ -155,6 +190,33 @@ impl Wanted {
         match self {
             Wanted::Nearest(count) => count,
             Wanted::Below { least, .. } => least + 1,
+        }
+    }
+}
+
+/// The factorization of K − σM the Lanczos iteration solves with: Cholesky at σ ≤ 0, where
+/// K − σM is positive definite on a supported structure (half the LU's work, no pivoting),
+/// else (or where Cholesky meets a pivot that is not positive: rigid-body modes) the LU.
+enum RealFactor {
+    Llt(SparseLlt),
+    Lu(Box<SparseLu>),
+}
+
+impl RealFactor {
+    fn of(a: &Csc, shift: f64, pattern: Option<&LuPattern>) -> Result<RealFactor> {
+        if let Some(llt) = (shift <= 0.0).then(|| SparseLlt::factor(a).ok()).flatten() {
+            return Ok(RealFactor::Llt(llt));
+        }
+        Ok(RealFactor::Lu(Box::new(match pattern {
+            Some(pattern) => SparseLu::factor_real(pattern, a)?,
+            None => SparseLu::factor_real(&LuPattern::analyse(a)?, a)?,
+        })))
+    }
+
+    fn solve_many(&self, rhs: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        match self {
+            RealFactor::Llt(llt) => llt.solve_many(rhs),
+            RealFactor::Lu(lu) => lu.solve_real_many(rhs),
         }
     }
 }
@@ -175,18 +237,12 @@ fn block_krylov(
 ) -> Result<Vec<Mode>> {
     let n = k.nrows;
     let a = shifted(k, m, shift)?;
-    let lu = match pattern {
-        Some(pattern) => SparseLu::factor_real(pattern, &a)?,
-        None => SparseLu::factor_real(&LuPattern::analyse(&a)?, &a)?,
-    };
-    let apply = |x: &[Vec<f64>]| -> Vec<Vec<f64>> {
-        let rhs: Vec<Vec<f64>> = x.iter().map(|col| m.mul_vec(col)).collect();
-        lu.solve_real_many(&rhs)
-    };
+    let factor = RealFactor::of(&a, shift, pattern)?;
     let limit = (6 * wanted.most() + 60).min(n);
     let mut space = MSpace::default();
-    let mut block = apply(&start_vectors(n, BLOCK.min(n), 0));
-    let mut previous: Vec<f64> = Vec::new();
+    let start = start_vectors(n, BLOCK.min(n), 0);
+    let mut block = factor.solve_many(&start.iter().map(|x| m.mul_vec(x)).collect::<Vec<_>>());
+    let (mut previous, mut changes) = (Vec::new(), Vec::new());
     loop {
         let added = space.extend(k, m, block);
         if added.is_empty() || space.len() >= limit {
@@ -194,20 +250,34 @@ fn block_krylov(
         }
         if space.len() >= wanted.least().min(n) + BLOCK {
             let values = space.values_nearest(shift, wanted);
-            let settled = values.len() == previous.len()
-                && values
-                    .iter()
-                    .zip(&previous)
-                    .all(|(a, b)| ((a - b) / a).abs() < tolerance);
+            let settled;
+            (settled, changes) = wanted.settled(&values, &previous, &changes, tolerance);
             if settled {
                 break;
             }
             previous = values;
         }
-        block = apply(&added);
+        block = factor.solve_many(&space.m_columns(added));
     }
     let count = wanted.count(&space.values_nearest(shift, Wanted::Nearest(n)));
     space.ritz_pairs(shift, count.min(n))
+}
+
+/// Sequential below this many mul-adds (a pool's start costs more than the product saves).
+const PARALLEL_FLOPS: usize = 1 << 22;
+
+/// The parallelism of a dense product of `flops` mul-adds.
+fn parallelism(flops: usize) -> faer::Par {
+    if flops < PARALLEL_FLOPS {
+        faer::Par::Seq
+    } else {
+        faer::get_global_parallelism()
+    }
+}
+
+/// y ← y + a x.
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().zip(x).for_each(|(y, x)| *y += a * x);
 }
 
 /// An M-orthonormal basis Q with M Q and the projection QᵀKQ kept beside it, grown a block
@@ -232,67 +302,96 @@ impl MSpace {
         &self.q[j * self.n..(j + 1) * self.n]
     }
 
-    /// Q (or MQ) as a matrix: its columns `from..`.
-    fn basis<'a>(&self, values: &'a [f64], from: usize) -> faer::MatRef<'a, f64> {
-        let p = self.len();
-        faer::MatRef::from_column_major_slice(&values[from * self.n..p * self.n], self.n, p - from)
+    /// Q (or MQ) as a matrix.
+    fn basis<'a>(&self, values: &'a [f64]) -> faer::MatRef<'a, f64> {
+        faer::MatRef::from_column_major_slice(&values[..self.len() * self.n], self.n, self.len())
     }
 
-    /// y ← y − Q (MQ)ᵀ y over Q's columns `from..`: one classical Gram–Schmidt pass as two
-    /// matrix products.
-    fn project_out(&self, y: &mut faer::Mat<f64>, from: usize) {
-        if self.len() > from {
-            let (q, mq) = (self.basis(&self.q, from), self.basis(&self.mq, from));
-            let c = mq.transpose() * y.as_ref();
-            *y -= q * c;
+    /// y ← y − Q (MQ)ᵀ y and my ← my − MQ (MQ)ᵀ y over all of Q: one classical
+    /// Gram–Schmidt pass as matrix products, M y kept without another product with M.
+    fn project_out(&self, y: &mut faer::Mat<f64>, my: &mut faer::Mat<f64>) {
+        use faer::linalg::matmul::matmul;
+        use faer::Accum;
+        if self.len() == 0 {
+            return;
         }
+        let par = parallelism(self.n * self.len() * y.ncols());
+        let (q, mq) = (self.basis(&self.q), self.basis(&self.mq));
+        let mut c = faer::Mat::<f64>::zeros(q.ncols(), y.ncols());
+        matmul(&mut c, Accum::Replace, mq.transpose(), y.as_ref(), 1.0, par);
+        matmul(y.as_mut(), Accum::Add, q, c.as_ref(), -1.0, par);
+        matmul(my.as_mut(), Accum::Add, mq, c.as_ref(), -1.0, par);
     }
 
     /// Orthonormalize `y` against Q and itself (Gram–Schmidt twice in the M inner product:
     /// against Q as a block, within `y` a column at a time) and append what is left; a column
-    /// (numerically) in the span already is dropped. Returns the appended columns.
-    fn extend(&mut self, k: &Csc, m: &Csc, y: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    /// (numerically) in the span already is dropped. Returns where the appended columns lie. M y is
+    /// formed once and updated along (every update is linear), and QᵀKQ grows by the block
+    /// Qᵀ(K Q_new) in one product.
+    fn extend(&mut self, k: &Csc, m: &Csc, y: Vec<Vec<f64>>) -> std::ops::Range<usize> {
         let first = self.len();
         if self.n == 0 {
             self.n = y.first().map_or(0, Vec::len);
         }
-        let before: Vec<f64> = y
-            .iter()
-            .map(|c| dot(c, &m.mul_vec(c)).max(0.0).sqrt())
+        let n = self.n;
+        let mut block = faer::Mat::<f64>::from_fn(n, y.len(), |i, c| y[c][i]);
+        let my: Vec<Vec<f64>> = y.iter().map(|c| m.mul_vec(c)).collect();
+        let mut mblock = faer::Mat::<f64>::from_fn(n, y.len(), |i, c| my[c][i]);
+        let before: Vec<f64> = (0..y.len())
+            .map(|c| dot(&y[c], &my[c]).max(0.0).sqrt())
             .collect();
-        let mut block = faer::Mat::<f64>::from_fn(self.n, y.len(), |i, c| y[c][i]);
         for _ in 0..2 {
-            self.project_out(&mut block, 0);
+            self.project_out(&mut block, &mut mblock);
         }
         for (c, before) in before.into_iter().enumerate() {
-            let mut col = faer::Mat::<f64>::from_fn(self.n, 1, |i, _| block[(i, c)]);
+            let mut col: Vec<f64> = block.col(c).iter().copied().collect();
+            let mut mcol: Vec<f64> = mblock.col(c).iter().copied().collect();
             for _ in 0..2 {
-                self.project_out(&mut col, first);
+                for j in first..self.len() {
+                    let coefficient = dot(&self.mq[j * n..(j + 1) * n], &col);
+                    axpy(-coefficient, &self.q[j * n..(j + 1) * n], &mut col);
+                    axpy(-coefficient, &self.mq[j * n..(j + 1) * n], &mut mcol);
+                }
             }
-            let col: Vec<f64> = col.col(0).iter().copied().collect();
-            let mcol = m.mul_vec(&col);
             let norm = dot(&col, &mcol).max(0.0).sqrt();
             if norm > 1e-10 * before && norm > 0.0 {
-                self.push(
-                    k,
-                    col.iter().map(|v| v / norm),
-                    mcol.iter().map(|v| v / norm),
-                );
+                self.q.extend(col.iter().map(|v| v / norm));
+                self.mq.extend(mcol.iter().map(|v| v / norm));
+                self.kr.push(Vec::new());
             }
         }
-        (first..self.len())
-            .map(|j| self.column(j).to_vec())
-            .collect()
+        self.project_k(k, first);
+        first..self.len()
     }
 
-    /// Appends the M-normalized column `q` with `mq` = M q and its row of QᵀKQ.
-    fn push(&mut self, k: &Csc, q: impl Iterator<Item = f64>, mq: impl Iterator<Item = f64>) {
-        self.q.extend(q);
-        self.mq.extend(mq);
-        let j = self.len();
-        let kcol = k.mul_vec(&self.q[j * self.n..]);
-        let row = (0..=j).map(|i| dot(&self.q[i * self.n..(i + 1) * self.n], &kcol));
-        self.kr.push(row.collect());
+    /// The columns `range` of M Q.
+    fn m_columns(&self, range: std::ops::Range<usize>) -> Vec<Vec<f64>> {
+        (range.map(|j| self.mq[j * self.n..(j + 1) * self.n].to_vec())).collect()
+    }
+
+    /// The rows of QᵀKQ of Q's columns `first..`: K Q_new, then Qᵀ (K Q_new) as one product.
+    fn project_k(&mut self, k: &Csc, first: usize) {
+        use faer::linalg::matmul::matmul;
+        let (n, p) = (self.n, self.len());
+        if p == first {
+            return;
+        }
+        let kq: Vec<Vec<f64>> = (first..p).map(|j| k.mul_vec(self.column(j))).collect();
+        let kq = faer::Mat::<f64>::from_fn(n, p - first, |i, c| kq[c][i]);
+        let mut rows = faer::Mat::<f64>::zeros(p, p - first);
+        let par = parallelism(n * p * (p - first));
+        let q = self.basis(&self.q);
+        matmul(
+            &mut rows,
+            faer::Accum::Replace,
+            q.transpose(),
+            kq.as_ref(),
+            1.0,
+            par,
+        );
+        for j in first..p {
+            self.kr[j] = (0..=j).map(|i| rows[(i, j - first)]).collect();
+        }
     }
 
     /// The symmetric eigen-decomposition of QᵀKQ (the Ritz problem: Q is M-orthonormal).
@@ -381,4 +480,33 @@ pub fn free_mass(m: &Csc, component_of: &[usize], component: usize) -> f64 {
         .map(|&c| if c == component { 1.0 } else { 0.0 })
         .collect();
     m.mul_vec(&r).iter().zip(&r).map(|(a, b)| a * b).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: K − σM is factored by Cholesky where it is positive definite and by LU
+    /// where it is not (an indefinite matrix, or σ > 0), and both solve it.
+    #[test]
+    fn cholesky_serves_a_positive_definite_matrix_and_lu_the_others() {
+        let spd = Csc::from_entries(2, 2, &[(0, 0, 4.0), (0, 1, 1.0), (1, 0, 1.0), (1, 1, 3.0)]);
+        let indefinite =
+            Csc::from_entries(2, 2, &[(0, 0, 1.0), (0, 1, 2.0), (1, 0, 2.0), (1, 1, 1.0)]);
+        let cases = [
+            (&spd, 0.0, true),
+            (&indefinite, 0.0, false),
+            (&spd, 1.0, false),
+        ];
+        for (a, shift, cholesky) in cases {
+            let factor = RealFactor::of(a, shift, None).unwrap();
+            assert_eq!(matches!(factor, RealFactor::Llt(_)), cholesky);
+            let x = &factor.solve_many(&[vec![1.0, 2.0]])[0];
+            let ax = a.mul_vec(x);
+            assert!(
+                (ax[0] - 1.0).abs() < 1e-14 && (ax[1] - 2.0).abs() < 1e-14,
+                "{ax:?}"
+            );
+        }
+    }
 }

@@ -215,7 +215,7 @@ impl HillModel {
             (&system.k_ff, &system.m_ff),
             bound,
             (MIN_MODES, MODES),
-            system.lu_pattern().ok(),
+            None,
         )
     }
 
@@ -281,7 +281,8 @@ impl HillModel {
     }
 
     /// How many of the modes a state at ω with H harmonics keeps dynamic: those below
-    /// `BAND`·ω (at least `MIN_MODES`), within the budget 2rM ≤ `ORDER`.
+    /// `BAND`·ω (at least `MIN_MODES`, at most `MODES`: `band_modes`'s last one only bounds
+    /// the others), within the budget 2rM ≤ `ORDER`.
     pub fn modes_for(&self, omega: f64, harmonics: usize) -> usize {
         let m = 2 * harmonics + 1;
         let shift = self.shift(omega);
@@ -291,7 +292,7 @@ impl HillModel {
             .filter(|&&t| (t + shift).max(0.0).sqrt() <= BAND * omega)
             .count();
         let budget = (ORDER / (2 * m)).max(1);
-        in_band.max(MIN_MODES).min(budget).min(self.dim())
+        in_band.clamp(MIN_MODES, MODES).min(budget).min(self.dim())
     }
 
     /// The Floquet multipliers of `contact`, a Fourier state at ω = `omega` solved with the
