@@ -100,7 +100,12 @@ fn free_amplitude(name: &str, far: &str, hz: f64) -> f64 {
 
 /// Sweep the scene as shipped and require that it reaches its end with exit 0.
 fn sweep_to_the_end(name: &str) -> SweepSummary {
-    let p = scene(name, &[]);
+    sweep_with_to_the_end(name, &[])
+}
+
+/// `sweep_to_the_end` with `overrides`.
+fn sweep_with_to_the_end(name: &str, overrides: &[&str]) -> SweepSummary {
+    let p = scene(name, overrides);
     let options = RunOptions {
         out: out(name),
         ..Default::default()
@@ -280,6 +285,35 @@ fn a_blade_rubbing_its_casing_in_its_second_mode_folds_above_f2() {
     let free = free_amplitude(name, "geometry.parameters.clearance=0.01", f2);
     let s = sweep_to_the_end(name);
     assert_stiffened_resonance(&s, f2, 1.5 * f2, 0.0, free);
+}
+
+/// TEST GOAL: where the second-mode blade's sweep stops at its recommended H = 10 (the
+/// default steps follow, past 5379.8 Hz, a branch whose leading multiplier went through +1
+/// without the curve turning), the stop advises a smaller `sweep.max_change`, and with half
+/// the default (0.05) the same H reaches the end, its folds within 1.5 Hz of those H = 20
+/// finds (5379.6 and 5229.2 Hz).
+#[test]
+fn the_second_mode_blade_passes_its_fold_with_the_smaller_gap_change_its_stop_advises() {
+    let name = "blade_mode2";
+    let stopped = sweep::run(
+        &scene(name, &[]),
+        &RunOptions {
+            out: out("blade_mode2-default"),
+            ..Default::default()
+        },
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let why = stopped.failure.map(|e| e.to_string()).unwrap_or_default();
+    assert!(why.contains("sweep.max_change"), "{why}");
+    let s = sweep_with_to_the_end(name, &["sweep.max_change=0.05"]);
+    let folds: Vec<f64> = s.folds.iter().map(|f| f.frequency_hz).collect();
+    for h20 in [5379.6, 5229.2] {
+        assert!(
+            folds.iter().any(|f| (f - h20).abs() < 1.5),
+            "{folds:?} against {h20} Hz"
+        );
+    }
 }
 
 /// f = c/4L of a plane-stress steel bar of length `l`.

@@ -81,10 +81,12 @@ impl Continuation<'_> {
                     }
                     return Err(format!(
                         "at {:.6} Hz the continuation found no next point down to the \
-                         smallest step {:.1e} ({why}); lower sweep.min_step, raise {} or add \
-                         damping",
+                         smallest step {:.1e} ({why}); sweep again with a smaller \
+                         sweep.max_change (now {}: the steps before may have left the curve \
+                         at a fold), lower sweep.min_step, raise {} or add damping",
                         hz(p.omega),
                         self.s.min_step,
+                        self.s.max_change,
                         self.system.basis.refine_key()
                     ));
                 }
