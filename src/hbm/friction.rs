@@ -31,6 +31,8 @@ use faer::linalg::solvers::Solve;
 use faer::{Accum, Mat, Par};
 use std::time::{Duration, Instant};
 
+use crate::linalg::norm2;
+
 use super::fourier::{cos_index, sin_index};
 use super::problem::ReducedProblem;
 use super::reduced::{IterationLog, NewtonOutcome};
@@ -507,10 +509,6 @@ pub fn linearization(
     let e = solver.evaluate(x.to_vec());
     let jac = solver.jacobian(&e, &real_compliance(problem));
     (jac, solver.rate(&e, dg))
-}
-
-fn norm2(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 fn norm_inf(v: &[f64]) -> f64 {

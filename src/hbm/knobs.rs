@@ -26,6 +26,7 @@ use super::fourier::harmonic_of;
 use super::problem::ReducedProblem;
 use super::reduced::{self, NewtonOutcome, NewtonSettings};
 use super::step::KrylovHint;
+use crate::linalg::norm2;
 use crate::progress::Reporter;
 
 /// Relative change of the answer below which a doubled N counts as converged.
@@ -149,7 +150,7 @@ fn closing_force(problem: &ReducedProblem) -> f64 {
         .map(|i| problem.compliance[0][i * nc + i].re.abs())
         .sum::<f64>()
         / nc.max(1) as f64;
-    let r = problem.linear_gap.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let r = norm2(&problem.linear_gap);
     if compliance > 0.0 {
         r / compliance
     } else {

@@ -13,6 +13,7 @@ use std::fmt::Write as _;
 
 use faer::c64;
 
+use crate::linalg::norm2;
 use crate::progress::Reporter;
 
 use super::problem::ReducedProblem;
@@ -302,10 +303,6 @@ impl<'a> Residual<'a> {
             d,
         )
     }
-}
-
-fn norm2(v: &[f64]) -> f64 {
-    v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
 /// Non-monotone Armijo backtracking (Grippo, Lampariello, Lucidi 1986) against `reference`,

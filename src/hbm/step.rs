@@ -811,7 +811,7 @@ mod tests {
                 .map(|(a, b)| (a - b).powi(2))
                 .sum::<f64>()
                 .sqrt();
-            let b: f64 = rhs.iter().map(|a| a * a).sum::<f64>().sqrt();
+            let b: f64 = crate::linalg::norm2(&rhs);
             assert!(
                 r <= 2.0 * forcing * b,
                 "first {harmonic_first}: {:e}",

@@ -26,6 +26,7 @@ use super::fourier::{cos_index, sin_index};
 use super::problem::ReducedProblem;
 use super::{HbSettings, System};
 use crate::contact::ContactOperator;
+use crate::linalg::norm2;
 use crate::{Error, Result};
 
 /// J_odd is formed on the odd harmonics up to the one that keeps its order at most this
@@ -96,10 +97,9 @@ pub fn odd_part(x: &[f64], h2: usize) -> Vec<f64> {
 
 /// ‖x_odd‖/‖x‖ of 2T coefficients (`h2` harmonics per node; 0 for x = 0).
 pub fn odd_share(x: &[f64], h2: usize) -> f64 {
-    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
-    let all = norm(x);
+    let all = norm2(x);
     if all > 0.0 {
-        norm(&odd_part(x, h2)) / all
+        norm2(&odd_part(x, h2)) / all
     } else {
         0.0
     }
@@ -173,7 +173,7 @@ pub fn odd_null_vector(
         let (a, q) = (col / odd.len(), odd[col % odd.len()]);
         phi[a * m2 + q] = v;
     }
-    let norm = phi.iter().map(|p| p * p).sum::<f64>().sqrt();
+    let norm = norm2(&phi);
     phi.iter_mut()
         .for_each(|p| *p /= norm.max(f64::MIN_POSITIVE));
     let scale = scale.max(f64::MIN_POSITIVE);

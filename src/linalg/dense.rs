@@ -1,11 +1,16 @@
-//! Dense linear algebra: Σ a_i b_i, LU with partial pivoting P A = L U (in place, reusing
-//! its work space), A⁻¹ and A⁻¹ B, and the eigenvalues of a real square matrix; on the
-//! calling thread below `DENSE_PARALLEL_ORDER`, on faer's pool above.
+//! Dense linear algebra: Σ a_i b_i, ‖x‖₂, LU with partial pivoting P A = L U (in place,
+//! reusing its work space), A⁻¹ and A⁻¹ B, and the eigenvalues of a real square matrix; on
+//! the calling thread below `DENSE_PARALLEL_ORDER`, on faer's pool above.
 
 use faer::c64;
 use faer::{Mat, Par};
 
 use crate::{Error, Result};
+
+/// ‖x‖₂, summed in order (the same value wherever it is asked).
+pub fn norm2(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
 
 /// Σ a_i b_i (real or complex) with eight running sums, so the compiler can keep them in
 /// SIMD registers (a single running sum is a chain of dependent adds that it may not reorder).

@@ -24,6 +24,7 @@ use crate::config::{Pipeline, SweepSpec};
 use crate::hbm::continuation::{self, ContinuationState, PointInfo};
 use crate::hbm::hill::HillModel;
 use crate::hbm::{subharmonic, ContactSolution, Solution};
+use crate::linalg::norm2;
 use crate::pipeline::outputs::Output;
 use crate::pipeline::summary::MeshInfo;
 use crate::pipeline::Model;
@@ -261,7 +262,6 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
     let d = doubled_at(p, model, starts, row)?;
     let (system, op2, hb, problem, x) = (d.system, d.op, d.hb, d.problem, d.x);
     let (phi, least, c, omega) = (d.odd.vector, d.odd.least, d.contact.c, d.omega);
-    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
     let newton = crate::hbm::reduced::NewtonSettings {
         samples: hb.samples,
         c,
@@ -270,10 +270,10 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
         min_iterations: 1,
         ..Default::default()
     };
-    let silent = &crate::Silent;
+    let (silent, size) = (&crate::Silent, norm2(&x));
     let landed = PUSHES.iter().find_map(|push| {
         let pushed: Vec<f64> = (x.iter().zip(&phi))
-            .map(|(a, f)| a + push * norm(&x) * f)
+            .map(|(a, f)| a + push * size * f)
             .collect();
         let o = crate::hbm::reduced::newton(&problem, &newton, &pushed, silent);
         let odd = subharmonic::odd_share(&o.multipliers, hb.harmonics);
@@ -289,14 +289,14 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
         ))
     })?;
     let away: Vec<f64> = y.iter().zip(&x).map(|(a, b)| a - b).collect();
-    let length = norm(&away).max(f64::MIN_POSITIVE);
-    let force = (c * norm(&problem.linear_gap)).max(f64::MIN_POSITIVE);
+    let length = norm2(&away).max(f64::MIN_POSITIVE);
+    let force = (c * norm2(&problem.linear_gap)).max(f64::MIN_POSITIVE);
     let state = ContinuationState {
         index: 0,
         omega: system.omega,
         step: crate::config::SweepSpec::default().step,
         tangent: away.iter().map(|a| a / length).chain([0.0]).collect(),
-        largest: norm(&y),
+        largest: norm2(&y),
         multipliers: y,
         force_scale: force,
         c,

@@ -43,6 +43,7 @@ use super::{FoldReport, Stopped, SweepRow, WrittenPoint};
 use crate::config::{Pipeline, SweepSpec};
 use crate::hbm::continuation::ContinuationState;
 use crate::hbm::knobs::MAX_DOUBLINGS;
+use crate::linalg::norm2;
 use crate::pipeline::Model;
 use crate::{Error, Result};
 
@@ -373,7 +374,7 @@ fn check_trail(
         )
     })?;
     let width = state.multipliers.len() + 1;
-    let mut largest = norm(&state.multipliers);
+    let mut largest = norm2(&state.multipliers);
     for (i, (y, row)) in t.iter().zip(&saved.rows).enumerate() {
         let field = format!("resume.trail[{i}]");
         require(y.len() == width, path, &field, || {
@@ -394,7 +395,7 @@ fn check_trail(
                 row.frequency_hz
             )
         })?;
-        largest = largest.max(state.force_scale * norm(&y[..width - 1]));
+        largest = largest.max(state.force_scale * norm2(&y[..width - 1]));
     }
     Ok(largest)
 }
@@ -431,10 +432,6 @@ fn check_enriched(path: &Path, state: &ContinuationState, spec: &SweepSpec) -> R
     Ok(())
 }
 
-fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
-}
-
 fn check_tangent(path: &Path, state: &ContinuationState, tangent_frequency: f64) -> Result<()> {
     let t = &state.tangent;
     require(
@@ -449,7 +446,7 @@ fn check_tangent(path: &Path, state: &ContinuationState, tangent_frequency: f64)
             )
         },
     )?;
-    let length = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let length = norm2(t);
     require((length - 1.0).abs() <= 1e-6, path, "resume.tangent", || {
         format!("has length {length}, not 1")
     })?;

@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
+use crate::linalg::norm2;
 use crate::linalg::Csc;
 use crate::progress::Reporter;
 use crate::{Error, Result};
@@ -240,8 +241,8 @@ fn estimate_max_eigenvalue(k: &RowPairs, mass: &[f64]) -> f64 {
         for i in 0..n {
             y[i] = if mass[i] > 0.0 { y[i] / mass[i] } else { 0.0 };
         }
-        let norm = y.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let xn = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let norm = norm2(&y);
+        let xn = norm2(&x);
         if norm == 0.0 || xn == 0.0 {
             break;
         }
@@ -745,11 +746,7 @@ fn lumped_w(rows: &[Vec<(usize, f64)>], mass: &[f64], dt: f64, alpha: f64) -> DM
 }
 
 fn norm(x: &[f64]) -> f64 {
-    x.iter()
-        .map(|a| a * a)
-        .sum::<f64>()
-        .sqrt()
-        .max(f64::MIN_POSITIVE)
+    norm2(x).max(f64::MIN_POSITIVE)
 }
 
 fn distance(a: &[f64], b: &[f64]) -> f64 {

@@ -15,10 +15,11 @@
 
 use faer::Mat;
 
-use super::{hz, norm, Continuation, Corrector, Frame};
+use super::{hz, Continuation, Corrector, Frame};
 use crate::contact::ContactOperator;
 use crate::hbm::fourier::{node_phasors, set_phasor};
 use crate::hbm::{contact_part, globalize, HbSettings, LinearResponse, System};
+use crate::linalg::norm2;
 use crate::{Error, Result};
 
 /// |τ_ω| above which the corrector keeps ω fixed (the curve is a graph over ω there).
@@ -175,7 +176,7 @@ impl Continuation<'_> {
         if !o.converged {
             return Err(format!("chord corrector, polish at ω*: {}", o.reason));
         }
-        let moved = norm(
+        let moved = norm2(
             &o.multipliers
                 .iter()
                 .zip(&x)
@@ -279,7 +280,7 @@ impl Continuation<'_> {
                     hz(frame.omega)
                 ))
             })?;
-        let norm = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let norm = norm2(&t);
         let sign = if t.iter().zip(previous).map(|(a, b)| a * b).sum::<f64>() < 0.0 {
             -1.0
         } else {

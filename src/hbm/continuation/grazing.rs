@@ -12,7 +12,8 @@ use std::time::Instant;
 
 use super::frame::Frame;
 use super::stepping::JUMP;
-use super::{norm, Continuation, Corrector, Point, PointInfo};
+use super::{Continuation, Corrector, Point, PointInfo};
+use crate::linalg::norm2;
 
 /// A point whose ‖λ‖ is below this fraction of the largest along the curve may be at a
 /// grazing corner (on the strip the contact force there is 0.1–0.2% of its largest, in mean).
@@ -31,7 +32,7 @@ impl Continuation<'_> {
     /// solves the complementarity there and lies within `JUMP` largest steps of `p`. `None`:
     /// `p` is not at a grazing corner.
     pub(super) fn graze(&mut self, p: &Point, index: usize) -> Option<(Point, Frame, PointInfo)> {
-        let force = norm(&p.x);
+        let force = norm2(&p.x);
         if force > GRAZING * self.largest || self.largest == 0.0 {
             return None;
         }
@@ -57,7 +58,7 @@ impl Continuation<'_> {
         let frame = self.frame(p.omega + shift).ok()?;
         let open = vec![0.0; p.x.len()];
         let o = self.newton_on(&frame.problem, &open);
-        if !o.converged || norm(&o.multipliers) > self.hb.tolerance * self.force {
+        if !o.converged || norm2(&o.multipliers) > self.hb.tolerance * self.force {
             return None;
         }
         // Along the open branch λ stays 0: the direction is ω alone.

@@ -28,6 +28,7 @@ use crate::contact::ContactOperator;
 use crate::hbm::adaptive::{self, HarmonicRange};
 use crate::hbm::reduced::{self, NewtonSettings};
 use crate::hbm::{HbSettings, ReducedProblem, System};
+use crate::linalg::norm2;
 use crate::progress::Reporter;
 use crate::Result;
 
@@ -195,7 +196,7 @@ fn carried(mut r: ContinuationState, nodes: usize, from: usize, to: usize) -> Co
     };
     r.multipliers = reduced::pad(&r.multipliers, nodes, from, to);
     let mut tangent = lam(&r.tangent);
-    let norm = tangent.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let norm = norm2(&tangent);
     if norm > 0.0 {
         tangent.iter_mut().for_each(|v| *v /= norm);
     }

@@ -40,6 +40,7 @@ use super::{ContactSolution, HbSettings, ReducedProblem, Solution, System};
 use super::{NewtonOutcome, Timings};
 use crate::contact::ContactOperator;
 use crate::hbm::adaptive::HarmonicRange;
+use crate::linalg::norm2;
 use crate::progress::Reporter;
 use crate::{Error, Result};
 pub use frame::reduced_model_pays;
@@ -339,7 +340,7 @@ impl Continuation<'_> {
                 outcome.folds.push(fold(index - 1, &point));
             }
             let newton = corrector_newton(info.newton_iterations);
-            self.largest = self.largest.max(norm(&next.x));
+            self.largest = self.largest.max(norm2(&next.x));
             info.state = Some(self.state(&next, ds, index, frame.reduced));
             info.scaled = y;
             self.emit(&info, &next.x, frame, newton, on_point)?;
@@ -376,7 +377,7 @@ impl Continuation<'_> {
             tangent,
         };
         // A resumed point brings the largest ‖λ‖ before it and its trail.
-        self.largest = self.largest.max(norm(&point.x));
+        self.largest = self.largest.max(norm2(&point.x));
         for y in self.s.resume.iter().flat_map(|r| &r.trail) {
             trail.push(y.clone());
         }
@@ -541,8 +542,4 @@ fn fold(at: usize, a: &Point) -> Fold {
         after: at,
         omega: a.omega,
     }
-}
-
-fn norm(x: &[f64]) -> f64 {
-    x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }

@@ -14,7 +14,8 @@ use std::time::Instant;
 
 use super::frame::Frame;
 use super::grazing::GRAZING;
-use super::{hz, norm, Continuation, Corrector, Point, PointInfo};
+use super::{hz, Continuation, Corrector, Point, PointInfo};
+use crate::linalg::norm2;
 
 /// A corrector that lands farther than this many steps from its predictor jumped to another
 /// branch (a kink of the sampled law bends the curve by less).
@@ -114,7 +115,7 @@ impl Continuation<'_> {
         let clock = Instant::now();
         let prepared = self.prepare_seconds();
         // Near a grazing corner `graze` steps to the open branch instead.
-        let corner = ds <= CORNER_STEPS * self.s.min_step && norm(&p.x) > GRAZING * self.largest;
+        let corner = ds <= CORNER_STEPS * self.s.min_step && norm2(&p.x) > GRAZING * self.largest;
         let corrected = self.correct(&x_p, omega_p, t, ds, (landing, corner));
         // The corrector's own time (Newton, bordered solves, ∂g/∂ω) without its factorizations.
         self.timings.newton += clock.elapsed().as_secs_f64() - (self.prepare_seconds() - prepared);
@@ -158,7 +159,7 @@ impl Continuation<'_> {
             .map(|i| (x[i] - p.x[i]) / self.force)
             .chain([(frame.omega - p.omega) / self.span])
             .collect();
-        let length = secant.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let length = norm2(&secant);
         if !(length > 0.0) {
             return Err("the corrector returned to the same point".into());
         }

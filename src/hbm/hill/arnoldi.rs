@@ -21,6 +21,7 @@ use faer::{c64, Accum, Conj, Mat, MatRef, Par};
 
 use super::{centred, kappa, Exponent, HillModel, Linearized, Ranked, KRYLOV};
 use crate::hbm::fourier::{cos_index, sin_index};
+use crate::linalg::norm2;
 use crate::{Error, Result};
 
 /// The scalar of a shift-invert Arnoldi run: f64 for a real shift, c64 for a complex one.
@@ -377,7 +378,7 @@ fn arnoldi_factorization<T: Scalar>(
     let start: Vec<f64> = (0..n)
         .map(|i| 1.0 + ((i * 7919) % 97) as f64 / 97.0 - ((i * 104729) % 89) as f64 / 89.0)
         .collect();
-    let s0 = start.iter().map(|z| z * z).sum::<f64>().sqrt();
+    let s0 = norm2(&start);
     for (i, v) in start.iter().enumerate() {
         basis[(i, 0)] = T::from(v / s0);
     }
