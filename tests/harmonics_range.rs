@@ -20,7 +20,7 @@ fn mean_force(s: &Summary) -> f64 {
 /// the tolerance from the level below; the H it stops at gives, against a fixed H = 80, the
 /// probe's first harmonic and the mean contact force within that tolerance (the estimate is
 /// an honest bound), and the summary reports that H. Measured on strip_wall at 3%: levels 5
-/// (6.3%), 10 (8.3%), 20 (2.2%).
+/// (21.7%), 10 (12.1%), 20 (3.09%), 40 (1.20%).
 #[test]
 fn a_run_raises_h_until_the_change_from_the_level_below_meets_the_tolerance() {
     let tolerance = 0.03;
@@ -67,19 +67,19 @@ fn a_run_raises_h_until_the_change_from_the_level_below_meets_the_tolerance() {
 /// TEST GOAL: a level whose truncation estimate meets the tolerance but whose answer still
 /// depends on c (the knob check's change above 1%) is not kept: the run raises H, as the
 /// check advises, and warns of c only if that does not settle it. On strip_wall at H = 10 the
-/// estimate is 8.3% and the c-change 4.4%; at 10% tolerance H = 20 (c-change 0.4%) is kept
-/// with no c warning.
+/// estimate is 12.2% and the c-change 4.4%; at 15% tolerance H = 20 (estimate 3.1%, c-change
+/// 0.4%) is kept with no c warning.
 #[test]
 fn a_run_raises_h_where_the_answer_depends_on_c_instead_of_warning() {
     let sets = [
         "harmonic_balance.harmonics={min: 10, max: 40}",
-        "harmonic_balance.tolerance=0.1",
+        "harmonic_balance.tolerance=0.15",
         "stability.check=false",
     ];
     let s = common::run_summary("strip_wall", &sets, "range-strip-wall-c");
     let c = chosen(&s);
     let first = &c.levels[0];
-    assert!(first.estimate.is_some_and(|e| e <= 0.1), "{c:?}");
+    assert!(first.estimate.is_some_and(|e| e <= 0.15), "{c:?}");
     assert!(first.c_change.is_some_and(|x| x > 1e-2), "{c:?}");
     assert!(c.met && c.chosen() > 10, "{c:?}");
     assert!(

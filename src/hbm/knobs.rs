@@ -115,27 +115,24 @@ fn relative_change(problem: &ReducedProblem, a: &[f64], b: &[f64]) -> f64 {
     change_of_answer(problem, (&ga, a), (&gb, b), 1.0)
 }
 
-/// The change of the answer from the solution `coarse` of a problem at a lower H to `fine`
-/// of `problem` (multipliers each).
-pub fn change_across_harmonics(
-    (coarse_problem, coarse): (&ReducedProblem, &[f64]),
-    (problem, fine): (&ReducedProblem, &[f64]),
-) -> f64 {
-    let (nc, from, to) = (problem.nodes, coarse_problem.harmonics, problem.harmonics);
-    let gb = reduced::pad(&problem.gap(fine), nc, to, from);
-    let b = reduced::pad(fine, nc, to, from);
-    let ga = coarse_problem.gap(coarse);
-    let vibration = change_of_answer(coarse_problem, (&ga, coarse), (&gb, &b), 0.0);
-    // The mean force against a floor: grazing contact's few newtons change by tens of
-    // percent from H/2 to H, and that is not a change of the answer.
-    let (nodes, m) = (coarse_problem.nodes, coarse_problem.coefficients());
-    let mean = |x: &[f64]| (0..nodes).map(|i| x[i * m]).sum::<f64>();
+/// The mean contact force's change from the solution `coarse` of a problem at a lower H to
+/// `fine` (multipliers each), measured against the larger of the coarse mean and
+/// `FORCE_FLOOR` of the closing force: grazing contact's few newtons change by tens of
+/// percent from H/2 to H, and that is not a change of the answer. 0 where it is not finite.
+pub fn mean_force_change(coarse_problem: &ReducedProblem, coarse: &[f64], fine: &[f64]) -> f64 {
+    let nodes = coarse_problem.nodes;
+    let mean = |x: &[f64], m: usize| (0..nodes).map(|i| x[i * m]).sum::<f64>();
+    let (a, b) = (
+        mean(coarse, coarse_problem.coefficients()),
+        mean(fine, fine.len() / nodes.max(1)),
+    );
     let floor = FORCE_FLOOR * closing_force(coarse_problem);
-    let force = (mean(coarse) - mean(&b)).abs() / mean(coarse).abs().max(floor);
-    if force.is_nan() {
-        return vibration;
+    let change = (a - b).abs() / a.abs().max(floor);
+    if change.is_finite() {
+        change
+    } else {
+        0.0
     }
-    vibration.max(force)
 }
 
 /// The share of the closing force below which a mean contact force's change is measured

@@ -149,7 +149,7 @@ pub fn solve_within(
         (Some(op), Some(problem)) => {
             let solution = frictionless(
                 system,
-                (op, &problem),
+                (op, &problem, &linear),
                 settings,
                 adapting,
                 reporter,
@@ -181,14 +181,17 @@ pub fn solve_within(
 /// The frictionless contact solve at the settings' H, or with H chosen in `adapting`.
 fn frictionless(
     system: &System,
-    (op, problem): (&ContactOperator, &ReducedProblem),
+    (op, problem, linear): (&ContactOperator, &ReducedProblem, &LinearResponse),
     settings: &HbSettings,
     adapting: Option<adaptive::HarmonicRange>,
     reporter: &dyn Reporter,
     timings: &mut Timings,
 ) -> Result<ContactSolution> {
     match adapting {
-        Some(range) => adaptive::solve(system, op, problem, settings, range, reporter, timings),
+        Some(range) => {
+            let with = (op, linear);
+            adaptive::solve(system, with, problem, settings, range, reporter, timings)
+        }
         None => solve_contact_timed(system, op, problem, settings, reporter, timings),
     }
 }

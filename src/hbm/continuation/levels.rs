@@ -2,9 +2,10 @@
 //! continuation runs at one level H at a time and moves to another where the truncation
 //! estimate asks for it.
 //!
-//! Glossary and formulas (the estimate is `adaptive`'s):
-//! - e(H) at an accepted point x: the change of the answer from the state at ⌊H/2⌋ (a Newton
-//!   on the point's frame truncated to ⌊H/2⌋, from x truncated, at N/2 samples) to x;
+//! Glossary and formulas (the estimate is `adaptive::estimate_of`):
+//! - e(H) at an accepted point x: the change of the answer (the recovered field, by the
+//!   frame's solves, and the mean contact force) from the state at ⌊H/2⌋ (a Newton on the
+//!   point's frame truncated to ⌊H/2⌋, from x truncated, at N/2 samples) to x;
 //! - raise: e(H) > τ (or e could not be formed) and H < H_max: the point is not kept; the
 //!   curve restarts at min(2H, H_max) from it;
 //! - lower: e(H) ≤ `LOWER` τ at `CALM` points in a row and H > H_min: restart at
@@ -21,13 +22,14 @@
 //! A restarted point is checked for a raise again (never for a lower), so each kept point meets
 //! τ or is at H_max.
 
+use super::frame::Frame;
 use super::start::Restart;
 use super::trail::Trail;
 use super::{Continuation, ContinuationState, OnPoint, Point, SweepOutcome, SweepSettings};
 use crate::contact::ContactOperator;
 use crate::hbm::adaptive::{self, HarmonicRange};
 use crate::hbm::reduced::{self, NewtonSettings};
-use crate::hbm::{HbSettings, ReducedProblem, System};
+use crate::hbm::{HbSettings, System};
 use crate::linalg::norm2;
 use crate::progress::Reporter;
 use crate::Result;
@@ -130,18 +132,18 @@ pub(super) struct Levels {
 }
 
 impl Continuation<'_> {
-    /// After the accepted point `next` (solved on `problem`, index `index`, next step `ds`):
+    /// After the accepted point `next` (solved on `frame`, index `index`, next step `ds`):
     /// the level change its estimate asks for, if any (`lower`: a halving may be asked).
     pub(super) fn level_change(
         &mut self,
-        (next, problem): (&Point, &ReducedProblem),
+        (next, frame): (&Point, &Frame),
         (index, ds): (usize, f64),
         trail: &Trail,
         lower: bool,
     ) -> Option<LevelChange> {
         let mut levels = self.levels?;
         let h = self.hb.harmonics;
-        let estimate = self.half_estimate(problem, &next.x);
+        let estimate = self.half_estimate(frame, &next.x);
         levels.last = estimate;
         let tolerance = levels.range.tolerance;
         let calm = estimate.is_some_and(|e| e <= LOWER * tolerance);
@@ -163,10 +165,11 @@ impl Continuation<'_> {
         })
     }
 
-    /// e(H) at x on `problem` (see the header); `None` where ⌊H/2⌋ cannot carry the loads or
+    /// e(H) at x on `frame` (see the header); `None` where ⌊H/2⌋ cannot carry the loads or
     /// its Newton does not converge.
-    fn half_estimate(&mut self, problem: &ReducedProblem, x: &[f64]) -> Option<f64> {
+    fn half_estimate(&mut self, frame: &Frame, x: &[f64]) -> Option<f64> {
         let clock = std::time::Instant::now();
+        let problem = &frame.problem;
         let half = problem.harmonics / 2;
         let excited = self.system.inputs.keys().copied().max().unwrap_or(0);
         if half == 0 || half < excited {
@@ -180,7 +183,11 @@ impl Continuation<'_> {
             hover: HALF_HOVER,
             ..Default::default()
         };
-        let (change, _) = adaptive::change_from_half(problem, x, &newton, self.reporter);
+        let (coarse, _) = adaptive::half_state(problem, x, &newton, self.reporter);
+        let change = coarse.map(|c| {
+            let coarse = (&problem.truncate(half), &c[..]);
+            adaptive::estimate_of(coarse, (problem, x), &frame.linear, self.op)
+        });
         self.timings.knob_check += clock.elapsed().as_secs_f64();
         change
     }

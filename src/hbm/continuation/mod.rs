@@ -329,8 +329,7 @@ impl Continuation<'_> {
                 outcome.stopped = Some(retrace_reason(&point, index - 1, j, key));
                 break;
             }
-            let at = (&next, &frame.problem);
-            if let Some(change) = self.level_change(at, (index, ds), &trail, true) {
+            if let Some(change) = self.level_change((&next, &frame), (index, ds), &trail, true) {
                 outcome.level_change = Some(change);
                 break;
             }
@@ -382,8 +381,7 @@ impl Continuation<'_> {
             trail.push(y.clone());
         }
         if self.s.resume.is_none() || self.restarted {
-            let at = (&point, &frame.problem);
-            if let Some(change) = self.level_change(at, (start, ds), trail, false) {
+            if let Some(change) = self.level_change((&point, &frame), (start, ds), trail, false) {
                 return Ok(Err((change, start)));
             }
         }
