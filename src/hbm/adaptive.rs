@@ -19,7 +19,7 @@
 //! 1/H, the error of H_j is at most e_j: the estimate is conservative for the state reported.
 //! The field's change bounds what a probe reads only in the RMS over the body: the contact
 //! face's own deformation moves more than a probe away from it (on the strip's upper branch
-//! the field changes 2.3% in its first harmonic from H = 20 to 40 where the driven end moves
+//! the field changes 2.3% in its first harmonic from H = 20 to 40 where the probe moves
 //! 0.1%). The peak contact force of an impact converges more slowly and is not held to τ.
 //!
 //! Each level above H_0 starts its Newton from the level below, padded with zeros (the low
