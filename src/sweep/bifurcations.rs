@@ -9,8 +9,7 @@
 //!   Neimark–Sacker bifurcation (a second frequency |arg μ|/(2π)·f); real through +1 where
 //!   the curve turns (τ_ω changes sign from the row before a to the row after b) but too
 //!   little to be listed as a fold, a kink of the sampled law; real through +1 where it does
-//!   not turn, a branch point (unless located within `KINK` of the span from a fold: the
-//!   fold's own crossing); and a grazing where the stable side's contact set did not change
+//!   not turn, a branch point; and a grazing where the stable side's contact set did not change
 //!   over the period (judged by its damping, no multiplier): the loss comes with the contact
 //!   starting to open and close within the period.
 //!
@@ -26,7 +25,6 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{FoldReport, SweepRow};
-use crate::hbm::continuation::KINK;
 use crate::hbm::floquet::Crossing;
 
 /// How a curve's state changes stability between two rows (not at a fold).
@@ -123,17 +121,7 @@ pub fn locate(rows: &[SweepRow], folds: &[FoldReport]) -> Vec<BifurcationReport>
                 .any(|p| p[0].tangent_frequency * p[1].tangent_frequency < 0.0);
             between(w[0].1, w[1].1, turns)
         })
-        .filter(|b| !(b.kind == BifurcationKind::BranchPoint && near_a_fold(b, rows, folds)))
         .collect()
-}
-
-/// A real crossing of +1 located within `KINK` of the curve's span from a located fold is
-/// the fold's own: Hill's multiplier, from the modes kept, can cross a row or two before the
-/// ω-turn that locates the fold (the coarse strip at H = 10: 1668.885 against 1668.927 Hz).
-fn near_a_fold(b: &BifurcationReport, rows: &[SweepRow], folds: &[FoldReport]) -> bool {
-    let f = rows.iter().map(|r| r.frequency_hz);
-    let span = f.clone().fold(f64::MIN, f64::max) - f.fold(f64::MAX, f64::min);
-    (folds.iter()).any(|fold| (fold.frequency_hz - b.frequency_hz).abs() <= KINK * span)
 }
 
 /// The bifurcation between decided rows `a` and `b` of opposite verdicts; `turns`: the curve
@@ -277,32 +265,5 @@ mod tests {
             ]
         );
         assert!(b.iter().all(|b| b.new_frequency_hz.is_none()));
-    }
-
-    /// TEST GOAL: a real crossing of +1 located a row or two before a located fold, within
-    /// `KINK` of the span, is the fold's own and not listed as a branch point; one farther
-    /// from it is.
-    #[test]
-    fn a_plus_one_crossing_just_before_a_fold_is_the_folds_own() {
-        let fold = |m: f64| Some((m, 0.0, Crossing::Fold));
-        let rows = [
-            turning(0, 1000.0, fold(0.9), 1.0),
-            turning(1, 1600.0, fold(0.9), 1.0),
-            turning(2, 1668.80, fold(0.99), 1.0),
-            turning(3, 1668.90, fold(1.01), 1.0),
-            turning(4, 1668.92, fold(1.02), 1.0),
-            turning(5, 1668.93, fold(1.03), 1.0),
-            turning(6, 1668.91, fold(1.04), -1.0),
-            turning(7, 1800.0, fold(1.1), 1.0),
-        ];
-        let at = |f: f64, after: usize| FoldReport {
-            frequency_hz: f,
-            after,
-            amplitude: f64::NAN,
-        };
-        assert!(locate(&rows, &[at(1668.93, 5)]).is_empty());
-        let far = locate(&rows, &[at(1670.0, 5)]);
-        assert_eq!(far.len(), 1);
-        assert_eq!(far[0].kind, BifurcationKind::BranchPoint);
     }
 }

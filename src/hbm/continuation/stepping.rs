@@ -4,12 +4,11 @@
 //! scaled unknowns y, y_p = y + Δs τ the predictor, g̃ the contact gaps' coefficients.
 //!
 //! Step control: a corrector that fails, needs more than `MAX_CORRECTOR` iterations, lands
-//! farther than Δs from the predictor (a jump to another branch), turns the curve by more than
-//! `MAX_TURN_DEGREES` from the last tangent (a kink crossed onto another sheet) or changes the
-//! contact gaps by more than `max_change` (relative: ‖Δg̃‖/max(‖g̃_a‖, ‖g̃_b‖,
-//! `GAP_FLOOR`·‖g̃_lin‖), g̃_lin the first point's contact-free gap, so a contact closed all
-//! period, whose gaps are round-off, is not measured against its round-off) rejects the step
-//! and halves Δs; an easy step (≤ 3 iterations) grows it by 1.5, up to the maximum.
+//! farther than Δs from the predictor (a jump to another branch) or changes the contact gaps
+//! by more than `max_change` (relative: ‖Δg̃‖/max(‖g̃_a‖, ‖g̃_b‖, `GAP_FLOOR`·‖g̃_lin‖), g̃_lin
+//! the first point's contact-free gap, so a contact closed all period, whose gaps are
+//! round-off, is not measured against its round-off) rejects the step and halves Δs; an easy
+//! step (≤ 3 iterations) grows it by 1.5, up to the maximum.
 
 use std::time::Instant;
 
@@ -32,14 +31,6 @@ const CORNER: f64 = 30.0;
 /// not a grazing one) try the other: the fixed-ω smoothed corrector after the arc-length one,
 /// and back.
 const CORNER_STEPS: f64 = 4.0;
-
-/// The largest angle between a point's tangent and the secant that reaches the next one: a
-/// step that turns the curve more is halved, down to `CORNER_STEPS` smallest steps (where a
-/// kink of the sampled law turns it sharply, for real). Without it the second-mode blade and
-/// the quadratic cantilever of pipelines/scenes/ stepped across a kink onto another sheet of
-/// the sampled law's solutions, which ended or ran back onto the curve; 30° passes them too,
-/// 15° stops the blade in its kinks.
-const MAX_TURN_DEGREES: f64 = 60.0;
 
 /// The gap change of a step is measured against at least this share of the contact-free
 /// gap ‖g̃_lin‖ = F/c of the first point (the scaling).
@@ -147,13 +138,6 @@ impl Continuation<'_> {
             ));
         }
         let point = self.after(p, x, &frame)?;
-        let turn: f64 = (point.tangent.iter().zip(&p.tangent))
-            .map(|(a, b)| a * b)
-            .sum();
-        if turn < MAX_TURN_DEGREES.to_radians().cos() && ds > CORNER_STEPS * self.s.min_step {
-            let degrees = turn.clamp(-1.0, 1.0).acos().to_degrees();
-            return Err(format!("the curve turned by {degrees:.0}° in one step"));
-        }
         let (point, frame) = self.verified(p, point, frame)?;
         let floor = GAP_FLOOR * self.force / self.newton.c;
         let change = relative_change(&p.gaps, &point.gaps, floor);
