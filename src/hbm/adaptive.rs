@@ -249,23 +249,24 @@ fn half_estimate(
     let x = &solution.multipliers;
     let (coarse, iterations) = half_state(level, x, &newton, reporter);
     let fine = (level, &x[..]);
-    let change = coarse.map(|c| estimate_of((&level.truncate(half), &c), fine, linear, op));
+    let change = coarse.map(|(p, c)| estimate_of((&p, &c), fine, linear, op));
     (change, iterations)
 }
 
-/// The state at ⌊H/2⌋ (≥ 1) of `problem` by the Newton `newton` from `x` truncated, with
-/// its iterations; `None` where that Newton does not converge. Runs and sweep points alike.
+/// The state at ⌊H/2⌋ (≥ 1) of `problem` by the Newton `newton` from `x` truncated, with the
+/// truncated problem and the Newton's iterations; `None` where that Newton does not
+/// converge. Runs and sweep points alike.
 pub(super) fn half_state(
     problem: &ReducedProblem,
     x: &[f64],
     newton: &NewtonSettings,
     reporter: &dyn Reporter,
-) -> (Option<Vec<f64>>, usize) {
+) -> (Option<(ReducedProblem, Vec<f64>)>, usize) {
     let half = problem.harmonics / 2;
     let coarse = problem.truncate(half);
     let start = reduced::pad(x, problem.nodes, problem.harmonics, half);
     let o = reduced::newton(&coarse, newton, &start, reporter);
-    (o.converged.then_some(o.multipliers), o.iterations)
+    (o.converged.then_some((coarse, o.multipliers)), o.iterations)
 }
 
 /// e: the change of the answer from the solution `coarse` of a truncation to `fine` (see the

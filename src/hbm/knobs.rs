@@ -109,12 +109,6 @@ pub fn underdamped_from(s: &SplineBasis) -> usize {
         .unwrap_or(s.segments / 2)
 }
 
-/// The change of the answer from multipliers `a` to `b` (see the header).
-fn relative_change(problem: &ReducedProblem, a: &[f64], b: &[f64]) -> f64 {
-    let (ga, gb) = (problem.gap(a), problem.gap(b));
-    change_of_answer(problem, (&ga, a), (&gb, b), 1.0)
-}
-
 /// The mean contact force's change from the solution `coarse` of a problem at a lower H to
 /// `fine` (multipliers each), measured against the larger of the coarse mean and
 /// `FORCE_FLOOR` of the closing force: grazing contact's few newtons change by tens of
@@ -155,14 +149,9 @@ fn closing_force(problem: &ReducedProblem) -> f64 {
     }
 }
 
-/// The change of the answer between two solutions of `problem` given by their gaps and
-/// multipliers.
-fn change_of_answer(
-    problem: &ReducedProblem,
-    (ga, a): (&[f64], &[f64]),
-    (gb, b): (&[f64], &[f64]),
-    with_mean: f64,
-) -> f64 {
+/// The change of the answer from multipliers `a` to `b` of `problem` (see the header).
+fn relative_change(problem: &ReducedProblem, a: &[f64], b: &[f64]) -> f64 {
+    let (ga, gb) = (problem.gap(a), problem.gap(b));
     let m = problem.coefficients();
     let free = &problem.linear_gap;
     let (mut diff, mut norm, mut norm_free, mut mean_a, mut mean_b) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -177,7 +166,7 @@ fn change_of_answer(
     }
     let norm = norm.sqrt().max(VIBRATION_FLOOR * norm_free.sqrt());
     let ratio = |d: f64, n: f64| if n > 0.0 { d / n } else { d };
-    let force = with_mean * ratio((mean_a - mean_b).abs(), f64::abs(mean_a));
+    let force = ratio((mean_a - mean_b).abs(), f64::abs(mean_a));
     ratio(diff.sqrt(), norm).max(force)
 }
 

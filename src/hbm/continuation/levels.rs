@@ -184,10 +184,8 @@ impl Continuation<'_> {
             ..Default::default()
         };
         let (coarse, _) = adaptive::half_state(problem, x, &newton, self.reporter);
-        let change = coarse.map(|c| {
-            let coarse = (&problem.truncate(half), &c[..]);
-            adaptive::estimate_of(coarse, (problem, x), &frame.linear, self.op)
-        });
+        let change = coarse
+            .map(|(p, c)| adaptive::estimate_of((&p, &c), (problem, x), &frame.linear, self.op));
         self.timings.knob_check += clock.elapsed().as_secs_f64();
         change
     }
