@@ -207,9 +207,10 @@ fn a_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
 }
 
 /// TEST GOAL: the cantilever on its stop in quadratic elements (2 through the depth): f1
-/// within 0.5% of Euler–Bernoulli, and the same stiffened resonance as the linear mesh.
+/// within 0.5% of Euler–Bernoulli, and the same stiffened resonance as the linear mesh (the
+/// default steps run back onto the curve at 216.72 Hz in a tangle of kinks; swept again with
+/// a turn limit of 60° per step, it reaches the end).
 #[test]
-#[ignore = "issue #45: with the mortar corner law (2026-11-28) folds at 218.25, 216.81 (three within 3 mHz), 221.67, 222.96 and 216.71 Hz, then at 216.72 Hz (point 293) runs back onto its own curve (points 265-266) in a tangle of kinks; see docs/verification.md, User scenes"]
 fn a_quadratic_cantilever_on_a_one_sided_stop_bends_its_resonance_over_above_f1() {
     let name = "cantilever_stop_p2";
     let f1 = driven_mode(name, 1, 1);
@@ -275,7 +276,6 @@ fn a_blade_rubbing_its_casing_in_its_first_mode_folds_above_f1() {
 /// TEST GOAL: the same blade driven around its second bending mode (0.7–1.5 f2) with a load
 /// 20 times the first scene's: the rub stiffens the second mode's resonance too.
 #[test]
-#[ignore = "issue #45: at H = 10 (recommended) stops at 5381.28 Hz after 50 points, no fold: the arc-length corrector did not converge in 12 iterations; H = 5 and H = 20 reach the end (folds 5379.6 and 5229.2 Hz at H = 20); see docs/verification.md, User scenes"]
 fn a_blade_rubbing_its_casing_in_its_second_mode_folds_above_f2() {
     let name = "blade_mode2";
     let f2 = driven_mode(name, 0, 2);
@@ -287,26 +287,20 @@ fn a_blade_rubbing_its_casing_in_its_second_mode_folds_above_f2() {
     assert_stiffened_resonance(&s, f2, 1.5 * f2, 0.0, free);
 }
 
-/// TEST GOAL: where the second-mode blade's sweep stops at its recommended H = 10 (the
-/// default steps follow, past 5379.8 Hz, a branch whose leading multiplier went through +1
-/// without the curve turning), the stop advises a smaller `sweep.max_change`, and with half
-/// the default (0.05) the same H reaches the end, its folds within 1.5 Hz of those H = 20
-/// finds (5379.6 and 5229.2 Hz).
+/// TEST GOAL: the second-mode blade's default steps, at its recommended H = 10, cross a kink
+/// of the sampled law onto a sheet of solutions that ends at 5381.28 Hz; the sweep says so and
+/// sweeps again from its start with a turn limit of 60° per step, which reaches the end with
+/// folds within 1.5 Hz of those H = 20 finds without it (5379.6 and 5229.2 Hz). Half the
+/// default gap change per step (0.05) reaches the end at the first try; a sweep that sets its
+/// own turn limit is not swept again.
 #[test]
-fn the_second_mode_blade_passes_its_fold_with_the_smaller_gap_change_its_stop_advises() {
+fn the_second_mode_blade_stopped_at_a_kink_is_swept_again_with_a_turn_limit_to_its_end() {
     let name = "blade_mode2";
-    let stopped = sweep::run(
-        &scene(name, &[]),
-        &RunOptions {
-            out: out("blade_mode2-default"),
-            ..Default::default()
-        },
-        &Silent,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let why = stopped.failure.map(|e| e.to_string()).unwrap_or_default();
-    assert!(why.contains("sweep.max_change"), "{why}");
-    let s = sweep_with_to_the_end(name, &["sweep.max_change=0.05"]);
+    let s = sweep_to_the_end(name);
+    let again = s.swept_again.as_ref().expect("swept again");
+    assert!(again.kept && again.max_turn == 60.0, "{again:?}");
+    assert!((again.first_stop_hz - 5381.28).abs() < 0.5, "{again:?}");
+    assert!(again.first_reason.contains("no next point"), "{again:?}");
     let folds: Vec<f64> = s.folds.iter().map(|f| f.frequency_hz).collect();
     for h20 in [5379.6, 5229.2] {
         assert!(
@@ -314,6 +308,20 @@ fn the_second_mode_blade_passes_its_fold_with_the_smaller_gap_change_its_stop_ad
             "{folds:?} against {h20} Hz"
         );
     }
+    let halved = sweep_with_to_the_end(name, &["sweep.max_change=0.05"]);
+    assert!(halved.swept_again.is_none());
+    let limited = sweep::run(
+        &scene(name, &["sweep.max_turn=170"]),
+        &RunOptions {
+            out: out("blade_mode2-limited"),
+            ..Default::default()
+        },
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(limited.summary.swept_again.is_none());
+    let why = limited.failure.map(|e| e.to_string()).unwrap_or_default();
+    assert!(why.contains("no next point"), "{why}");
 }
 
 /// f = c/4L of a plane-stress steel bar of length `l`.
@@ -412,4 +420,54 @@ fn the_lightly_damped_strip_folds_between_f1_and_the_bilinear_four_thirds() {
     let s = sweep_to_the_end(name);
     let gap_at_probe = 1e-4 * (PI / 4.0).sin();
     assert_stiffened_resonance(&s, f1, bilinear(f1, 2.0 * f1), gap_at_probe, free);
+}
+
+/// TEST GOAL: a curve swept again with the turn limit saves the limit in its state: the
+/// second-mode blade, stopped by `max_points` on its second sweep, resumes with the limit to
+/// the end, and its rows are those of the uninterrupted sweep bit for bit.
+#[test]
+fn a_curve_swept_again_resumes_with_its_turn_limit_to_the_uninterrupted_one() {
+    let name = "blade_mode2";
+    let whole = sweep_to_the_end(name);
+    let options = RunOptions {
+        out: out("blade_mode2-resumed"),
+        ..Default::default()
+    };
+    let cut = sweep::run(&scene(name, &["sweep.max_points=60"]), &options, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(cut.summary.swept_again.as_ref().is_some_and(|a| a.kept));
+    let state = cut.summary.resume.as_ref().expect("a resume state");
+    assert_eq!(state.max_turn, Some(60.0));
+    assert_eq!(cut.summary.points, 60);
+    let resumed =
+        sweep::resume(&scene(name, &[]), &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    assert!(resumed.failure.is_none(), "{:?}", resumed.failure);
+    let rows = |s: &SweepSummary| -> Vec<(f64, f64)> {
+        (s.rows.iter())
+            .map(|r| (r.frequency_hz, r.values[AMPLITUDE]))
+            .collect()
+    };
+    assert_eq!(rows(&resumed.summary), rows(&whole));
+}
+
+/// TEST GOAL: where the sweep swept again stops too (the blade with steps that cannot be
+/// halved, `min_step` = `step`), the first curve is kept and its stop names both.
+#[test]
+fn a_curve_that_stops_when_swept_again_too_keeps_the_first_and_names_both_stops() {
+    let name = "blade_mode2";
+    let options = RunOptions {
+        out: out("blade_mode2-unhalved"),
+        ..Default::default()
+    };
+    let r = sweep::run(&scene(name, &["sweep.min_step=0.01"]), &options, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let again = r.summary.swept_again.as_ref().expect("swept again");
+    assert!(!again.kept, "{again:?}");
+    assert_eq!(again.first_points, r.summary.points);
+    let why = r.failure.map(|e| e.to_string()).unwrap_or_default();
+    assert!(why.contains("no next point"), "{why}");
+    assert!(
+        why.contains("swept again from its start with sweep.max_turn = 60°, it stopped too"),
+        "{why}"
+    );
 }

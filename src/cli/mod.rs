@@ -55,6 +55,19 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         );
     }
     show_bifurcations(&s.bifurcations);
+    if let Some(a) = &s.swept_again {
+        let kept = if a.kept {
+            "this curve"
+        } else {
+            "the first curve is kept"
+        };
+        outln!(
+            "  swept again from its start with sweep.max_turn = {}° ({kept}): the default steps had stopped at {:.4} Hz after {} points",
+            a.max_turn,
+            a.first_stop_hz,
+            a.first_points
+        );
+    }
     match &s.stopped {
         Some(stop) => outln!(
             "  stopped at {:.4} Hz (point {}, {}): {}",

@@ -422,6 +422,9 @@ pub struct SweepSpec {
     pub max_step: f64,
     pub max_points: usize,
     pub max_change: f64,
+    /// Largest turn of the curve in one step [degrees] (`None`: no limit, and a sweep that
+    /// stops at a dead end or on its own trail is swept again with `sweep::RETRY_TURN`).
+    pub max_turn: Option<f64>,
     /// Frequencies [Hz] whose nearest point gets the full VTU series of a run.
     pub write_at: Vec<f64>,
     /// Every n-th point is a frame of `frames.pvd` (0: none).
@@ -442,6 +445,7 @@ impl Default for SweepSpec {
             max_step: 0.05,
             max_points: 500,
             max_change: 0.1,
+            max_turn: None,
             write_at: Vec::new(),
             save_every: 1,
             reduced_frames: true,

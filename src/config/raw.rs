@@ -697,6 +697,13 @@ pub(super) struct RawSweep {
     /// one point to the next, > 0. Default: 0.1.
     #[serde(default)]
     pub(super) max_change: Option<f64>,
+    /// Largest angle [degrees] by which one step may turn the curve from the last point's
+    /// direction, in (0, 180): a step that turns it more is halved (down to a few smallest
+    /// steps, where a kink of the sampled contact law turns it for real). Default: no limit;
+    /// a sweep that then stops (no next point, or running back onto its own curve) is swept
+    /// again from its start with 60.
+    #[serde(default)]
+    pub(super) max_turn: Option<f64>,
     /// Frequencies [Hz] (within the range) at which the full VTU series of a `run` is written,
     /// at the point of the curve nearest each, into `points/at_<f>Hz/`. Default: none (the
     /// folds and the peak are always written).

@@ -1046,6 +1046,18 @@ fn validate_sweep(path: &Path, s: RawSweep) -> Result<SweepSpec> {
     if let Some(v) = s.max_change {
         spec.max_change = positive(path, "sweep.max_change", v)?;
     }
+    if let Some(v) = s.max_turn {
+        if !(v > 0.0 && v < 180.0) {
+            return Err(config_error(
+                path,
+                format!(
+                    "sweep.max_turn = {} must lie in (0, 180) degrees (e.g. 60), or be left out",
+                    show(v)
+                ),
+            ));
+        }
+        spec.max_turn = Some(v);
+    }
     if let Some(v) = s.max_points {
         spec.max_points = v;
     }

@@ -2,7 +2,8 @@
 //!
 //! A run writes into `<name>.partial-<pid>` and renames it onto `<name>` only when everything
 //! is written, so a failed run never leaves a series that looks complete (and keeps the
-//! previous complete one). Every folder it writes carries a marker, `MARKER`, naming the tool,
+//! previous complete one); a sweep swept again stages its second curve beside the first, in
+//! `<name>.partial-<pid>.again`, and commits one of the two. Every folder it writes carries a marker, `MARKER`, naming the tool,
 //! its version, the command, the folder's name, the writing process and the entries it wrote.
 //!
 //! The rule (nothing the tool did not make is deleted or overwritten):
@@ -12,7 +13,7 @@
 //!   into the new folder); otherwise the run refuses before it starts, naming the folder and
 //!   what it holds, or with `Replace::MoveAside` (`--force`) renames it aside to
 //!   `<name>.moved-<unix seconds>` when the results are written;
-//! - a stale `<name>.partial-<pid>` beside the target is removed only when `<name>` is this
+//! - a stale `<name>.partial-<pid>` (or `….again`) beside the target is removed only when `<name>` is this
 //!   run's target, the pid is dead and the folder's marker names that target and that pid.
 use std::path::{Path, PathBuf};
 
@@ -209,7 +210,7 @@ pub fn remove_stale_partials(final_dir: &Path, reporter: &dyn Reporter) -> Vec<P
     for name in entries {
         let Some(pid) = name
             .strip_prefix(&prefix)
-            .and_then(|p| p.parse::<u32>().ok())
+            .and_then(|p| p.strip_suffix(".again").unwrap_or(p).parse::<u32>().ok())
         else {
             continue;
         };
@@ -264,6 +265,17 @@ pub struct StagedDir {
 impl StagedDir {
     /// Stage `final_dir` for `command` (the marker's word: `run`, `sweep`, …).
     pub fn create(final_dir: &Path, command: &str, replace: Replace) -> Result<Self> {
+        Self::create_as(final_dir, command, replace, "")
+    }
+
+    /// A second staging of the same folder beside this one (`<name>.partial-<pid>.again`):
+    /// whichever of the two is committed replaces the folder, the other is removed when
+    /// dropped.
+    pub fn again(&self) -> Result<Self> {
+        Self::create_as(&self.final_dir, &self.command, self.replace, ".again")
+    }
+
+    fn create_as(final_dir: &Path, command: &str, replace: Replace, suffix: &str) -> Result<Self> {
         let name = folder_name(final_dir).ok_or_else(|| {
             Error::Input(format!(
                 "output directory {} has no name",
@@ -272,7 +284,7 @@ impl StagedDir {
         })?;
         let parent = parent_of(final_dir);
         std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
-        let temp_dir = parent.join(format!("{name}.partial-{}", std::process::id()));
+        let temp_dir = parent.join(format!("{name}.partial-{}{suffix}", std::process::id()));
         if std::fs::symlink_metadata(&temp_dir).is_ok() {
             match read_marker(&temp_dir) {
                 Some(m) if m.pid == std::process::id() => {
@@ -502,8 +514,8 @@ mod tests {
         std::fs::remove_dir_all(&root).unwrap();
     }
 
-    /// TEST GOAL: stale-partial clean-up removes only this target's partial folder of a dead
-    /// pid holding our marker: a look-alike without the marker, another target's partial and
+    /// TEST GOAL: stale-partial clean-up removes only this target's partial folders (the
+    /// first staging and a sweep's second) of a dead pid holding our marker: a look-alike without the marker, another target's partial and
     /// a partial whose marker names another pid all survive.
     #[test]
     fn only_this_targets_marked_partials_of_dead_runs_are_removed() {
@@ -527,8 +539,13 @@ mod tests {
         }
         std::fs::copy(ours.join(MARKER), other.join(MARKER)).unwrap();
         std::fs::copy(ours.join(MARKER), wrong_pid.join(MARKER)).unwrap();
-        let removed = remove_stale_partials(&out, &crate::Silent);
-        assert_eq!(removed, vec![ours.clone()]);
+        // A sweep's second staging (`StagedDir::again`) of the same dead run goes too.
+        let again = root.join(format!("a.partial-{dead}.again"));
+        std::fs::create_dir_all(&again).unwrap();
+        std::fs::copy(ours.join(MARKER), again.join(MARKER)).unwrap();
+        let mut removed = remove_stale_partials(&out, &crate::Silent);
+        removed.sort();
+        assert_eq!(removed, vec![ours.clone(), again.clone()]);
         for d in [&lookalike, &unmarked, &other, &wrong_pid] {
             assert!(d.join("keep.txt").exists(), "{}", d.display());
         }

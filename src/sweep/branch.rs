@@ -305,6 +305,7 @@ fn first_point(p: &Pipeline, model: &Model, starts: &[Start], row: usize) -> Res
         enriched_at: Vec::new(),
         harmonic_first: false,
         trail: Vec::new(),
+        max_turn: None,
     };
     Ok(FirstPoint {
         row,

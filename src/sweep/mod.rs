@@ -16,6 +16,7 @@
 //! produces at that frequency (`pipeline::outputs` names them), so a sweep point and a run agree
 //! by construction.
 
+mod again;
 pub mod bifurcations;
 pub mod branch;
 mod plot;
@@ -235,6 +236,10 @@ pub struct SweepSummary {
     /// each also in `branch_K.csv`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub branches: Vec<branch::Branch>,
+    /// The sweep stopped short and was swept again from its start with a turn limit per
+    /// step (`again`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub swept_again: Option<again::SweptAgain>,
 }
 
 /// How H was chosen along a curve.
@@ -376,28 +381,27 @@ fn execute(
     if let Some(s) = &saved {
         resume::check_state(s, &model, p, &out)?;
     }
-    let staged = StagedDir::create(&out, "sweep", options.replace)?;
-    if saved.is_some() {
-        resume::carry_over(&out, staged.path())?;
-    }
-    pipeline::stages::copy_mesh(&mesh_info, staged.path())?;
-    let mut writer =
-        points::Writer::new(p, &spec, &model, &mesh_info, staged.path(), saved.as_ref());
-    let clock = Instant::now();
-    let mut starts = Vec::new();
-    let mut judging = 0.0;
-    let ended = continue_curve(
+    let curve = again::Curve {
         p,
-        &spec,
-        &model,
-        &mut writer,
-        (&mut starts, &mut judging),
-        saved.as_ref(),
+        model: &model,
+        mesh: &mesh_info,
+        saved: saved.as_ref(),
         reporter,
-    );
-    stages
-        .times
-        .add(Stage::Sweep, clock.elapsed().as_secs_f64() - judging);
+    };
+    let again = SweepSpec {
+        max_turn: Some(again::RETRY_TURN),
+        ..spec.clone()
+    };
+    let (attempt, swept_again) = curve.sweep((&spec, &again), &out, options.replace)?;
+    let again::Attempt {
+        staged,
+        mut writer,
+        starts,
+        judging,
+        ended,
+        seconds,
+    } = attempt;
+    stages.times.add(Stage::Sweep, seconds - judging);
     let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
     stages.run(Stage::Stability, || {
         judge_points(p, &model, &mut writer, &starts, &folds, reporter)
@@ -421,6 +425,7 @@ fn execute(
     };
     let (mut summary, failure) =
         summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    summary.swept_again = swept_again;
     add_period_doublings(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
     add_reference(p, &model, &mut summary, &mut stages);
     let (dir, summary) = write(p, staged, &writer, summary, stages)?;
@@ -571,6 +576,7 @@ fn summarize(
         probe_gap: None,
         harmonics_chosen: None,
         branches: Vec::new(),
+        swept_again: None,
     };
     let summary = with_harmonics_chosen(p, summary, ended.level_changes);
     Ok((summary, ended.failure))
@@ -845,6 +851,8 @@ pub fn settings(spec: &SweepSpec, resume: Option<ContinuationState>) -> SweepSet
         max_step: spec.max_step,
         max_points: spec.max_points,
         max_change: spec.max_change,
+        // A resumed curve keeps the limit it was swept with.
+        max_turn: spec.max_turn.or(resume.as_ref().and_then(|r| r.max_turn)),
         resume,
         model_frequencies: if spec.reduced_frames {
             crate::hbm::frames::SHIFTS_PER_HARMONIC

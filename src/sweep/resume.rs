@@ -22,7 +22,7 @@
 //! - the continuation state: the last row's index, ω = 2π f of that row (relative 1e-9), a
 //!   finite positive step (brought within `sweep.min_step`, `max_step`), a unit tangent (‖τ‖ − 1 within 1e-6)
 //!   of one entry per multiplier plus τ_ω, τ_ω the last row's `tangent_frequency`, finite
-//!   multipliers, and `stopped.point` that same row;
+//!   multipliers, a turn limit (if any) in (0, 180) degrees, and `stopped.point` that same row;
 //! - with contact: as many multipliers as the model has contact unknowns, c and F finite and
 //!   positive, and N = N₀ 2^k (N₀ the pipeline's samples, k ≤ `MAX_DOUBLINGS`, the doublings
 //!   the first point's knob check may make); without contact: τ = [±1], no multipliers,
@@ -287,6 +287,10 @@ fn check_continuation(path: &Path, saved: &Saved, state: &ContinuationState) -> 
     let finite = state.multipliers.iter().all(|v| v.is_finite());
     require(finite, path, "resume.multipliers", || {
         "holds a non-finite value".into()
+    })?;
+    let turn = state.max_turn.is_none_or(|t| t > 0.0 && t < 180.0);
+    require(turn, path, "resume.max_turn", || {
+        format!("= {:?} is not an angle in (0, 180) degrees", state.max_turn)
     })?;
     if let Some(stopped) = &saved.stopped {
         let at_last = stopped.point == last.index && stopped.frequency_hz == last.frequency_hz;

@@ -140,6 +140,7 @@ impl LinearSweep<'_> {
             enriched_at: Vec::new(),
             harmonic_first: false,
             trail: Vec::new(),
+            max_turn: None,
         }
     }
 }

@@ -63,6 +63,8 @@ pub struct SweepSettings {
     /// Largest relative change of the contact gaps' (or, without contact, the response's)
     /// coefficients from one point to the next.
     pub max_change: f64,
+    /// Largest turn of the curve in one step [degrees] (`stepping`); `None`: no limit.
+    pub max_turn: Option<f64>,
     /// Continue a sweep from its last saved point instead of starting at `omega_start`.
     pub resume: Option<ContinuationState>,
     /// Frequencies over the range at which the reduced model places its shifts
@@ -111,6 +113,10 @@ pub struct ContinuationState {
     /// empty in each point's state (`PointInfo::scaled` gives the points one by one); the
     /// caller fills it where it saves the state.
     pub trail: Vec<Vec<f64>>,
+    /// The largest turn per step the curve is swept with [degrees] (`SweepSettings::max_turn`;
+    /// a sweep swept again with a limit resumes with it).
+    #[serde(default)]
+    pub max_turn: Option<f64>,
 }
 
 /// How one point's corrector ran.
@@ -442,6 +448,7 @@ impl Continuation<'_> {
             enriched_at: self.enriched_at.clone(),
             harmonic_first: self.newton.krylov_hint.harmonic_first(),
             trail: Vec::new(),
+            max_turn: self.s.max_turn,
         }
     }
 

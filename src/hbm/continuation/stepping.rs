@@ -4,11 +4,14 @@
 //! scaled unknowns y, y_p = y + Δs τ the predictor, g̃ the contact gaps' coefficients.
 //!
 //! Step control: a corrector that fails, needs more than `MAX_CORRECTOR` iterations, lands
-//! farther than Δs from the predictor (a jump to another branch) or changes the contact gaps
-//! by more than `max_change` (relative: ‖Δg̃‖/max(‖g̃_a‖, ‖g̃_b‖, `GAP_FLOOR`·‖g̃_lin‖), g̃_lin
-//! the first point's contact-free gap, so a contact closed all period, whose gaps are
-//! round-off, is not measured against its round-off) rejects the step and halves Δs; an easy
-//! step (≤ 3 iterations) grows it by 1.5, up to the maximum.
+//! farther than `JUMP` Δs from the predictor (a jump to another branch), turns the curve by
+//! more than `max_turn` from the last direction (when the sweep sets one: a kink of the
+//! sampled law crossed onto another sheet of its solutions; not within `CORNER_STEPS`
+//! smallest steps, where a kink turns the curve for real) or changes the contact gaps by more
+//! than `max_change` (relative: ‖Δg̃‖/max(‖g̃_a‖, ‖g̃_b‖, `GAP_FLOOR`·‖g̃_lin‖), g̃_lin the
+//! first point's contact-free gap, so a contact closed all period, whose gaps are round-off,
+//! is not measured against its round-off) rejects the step and halves Δs; an easy step
+//! (≤ 3 iterations) grows it by 1.5, up to the maximum.
 
 use std::time::Instant;
 
@@ -138,6 +141,7 @@ impl Continuation<'_> {
             ));
         }
         let point = self.after(p, x, &frame)?;
+        self.turn_within_limit(p, &point, ds)?;
         let (point, frame) = self.verified(p, point, frame)?;
         let floor = GAP_FLOOR * self.force / self.newton.c;
         let change = relative_change(&p.gaps, &point.gaps, floor);
@@ -170,6 +174,29 @@ impl Continuation<'_> {
             omega: frame.omega,
             tangent: secant,
         })
+    }
+
+    /// `Err` where the step to `next` turned the curve by more than `max_turn` from `p`'s
+    /// direction, unless the step is one of the `CORNER_STEPS` smallest.
+    fn turn_within_limit(
+        &self,
+        p: &Point,
+        next: &Point,
+        ds: f64,
+    ) -> std::result::Result<(), String> {
+        let Some(limit) = self.s.max_turn else {
+            return Ok(());
+        };
+        let cos: f64 = (next.tangent.iter().zip(&p.tangent))
+            .map(|(a, b)| a * b)
+            .sum();
+        if cos >= limit.to_radians().cos() || ds <= CORNER_STEPS * self.s.min_step {
+            return Ok(());
+        }
+        let degrees = cos.clamp(-1.0, 1.0).acos().to_degrees();
+        Err(format!(
+            "the curve turned by {degrees:.0}° in one step (sweep.max_turn {limit}°)"
+        ))
     }
 
     /// Seconds spent in `prepare` so far (factorizations, linear solves, reductions).

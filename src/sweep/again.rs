@@ -1,0 +1,169 @@
+//! A contact sweep that stops short, swept again from its start with a turn limit per step.
+//!
+//! The sampled contact law makes a curve piecewise smooth: at its kinks a long step can cross
+//! onto another sheet of the law's solutions, which may end (no next point down to the
+//! smallest step) or run back onto the curve already traced. Halving every step that turns
+//! the curve by more than `RETRY_TURN` keeps to the sheet, but it changes curves that pass
+//! without it (the strip's light-damped sweep then runs back onto itself at 1347.47 Hz), so
+//! it is not the default: a sweep without `sweep.max_turn` that stops at a dead end or on its
+//! own trail is swept again, from its start, with `max_turn = RETRY_TURN`, and the second
+//! curve is kept unless it stops so too (it may run out of `max_points`; its state resumes
+//! with the limit); else the first is, its stop naming the second's.
+//! The second-mode blade and the quadratic cantilever of pipelines/scenes/ reach their end so.
+//! A failing curve costs its time twice; a passing one nothing.
+
+use std::path::Path;
+
+use schemars::JsonSchema;
+use serde::Serialize;
+
+use super::{continue_curve, points, resume, Start};
+use crate::config::{Pipeline, SweepSpec};
+use crate::hbm::continuation::SweepOutcome;
+use crate::output::staging::Replace;
+use crate::output::StagedDir;
+use crate::pipeline::summary::MeshInfo;
+use crate::pipeline::Model;
+use crate::progress::Reporter;
+use crate::Result;
+
+/// The turn limit per step [degrees] of a sweep swept again (30° passes the stopped scenes
+/// too; 15° stops the blade in its kinks).
+pub const RETRY_TURN: f64 = 60.0;
+
+/// How the curve was swept again, in sweep.json.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct SweptAgain {
+    /// The second sweep's turn limit per step [degrees].
+    pub max_turn: f64,
+    /// Where the first sweep stopped [Hz], after how many points, and why.
+    pub first_stop_hz: f64,
+    pub first_points: usize,
+    pub first_reason: String,
+    /// The second curve is the one written (it did not stop short); false: the first is.
+    pub kept: bool,
+}
+
+/// One continuation of the curve into its own staged folder.
+pub(super) struct Attempt<'a> {
+    pub staged: StagedDir,
+    pub writer: points::Writer<'a>,
+    pub starts: Vec<Start>,
+    /// Seconds the continuation waited for Hill's verdicts.
+    pub judging: f64,
+    pub ended: Result<SweepOutcome>,
+    /// Its wall time [s].
+    pub seconds: f64,
+}
+
+/// What every attempt of a sweep shares.
+pub(super) struct Curve<'a> {
+    pub p: &'a Pipeline,
+    pub model: &'a Model,
+    pub mesh: &'a MeshInfo,
+    pub saved: Option<&'a resume::Saved>,
+    pub reporter: &'a dyn Reporter,
+}
+
+impl<'a> Curve<'a> {
+    /// The curve swept with `spec` into a staged folder for `out` (a resumed one with its
+    /// saved frames and points carried over), swept again with `again` where
+    /// `again_if_stopped` says (not when `spec` sets its own `max_turn`).
+    pub fn sweep(
+        &self,
+        (spec, again): (&'a SweepSpec, &'a SweepSpec),
+        out: &Path,
+        replace: Replace,
+    ) -> Result<(Attempt<'a>, Option<SweptAgain>)> {
+        let staged = StagedDir::create(out, "sweep", replace)?;
+        if self.saved.is_some() {
+            resume::carry_over(out, staged.path())?;
+        }
+        let first = self.attempt(spec, staged)?;
+        self.again_if_stopped(first, spec.max_turn.is_none().then_some(again))
+    }
+
+    /// The curve swept with `spec` into `staged`.
+    fn attempt(&self, spec: &'a SweepSpec, staged: StagedDir) -> Result<Attempt<'a>> {
+        let clock = std::time::Instant::now();
+        crate::pipeline::stages::copy_mesh(self.mesh, staged.path())?;
+        let mut writer = points::Writer::new(
+            self.p,
+            spec,
+            self.model,
+            self.mesh,
+            staged.path(),
+            self.saved,
+        );
+        let (mut starts, mut judging) = (Vec::new(), 0.0);
+        let ended = continue_curve(
+            self.p,
+            spec,
+            self.model,
+            &mut writer,
+            (&mut starts, &mut judging),
+            self.saved,
+            self.reporter,
+        );
+        Ok(Attempt {
+            staged,
+            writer,
+            starts,
+            judging,
+            ended,
+            seconds: clock.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// `first`, or where it stopped at a dead end or on its own trail (a contact sweep from
+    /// its start), the curve swept again with `again` (`None`: the sweep set its own
+    /// `max_turn`) unless that stops so too; with how it was swept again. The time of both
+    /// is the kept attempt's.
+    fn again_if_stopped(
+        &self,
+        mut first: Attempt<'a>,
+        again: Option<&'a SweepSpec>,
+    ) -> Result<(Attempt<'a>, Option<SweptAgain>)> {
+        let stopped = match &first.ended {
+            Ok(outcome) => outcome.stopped.clone(),
+            Err(_) => None,
+        };
+        let retry = self.saved.is_none() && self.model.contact.is_some();
+        let rows = first.writer.rows.last();
+        let (Some(reason), Some(again), true, Some(last)) = (stopped, again, retry, rows) else {
+            return Ok((first, None));
+        };
+        let max_turn = again.max_turn.unwrap_or(RETRY_TURN);
+        let mut how = SweptAgain {
+            max_turn,
+            first_stop_hz: last.frequency_hz,
+            first_points: first.writer.rows.len(),
+            first_reason: reason,
+            kept: false,
+        };
+        let status = format!(
+            "stopped at {:.4} Hz after {} points; sweeping again from the start with sweep.max_turn = {max_turn}°",
+            how.first_stop_hz, how.first_points
+        );
+        self.reporter.progress("sweep", 0, None, &status);
+        let mut second = self.attempt(again, first.staged.again()?)?;
+        let reached = matches!(&second.ended, Ok(o) if o.stopped.is_none());
+        if reached {
+            how.kept = true;
+            second.seconds += first.seconds;
+            second.judging += first.judging;
+            return Ok((second, Some(how)));
+        }
+        if let (Ok(outcome), Some(row)) = (&mut first.ended, second.writer.rows.last()) {
+            let stop = outcome.stopped.get_or_insert_with(String::new);
+            stop.push_str(&format!(
+                "; swept again from its start with sweep.max_turn = {max_turn}°, it stopped too, at {:.4} Hz after {} points",
+                row.frequency_hz,
+                second.writer.rows.len()
+            ));
+        }
+        first.seconds += second.seconds;
+        first.judging += second.judging;
+        Ok((first, Some(how)))
+    }
+}
