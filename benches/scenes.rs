@@ -1,8 +1,10 @@
 //! The user scenes of `pipelines/scenes/` (issue #45), each swept once as shipped (stability
 //! check included): per scene its H, the points, folds, Newton iterations of the correctors
 //! (summed over the rows), sets of factorizations, the points re-solved on factored frames
-//! after the reduced model's check failed, the wall time of the sweep, and where and why it
-//! stopped if it did. A failing scene is a row, not the end of the bench.
+//! after the reduced model's check failed, the wall time of the sweep (of both sweeps where
+//! the default steps stopped and the curve was swept again with a turn limit), and where and
+//! why it stopped if it did, or where the default steps stopped before it was swept again.
+//! A failing scene is a row, not the end of the bench.
 //!
 //! `cargo bench --bench scenes [-- NAME ...]` (default: every scene).
 
@@ -63,17 +65,23 @@ fn main() {
         let wall = t.elapsed().as_secs_f64();
         let newton: usize = s.rows.iter().map(|r| r.newton_iterations).sum();
         let factor: usize = s.rows.iter().map(|r| r.factorizations).sum();
-        let stopped = s
-            .stopped
-            .as_ref()
-            .map_or("reached the end".to_string(), |x| {
+        let again = s.swept_again.as_ref().filter(|a| a.kept).map(|a| {
+            format!(
+                " (swept again with max_turn {}°; the default steps stopped at {:.2} Hz after {} points)",
+                a.max_turn, a.first_stop_hz, a.first_points
+            )
+        });
+        let stopped = s.stopped.as_ref().map_or(
+            format!("reached the end{}", again.unwrap_or_default()),
+            |x| {
                 format!(
                     "at {:.2} Hz ({}): {}",
                     x.frequency_hz,
                     x.class,
                     short(&x.reason)
                 )
-            });
+            },
+        );
         println!(
             "{name:<20} {:>3} {:>11} {:>6} {:>5} {newton:>7} {factor:>6} {:>9} {wall:>8.1}  {stopped}",
             s.harmonics,

@@ -410,7 +410,7 @@ fn a_preloaded_rod_opens_part_of_the_period_only_near_its_resonance() {
 /// 0.1 mm from its end, swept 0.7–1.5 f1: f1 = c/4L (c of plane strain with free faces), and
 /// the resonance folds between f1 and 4/3 f1 (at H = 10 from 1200 Hz: 1447.3 Hz).
 #[test]
-#[ignore = "issue #45: at H = 40 (recommended) stops at 1357.17 Hz after 447 points and 246 s, 12 folds within 1345-1358 Hz: the continuation ran back onto the curve it had traced (between points 406 and 407); see docs/verification.md, User scenes"]
+#[ignore = "issue #45: at H = 40 (recommended) stops at 1357.17 Hz after 447 points, 12 folds within 1345-1358 Hz: the continuation ran back onto the curve it had traced (between points 406 and 407); swept again with the 60° turn limit it stops at 1340.89 Hz (98 s for both); see docs/verification.md, User scenes"]
 fn the_lightly_damped_strip_folds_between_f1_and_the_bilinear_four_thirds() {
     let name = "strip_light";
     let f1 = driven_mode(name, 0, 1);

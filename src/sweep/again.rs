@@ -7,8 +7,8 @@
 //! without it (the strip's light-damped sweep then runs back onto itself at 1347.47 Hz), so
 //! it is not the default: a sweep without `sweep.max_turn` that stops at a dead end or on its
 //! own trail is swept again, from its start, with `max_turn = RETRY_TURN`, and the second
-//! curve is kept unless it stops so too (it may run out of `max_points`; its state resumes
-//! with the limit); else the first is, its stop naming the second's.
+//! curve is kept unless it stops so too (it may run out of `max_points` or be interrupted;
+//! its state resumes with the limit); else the first is, its stop naming the second's.
 //! The second-mode blade and the quadratic cantilever of pipelines/scenes/ reach their end so.
 //! A failing curve costs its time twice; a passing one nothing.
 
@@ -147,8 +147,9 @@ impl<'a> Curve<'a> {
         );
         self.reporter.progress("sweep", 0, None, &status);
         let mut second = self.attempt(again, first.staged.again()?)?;
-        let reached = matches!(&second.ended, Ok(o) if o.stopped.is_none());
-        if reached {
+        // Interrupted (or failed otherwise) on its way, the second curve is the one to resume.
+        let stopped_too = matches!(&second.ended, Ok(o) if o.stopped.is_some());
+        if !stopped_too {
             how.kept = true;
             second.seconds += first.seconds;
             second.judging += first.judging;
