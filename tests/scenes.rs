@@ -34,6 +34,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 use hbcontact::config::{load_pipeline, Pipeline};
+use hbcontact::hbm::continuation::Corrector;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::sweep::{self, SweepRow, SweepSummary};
 use hbcontact::Silent;
@@ -484,4 +485,38 @@ fn a_curve_that_stops_when_swept_again_too_keeps_the_first_and_names_both_stops(
         .filter(|n| n.starts_with(&format!("{name}.partial-")))
         .collect();
     assert!(left.is_empty(), "{left:?}");
+}
+
+/// The folds [Hz] of `s`, in curve order.
+fn folds_of(s: &SweepSummary) -> Vec<f64> {
+    s.folds.iter().map(|f| f.frequency_hz).collect()
+}
+
+/// TEST GOAL: swept down, a hardening resonance reaches the lower fold along the open branch,
+/// where the linear response reaches the stop and the open branch ends: the contacting branch
+/// leaves that corner back in ω (corrector `open_corner`), and the curve finds the folds the
+/// upward sweep finds, each within 0.1 Hz, on the cantilever and on the clamped beam between
+/// its stops.
+#[test]
+fn a_sweep_down_leaves_the_open_branch_at_the_lower_fold_and_finds_the_upward_folds() {
+    for name in ["cantilever_stop", "clamped_stops"] {
+        let up = sweep_to_the_end(name);
+        let (from, to) = (
+            format!("sweep.from={}", up.to_hz),
+            format!("sweep.to={}", up.from_hz),
+        );
+        let start = format!("harmonic_balance.frequency={}", up.to_hz);
+        let down = sweep_with_to_the_end(name, &[&from, &to, &start]);
+        assert!(down.swept_again.is_none(), "{name}");
+        let corner = (down.rows.iter()).position(|r| r.corrector == Corrector::OpenCorner);
+        assert!(corner.is_some(), "{name}: no open_corner row");
+        let (u, d) = (folds_of(&up), folds_of(&down));
+        assert_eq!(u.len(), d.len(), "{name}: {u:?} against {d:?}");
+        for f in &d {
+            assert!(
+                u.iter().any(|g| (f - g).abs() < 0.1),
+                "{name}: {f} Hz against {u:?}"
+            );
+        }
+    }
 }

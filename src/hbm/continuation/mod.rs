@@ -136,6 +136,9 @@ pub enum Corrector {
     /// The open state (λ = 0) one step back in ω from a grazing corner, where a contacting
     /// branch ends on the open one and the curve turns back.
     Grazing,
+    /// The first contacting state back in ω from the corner where the open branch ends (the
+    /// linear response reaches the obstacle) and a contacting branch leaves it.
+    OpenCorner,
 }
 
 /// One accepted point of the curve (the solution itself goes to the caller's callback).

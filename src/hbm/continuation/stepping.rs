@@ -78,7 +78,8 @@ impl Continuation<'_> {
                     *ds *= 0.5;
                 }
                 Err(why) => {
-                    if let Some(found) = self.graze(p, index) {
+                    let corner = self.graze(p, index);
+                    if let Some(found) = corner.or_else(|| self.leave_open(p, index)) {
                         // Past the corner the curve is a new smooth branch.
                         *ds = self.s.step;
                         return Ok(found);
