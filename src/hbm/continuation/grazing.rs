@@ -84,20 +84,42 @@ impl Continuation<'_> {
         };
         let (mut point, frame) = self.verified(p, point, frame).ok()?;
         point.tangent = tangent;
-        let info = PointInfo {
+        let info = self.corner_info((index, &point), Corrector::Grazing, o.iterations, dist);
+        Some((point, frame, info.timed(clock)))
+    }
+
+    /// The account of a point past a corner (`index`, `point`), reached by `corrector` in
+    /// `iterations` Newton iterations over the distance `step` (scaled); its seconds 0.
+    fn corner_info(
+        &self,
+        (index, point): (usize, &Point),
+        corrector: Corrector,
+        iterations: usize,
+        step: f64,
+    ) -> PointInfo {
+        PointInfo {
             index,
             omega: point.omega,
-            corrector: Corrector::Grazing,
-            newton_iterations: o.iterations,
+            corrector,
+            newton_iterations: iterations,
             factorizations: self.factorizations,
-            step: dist,
+            step,
             tangent_omega: point.tangent_omega(),
-            seconds: clock.elapsed().as_secs_f64(),
+            seconds: 0.0,
             state: None,
             scaled: Vec::new(),
             harmonics_estimate: None,
-        };
-        Some((point, frame, info))
+        }
+    }
+}
+
+impl PointInfo {
+    /// With its seconds: those since `clock` started.
+    fn timed(self, clock: Instant) -> Self {
+        PointInfo {
+            seconds: clock.elapsed().as_secs_f64(),
+            ..self
+        }
     }
 }
 
@@ -140,24 +162,12 @@ impl Continuation<'_> {
             }
             let point = self.after(p, o.multipliers, &frame).ok()?;
             let (point, frame) = self.verified(p, point, frame).ok()?;
-            let info = PointInfo {
-                index,
-                omega: point.omega,
-                corrector: Corrector::OpenCorner,
-                newton_iterations: o.iterations,
-                factorizations: self.factorizations,
-                step: norm2(
-                    &(self.scaled(&point).iter().zip(self.scaled(p)))
-                        .map(|(a, b)| a - b)
-                        .collect::<Vec<_>>(),
-                ),
-                tangent_omega: point.tangent_omega(),
-                seconds: clock.elapsed().as_secs_f64(),
-                state: None,
-                scaled: Vec::new(),
-                harmonics_estimate: None,
-            };
-            Some((point, frame, info))
+            let moved: Vec<f64> = (self.scaled(&point).iter().zip(self.scaled(p)))
+                .map(|(a, b)| a - b)
+                .collect();
+            let step = norm2(&moved);
+            let info = self.corner_info((index, &point), Corrector::OpenCorner, o.iterations, step);
+            Some((point, frame, info.timed(clock)))
         })
     }
 
