@@ -3,8 +3,9 @@
 //! A run writes into `<name>.partial-<pid>` and renames it onto `<name>` only when everything
 //! is written, so a failed run never leaves a series that looks complete (and keeps the
 //! previous complete one); a sweep swept again stages its second curve beside the first, in
-//! `<name>.partial-<pid>.again`, and commits one of the two. Every folder it writes carries a marker, `MARKER`, naming the tool,
-//! its version, the command, the folder's name, the writing process and the entries it wrote.
+//! `<name>.partial-<pid>.again`, and commits one of the two. Every folder it writes carries a
+//! marker, `MARKER`, naming the tool, its version, the command, the folder's name, the
+//! writing process and the entries it wrote.
 //!
 //! The rule (nothing the tool did not make is deleted or overwritten):
 //! - an existing output folder is replaced only when it is empty, or holds a marker and no
@@ -13,8 +14,9 @@
 //!   into the new folder); otherwise the run refuses before it starts, naming the folder and
 //!   what it holds, or with `Replace::MoveAside` (`--force`) renames it aside to
 //!   `<name>.moved-<unix seconds>` when the results are written;
-//! - a stale `<name>.partial-<pid>` (or `….again`) beside the target is removed only when `<name>` is this
-//!   run's target, the pid is dead and the folder's marker names that target and that pid.
+//! - a stale `<name>.partial-<pid>` (or `….again`) beside the target is removed only when
+//!   `<name>` is this run's target, the pid is dead and the folder's marker names that target
+//!   and that pid.
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -515,8 +517,9 @@ mod tests {
     }
 
     /// TEST GOAL: stale-partial clean-up removes only this target's partial folders (the
-    /// first staging and a sweep's second) of a dead pid holding our marker: a look-alike without the marker, another target's partial and
-    /// a partial whose marker names another pid all survive.
+    /// first staging and a sweep's second) of a dead pid holding our marker: a look-alike
+    /// without the marker, another target's partial and a partial whose marker names another
+    /// pid all survive.
     #[test]
     fn only_this_targets_marked_partials_of_dead_runs_are_removed() {
         let root = scratch("partials");

@@ -84,18 +84,18 @@ impl Continuation<'_> {
         };
         let (mut point, frame) = self.verified(p, point, frame).ok()?;
         point.tangent = tangent;
-        let info = self.corner_info((index, &point), Corrector::Grazing, o.iterations, dist);
-        Some((point, frame, info.timed(clock)))
+        let reached = (Corrector::Grazing, o.iterations, dist);
+        let info = self.corner_info((index, &point), reached, clock);
+        Some((point, frame, info))
     }
 
-    /// The account of a point past a corner (`index`, `point`), reached by `corrector` in
-    /// `iterations` Newton iterations over the distance `step` (scaled); its seconds 0.
+    /// The account of a point past a corner (`index`, `point`), `reached` by a corrector in
+    /// a number of Newton iterations over a distance (scaled), its seconds since `clock`.
     fn corner_info(
         &self,
         (index, point): (usize, &Point),
-        corrector: Corrector,
-        iterations: usize,
-        step: f64,
+        (corrector, iterations, step): (Corrector, usize, f64),
+        clock: Instant,
     ) -> PointInfo {
         PointInfo {
             index,
@@ -105,20 +105,10 @@ impl Continuation<'_> {
             factorizations: self.factorizations,
             step,
             tangent_omega: point.tangent_omega(),
-            seconds: 0.0,
+            seconds: clock.elapsed().as_secs_f64(),
             state: None,
             scaled: Vec::new(),
             harmonics_estimate: None,
-        }
-    }
-}
-
-impl PointInfo {
-    /// With its seconds: those since `clock` started.
-    fn timed(self, clock: Instant) -> Self {
-        PointInfo {
-            seconds: clock.elapsed().as_secs_f64(),
-            ..self
         }
     }
 }
@@ -166,8 +156,9 @@ impl Continuation<'_> {
                 .map(|(a, b)| a - b)
                 .collect();
             let step = norm2(&moved);
-            let info = self.corner_info((index, &point), Corrector::OpenCorner, o.iterations, step);
-            Some((point, frame, info.timed(clock)))
+            let reached = (Corrector::OpenCorner, o.iterations, step);
+            let info = self.corner_info((index, &point), reached, clock);
+            Some((point, frame, info))
         })
     }
 

@@ -18,7 +18,7 @@ use std::time::Instant;
 use super::frame::Frame;
 use super::grazing::GRAZING;
 use super::{hz, Continuation, Corrector, Point, PointInfo};
-use crate::linalg::norm2;
+use crate::linalg::{dot, norm2};
 
 /// A corrector that lands farther than this many steps from its predictor jumped to another
 /// branch (a kink of the sampled law bends the curve by less).
@@ -188,9 +188,7 @@ impl Continuation<'_> {
         let Some(limit) = self.s.max_turn else {
             return Ok(());
         };
-        let cos: f64 = (next.tangent.iter().zip(&p.tangent))
-            .map(|(a, b)| a * b)
-            .sum();
+        let cos = dot(&next.tangent, &p.tangent);
         if cos >= limit.to_radians().cos() || ds <= CORNER_STEPS * self.s.min_step {
             return Ok(());
         }
