@@ -817,7 +817,11 @@ fn stop_report(
         resume::command(p, out),
         out.display()
     );
+    // A curve that left the range through its start would leave it again when resumed.
+    let direction = (spec.to_hz - spec.from_hz).signum();
+    let left = (last.frequency_hz - spec.from_hz) * direction < 0.0;
     let (class, reason) = match failure {
+        Some(e) if left => (e.class().to_string(), e.to_string()),
         Some(e) => (e.class().to_string(), format!("{e}; {resume_hint}")),
         None => {
             let span = (spec.to_hz - spec.from_hz).abs();

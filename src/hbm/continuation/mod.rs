@@ -325,6 +325,10 @@ impl Continuation<'_> {
             if self.beyond_end(&point) {
                 break;
             }
+            if self.before_start(&point) {
+                outcome.stopped = Some(self.left_through_start(&point, index - 1));
+                break;
+            }
             let (next, frame, mut info) = match self.next_point(&point, &mut ds, index) {
                 Ok(found) => found,
                 Err(stopped) => {
@@ -458,9 +462,27 @@ impl Continuation<'_> {
     /// Past the end frequency, moving away from it.
     fn beyond_end(&self, p: &Point) -> bool {
         let past = (p.omega - self.s.omega_end) * self.direction >= 0.0;
+        past && p.tangent_omega() * self.direction > 0.0
+    }
+
+    /// Back before the start frequency, moving away from the range: the curve turned round
+    /// and leaves it the way it came in, short of the end.
+    fn before_start(&self, p: &Point) -> bool {
         let before = (p.omega - self.s.omega_start) * self.direction < 0.0;
-        let onward = p.tangent_omega() * self.direction;
-        (past && onward > 0.0) || (before && onward < 0.0)
+        before && p.tangent_omega() * self.direction < 0.0
+    }
+
+    /// Why a sweep whose curve left the range through its start (at `p`, point `index`) stops.
+    fn left_through_start(&self, p: &Point, index: usize) -> String {
+        let (start, end) = (hz(self.s.omega_start), hz(self.s.omega_end));
+        format!(
+            "at {:.6} Hz (point {index}) the curve ran out of the range back through its start \
+             ({start:.4} Hz): the branch the first point lies on turns round before reaching \
+             {end:.4} Hz, so the rest of the range was not swept. Start the sweep outside the \
+             folded region, or sweep the other way (sweep.from = {end:.4}, sweep.to = \
+             {start:.4})",
+            hz(p.omega)
+        )
     }
 
     /// Recover the point's whole field and hand it to the callback.
