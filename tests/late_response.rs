@@ -230,3 +230,55 @@ fn a_march_that_gains_energy_warns_and_names_the_step_to_lower() {
     let peak = common::json_number(&summary, "/contact/peak_contact_force");
     assert!(peak < 3.0e3, "{peak} N");
 }
+
+/// TEST GOAL: where the 0.5%-damped strip (pipelines/scenes/strip_light.yaml) starts to
+/// touch its wall on the way up, Hill's method on the H = 10 curve says stability is lost by
+/// a complex pair of multipliers (a second motion at arg μ/360° × f); a march from rest at
+/// 1340 Hz, which knows nothing of harmonic balance, is not T-periodic but quasi-periodic, its
+/// second frequency within 5% of the one Hill predicts at the loss. The tangle of folds the
+/// H = 40 curve makes over 1345–1358 Hz lies in this stretch of unstable states
+/// (docs/verification.md, User scenes).
+#[test]
+fn the_light_strip_loses_stability_where_it_touches_and_a_march_there_moves_at_hills_second_frequency(
+) {
+    let path = common::root().join("pipelines/scenes/strip_light.yaml");
+    let swept = load_pipeline(&path, &["harmonic_balance.harmonics=10".into()])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let options = RunOptions {
+        out: Some(common::temp_out("late-strip-light-sweep")),
+        ..Default::default()
+    };
+    let s = hbcontact::sweep::run(&swept, &options, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .summary;
+    let loss = (s.bifurcations.iter())
+        .find(|b| b.loses)
+        .expect("a loss of stability");
+    println!("{loss:?}");
+    assert!((loss.frequency_hz - 1336.0).abs() < 2.0, "{loss:?}");
+    assert!(
+        loss.argument_deg > 5.0 && loss.argument_deg < 175.0,
+        "a complex pair: {loss:?}"
+    );
+    let predicted = loss.argument_deg / 360.0 * loss.frequency_hz;
+    let marched = load_pipeline(&path, &["harmonic_balance.frequency=1340".into()])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let options = RunOptions {
+        out: Some(common::temp_out("late-strip-light-march")),
+        ..Default::default()
+    };
+    let run = pipeline::run_transient(&marched, &options, &hbcontact::Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let late = run
+        .summary
+        .transient
+        .expect("transient details")
+        .late_response;
+    println!("{}", late.description);
+    assert_eq!(late.kind, LateKind::QuasiPeriodic, "{}", late.description);
+    let f2 = late.second_frequency_hz.expect("a second frequency");
+    assert!(
+        (f2 - predicted).abs() < 0.05 * predicted,
+        "marched {f2} Hz against Hill's {predicted} Hz"
+    );
+}
