@@ -35,6 +35,7 @@ use std::path::PathBuf;
 
 use hbcontact::config::{load_pipeline, Pipeline};
 use hbcontact::hbm::continuation::Corrector;
+use hbcontact::pipeline::late::LateKind;
 use hbcontact::pipeline::{self, RunOptions};
 use hbcontact::sweep::{self, SweepRow, SweepSummary};
 use hbcontact::Silent;
@@ -421,6 +422,53 @@ fn the_lightly_damped_strip_folds_between_f1_and_the_bilinear_four_thirds() {
     let s = sweep_to_the_end(name);
     let gap_at_probe = 1e-4 * (PI / 4.0).sin();
     assert_stiffened_resonance(&s, f1, bilinear(f1, 2.0 * f1), gap_at_probe, free);
+}
+
+/// TEST GOAL: a curve that stops among unstable states says so: the 0.5%-damped strip at
+/// H = 20 runs back onto its curve at 1344.87 Hz, swept again it stops too, and its stop
+/// names the stretch (every point judged since the last stable one, before 1336 Hz, is
+/// unstable) and the march that shows what the structure does; that march, which knows
+/// nothing of harmonic balance, at the stop frequency is not T-periodic.
+#[test]
+fn a_sweep_that_stops_among_unstable_states_names_them_and_a_march_there_is_not_periodic() {
+    let p = scene("strip_light", &["harmonic_balance.harmonics=20"]);
+    let options = RunOptions {
+        out: out("strip_light-h20"),
+        ..Default::default()
+    };
+    let r = sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let stop = r.summary.stopped.expect("the H = 20 curve stops");
+    println!("{}", stop.reason);
+    let tail = stop
+        .reason
+        .split("the curve stopped among unstable states: all ")
+        .nth(1);
+    let tail = tail.unwrap_or_else(|| panic!("no unstable stretch named: {}", stop.reason));
+    let since: f64 = (tail.split("last stable point, at ").nth(1))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|f| f.parse().ok())
+        .unwrap_or_else(|| panic!("no last stable point: {tail}"));
+    assert!(since < 1336.0 && since > 1300.0, "{since}");
+    assert!(
+        stop.reason.contains("`hbcontact transient`"),
+        "{}",
+        stop.reason
+    );
+    let at = format!("harmonic_balance.frequency={}", stop.frequency_hz);
+    let marched = scene("strip_light", &[&at]);
+    let options = RunOptions {
+        out: out("strip_light-march"),
+        ..Default::default()
+    };
+    let run =
+        pipeline::run_transient(&marched, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let late = run
+        .summary
+        .transient
+        .expect("transient details")
+        .late_response;
+    println!("{}", late.description);
+    assert_ne!(late.kind, LateKind::Periodic, "{}", late.description);
 }
 
 /// TEST GOAL: a curve swept again with the turn limit saves the limit in its state: the

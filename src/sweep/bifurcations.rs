@@ -124,6 +124,45 @@ pub fn locate(rows: &[SweepRow], folds: &[FoldReport]) -> Vec<BifurcationReport>
         .collect()
 }
 
+/// Judged rows, all unstable, at the end of a stopped curve that make it a stretch of states
+/// no structure follows.
+pub const UNSTABLE_TAIL: usize = 5;
+
+/// What the stop of a curve (`rows`, in curve order) adds where it stopped in a stretch of
+/// unstable states: how many points were judged since the last stable one, all unstable, and
+/// how many by a complex pair; `None` where fewer than `UNSTABLE_TAIL` were.
+pub fn unstable_tail(rows: &[SweepRow]) -> Option<String> {
+    let judged: Vec<&SweepRow> = rows.iter().filter(|r| r.stable.is_some()).collect();
+    let since = judged.iter().rposition(|r| r.stable == Some(true));
+    let tail = &judged[since.map_or(0, |i| i + 1)..];
+    let stop = tail.last().filter(|_| tail.len() >= UNSTABLE_TAIL)?;
+    let from = match since {
+        Some(i) => format!(
+            "since its last stable point, at {:.4} Hz (point {}),",
+            judged[i].frequency_hz, judged[i].index
+        ),
+        None => "from its start".to_string(),
+    };
+    let pairs = (tail.iter())
+        .filter(|r| r.crossing == Some(Crossing::NeimarkSacker))
+        .count();
+    let how = match pairs {
+        0 => String::new(),
+        n => format!(
+            ", {n} of them by a complex pair of multipliers (Neimark–Sacker: a second, \
+             incommensurate frequency)"
+        ),
+    };
+    Some(format!(
+        "; the curve stopped among unstable states: all {} points judged {from} are \
+         unstable{how}, so no structure follows this stretch of it. A march shows what the \
+         structure does there instead (`hbcontact transient` with \
+         harmonic_balance.frequency = {:.4})",
+        tail.len(),
+        stop.frequency_hz
+    ))
+}
+
 /// The bifurcation between decided rows `a` and `b` of opposite verdicts; `turns`: the curve
 /// turns between the row before a and the row after b.
 fn between(a: &SweepRow, b: &SweepRow, turns: bool) -> BifurcationReport {
@@ -198,6 +237,37 @@ mod tests {
             truncation_estimate: None,
             subharmonic: None,
         }
+    }
+
+    /// TEST GOAL: a stop is said to lie among unstable states only where at least
+    /// `UNSTABLE_TAIL` points judged since the last stable one are all unstable; unjudged
+    /// rows are skipped, and the complex pairs among them are counted.
+    #[test]
+    fn a_stop_lies_among_unstable_states_only_after_enough_judged_unstable_points() {
+        let ns = Some((1.1, 0.4, Crossing::NeimarkSacker));
+        let fold = Some((1.1, 0.0, Crossing::Fold));
+        let mut rows = vec![row(0, 100.0, None)];
+        rows.extend((1..UNSTABLE_TAIL).map(|i| row(i, 100.0 + i as f64, ns)));
+        assert_eq!(unstable_tail(&rows), None, "one point short");
+        let mut unjudged = row(UNSTABLE_TAIL, 110.0, None);
+        unjudged.stable = None;
+        rows.push(unjudged);
+        assert_eq!(unstable_tail(&rows), None, "an unjudged row does not count");
+        rows.push(row(UNSTABLE_TAIL + 1, 111.0, fold));
+        let said = unstable_tail(&rows).expect("a stretch of unstable states");
+        assert!(
+            said.contains(
+                "all 5 points judged since its last stable point, at 100.0000 Hz (point 0)"
+            ),
+            "{said}"
+        );
+        assert!(said.contains("4 of them by a complex pair"), "{said}");
+        assert!(
+            said.contains("harmonic_balance.frequency = 111.0000"),
+            "{said}"
+        );
+        rows.push(row(UNSTABLE_TAIL + 2, 112.0, None));
+        assert_eq!(unstable_tail(&rows), None, "a stable point ends it");
     }
 
     #[test]

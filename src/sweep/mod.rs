@@ -413,7 +413,9 @@ fn execute(
         Err(e) if writer.seen() == 0 => return Err(stages.context(Stage::Sweep, e)),
         Err(e) => (Default::default(), Some(e)),
     };
-    let stopped = outcome.stopped.map(Error::NotConverged);
+    // A curve that stopped among unstable states says so (judged by now).
+    let tail = || bifurcations::unstable_tail(&writer.rows).unwrap_or_default();
+    let stopped = outcome.stopped.map(|s| Error::NotConverged(s + &tail()));
     let failure = failure.or(stopped).map(|e| stages.context(Stage::Sweep, e));
     let ended = Ended {
         warnings,
