@@ -263,18 +263,7 @@ fn the_light_strip_loses_stability_where_it_touches_and_a_march_there_moves_at_h
     let predicted = loss.argument_deg / 360.0 * loss.frequency_hz;
     let marched = load_pipeline(&path, &["harmonic_balance.frequency=1340".into()])
         .unwrap_or_else(|e| panic!("{e}"));
-    let options = RunOptions {
-        out: Some(common::temp_out("late-strip-light-march")),
-        ..Default::default()
-    };
-    let run = pipeline::run_transient(&marched, &options, &hbcontact::Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let late = run
-        .summary
-        .transient
-        .expect("transient details")
-        .late_response;
-    println!("{}", late.description);
+    let late = common::marched_late_response(&marched, "late-strip-light-march");
     assert_eq!(late.kind, LateKind::QuasiPeriodic, "{}", late.description);
     let f2 = late.second_frequency_hz.expect("a second frequency");
     assert!(

@@ -455,19 +455,7 @@ fn a_sweep_that_stops_among_unstable_states_names_them_and_a_march_there_is_not_
         stop.reason
     );
     let at = format!("harmonic_balance.frequency={}", stop.frequency_hz);
-    let marched = scene("strip_light", &[&at]);
-    let options = RunOptions {
-        out: out("strip_light-march"),
-        ..Default::default()
-    };
-    let run =
-        pipeline::run_transient(&marched, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
-    let late = run
-        .summary
-        .transient
-        .expect("transient details")
-        .late_response;
-    println!("{}", late.description);
+    let late = common::marched_late_response(&scene("strip_light", &[&at]), "strip_light-march");
     assert_ne!(late.kind, LateKind::Periodic, "{}", late.description);
 }
 

@@ -259,3 +259,21 @@ pub fn assert_agrees_with_marching(
         assert!(error.abs() < tolerance, "{pointer}: {a:e} vs {b:e}");
     }
 }
+
+/// The late response of `p` marched from rest by `hbcontact transient` (its output under the
+/// temporary folder `tag`), its description printed.
+pub fn marched_late_response(p: &Pipeline, tag: &str) -> hbcontact::pipeline::late::LateResponse {
+    let options = pipeline::RunOptions {
+        out: Some(temp_out(tag)),
+        ..Default::default()
+    };
+    let run =
+        pipeline::run_transient(p, &options, &hbcontact::Silent).unwrap_or_else(|e| panic!("{e}"));
+    let late = run
+        .summary
+        .transient
+        .expect("transient details")
+        .late_response;
+    println!("{}", late.description);
+    late
+}
