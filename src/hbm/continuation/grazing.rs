@@ -12,8 +12,9 @@
 //! y = (λ/F, ω/Ω); its direction is ±ω alone.
 //!
 //! Leaving the open branch: a point with ‖λ‖ ≤ `OPEN` F, from which no step converges, is at
-//! the open branch's end. The contacting branch's first point is sought at ω_p − Δs₀ Ω sgn τ_ω
-//! (then at halves of that shift, down to 1/16): the Newton from λ_A = −J_A⁻¹ A (c r), the
+//! the open branch's end. The contacting branch's first point is sought at ω_p − 2⁻ᵏ Δs₀ Ω
+//! sgn τ_ω, k = 4, 3, … 0 (the nearest first: the branch that leaves the corner, not another
+//! contacting branch further back): the Newton from λ_A = −J_A⁻¹ A (c r), the
 //! state that closes the samples the linear gap r touches with (within `TOUCHING` of its
 //! largest value; A = Q D_A P their activity, J_A = I − A + c A G), kept when it converges to
 //! ‖λ‖ above twice the corner's (so not back onto the branch it came along).
@@ -127,7 +128,8 @@ impl Continuation<'_> {
     /// frequency the linear response penetrates and no state near the open one solves, so no
     /// step converges; the contacting branch leaves the corner back in ω (sweeping down a
     /// hardening resonance, the lower fold is such a corner). Its first point is sought one
-    /// initial step back, then at halves of it (down to 1/16): the Newton from the state
+    /// sixteenth of an initial step back, then at twice that, up to one step (the nearest
+    /// first, so on the branch that leaves the corner): the Newton from the state
     /// that closes the samples the linear response touches with (`touching_start`), kept
     /// when it converges with contact. `None`: `p` is not on the open branch, or no such
     /// state was found.
@@ -142,7 +144,7 @@ impl Continuation<'_> {
         }
         let clock = Instant::now();
         let back = -p.tangent_omega().signum() * self.s.step * self.span;
-        (0..5).find_map(|k| {
+        (0..5).rev().find_map(|k| {
             let frame = self.frame(p.omega + back / f64::from(1 << k)).ok()?;
             let start = self.touching_start(&frame.problem)?;
             let o = self.newton_on(&frame.problem, &start);
