@@ -274,9 +274,14 @@ impl<'a> Residual<'a> {
         }
     }
 
-    /// ‖R‖∞ over the force scale.
+    /// ‖R‖∞ over the force scale: the linear penetration's force or the multipliers' peak;
+    /// where both are zero (nothing penetrates and λ = 0, as in a heavier-damped level of the
+    /// damping continuation, whose smoothed law leaves a tiny R), c max_n |r_n(t_n)|.
     pub(super) fn relative(&self, e: &Evaluation) -> f64 {
-        let scale = self.linear_force.max(e.peak).max(f64::MIN_POSITIVE);
+        let scale = match self.linear_force.max(e.peak) {
+            s if s > 0.0 => s,
+            _ => (self.noise_force / NOISE).max(f64::MIN_POSITIVE),
+        };
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
 
@@ -613,6 +618,45 @@ mod tests {
             assert!(out.converged, "from {start:e}: {}", out.reason);
             assert_eq!(out.iterations, 0, "from {start:e}");
         }
+    }
+
+    /// TEST GOAL: where nothing penetrates, the smoothed law (μ > 0) leaves a residual at
+    /// λ = 0, and its relative size is of order one: it is measured against c max |r|, not the
+    /// zero penetration force (a heavier-damped level of the damping continuation, the strip
+    /// of pipelines/scenes/ at H = 40 and 1350 Hz, read it as infinite and failed at once).
+    /// Newton converges there to a λ of the smoothing's order.
+    #[test]
+    fn a_smoothed_start_where_nothing_penetrates_has_a_residual_of_order_one_and_converges() {
+        let (k, g0, h) = (2.0, 1.0, 3usize);
+        let m = 2 * h + 1;
+        let problem = ReducedProblem::from_compliance(1, h, |_, _, _| c64::new(1.0 / k, 0.0));
+        let problem = ReducedProblem {
+            linear_gap: (0..m)
+                .map(|r| if r == 0 { -g0 / 2.0 } else { 0.0 })
+                .collect(),
+            ..problem
+        };
+        let settings = NewtonSettings {
+            samples: 16,
+            c: k,
+            tolerance: 1e-10,
+            max_iterations: 50,
+            smoothing: 1.0,
+            ..Default::default()
+        };
+        let residual = Residual::new(&problem, &settings);
+        let at_zero = residual.evaluate(vec![0.0; m]);
+        let relative = residual.relative(&at_zero);
+        // φ_μ(−1) = (√5 − 1)/2 against c max |r| = 1; against the zero penetration force
+        // (floored at the smallest normal number) it read 3e307, and above a force of 4, inf.
+        assert!(
+            (relative - 0.5 * (5f64.sqrt() - 1.0)).abs() < 1e-12,
+            "{relative}"
+        );
+        let out = newton(&problem, &settings, &vec![0.0; m], &crate::Silent);
+        assert!(out.converged, "{}", out.reason);
+        let peak = out.multipliers.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(peak < settings.smoothing, "{peak}");
     }
 
     /// A massless node on a spring driven by f(t) = F cos ωt against a stop at g0 > 0: the
