@@ -586,21 +586,15 @@ mod tests {
         assert!((out.multipliers[0] + (f - k * g0)).abs() < 1e-12);
     }
 
-    /// TEST GOAL: where nothing penetrates (the answer is λ = 0), Newton from multipliers of
-    /// 1e-200 (a resumed sweep state tampered in its last digits) reads them as zero at once;
-    /// with their own peak as the residual's scale they read 100% wrong (on the strip sweep's
-    /// reduced frame 200 iterations then never moved them: the case ef33f7e6 of
-    /// tests/fuzz.proptest-regressions).
-    #[test]
-    fn denormal_scale_multipliers_where_nothing_penetrates_are_zero() {
-        // Two nodes, H = 3, each on a spring k, statically held g0/2 off the stop.
-        let (k, g0, h) = (2.0, 1.0, 3usize);
+    /// `nodes` contact nodes, each on a spring k (coupled to the others by 0.1 k), statically
+    /// held g0/2 off the stop at H harmonics, and Newton settings for them (N = 16, c = k).
+    fn held_off(nodes: usize, (k, g0, h): (f64, f64, usize)) -> (ReducedProblem, NewtonSettings) {
         let m = 2 * h + 1;
-        let problem = ReducedProblem::from_compliance(2, h, |_, i, j| {
+        let problem = ReducedProblem::from_compliance(nodes, h, |_, i, j| {
             c64::new(if i == j { 1.0 / k } else { 0.1 / k }, 0.0)
         });
         let problem = ReducedProblem {
-            linear_gap: (0..2 * m)
+            linear_gap: (0..nodes * m)
                 .map(|r| if r % m == 0 { -g0 / 2.0 } else { 0.0 })
                 .collect(),
             ..problem
@@ -612,6 +606,19 @@ mod tests {
             max_iterations: 50,
             ..Default::default()
         };
+        (problem, settings)
+    }
+
+    /// TEST GOAL: where nothing penetrates (the answer is λ = 0), Newton from multipliers of
+    /// 1e-200 (a resumed sweep state tampered in its last digits) reads them as zero at once;
+    /// with their own peak as the residual's scale they read 100% wrong (on the strip sweep's
+    /// reduced frame 200 iterations then never moved them: the case ef33f7e6 of
+    /// tests/fuzz.proptest-regressions).
+    #[test]
+    fn denormal_scale_multipliers_where_nothing_penetrates_are_zero() {
+        let (k, g0, h) = (2.0, 1.0, 3usize);
+        let m = 2 * h + 1;
+        let (problem, settings) = held_off(2, (k, g0, h));
         for start in [0.0, 1e-200, -1e-300] {
             let x: Vec<f64> = (0..2 * m).map(|r| start * (1.0 + r as f64)).collect();
             let out = newton(&problem, &settings, &x, &crate::Silent);
@@ -629,20 +636,10 @@ mod tests {
     fn a_smoothed_start_where_nothing_penetrates_has_a_residual_of_order_one_and_converges() {
         let (k, g0, h) = (2.0, 1.0, 3usize);
         let m = 2 * h + 1;
-        let problem = ReducedProblem::from_compliance(1, h, |_, _, _| c64::new(1.0 / k, 0.0));
-        let problem = ReducedProblem {
-            linear_gap: (0..m)
-                .map(|r| if r == 0 { -g0 / 2.0 } else { 0.0 })
-                .collect(),
-            ..problem
-        };
+        let (problem, settings) = held_off(1, (k, g0, h));
         let settings = NewtonSettings {
-            samples: 16,
-            c: k,
-            tolerance: 1e-10,
-            max_iterations: 50,
             smoothing: 1.0,
-            ..Default::default()
+            ..settings
         };
         let residual = Residual::new(&problem, &settings);
         let at_zero = residual.evaluate(vec![0.0; m]);
