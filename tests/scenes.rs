@@ -449,11 +449,13 @@ fn a_sweep_that_stops_among_unstable_states_names_them_and_a_march_there_is_not_
         .and_then(|f| f.parse().ok())
         .unwrap_or_else(|| panic!("no last stable point: {tail}"));
     assert!(since < 1336.0 && since > 1300.0, "{since}");
-    assert!(
-        stop.reason.contains("`hbcontact transient`"),
-        "{}",
-        stop.reason
+    let march = format!(
+        "`hbcontact transient {} --set harmonic_balance.harmonics=20 --set \
+         harmonic_balance.frequency={:.4}`",
+        p.source.display(),
+        stop.frequency_hz
     );
+    assert!(stop.reason.contains(&march), "{}", stop.reason);
     let at = format!("harmonic_balance.frequency={}", stop.frequency_hz);
     let late = common::marched_late_response(&scene("strip_light", &[&at]), "strip_light-march");
     assert_ne!(late.kind, LateKind::Periodic, "{}", late.description);

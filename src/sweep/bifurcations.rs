@@ -129,9 +129,10 @@ pub fn locate(rows: &[SweepRow], folds: &[FoldReport]) -> Vec<BifurcationReport>
 pub const UNSTABLE_TAIL: usize = 5;
 
 /// What the stop of a curve (`rows`, in curve order) adds where it stopped in a stretch of
-/// unstable states: how many points were judged since the last stable one, all unstable, and
-/// how many by a complex pair; `None` where fewer than `UNSTABLE_TAIL` were.
-pub fn unstable_tail(rows: &[SweepRow]) -> Option<String> {
+/// unstable states: how many points were judged since the last stable one, all unstable, how
+/// many by a complex pair, and the command that marches the scene at the stop frequency
+/// (`march`, of the frequency [Hz]); `None` where fewer than `UNSTABLE_TAIL` were.
+pub fn unstable_tail(rows: &[SweepRow], march: impl Fn(f64) -> String) -> Option<String> {
     let judged: Vec<&SweepRow> = rows.iter().filter(|r| r.stable.is_some()).collect();
     let since = judged.iter().rposition(|r| r.stable == Some(true));
     let tail = &judged[since.map_or(0, |i| i + 1)..];
@@ -156,10 +157,9 @@ pub fn unstable_tail(rows: &[SweepRow]) -> Option<String> {
     Some(format!(
         "; the curve stopped among unstable states: all {} points judged {from} are \
          unstable{how}, so no structure follows this stretch of it. A march shows what the \
-         structure does there instead (`hbcontact transient` with \
-         harmonic_balance.frequency = {:.4})",
+         structure does there instead: `{}`",
         tail.len(),
-        stop.frequency_hz
+        march(stop.frequency_hz)
     ))
 }
 
@@ -248,13 +248,18 @@ mod tests {
         let fold = Some((1.1, 0.0, Crossing::Fold));
         let mut rows = vec![row(0, 100.0, None)];
         rows.extend((1..UNSTABLE_TAIL).map(|i| row(i, 100.0 + i as f64, ns)));
-        assert_eq!(unstable_tail(&rows), None, "one point short");
+        let march = |f: f64| format!("march at {f:.4}");
+        assert_eq!(unstable_tail(&rows, march), None, "one point short");
         let mut unjudged = row(UNSTABLE_TAIL, 110.0, None);
         unjudged.stable = None;
         rows.push(unjudged);
-        assert_eq!(unstable_tail(&rows), None, "an unjudged row does not count");
+        assert_eq!(
+            unstable_tail(&rows, march),
+            None,
+            "an unjudged row does not count"
+        );
         rows.push(row(UNSTABLE_TAIL + 1, 111.0, fold));
-        let said = unstable_tail(&rows).expect("a stretch of unstable states");
+        let said = unstable_tail(&rows, march).expect("a stretch of unstable states");
         assert!(
             said.contains(
                 "all 5 points judged since its last stable point, at 100.0000 Hz (point 0)"
@@ -262,12 +267,9 @@ mod tests {
             "{said}"
         );
         assert!(said.contains("4 of them by a complex pair"), "{said}");
-        assert!(
-            said.contains("harmonic_balance.frequency = 111.0000"),
-            "{said}"
-        );
+        assert!(said.contains("`march at 111.0000`"), "{said}");
         rows.push(row(UNSTABLE_TAIL + 2, 112.0, None));
-        assert_eq!(unstable_tail(&rows), None, "a stable point ends it");
+        assert_eq!(unstable_tail(&rows, march), None, "a stable point ends it");
     }
 
     #[test]

@@ -414,7 +414,8 @@ fn execute(
         Err(e) => (Default::default(), Some(e)),
     };
     // A curve that stopped among unstable states says so (judged by now).
-    let tail = || bifurcations::unstable_tail(&writer.rows).unwrap_or_default();
+    let march = |hz| resume::march_command(p, hz);
+    let tail = || bifurcations::unstable_tail(&writer.rows, march).unwrap_or_default();
     let stopped = outcome.stopped.map(|s| Error::NotConverged(s + &tail()));
     let failure = failure.or(stopped).map(|e| stages.context(Stage::Sweep, e));
     let ended = Ended {

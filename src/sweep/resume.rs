@@ -70,21 +70,44 @@ pub struct Saved {
 /// default folder, `--trust-geometry` where it was given, then `--resume`; each word quoted
 /// for a POSIX shell where it needs it.
 pub fn command(p: &Pipeline, out: &Path) -> String {
+    let mut words = invocation(p, "sweep");
+    if out != super::output_dir(p, &crate::pipeline::RunOptions::default()) {
+        words.extend(["--out".to_string(), out.display().to_string()]);
+    }
+    words.push("--resume".to_string());
+    quoted(&words)
+}
+
+/// The command that marches the sweep's scene from rest at `hz` (`hbcontact transient`, the
+/// sweep's `--set`s and the frequency's).
+pub fn march_command(p: &Pipeline, hz: f64) -> String {
+    let mut words = invocation(p, "transient");
+    words.extend([
+        "--set".to_string(),
+        format!("harmonic_balance.frequency={hz:.4}"),
+    ]);
+    quoted(&words)
+}
+
+/// `hbcontact SUBCOMMAND PIPELINE`, the pipeline's `--set`s and `--trust-geometry` where the
+/// geometry was trusted.
+fn invocation(p: &Pipeline, subcommand: &str) -> Vec<String> {
     let mut words = vec![
         "hbcontact".to_string(),
-        "sweep".to_string(),
+        subcommand.to_string(),
         p.source.display().to_string(),
     ];
     for o in &p.overrides {
         words.extend(["--set".to_string(), o.clone()]);
     }
-    if out != super::output_dir(p, &crate::pipeline::RunOptions::default()) {
-        words.extend(["--out".to_string(), out.display().to_string()]);
-    }
     if p.geometry.trusted {
         words.push("--trust-geometry".to_string());
     }
-    words.push("--resume".to_string());
+    words
+}
+
+/// `words` as one shell command line.
+fn quoted(words: &[String]) -> String {
     let quoted: Vec<String> = words.iter().map(|w| shell_word(w)).collect();
     quoted.join(" ")
 }
