@@ -158,8 +158,9 @@ pub(super) struct Residual<'a> {
     /// The force the linear solution's sampled penetration implies (c · max r): with the
     /// multipliers' own peak, the scale tolerances are relative to, so units do not matter.
     linear_force: f64,
-    /// NOISE · c · max_n |r_n(t_n)|: a start below it where nothing penetrates is λ = 0.
-    noise_force: f64,
+    /// c · max_n |r_n(t_n)|, the gap's own force: the scale where nothing penetrates and
+    /// λ = 0, and NOISE times it the size below which such a start is λ = 0.
+    gap_force: f64,
     /// The Newton matrix's node blocks, kept between steps (`step::NodeBlocks`).
     node_blocks: std::cell::RefCell<step::NodeBlocks>,
     /// What an evaluation writes besides its result, kept between evaluations.
@@ -190,7 +191,7 @@ impl<'a> Residual<'a> {
             c: settings.c,
             smoothing: settings.smoothing,
             linear_force: settings.c * penetration.max(0.0),
-            noise_force: NOISE * settings.c * largest,
+            gap_force: settings.c * largest,
             node_blocks: Default::default(),
             scratch: Default::default(),
         }
@@ -264,10 +265,10 @@ impl<'a> Residual<'a> {
         e.peak = peak;
     }
 
-    /// `start`, or λ = 0 where nothing penetrates and `start` is below `noise_force`.
+    /// `start`, or λ = 0 where nothing penetrates and `start` is below NOISE × `gap_force`.
     fn denoised(&self, start: &[f64]) -> Vec<f64> {
         let peak = start.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
-        if self.linear_force == 0.0 && peak <= self.noise_force {
+        if self.linear_force == 0.0 && peak <= NOISE * self.gap_force {
             vec![0.0; start.len()]
         } else {
             start.to_vec()
@@ -280,7 +281,7 @@ impl<'a> Residual<'a> {
     pub(super) fn relative(&self, e: &Evaluation) -> f64 {
         let scale = match self.linear_force.max(e.peak) {
             s if s > 0.0 => s,
-            _ => (self.noise_force / NOISE).max(f64::MIN_POSITIVE),
+            _ => self.gap_force.max(f64::MIN_POSITIVE),
         };
         e.residual.iter().fold(0.0f64, |a, &b| a.max(b.abs())) / scale
     }
