@@ -821,8 +821,8 @@ fn stop_report(
         out.display()
     );
     // A curve that left the range through its start would leave it again when resumed.
-    let direction = (spec.to_hz - spec.from_hz).signum();
-    let left = (last.frequency_hz - spec.from_hz) * direction < 0.0;
+    let range = (spec.from_hz, spec.to_hz);
+    let left = continuation::leaves_through_start(last.frequency_hz, last.tangent_frequency, range);
     let (class, reason) = match failure {
         Some(e) if left => (e.class().to_string(), e.to_string()),
         Some(e) => (e.class().to_string(), format!("{e}; {resume_hint}")),

@@ -465,11 +465,10 @@ impl Continuation<'_> {
         past && p.tangent_omega() * self.direction > 0.0
     }
 
-    /// Back before the start frequency, moving away from the range: the curve turned round
-    /// and leaves it the way it came in, short of the end.
+    /// Back before the start frequency, moving away from the range (`leaves_through_start`).
     fn before_start(&self, p: &Point) -> bool {
-        let before = (p.omega - self.s.omega_start) * self.direction < 0.0;
-        before && p.tangent_omega() * self.direction < 0.0
+        let range = (self.s.omega_start, self.s.omega_end);
+        leaves_through_start(p.omega, p.tangent_omega(), range)
     }
 
     /// Why a sweep whose curve left the range through its start (at `p`, point `index`) stops.
@@ -537,6 +536,15 @@ fn hz(omega: f64) -> f64 {
 /// Two turning points closer than this fraction of the span in ω, a few points apart, are a
 /// kink of the sampled contact law (a sample switching), not a fold of the curve.
 pub const KINK: f64 = 1e-3;
+
+/// A point at frequency `at` whose tangent has ω-component `tangent` lies before the start of
+/// the sweep `range` (start, end) and moves away from it: the curve turned round and leaves
+/// the range the way it came in, short of the end (any unit of frequency; a sweep stops
+/// there, and a resume would leave the same way).
+pub fn leaves_through_start(at: f64, tangent: f64, (start, end): (f64, f64)) -> bool {
+    let direction = (end - start).signum();
+    (at - start) * direction < 0.0 && tangent * direction < 0.0
+}
 
 /// Drop pairs of consecutive folds within `width` in ω and 3 points of each other.
 pub fn without_kinks(folds: Vec<Fold>, width: f64) -> Vec<Fold> {
