@@ -81,6 +81,9 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
     for (k, b) in s.branches.iter().enumerate() {
         show_branch(k + 1, b);
     }
+    if let Some(other) = &s.from_the_end {
+        show_other_end(other);
+    }
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
@@ -101,6 +104,27 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         s.frames.len(),
         s.written.len()
     );
+}
+
+/// The curve swept from the other end: its points, folds and where it ended.
+fn show_other_end(o: &hbcontact::sweep::other_end::FromTheEnd) {
+    let folds: Vec<String> = (o.folds.iter())
+        .map(|f| format!("{:.4} Hz", f.frequency_hz))
+        .collect();
+    let ended = match &o.stopped {
+        Some(stop) => format!("stopped at {:.4} Hz ({})", stop.frequency_hz, stop.class),
+        None => format!("reached {:.4} Hz", o.to_hz),
+    };
+    outln!(
+        "  swept from the other end ({}/): {} points from {:.4} Hz, folds at [{}], {ended}",
+        o.folder,
+        o.points,
+        o.from_hz,
+        folds.join(", ")
+    );
+    if let Some([lo, hi]) = o.untraced_hz {
+        outln!("  not traced: {lo:.4}–{hi:.4} Hz, between two stretches of unstable states");
+    }
 }
 
 /// A 2T branch in one line: where it starts and ends, its largest subharmonic, its stable

@@ -9,14 +9,17 @@
 //! own trail is swept again, from its start, with `max_turn = RETRY_TURN`, and the second
 //! curve is kept unless it stops so too (it may run out of `max_points` or be interrupted;
 //! its state resumes with the limit); else the first is, its stop naming the second's.
-//! The second-mode blade and the quadratic cantilever of pipelines/scenes/ reach their end so.
-//! A failing curve costs its time twice; a passing one nothing.
+//! The second-mode blade and the quadratic cantilever of pipelines/scenes/ reach their end so
+//! (both first stop among unstable states). A failing curve costs its time twice; a passing
+//! one nothing. The curve swept from the other end of a range (`other_end`) is not swept
+//! again where it stops among unstable states: its stable states end there.
 
 use std::path::Path;
 
 use schemars::JsonSchema;
 use serde::Serialize;
 
+use super::bifurcations::in_unstable_stretch;
 use super::{continue_curve, points, resume, Start};
 use crate::config::{Pipeline, SweepSpec};
 use crate::hbm::continuation::SweepOutcome;
@@ -63,6 +66,9 @@ pub(super) struct Curve<'a> {
     pub mesh: &'a MeshInfo,
     pub saved: Option<&'a resume::Saved>,
     pub reporter: &'a dyn Reporter,
+    /// A curve stopped among unstable states is swept again too (false: the curve from the
+    /// other end, `other_end`, whose stable states end there).
+    pub again_among_unstable: bool,
 }
 
 impl<'a> Curve<'a> {
@@ -128,7 +134,8 @@ impl<'a> Curve<'a> {
             Ok(outcome) => outcome.stopped.clone(),
             Err(_) => None,
         };
-        let retry = self.saved.is_none() && self.model.contact.is_some();
+        let unstable = !self.again_among_unstable && in_unstable_stretch(&first.writer.rows);
+        let retry = self.saved.is_none() && self.model.contact.is_some() && !unstable;
         let rows = first.writer.rows.last();
         let (Some(reason), Some(again), true, Some(last)) = (stopped, again, retry, rows) else {
             return Ok((first, None));

@@ -133,8 +133,7 @@ pub const UNSTABLE_TAIL: usize = 5;
 /// many by a complex pair, and the command that marches the scene at the stop frequency
 /// (`march`, of the frequency [Hz]); `None` where fewer than `UNSTABLE_TAIL` were.
 pub fn unstable_tail(rows: &[SweepRow], march: impl Fn(f64) -> String) -> Option<String> {
-    let judged: Vec<&SweepRow> = rows.iter().filter(|r| r.stable.is_some()).collect();
-    let since = judged.iter().rposition(|r| r.stable == Some(true));
+    let (judged, since) = judged_since_stable(rows);
     let tail = &judged[since.map_or(0, |i| i + 1)..];
     let stop = tail.last().filter(|_| tail.len() >= UNSTABLE_TAIL)?;
     let from = match since {
@@ -161,6 +160,26 @@ pub fn unstable_tail(rows: &[SweepRow], march: impl Fn(f64) -> String) -> Option
         tail.len(),
         march(stop.frequency_hz)
     ))
+}
+
+/// A curve (`rows`, in curve order) that ends in a stretch of unstable states: at least
+/// `UNSTABLE_TAIL` points judged since its last stable one, all unstable.
+pub fn in_unstable_stretch(rows: &[SweepRow]) -> bool {
+    let (judged, since) = judged_since_stable(rows);
+    judged.len() - since.map_or(0, |i| i + 1) >= UNSTABLE_TAIL
+}
+
+/// The frequency [Hz] of a curve's last stable point (`rows` in curve order).
+pub fn last_stable_hz(rows: &[SweepRow]) -> Option<f64> {
+    let (judged, since) = judged_since_stable(rows);
+    since.map(|i| judged[i].frequency_hz)
+}
+
+/// The judged rows of a curve, and the position among them of the last stable one.
+fn judged_since_stable(rows: &[SweepRow]) -> (Vec<&SweepRow>, Option<usize>) {
+    let judged: Vec<&SweepRow> = rows.iter().filter(|r| r.stable.is_some()).collect();
+    let since = judged.iter().rposition(|r| r.stable == Some(true));
+    (judged, since)
 }
 
 /// The bifurcation between decided rows `a` and `b` of opposite verdicts; `turns`: the curve

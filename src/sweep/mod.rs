@@ -19,6 +19,7 @@
 mod again;
 pub mod bifurcations;
 pub mod branch;
+pub mod other_end;
 mod plot;
 mod points;
 pub mod reference;
@@ -40,6 +41,7 @@ use crate::hbm::floquet::{self, Crossing};
 use crate::hbm::hill::HillModel;
 use crate::hbm::knobs::{underdamped_from, UNDERDAMPED_TOLERANCE};
 use crate::hbm::ContactSolution;
+use crate::output::staging::Replace as StagedReplace;
 use crate::output::tables::csv_number;
 use crate::output::tables::{write_json, write_text};
 use crate::output::StagedDir;
@@ -116,6 +118,32 @@ pub struct SweepRow {
     pub subharmonic: Option<f64>,
 }
 
+#[cfg(test)]
+impl SweepRow {
+    /// A row at `frequency_hz` found by the arc-length corrector, unjudged, with one value 1.
+    pub(crate) fn for_tests(index: usize, frequency_hz: f64) -> Self {
+        SweepRow {
+            index,
+            frequency_hz,
+            values: vec![1.0],
+            corrector: Corrector::Arclength,
+            newton_iterations: 1,
+            factorizations: 1,
+            step: 0.01,
+            tangent_frequency: 1.0,
+            seconds: 0.0,
+            stable: None,
+            multiplier: None,
+            argument: None,
+            crossing: None,
+            underdamped_share: None,
+            harmonics: 10,
+            truncation_estimate: None,
+            subharmonic: None,
+        }
+    }
+}
+
 impl SweepRow {
     /// The row's underdamped share where it is above `UNDERDAMPED_TOLERANCE` (the rows the
     /// summary's warning counts and the plot marks).
@@ -163,8 +191,10 @@ pub struct Stopped {
     pub frequency_hz: f64,
     /// Its row.
     pub point: usize,
-    /// `max_points` (the budget ran out: exit 0), else the error class of the exit code:
-    /// `not_converged` (4), `model` (3), `io` (5), `interrupted` (130).
+    /// `max_points` (the budget ran out: exit 0), `unstable_stretch` (stopped among unstable
+    /// states, the curve from the other end covering the rest: exit 0, `other_end`), else the
+    /// error class of the exit code: `not_converged` (4), `model` (3), `io` (5),
+    /// `interrupted` (130).
     pub class: String,
     pub reason: String,
 }
@@ -240,6 +270,10 @@ pub struct SweepSummary {
     /// step (`again`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub swept_again: Option<again::SweptAgain>,
+    /// The sweep stopped among unstable states and was swept from the other end of its range
+    /// (`other_end`), into `from_the_end/`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub from_the_end: Option<other_end::FromTheEnd>,
 }
 
 /// How H was chosen along a curve.
@@ -387,12 +421,60 @@ fn execute(
         mesh: &mesh_info,
         saved: saved.as_ref(),
         reporter,
+        again_among_unstable: true,
     };
     let again = SweepSpec {
         max_turn: Some(again::RETRY_TURN),
         ..spec.clone()
     };
-    let (attempt, swept_again) = curve.sweep((&spec, &again), &out, options.replace)?;
+    let place = (out.as_path(), options.replace);
+    let mut traced = trace(&curve, (&spec, &again), place, warnings, &mut stages)?;
+    if other_end::called_for(
+        &traced.summary,
+        traced.failure.as_ref(),
+        model.contact.is_some(),
+    ) {
+        from_the_end(&curve, &spec, &mut traced, &mut stages)?;
+    }
+    let Traced {
+        staged,
+        writer,
+        starts,
+        mut summary,
+        failure,
+    } = traced;
+    add_period_doublings(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
+    add_reference(p, &model, &mut summary, &mut stages);
+    let (dir, summary) = write(p, staged, &writer, summary, stages)?;
+    Ok(SweepResult {
+        dir,
+        summary,
+        failure,
+    })
+}
+
+/// One curve of a sweep, traced (swept again where `again` says), judged and summarized, in
+/// its staged folder.
+struct Traced<'a> {
+    staged: StagedDir,
+    writer: points::Writer<'a>,
+    starts: Vec<Start>,
+    summary: SweepSummary,
+    /// The error that stopped it part-way (main exits with its class).
+    failure: Option<Error>,
+}
+
+/// The curve of `spec` staged for `out`: swept, judged by Hill's method, summarized (a stop
+/// among unstable states says so, `bifurcations::unstable_tail`).
+fn trace<'a>(
+    curve: &again::Curve<'a>,
+    (spec, again): (&'a SweepSpec, &'a SweepSpec),
+    (out, replace): (&std::path::Path, StagedReplace),
+    warnings: Vec<String>,
+    stages: &mut Stages,
+) -> Result<Traced<'a>> {
+    let (p, model) = (curve.p, curve.model);
+    let (attempt, swept_again) = curve.sweep((spec, again), out, replace)?;
     let again::Attempt {
         staged,
         mut writer,
@@ -402,9 +484,10 @@ fn execute(
         seconds,
     } = attempt;
     stages.times.add(Stage::Sweep, seconds - judging);
-    let folds: Vec<usize> = writer.folds(&spec).iter().map(|f| f.after).collect();
+    let folds: Vec<usize> = writer.folds(spec).iter().map(|f| f.after).collect();
+    let reporter = curve.reporter;
     stages.run(Stage::Stability, || {
-        judge_points(p, &model, &mut writer, &starts, &folds, reporter)
+        judge_points(p, model, &mut writer, &starts, &folds, reporter)
     })?;
     stages.times.add(Stage::Stability, judging);
     let (outcome, failure) = match ended {
@@ -424,19 +507,73 @@ fn execute(
         reduced: outcome.reduced,
         level_changes: outcome.level_changes,
         failure,
-        out: &out,
+        out,
     };
-    let (mut summary, failure) =
-        summarize(p, &spec, &mut writer, saved.as_ref(), ended, &mut stages)?;
+    let (mut summary, failure) = summarize(p, spec, &mut writer, curve.saved, ended, stages)?;
     summary.swept_again = swept_again;
-    add_period_doublings(p, (&model, &mesh_info), &starts, &mut summary, &mut stages);
-    add_reference(p, &model, &mut summary, &mut stages);
-    let (dir, summary) = write(p, staged, &writer, summary, stages)?;
-    Ok(SweepResult {
-        dir,
+    Ok(Traced {
+        staged,
+        writer,
+        starts,
         summary,
         failure,
     })
+}
+
+/// The curve swept from the other end of the range toward `main`'s stop (`other_end`),
+/// written whole under `other_end::FOLDER` of `main`'s staged folder with stages of its own
+/// (their total counted as `main`'s sweep); what the two cover settles `main`'s failure. A
+/// curve from the other end that fails at its first point leaves `main` as it was, saying
+/// so.
+fn from_the_end(
+    curve: &again::Curve,
+    spec: &SweepSpec,
+    main: &mut Traced,
+    stages: &mut Stages,
+) -> Result<()> {
+    let (p, reporter) = (curve.p, curve.reporter);
+    let (p_other, spec_other) = other_end::reversed(p, spec);
+    let again_other = SweepSpec {
+        max_turn: Some(again::RETRY_TURN),
+        ..spec_other.clone()
+    };
+    let other = again::Curve {
+        p: &p_other,
+        saved: None,
+        again_among_unstable: false,
+        ..*curve
+    };
+    let status = format!("sweeping from the other end, {} Hz", spec_other.from_hz);
+    reporter.progress("sweep", 0, None, &status);
+    let dir = main.staged.path().join(other_end::FOLDER);
+    let mut own = Stages::new(&p_other, reporter);
+    let place = (dir.as_path(), StagedReplace::Owned);
+    let traced = match trace(
+        &other,
+        (&spec_other, &again_other),
+        place,
+        Vec::new(),
+        &mut own,
+    ) {
+        Ok(t) => t,
+        Err(e) => {
+            let why = format!(
+                "swept from the other end ({} Hz), the curve found no first point: {e}",
+                spec_other.from_hz
+            );
+            main.summary.warnings.push(why);
+            return Ok(());
+        }
+    };
+    let (_, written) = write(&p_other, traced.staged, &traced.writer, traced.summary, own)?;
+    stages
+        .times
+        .add(Stage::Sweep, written.stage_seconds.total());
+    let march = |hz| resume::march_command(p, hz);
+    if other_end::settle(&mut main.summary, written, march) {
+        main.failure = None;
+    }
+    Ok(())
 }
 
 /// The period doublings the curve lists checked on the 2T problem (`branch::confirm`, timed
@@ -580,6 +717,7 @@ fn summarize(
         harmonics_chosen: None,
         branches: Vec::new(),
         swept_again: None,
+        from_the_end: None,
     };
     let summary = with_harmonics_chosen(p, summary, ended.level_changes);
     Ok((summary, ended.failure))
@@ -1265,23 +1403,8 @@ mod tests {
 
     fn row(index: usize, frequency_hz: f64, share: Option<f64>) -> SweepRow {
         SweepRow {
-            index,
-            frequency_hz,
-            values: vec![1.0],
-            corrector: Corrector::Arclength,
-            newton_iterations: 1,
-            factorizations: 1,
-            step: 0.01,
-            tangent_frequency: 1.0,
-            seconds: 0.0,
-            stable: None,
-            multiplier: None,
-            argument: None,
-            crossing: None,
             underdamped_share: share,
-            harmonics: 10,
-            truncation_estimate: None,
-            subharmonic: None,
+            ..SweepRow::for_tests(index, frequency_hz)
         }
     }
 

@@ -53,6 +53,7 @@ pub fn write_plots(dir: &Path, s: &SweepSummary, force_unit: &str) -> Result<()>
             figure = with_reference(figure, s, c);
         }
         figure = with_branches(figure, s, c);
+        figure = with_other_end(figure, s, c);
         let warned: Vec<(f64, f64)> = (s.rows.iter())
             .filter(|r| s.warned(r))
             .map(|r| (r.frequency_hz, r.values[c]))
@@ -190,6 +191,30 @@ fn with_branches(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
     fig
 }
 
+/// The curve swept from the other end of the range (`other_end`) in a colour of its own,
+/// solid where stable and dashed where not, its folds marked.
+fn with_other_end(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
+    let Some(other) = &s.from_the_end else {
+        return fig;
+    };
+    let mut label = format!("swept from {:.1} Hz", other.from_hz);
+    for (unstable, points) in pieces(&other.rows, c) {
+        let style = if unstable {
+            Style::Dashed
+        } else {
+            Style::Curve
+        };
+        fig = fig.add(std::mem::take(&mut label), points, style).colour(4);
+    }
+    for f in &other.folds {
+        if let Some(r) = other.rows.iter().find(|r| r.index == f.after) {
+            let label = format!("fold: {:.1} Hz", r.frequency_hz);
+            fig = fig.mark(label, (r.frequency_hz, r.values[c]));
+        }
+    }
+    fig
+}
+
 /// The legend of the rows a warning of sweep.json names (a spline curve's rows whose
 /// vibration lies in the basis' underdamped frequencies).
 pub const WARNED: &str = "warned (sweep.json says of what)";
@@ -226,23 +251,10 @@ mod tests {
 
     fn row(index: usize, stable: Option<bool>) -> SweepRow {
         SweepRow {
-            index,
-            frequency_hz: 100.0 + index as f64,
             values: vec![index as f64],
             corrector: Corrector::FixedFrequency,
-            newton_iterations: 1,
-            factorizations: 1,
-            step: 0.01,
-            tangent_frequency: 1.0,
-            seconds: 0.0,
             stable,
-            multiplier: None,
-            argument: None,
-            crossing: None,
-            underdamped_share: None,
-            harmonics: 10,
-            truncation_estimate: None,
-            subharmonic: None,
+            ..SweepRow::for_tests(index, 100.0 + index as f64)
         }
     }
 

@@ -70,7 +70,7 @@ pub struct Saved {
 /// default folder, `--trust-geometry` where it was given, then `--resume`; each word quoted
 /// for a POSIX shell where it needs it.
 pub fn command(p: &Pipeline, out: &Path) -> String {
-    let mut words = invocation(p, "sweep");
+    let mut words = invocation(p, "sweep", None);
     if out != super::output_dir(p, &crate::pipeline::RunOptions::default()) {
         words.extend(["--out".to_string(), out.display().to_string()]);
     }
@@ -81,7 +81,8 @@ pub fn command(p: &Pipeline, out: &Path) -> String {
 /// The command that marches the sweep's scene from rest at `hz` (`hbcontact transient`, the
 /// sweep's `--set`s and the frequency's).
 pub fn march_command(p: &Pipeline, hz: f64) -> String {
-    let mut words = invocation(p, "transient");
+    // The frequency set here replaces any the pipeline was given.
+    let mut words = invocation(p, "transient", Some("harmonic_balance.frequency="));
     words.extend([
         "--set".to_string(),
         format!("harmonic_balance.frequency={hz:.4}"),
@@ -89,15 +90,16 @@ pub fn march_command(p: &Pipeline, hz: f64) -> String {
     quoted(&words)
 }
 
-/// `hbcontact SUBCOMMAND PIPELINE`, the pipeline's `--set`s and `--trust-geometry` where the
-/// geometry was trusted.
-fn invocation(p: &Pipeline, subcommand: &str) -> Vec<String> {
+/// `hbcontact SUBCOMMAND PIPELINE`, the pipeline's `--set`s (but those of a key `skip`) and
+/// `--trust-geometry` where the geometry was trusted.
+fn invocation(p: &Pipeline, subcommand: &str, skip: Option<&str>) -> Vec<String> {
     let mut words = vec![
         "hbcontact".to_string(),
         subcommand.to_string(),
         p.source.display().to_string(),
     ];
-    for o in &p.overrides {
+    let kept = |o: &&String| skip.is_none_or(|k| !o.starts_with(k));
+    for o in p.overrides.iter().filter(kept) {
         words.extend(["--set".to_string(), o.clone()]);
     }
     if p.geometry.trusted {
