@@ -4,6 +4,9 @@
 //! after the reduced model's check failed, the wall time of the sweep (of both sweeps where
 //! the default steps stopped and the curve was swept again with a turn limit), and where and
 //! why it stopped if it did, or where the default steps stopped before it was swept again.
+//! A curve stopped among unstable states is swept from the other end (`sweep::other_end`):
+//! its points and folds follow the first curve's after a `+`, its time is in the wall time,
+//! and the row says what it reached and what neither curve traced.
 //! A failing scene is a row, not the end of the bench.
 //!
 //! `cargo bench --bench scenes [-- NAME ...]` (default: every scene).
@@ -35,7 +38,7 @@ fn main() {
         .filter(|a| !a.starts_with('-'))
         .collect();
     println!(
-        "{:<20} {:>3} {:>11} {:>6} {:>5} {:>7} {:>6} {:>9} {:>8}  stopped",
+        "{:<20} {:>3} {:>11} {:>8} {:>6} {:>7} {:>6} {:>9} {:>8}  stopped",
         "scene", "H", "range [Hz]", "points", "folds", "newton", "factor", "re-solves", "time [s]"
     );
     for name in SCENES {
@@ -71,11 +74,31 @@ fn main() {
                 a.max_turn, a.first_stop_hz, a.first_points
             )
         });
+        let other = s.from_the_end.as_ref();
+        let from_end = other.map_or(String::new(), |o| {
+            let ended = o
+                .stopped
+                .as_ref()
+                .map_or(format!("reached {:.2} Hz", o.to_hz), |x| {
+                    format!("stopped at {:.2} Hz ({})", x.frequency_hz, x.class)
+                });
+            let untraced = o.untraced_hz.map_or(String::new(), |[lo, hi]| {
+                format!(", untraced {lo:.2}-{hi:.2} Hz")
+            });
+            format!("; from the other end: {ended}{untraced}")
+        });
+        let plus = |n: Option<usize>| n.map_or(String::new(), |n| format!("+{n}"));
+        let (points, folds) = (
+            format!("{}{}", s.points, plus(other.map(|o| o.points))),
+            format!("{}{}", s.folds.len(), plus(other.map(|o| o.folds.len()))),
+        );
+        let newton = newton + other.map_or(0, |o| o.rows.iter().map(|r| r.newton_iterations).sum());
+        let factor = factor + other.map_or(0, |o| o.rows.iter().map(|r| r.factorizations).sum());
         let stopped = s.stopped.as_ref().map_or(
             format!("reached the end{}", again.unwrap_or_default()),
             |x| {
                 format!(
-                    "at {:.2} Hz ({}): {}",
+                    "at {:.2} Hz ({}): {}{from_end}",
                     x.frequency_hz,
                     x.class,
                     short(&x.reason)
@@ -83,11 +106,9 @@ fn main() {
             },
         );
         println!(
-            "{name:<20} {:>3} {:>11} {:>6} {:>5} {newton:>7} {factor:>6} {:>9} {wall:>8.1}  {stopped}",
+            "{name:<20} {:>3} {:>11} {points:>8} {folds:>6} {newton:>7} {factor:>6} {:>9} {wall:>8.1}  {stopped}",
             s.harmonics,
             format!("{:.0}-{:.0}", s.from_hz, s.to_hz),
-            s.points,
-            s.folds.len(),
             s.reduced_frames.replaced,
         );
     }
