@@ -55,29 +55,7 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         );
     }
     show_bifurcations(&s.bifurcations);
-    if let Some(a) = &s.swept_again {
-        let kept = if a.kept {
-            "this curve"
-        } else {
-            "the first curve is kept"
-        };
-        outln!(
-            "  swept again from its start with sweep.max_turn = {}° ({kept}): the default steps had stopped at {:.4} Hz after {} points",
-            a.max_turn,
-            a.first_stop_hz,
-            a.first_points
-        );
-    }
-    match &s.stopped {
-        Some(stop) => outln!(
-            "  stopped at {:.4} Hz (point {}, {}): {}",
-            stop.frequency_hz,
-            stop.point,
-            stop.class,
-            stop.reason
-        ),
-        None => outln!("  reached {:.4} Hz", s.to_hz),
-    }
+    show_ending(s);
     for (k, b) in s.branches.iter().enumerate() {
         show_branch(k + 1, b);
     }
@@ -104,6 +82,39 @@ pub fn show_sweep(result: &hbcontact::sweep::SweepResult) {
         s.frames.len(),
         s.written.len()
     );
+}
+
+/// How a sweep's curve ended: swept again, slivers gone round, stopped or at its end.
+fn show_ending(s: &hbcontact::sweep::SweepSummary) {
+    if let Some(a) = &s.swept_again {
+        let kept = if a.kept {
+            "this curve"
+        } else {
+            "the first curve is kept"
+        };
+        outln!(
+            "  swept again from its start with sweep.max_turn = {}° ({kept}): the default steps had stopped at {:.4} Hz after {} points",
+            a.max_turn,
+            a.first_stop_hz,
+            a.first_points
+        );
+    }
+    if s.slivers > 0 {
+        outln!(
+            "  led round {} sliver(s) of the sampled contact law, where the curve ran back along itself",
+            s.slivers
+        );
+    }
+    match &s.stopped {
+        Some(stop) => outln!(
+            "  stopped at {:.4} Hz (point {}, {}): {}",
+            stop.frequency_hz,
+            stop.point,
+            stop.class,
+            stop.reason
+        ),
+        None => outln!("  reached {:.4} Hz", s.to_hz),
+    }
 }
 
 /// The curve swept from the other end: its points, folds and where it ended.

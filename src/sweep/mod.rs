@@ -270,6 +270,10 @@ pub struct SweepSummary {
     /// step (`again`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub swept_again: Option<again::SweptAgain>,
+    /// Times the continuation ran back along a sliver of the sampled contact law (a thin
+    /// sheet of its solutions that leaves the curve and turns back along it) and was led round
+    /// it from where it left (docs/method.md, "Slivers"); the sliver's points stay in the rows.
+    pub slivers: usize,
     /// The sweep stopped among unstable states and was swept from the other end of its range
     /// (`other_end`), into `from_the_end/`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -501,6 +505,7 @@ fn trace<'a>(
     let tail = || bifurcations::unstable_tail(&writer.rows, march).unwrap_or_default();
     let stopped = outcome.stopped.map(|s| Error::NotConverged(s + &tail()));
     let failure = failure.or(stopped).map(|e| stages.context(Stage::Sweep, e));
+    let slivers = outcome.slivers;
     let ended = Ended {
         warnings,
         timings: outcome.timings,
@@ -511,6 +516,7 @@ fn trace<'a>(
     };
     let (mut summary, failure) = summarize(p, spec, &mut writer, curve.saved, ended, stages)?;
     summary.swept_again = swept_again;
+    summary.slivers = slivers;
     Ok(Traced {
         staged,
         writer,
@@ -717,6 +723,7 @@ fn summarize(
         harmonics_chosen: None,
         branches: Vec::new(),
         swept_again: None,
+        slivers: 0,
         from_the_end: None,
     };
     let summary = with_harmonics_chosen(p, summary, ended.level_changes);

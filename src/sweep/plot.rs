@@ -178,15 +178,29 @@ fn with_reference(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
 /// where not, like the curve; at the drive frequency, so they meet it at the period doublings.
 fn with_branches(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
     for b in &s.branches {
-        let mut label = format!("2T branch from PD {:.1} Hz", b.from_hz);
-        for (unstable, points) in pieces(&b.rows, c) {
-            let style = if unstable {
-                Style::Dashed
-            } else {
-                Style::Curve
-            };
-            fig = fig.add(std::mem::take(&mut label), points, style).colour(1);
-        }
+        let label = format!("2T branch from PD {:.1} Hz", b.from_hz);
+        fig = with_curve(fig, (&b.rows, c), label, 1);
+    }
+    fig
+}
+
+/// Column `c` of `rows` in colour `colour`, solid where stable and dashed where not, labelled
+/// once.
+fn with_curve(
+    mut fig: Figure,
+    (rows, c): (&[SweepRow], usize),
+    mut label: String,
+    colour: usize,
+) -> Figure {
+    for (unstable, points) in pieces(rows, c) {
+        let style = if unstable {
+            Style::Dashed
+        } else {
+            Style::Curve
+        };
+        fig = fig
+            .add(std::mem::take(&mut label), points, style)
+            .colour(colour);
     }
     fig
 }
@@ -197,15 +211,8 @@ fn with_other_end(mut fig: Figure, s: &SweepSummary, c: usize) -> Figure {
     let Some(other) = &s.from_the_end else {
         return fig;
     };
-    let mut label = format!("swept from {:.1} Hz", other.from_hz);
-    for (unstable, points) in pieces(&other.rows, c) {
-        let style = if unstable {
-            Style::Dashed
-        } else {
-            Style::Curve
-        };
-        fig = fig.add(std::mem::take(&mut label), points, style).colour(4);
-    }
+    let label = format!("swept from {:.1} Hz", other.from_hz);
+    fig = with_curve(fig, (&other.rows, c), label, 4);
     for f in &other.folds {
         if let Some(r) = other.rows.iter().find(|r| r.index == f.after) {
             let label = format!("fold: {:.1} Hz", r.frequency_hz);

@@ -112,6 +112,7 @@ fn add_segment(total: &mut SweepOutcome, mut o: SweepOutcome) -> Option<LevelCha
     r.replaced += o.reduced.replaced;
     r.largest_error = r.largest_error.max(o.reduced.largest_error);
     total.level_changes += o.level_changes + usize::from(o.level_change.is_some());
+    total.slivers += o.slivers;
     o.level_change
 }
 

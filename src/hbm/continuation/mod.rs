@@ -28,6 +28,7 @@ mod grazing;
 mod law;
 mod levels;
 mod linear;
+mod sliver;
 mod start;
 mod stepping;
 mod trail;
@@ -187,6 +188,9 @@ pub struct SweepOutcome {
     pub reduced: ReducedFrames,
     /// With H chosen per point: how many times the curve moved to another H.
     pub level_changes: usize,
+    /// Times the curve ran back along a sliver of the sampled law and was led round it
+    /// (`sliver`).
+    pub slivers: usize,
     /// The level change a segment of such a curve ended on (`levels`).
     level_change: Option<levels::LevelChange>,
 }
@@ -255,6 +259,7 @@ pub fn sweep(
 type First = std::result::Result<(Point, usize, f64), (levels::LevelChange, usize)>;
 
 /// A converged point: its multipliers, ω, unit tangent and contact gaps.
+#[derive(Clone)]
 struct Point {
     x: Vec<f64>,
     omega: f64,
@@ -321,6 +326,7 @@ impl Continuation<'_> {
             }
         };
         let mut index = start + 1;
+        let mut recent = sliver::Recent::new(trail.points().len() - 1, &point);
         while index < self.s.max_points {
             if self.beyond_end(&point) {
                 break;
@@ -329,18 +335,25 @@ impl Continuation<'_> {
                 outcome.stopped = Some(self.left_through_start(&point, index - 1));
                 break;
             }
-            let (next, frame, mut info) = match self.next_point(&point, &mut ds, index) {
+            let (mut next, mut frame, mut info) = match self.next_point(&point, &mut ds, index) {
                 Ok(found) => found,
                 Err(stopped) => {
                     outcome.stopped = Some(stopped);
                     break;
                 }
             };
-            let y = self.scaled(&next);
+            let mut y = self.scaled(&next);
             if let Some(j) = trail.retraced(&y, info.step) {
-                let key = self.system.basis.refine_key();
-                outcome.stopped = Some(retrace_reason(&point, index - 1, j, key));
-                break;
+                let Some(around) = self.around_sliver(&mut recent, &mut trail, j, index) else {
+                    let key = self.system.basis.refine_key();
+                    let samples = self.newton.samples;
+                    let why = retrace_reason(&point, (index - 1, j), key, samples);
+                    outcome.stopped = Some(why);
+                    break;
+                };
+                (point, next, frame, info, ds) = around;
+                y = self.scaled(&next);
+                outcome.slivers += 1;
             }
             if let Some(change) = self.level_change((&next, &frame), (index, ds), &trail, true) {
                 outcome.level_change = Some(change);
@@ -348,6 +361,7 @@ impl Continuation<'_> {
             }
             info.harmonics_estimate = self.levels.and_then(|l| l.last);
             trail.push(y.clone());
+            recent.push(trail.points().len() - 1, &next, info.step);
             if index > 1 && point.tangent_omega() * next.tangent_omega() < 0.0 {
                 outcome.folds.push(fold(index - 1, &point));
             }

@@ -39,6 +39,19 @@ impl Trail {
         (1..older)
             .find(|&j| segment_distance(&self.points[j - 1], &self.points[j], y) < RETRACE * ds)
     }
+
+    /// The trail up to point `k`, exclusive (its first `k` points).
+    pub(super) fn cut(&self, k: usize) -> Trail {
+        Trail {
+            points: self.points[..k.min(self.points.len())].to_vec(),
+        }
+    }
+
+    /// `y`, reached by a step `ds`, lies within `RETRACE` × ds of a segment from point `k` on.
+    pub(super) fn on_since(&self, k: usize, y: &[f64], ds: f64) -> bool {
+        (k + 1..self.points.len())
+            .any(|j| segment_distance(&self.points[j - 1], &self.points[j], y) < RETRACE * ds)
+    }
 }
 
 /// Distance of `q` from the segment a–b.
@@ -64,13 +77,20 @@ fn segment_distance(a: &[f64], b: &[f64], q: &[f64]) -> f64 {
     d2.sqrt()
 }
 
-/// Why a sweep that runs back along its own path stops.
-pub(super) fn retrace_reason(p: &Point, index: usize, j: usize, refine_key: &str) -> String {
+/// Why a sweep that runs back along its own path stops (`samples` the contact law's samples
+/// per period).
+pub(super) fn retrace_reason(
+    p: &Point,
+    (index, j): (usize, usize),
+    refine_key: &str,
+    samples: usize,
+) -> String {
     format!(
         "at {:.6} Hz (point {index}) the continuation ran back onto the curve it had traced \
          (between points {} and {j}), so it would retrace the curve instead of following it: \
          a sharp kink of the sampled contact law turned it round, or the curve closes on \
-         itself. Raise {refine_key} or the damping, lower sweep.max_step, or sweep a \
+         itself. Raise harmonic_balance.samples (now {samples}: finer samples make the law's \
+         kinks smaller), {refine_key} or the damping, lower sweep.max_step, or sweep a \
          narrower range",
         hz(p.omega),
         j - 1
@@ -100,6 +120,20 @@ mod tests {
         assert_eq!(trail.retraced(&[1.5, 0.2], 1.0), None, "off the curve");
         assert_eq!(trail.retraced(&[5.5, 0.0], 1.0), None, "a recent segment");
         assert_eq!(Trail::default().retraced(&[0.0, 0.0], 1.0), None);
+    }
+
+    /// TEST GOAL: a trail cut at point k keeps the points before it; a point lies on the
+    /// segments from point k on only within `RETRACE` steps of one of them.
+    #[test]
+    fn a_cut_trail_keeps_its_first_points_and_a_point_lies_on_the_segments_after_k_only_near_one() {
+        let trail = trail_out();
+        assert_eq!(
+            trail.cut(3).points(),
+            &[vec![0.0, 0.0], vec![1.0, 0.0], vec![2.0, 0.0]]
+        );
+        assert!(trail.on_since(4, &[4.5, 0.01], 1.0));
+        assert!(!trail.on_since(4, &[3.5, 0.0], 1.0), "before point 4");
+        assert!(!trail.on_since(4, &[4.5, 0.2], 1.0), "off the segments");
     }
 
     /// TEST GOAL: the distance from a segment is the perpendicular one inside it and the
