@@ -469,7 +469,8 @@ fn a_preloaded_rod_opens_part_of_the_period_only_near_its_resonance() {
 /// other end, the open branch comes down to a fold where it touches the wall, stable, and
 /// stops among unstable states too. The sweep ends with exit 0, naming the stretch neither
 /// curve traced, which holds f1 (measured 1357.95–1390.86 Hz); a march there, which knows
-/// nothing of harmonic balance, is not T-periodic. The curve is written from both ends.
+/// nothing of harmonic balance, is not T-periodic. The curve is written from both ends, the
+/// second with a resume command for its own folder.
 #[test]
 fn the_lightly_damped_strip_is_swept_from_both_ends_around_a_stretch_it_does_not_follow() {
     let name = "strip_light";
@@ -528,6 +529,10 @@ fn the_lightly_damped_strip_is_swept_from_both_ends_around_a_stretch_it_does_not
             "open at the ends"
         );
     }
+    // Its resume command continues it where it is written, not where it was staged.
+    let resume = format!("--out {} --resume", r.dir.join("from_the_end").display());
+    let stop = other.stopped.as_ref().map_or("", |s| s.reason.as_str());
+    assert!(stop.contains(&resume), "{stop}");
     let written = std::fs::read_to_string(r.dir.join("from_the_end/sweep.csv"));
     let written = written.unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(written.lines().count(), other.points + 1);

@@ -25,7 +25,7 @@ mod points;
 pub mod reference;
 mod resume;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -431,14 +431,14 @@ fn execute(
         max_turn: Some(again::RETRY_TURN),
         ..spec.clone()
     };
-    let place = (out.as_path(), options.replace);
+    let place = (out.as_path(), options.replace, out.as_path());
     let mut traced = trace(&curve, (&spec, &again), place, warnings, &mut stages)?;
     if other_end::called_for(
         &traced.summary,
         traced.failure.as_ref(),
         model.contact.is_some(),
     ) {
-        from_the_end(&curve, &spec, &mut traced, &mut stages)?;
+        from_the_end(&curve, (&spec, &out), &mut traced, &mut stages)?;
     }
     let Traced {
         staged,
@@ -469,11 +469,12 @@ struct Traced<'a> {
 }
 
 /// The curve of `spec` staged for `out`: swept, judged by Hill's method, summarized (a stop
-/// among unstable states says so, `bifurcations::unstable_tail`).
+/// among unstable states says so, `bifurcations::unstable_tail`; its resume command names
+/// the folder `shown`, where `out` will be once committed).
 fn trace<'a>(
     curve: &again::Curve<'a>,
     (spec, again): (&'a SweepSpec, &'a SweepSpec),
-    (out, replace): (&std::path::Path, StagedReplace),
+    (out, replace, shown): (&Path, StagedReplace, &Path),
     warnings: Vec<String>,
     stages: &mut Stages,
 ) -> Result<Traced<'a>> {
@@ -512,7 +513,7 @@ fn trace<'a>(
         reduced: outcome.reduced,
         level_changes: outcome.level_changes,
         failure,
-        out,
+        out: shown,
     };
     let (mut summary, failure) = summarize(p, spec, &mut writer, curve.saved, ended, stages)?;
     summary.swept_again = swept_again;
@@ -527,13 +528,14 @@ fn trace<'a>(
 }
 
 /// The curve swept from the other end of the range toward `main`'s stop (`other_end`),
-/// written whole under `other_end::FOLDER` of `main`'s staged folder with stages of its own
+/// written whole under `other_end::FOLDER` of `main`'s staged folder (for `out`) with stages
+/// of its own
 /// (their total counted as `main`'s sweep); what the two cover settles `main`'s failure. A
 /// curve from the other end that fails at its first point leaves `main` as it was, saying
 /// so.
 fn from_the_end(
     curve: &again::Curve,
-    spec: &SweepSpec,
+    (spec, out): (&SweepSpec, &Path),
     main: &mut Traced,
     stages: &mut Stages,
 ) -> Result<()> {
@@ -553,7 +555,8 @@ fn from_the_end(
     reporter.progress("sweep", 0, None, &status);
     let dir = main.staged.path().join(other_end::FOLDER);
     let mut own = Stages::new(&p_other, reporter);
-    let place = (dir.as_path(), StagedReplace::Owned);
+    let shown = out.join(other_end::FOLDER);
+    let place = (dir.as_path(), StagedReplace::Owned, shown.as_path());
     let traced = match trace(
         &other,
         (&spec_other, &again_other),
@@ -656,7 +659,7 @@ struct Ended<'a> {
     reduced: crate::hbm::continuation::ReducedFrames,
     level_changes: usize,
     failure: Option<Error>,
-    out: &'a std::path::Path,
+    out: &'a Path,
 }
 
 /// One warning per reason for the points no method could judge (a frictional state's), with
@@ -956,7 +959,7 @@ fn stop_report(
     spec: &SweepSpec,
     writer: &points::Writer,
     failure: Option<&Error>,
-    out: &std::path::Path,
+    out: &Path,
     p: &Pipeline,
 ) -> Option<Stopped> {
     let last = writer.rows.last()?;
