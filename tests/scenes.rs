@@ -381,6 +381,37 @@ fn a_curve_running_back_along_a_sliver_of_the_sampled_law_is_led_round_it_to_its
     }
 }
 
+/// TEST GOAL: a curve that stops twice elsewhere than among unstable states (the default
+/// steps, then the 60° turn limit) is swept a third time from its start with the contact
+/// law's samples doubled: the first-mode blade from 610 Hz meets a dead end of its upper fold
+/// at 80 samples both times, and at 160 reaches the end, its upper and lower folds within
+/// 0.1 Hz of the shipped sweep's (916.81, 871.54 Hz).
+#[test]
+fn a_curve_stopped_twice_at_a_dead_end_of_the_sampled_law_is_swept_with_twice_the_samples_to_its_end(
+) {
+    let options = RunOptions {
+        out: out("blade_mode1-finer"),
+        ..Default::default()
+    };
+    let p = scene("blade_mode1", &["sweep.from=610"]);
+    let r = sweep::run(&p, &options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let failure = r.failure.map(|e| e.to_string());
+    assert!(
+        failure.is_none() && r.summary.stopped.is_none(),
+        "{failure:?}"
+    );
+    let again = r.summary.swept_again.as_ref().expect("swept again");
+    assert!(!again.kept && again.finer_kept, "{again:?}");
+    assert_eq!(again.finer_samples, Some(160));
+    let folds = folds_of(&r.summary);
+    let upper = folds.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lower = folds.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        (upper - 916.81).abs() < 0.1 && (lower - 871.54).abs() < 0.1,
+        "{folds:?}"
+    );
+}
+
 /// f = c/4L of a plane-stress steel bar of length `l`.
 fn bar_frequency(l: f64) -> f64 {
     (STEEL_E / STEEL_RHO).sqrt() / (4.0 * l)

@@ -98,6 +98,14 @@ fn show_ending(s: &hbcontact::sweep::SweepSummary) {
             a.first_stop_hz,
             a.first_points
         );
+        if let Some(n) = a.finer_samples {
+            let kept = if a.finer_kept {
+                "this curve"
+            } else {
+                "the first curve is kept"
+            };
+            outln!("  stopped again, and swept a third time with harmonic_balance.samples = {n} ({kept})");
+        }
     }
     if s.slivers > 0 {
         outln!(

@@ -419,6 +419,7 @@ fn execute(
     if let Some(s) = &saved {
         resume::check_state(s, &model, p, &out)?;
     }
+    let finer = again::finer(p);
     let curve = again::Curve {
         p,
         model: &model,
@@ -426,6 +427,7 @@ fn execute(
         saved: saved.as_ref(),
         reporter,
         again_among_unstable: true,
+        finer: finer.as_ref(),
     };
     let again = SweepSpec {
         max_turn: Some(again::RETRY_TURN),
@@ -478,9 +480,10 @@ fn trace<'a>(
     warnings: Vec<String>,
     stages: &mut Stages,
 ) -> Result<Traced<'a>> {
-    let (p, model) = (curve.p, curve.model);
     let (attempt, swept_again) = curve.sweep((spec, again), out, replace)?;
+    let model = curve.model;
     let again::Attempt {
+        p,
         staged,
         mut writer,
         starts,
@@ -549,6 +552,7 @@ fn from_the_end(
         p: &p_other,
         saved: None,
         again_among_unstable: false,
+        finer: None,
         ..*curve
     };
     let status = format!("sweeping from the other end, {} Hz", spec_other.from_hz);
