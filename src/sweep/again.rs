@@ -40,6 +40,14 @@ use crate::Result;
 /// too; 15° stops the blade in its kinks).
 pub const RETRY_TURN: f64 = 60.0;
 
+/// `spec` with the turn limit of a sweep swept again.
+pub fn turn_limited(spec: &SweepSpec) -> SweepSpec {
+    SweepSpec {
+        max_turn: Some(RETRY_TURN),
+        ..spec.clone()
+    }
+}
+
 /// How the curve was swept again, in sweep.json.
 #[derive(Clone, Debug, Serialize, JsonSchema)]
 pub struct SweptAgain {

@@ -225,7 +225,6 @@ fn between(a: &SweepRow, b: &SweepRow, turns: bool) -> BifurcationReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hbm::continuation::Corrector;
 
     fn row(index: usize, f: f64, judged: Option<(f64, f64, Crossing)>) -> SweepRow {
         turning(index, f, judged, 1.0)
@@ -238,23 +237,13 @@ mod tests {
         tangent_frequency: f64,
     ) -> SweepRow {
         SweepRow {
-            index,
-            frequency_hz: f,
             values: vec![index as f64],
-            corrector: Corrector::Arclength,
-            newton_iterations: 1,
-            factorizations: 1,
-            step: 0.01,
             tangent_frequency,
-            seconds: 0.0,
             stable: Some(judged.is_none_or(|(m, _, _)| m < 1.0)),
             multiplier: judged.map(|(m, _, _)| m),
             argument: judged.map(|(_, a, _)| a),
             crossing: judged.map(|(_, _, c)| c),
-            underdamped_share: None,
-            harmonics: 10,
-            truncation_estimate: None,
-            subharmonic: None,
+            ..SweepRow::for_tests(index, f)
         }
     }
 

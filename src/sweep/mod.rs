@@ -429,10 +429,7 @@ fn execute(
         again_among_unstable: true,
         finer: finer.as_ref(),
     };
-    let again = SweepSpec {
-        max_turn: Some(again::RETRY_TURN),
-        ..spec.clone()
-    };
+    let again = again::turn_limited(&spec);
     let place = (out.as_path(), options.replace, out.as_path());
     let mut traced = trace(&curve, (&spec, &again), place, warnings, &mut stages)?;
     if other_end::called_for(
@@ -544,10 +541,7 @@ fn from_the_end(
 ) -> Result<()> {
     let (p, reporter) = (curve.p, curve.reporter);
     let (p_other, spec_other) = other_end::reversed(p, spec);
-    let again_other = SweepSpec {
-        max_turn: Some(again::RETRY_TURN),
-        ..spec_other.clone()
-    };
+    let again_other = again::turn_limited(&spec_other);
     let other = again::Curve {
         p: &p_other,
         saved: None,

@@ -70,7 +70,7 @@ pub struct Saved {
 /// default folder, `--trust-geometry` where it was given, then `--resume`; each word quoted
 /// for a POSIX shell where it needs it.
 pub fn command(p: &Pipeline, out: &Path) -> String {
-    let mut words = invocation(p, "sweep", None);
+    let mut words = invocation(p, "sweep", &[]);
     if out != super::output_dir(p, &crate::pipeline::RunOptions::default()) {
         words.extend(["--out".to_string(), out.display().to_string()]);
     }
@@ -81,26 +81,25 @@ pub fn command(p: &Pipeline, out: &Path) -> String {
 /// The command that marches the sweep's scene from rest at `hz` (`hbcontact transient`, the
 /// sweep's `--set`s and the frequency's).
 pub fn march_command(p: &Pipeline, hz: f64) -> String {
-    // The frequency set here replaces any the pipeline was given.
-    let mut words = invocation(p, "transient", Some("harmonic_balance.frequency="));
-    words.extend([
-        "--set".to_string(),
-        format!("harmonic_balance.frequency={hz:.4}"),
-    ]);
-    quoted(&words)
+    let at = format!("harmonic_balance.frequency={hz:.4}");
+    quoted(&invocation(p, "transient", &[at]))
 }
 
-/// `hbcontact SUBCOMMAND PIPELINE`, the pipeline's `--set`s (but those of a key `skip`) and
+/// `hbcontact SUBCOMMAND PIPELINE`, the pipeline's `--set`s followed by `more`, each key
+/// once, where its last setting stands (as the command line applies them), and
 /// `--trust-geometry` where the geometry was trusted.
-fn invocation(p: &Pipeline, subcommand: &str, skip: Option<&str>) -> Vec<String> {
+fn invocation(p: &Pipeline, subcommand: &str, more: &[String]) -> Vec<String> {
     let mut words = vec![
         "hbcontact".to_string(),
         subcommand.to_string(),
         p.source.display().to_string(),
     ];
-    let kept = |o: &&String| skip.is_none_or(|k| !o.starts_with(k));
-    for o in p.overrides.iter().filter(kept) {
-        words.extend(["--set".to_string(), o.clone()]);
+    let sets: Vec<&String> = p.overrides.iter().chain(more).collect();
+    let key = |o: &str| o.split('=').next().unwrap_or_default().trim().to_string();
+    for (i, o) in sets.iter().enumerate() {
+        if !sets[i + 1..].iter().any(|later| key(later) == key(o)) {
+            words.extend(["--set".to_string(), o.to_string()]);
+        }
     }
     if p.geometry.trusted {
         words.push("--trust-geometry".to_string());
@@ -666,4 +665,37 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TEST GOAL: a printed command sets each key once, to its last setting, as the command
+    /// line applies them: the march replaces the pipeline's frequency, and the curve swept
+    /// from the other end (its `--set`s appended) names its own range once.
+    #[test]
+    fn a_printed_command_sets_each_key_once_to_its_last_setting() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/scenes/blade_mode1.yaml");
+        let sets = ["harmonic_balance.frequency=700", "sweep.from=700"].map(String::from);
+        let p = crate::config::load_pipeline(&path, &sets).unwrap_or_else(|e| panic!("{e}"));
+        let march = march_command(&p, 800.0);
+        assert!(
+            march.ends_with("--set sweep.from=700 --set harmonic_balance.frequency=800.0000"),
+            "{march}"
+        );
+        assert_eq!(
+            march.matches("harmonic_balance.frequency").count(),
+            1,
+            "{march}"
+        );
+        let spec = p.sweep.clone().expect("a sweep block");
+        let (other, _) = super::super::other_end::reversed(&p, &spec);
+        let resume = command(&other, Path::new("out/from_the_end"));
+        assert_eq!(resume.matches("sweep.from=").count(), 1, "{resume}");
+        assert!(
+            resume.contains("--set sweep.from=1291.9 --set sweep.to=700"),
+            "{resume}"
+        );
+    }
 }

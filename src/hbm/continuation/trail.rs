@@ -36,7 +36,14 @@ impl Trail {
     /// step `ds`, lies on within `RETRACE` × ds.
     pub(super) fn retraced(&self, y: &[f64], ds: f64) -> Option<usize> {
         let older = self.points.len().checked_sub(RECENT)?;
-        (1..older)
+        self.near(1..older, y, ds)
+    }
+
+    /// The first segment j (from point j − 1 to j) among `segments` that `y` lies within
+    /// `RETRACE` × ds of.
+    fn near(&self, segments: std::ops::Range<usize>, y: &[f64], ds: f64) -> Option<usize> {
+        segments
+            .into_iter()
             .find(|&j| segment_distance(&self.points[j - 1], &self.points[j], y) < RETRACE * ds)
     }
 
@@ -49,8 +56,7 @@ impl Trail {
 
     /// `y`, reached by a step `ds`, lies within `RETRACE` × ds of a segment from point `k` on.
     pub(super) fn on_since(&self, k: usize, y: &[f64], ds: f64) -> bool {
-        (k + 1..self.points.len())
-            .any(|j| segment_distance(&self.points[j - 1], &self.points[j], y) < RETRACE * ds)
+        self.near(k + 1..self.points.len(), y, ds).is_some()
     }
 }
 
